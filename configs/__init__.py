@@ -1,0 +1,1 @@
+"""Bundled configuration presets (TOML); installed as the package roneld_eval.configs."""

@@ -1,0 +1,38 @@
+"""Errors the tool raises for bad input and bad configuration.
+
+Every problem a user can fix is an `InputError` or a `ConfigError`, raised where the problem
+is found and carrying the file (and line) it is about. The CLI prints them as one line and
+exits with status 2; nothing here knows about the CLI.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class RoneldEvalError(Exception):
+    """Base class of the errors a user can act on."""
+
+
+class InputError(RoneldEvalError):
+    """A file or folder the user gave us is missing or malformed."""
+
+    def __init__(self, path: str | Path | None, problem: str, line: int | None = None):
+        self.path = None if path is None else str(path)
+        self.problem = problem
+        self.line = line
+        super().__init__(self.__str__())
+
+    def __str__(self) -> str:
+        where = self.path or ""
+        if self.line is not None:
+            where = f"{where}:{self.line}"
+        return f"{where}: {self.problem}" if where else self.problem
+
+    def __reduce__(self):
+        # Worker processes send errors back by pickling; keep the three fields.
+        return (type(self), (self.path, self.problem, self.line))
+
+
+class ConfigError(RoneldEvalError):
+    """A configuration value is invalid or inconsistent."""

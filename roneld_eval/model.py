@@ -1,0 +1,150 @@
+"""Small frozen records every stage shares: lanes, frames, clips, datasets and map stacks.
+
+Coordinates are image pixels unless a name says otherwise: x is the column, y the row, and
+y grows downwards. Nothing here reads files or computes metrics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+
+def _frozen_array(values, dtype, shape_tail: tuple[int, ...], what: str) -> np.ndarray:
+    array = np.array(values, dtype=dtype, copy=True)
+    if array.size == 0:
+        array = array.reshape((0,) + shape_tail)
+    if array.ndim != 1 + len(shape_tail) or array.shape[1:] != shape_tail:
+        raise ValueError(f"{what} must have shape (N, {', '.join(map(str, shape_tail))}), got {array.shape}")
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Lane:
+    """One lane as a polyline: an (N, 2) float64 array of (x, y) image pixels.
+
+    Points keep the order in which the lane was produced or read: files of the official
+    formats list CULane lanes bottom to top, the baseline extractor does the same (as SCNN's
+    prob2lines), and RONELD emits top to bottom. The order matters only to the official CULane
+    scorer, whose spline numerics we reproduce bit for bit; `top_to_bottom()` gives the
+    canonical order. A lane may hold fewer than two points: the official protocol counts such
+    a lane (with IoU 0) rather than dropping it.
+    """
+
+    points: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "points", _frozen_array(self.points, np.float64, (2,), "Lane points"))
+
+    @classmethod
+    def from_xy(cls, xs, ys) -> "Lane":
+        """Build a lane from separate x and y sequences."""
+        return cls(np.stack([np.asarray(xs, np.float64), np.asarray(ys, np.float64)], axis=1))
+
+    @property
+    def xs(self) -> np.ndarray:
+        return self.points[:, 0]
+
+    @property
+    def ys(self) -> np.ndarray:
+        return self.points[:, 1]
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def top_to_bottom(self) -> "Lane":
+        """The same lane with its points sorted by increasing y (stable)."""
+        order = np.argsort(self.points[:, 1], kind="stable")
+        return Lane(self.points[order])
+
+    def scaled(self, sx: float, sy: float, dx: float = 0.0, dy: float = 0.0) -> "Lane":
+        """x*sx + dx, y*sy + dy for every point."""
+        return Lane(self.points * np.array([sx, sy]) + np.array([dx, dy]))
+
+    def __repr__(self) -> str:
+        return f"Lane({len(self)} points)"
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One video frame: where it lies in the dataset, and its ground truth when labelled.
+
+    `relpath` is the image path relative to the dataset root, with forward slashes and no
+    leading slash (``driver_37_30frame/05181432_0203.MP4/00000.jpg``). `lanes` are all the
+    ground-truth lanes of the frame in file order; `h_samples` are the TuSimple label rows.
+    """
+
+    relpath: str
+    lanes: tuple[Lane, ...] = ()
+    labelled: bool = True
+    h_samples: tuple[int, ...] | None = None
+
+    @property
+    def stem(self) -> str:
+        """`relpath` without its image extension."""
+        head, dot, _ = self.relpath.rpartition(".")
+        return head if dot else self.relpath
+
+
+@dataclass(frozen=True)
+class Clip:
+    """A video clip: its id (the folder of its frames) and its frames in time order."""
+
+    clip_id: str
+    frames: tuple[Frame, ...]
+
+    @property
+    def labelled_frames(self) -> tuple[Frame, ...]:
+        return tuple(frame for frame in self.frames if frame.labelled)
+
+
+@dataclass(frozen=True)
+class Dataset:
+    """A benchmark as read from disk, normalised so that later stages need not know which."""
+
+    name: str
+    root: Path
+    image_width: int
+    image_height: int
+    clips: tuple[Clip, ...]
+    # category name -> relpaths of the frames it holds (CULane's test_split lists)
+    categories: Mapping[str, frozenset[str]] = field(default_factory=dict)
+    source_file: Path | None = None
+
+    @property
+    def n_frames(self) -> int:
+        return sum(len(clip.frames) for clip in self.clips)
+
+    @property
+    def n_labelled(self) -> int:
+        return sum(len(clip.labelled_frames) for clip in self.clips)
+
+
+@dataclass(frozen=True, eq=False)
+class FrameMaps:
+    """The lane probability maps of one frame.
+
+    `probabilities` is a (C, H, W) uint8 array, 0..255 = probability * 255, lane channels
+    only (background dropped), channel 0 the outermost left lane. It may be a read-only
+    memory map. `existence` holds the model's per-channel lane existence in [0, 1] when the
+    stored output has it, else None.
+    """
+
+    probabilities: np.ndarray
+    existence: np.ndarray | None = None
+
+    @property
+    def n_channels(self) -> int:
+        return self.probabilities.shape[0]
+
+    @property
+    def height(self) -> int:
+        return self.probabilities.shape[1]
+
+    @property
+    def width(self) -> int:
+        return self.probabilities.shape[2]
