@@ -1,0 +1,96 @@
+"""CULane as it lies on disk: a list file of image paths, a `.lines.txt` beside each image.
+
+A clip is one video folder (``driver_37_30frame/05181432_0203.MP4``); its frames are sorted
+by frame number. Clips keep the order in which the list first names them. Category lists
+(``list/test_split/test<i>_<name>.txt``) are read when present. Images are optional.
+"""
+
+from __future__ import annotations
+
+import posixpath
+import re
+from pathlib import Path
+
+from ..errors import InputError
+from ..lanes_io import read_culane_lines, read_text, split_lines
+from ..model import Clip, Dataset, Frame
+from ._paths import frame_sort_key, normalise_relpath
+
+IMAGE_WIDTH, IMAGE_HEIGHT = 1640, 590
+_CATEGORY_FILE = re.compile(r"test(\d+)_(\w+)\.txt\Z")
+
+
+def read_list_file(path: Path) -> list[tuple[int, str]]:
+    """(line number, relpath) of every entry; extra columns (train lists) are ignored."""
+    text = read_text(path)
+    entries = []
+    for number, line in enumerate(split_lines(text), start=1):
+        if line.strip():
+            entries.append((number, normalise_relpath(line.split()[0], path, number)))
+    if not entries:
+        raise InputError(path, "the list file names no images")
+    return entries
+
+
+def labels_path(root: Path, relpath: str) -> Path:
+    """Where CULane keeps the ground truth of an image: the `.lines.txt` beside it."""
+    stem = relpath.rsplit(".", 1)[0] if "." in posixpath.basename(relpath) else relpath
+    return root / f"{stem}.lines.txt"
+
+
+def read_categories(root: Path) -> dict[str, frozenset[str]]:
+    """Category name -> frame relpaths, from list/test_split/ when it exists."""
+    folder = root / "list" / "test_split"
+    if not folder.is_dir():
+        return {}
+    found = []
+    for path in folder.iterdir():
+        match = _CATEGORY_FILE.match(path.name)
+        if match:
+            found.append((int(match.group(1)), match.group(2), path))
+    categories = {}
+    for _, name, path in sorted(found):
+        entries = read_list_file(path)
+        categories[name] = frozenset(relpath for _, relpath in entries)
+    return categories
+
+
+def read_culane(root: str | Path, list_file: str | Path | None = None, limit: int | None = None) -> Dataset:
+    """Read a CULane tree into clips of frames with their ground-truth lanes."""
+    root = Path(root)
+    if not root.is_dir():
+        raise InputError(root, "dataset root not found (expected a folder with list/test.txt)")
+    list_path = Path(list_file) if list_file is not None else root / "list" / "test.txt"
+    if not list_path.is_file():
+        raise InputError(list_path, "list file not found" if not list_path.exists() else "list file is not a file")
+    entries = read_list_file(list_path)
+
+    seen: dict[str, int] = {}
+    by_clip: dict[str, list[str]] = {}
+    for number, relpath in entries:
+        if relpath in seen:
+            raise InputError(list_path, f"{relpath} is listed twice (first on line {seen[relpath]})", line=number)
+        seen[relpath] = number
+        clip_id = posixpath.dirname(relpath)
+        by_clip.setdefault(clip_id, []).append(relpath)
+
+    clip_ids = list(by_clip)
+    if limit is not None:
+        clip_ids = clip_ids[:limit]
+    clips = []
+    for clip_id in clip_ids:
+        frames = []
+        for relpath in sorted(by_clip[clip_id], key=frame_sort_key):
+            lanes = read_culane_lines(labels_path(root, relpath))
+            frames.append(Frame(relpath=relpath, lanes=lanes, labelled=True))
+        clips.append(Clip(clip_id=clip_id, frames=tuple(frames)))
+
+    return Dataset(
+        name="culane",
+        root=root,
+        image_width=IMAGE_WIDTH,
+        image_height=IMAGE_HEIGHT,
+        clips=tuple(clips),
+        categories=read_categories(root),
+        source_file=list_path,
+    )

@@ -1,0 +1,196 @@
+"""Lanes in the benchmarks' own file formats: CULane `.lines.txt` and TuSimple JSON lines.
+
+Parsing follows the official tools where they are strict and fails loudly where they are
+silent (the C++ CULane reader stops at the first non-number; we name the file and line).
+Writers produce files the official tools read back to exactly the lanes we scored.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from .errors import InputError
+from .model import Lane
+
+# A decimal number as C++'s `istream >> double` reads it (no Python-only spellings such
+# as '1_000', 'nan' or 'inf').
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
+
+
+def read_text(path: Path) -> str:
+    """A text file's content, or an InputError saying why it cannot be read."""
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise InputError(path, "file not found") from None
+    except IsADirectoryError:
+        raise InputError(path, "is a folder, not a file") from None
+    except OSError as error:
+        raise InputError(path, f"cannot read: {error.strerror}") from None
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(path, "not a text file (not UTF-8)") from None
+
+
+def split_lines(text: str) -> list[str]:
+    """Lines as C++ getline yields them: a final newline does not start another line."""
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    return lines
+
+
+def parse_number(token: str, path, line: int) -> float:
+    if not _NUMBER.match(token):
+        raise InputError(path, f"{token!r} is not a number", line=line)
+    return float(token)
+
+
+def parse_culane_lines(text: str, path) -> tuple[Lane, ...]:
+    """CULane `.lines.txt`: one lane per line, `x y x y ...` in image pixels.
+
+    Every line is a lane, an empty one too (the official evaluator counts it, with IoU 0).
+    """
+    lanes = []
+    for number, line in enumerate(split_lines(text), start=1):
+        tokens = line.split()
+        values = [parse_number(token, path, number) for token in tokens]
+        if len(values) % 2:
+            raise InputError(
+                path, f"odd number of values ({len(values)}): every point needs an x and a y", line=number
+            )
+        lanes.append(Lane(np.array(values, np.float64).reshape(-1, 2)))
+    return tuple(lanes)
+
+
+def read_culane_lines(path: Path, missing_ok: bool = True) -> tuple[Lane, ...]:
+    """Lanes of one `.lines.txt`; a missing file means no lanes when `missing_ok`."""
+    path = Path(path)
+    if missing_ok and not path.exists():
+        return ()
+    return parse_culane_lines(read_text(path), path)
+
+
+def format_coordinate(value: float) -> str:
+    """Shortest text that reads back to the same float32 (what the C++ evaluator stores)."""
+    return np.format_float_positional(np.float32(value), trim="-")
+
+
+def format_culane_lines(lanes: Iterable[Lane]) -> str:
+    """`.lines.txt` text, one lane per line, coordinates as float32 like the C++ reader keeps them."""
+    out = []
+    for lane in lanes:
+        out.append(" ".join(format_coordinate(v) for v in lane.points.ravel()))
+    return "".join(line + "\n" for line in out)
+
+
+def as_float32_lanes(lanes: Iterable[Lane]) -> tuple[Lane, ...]:
+    """The lanes as the official CULane evaluator holds them after reading our files."""
+    return tuple(Lane(lane.points.astype(np.float32).astype(np.float64)) for lane in lanes)
+
+
+# ---- TuSimple --------------------------------------------------------------------------
+
+
+def parse_tusimple_record(line: str, path, number: int, predictions: bool = False) -> dict[str, Any]:
+    """One TuSimple JSON line, checked: raw_file, lanes, h_samples (optional in predictions).
+
+    Predictions may leave out run_time (taken as 0 ms, never penalised).
+    """
+    try:
+        record = json.loads(line)
+    except json.JSONDecodeError as error:
+        raise InputError(path, f"not valid JSON: {error.msg}", line=number) from None
+    if not isinstance(record, dict):
+        raise InputError(path, "each line must be a JSON object", line=number)
+    required = ("raw_file", "lanes") if predictions else ("raw_file", "lanes", "h_samples")
+    for key in required:
+        if key not in record:
+            raise InputError(path, f"missing key {key!r}", line=number)
+    if not isinstance(record["raw_file"], str) or not record["raw_file"].strip():
+        raise InputError(path, "raw_file must be a non-empty string", line=number)
+    lanes = record["lanes"]
+    if not isinstance(lanes, list) or not all(isinstance(lane, list) for lane in lanes):
+        raise InputError(path, "lanes must be a list of lists of x values", line=number)
+    for index, lane in enumerate(lanes):
+        if not all(_is_number(value) for value in lane):
+            raise InputError(path, f"lane {index} holds a value that is not a finite number", line=number)
+    if "h_samples" in record:
+        rows = record["h_samples"]
+        if not isinstance(rows, list) or not all(_is_number(value) for value in rows):
+            raise InputError(path, "h_samples must be a list of numbers", line=number)
+        for index, lane in enumerate(lanes):
+            if len(lane) != len(rows):
+                raise InputError(
+                    path, f"lane {index} has {len(lane)} values but h_samples has {len(rows)}", line=number
+                )
+    if "run_time" in record:
+        if not _is_number(record["run_time"]):
+            raise InputError(path, "run_time must be a number (milliseconds)", line=number)
+    elif predictions:
+        record["run_time"] = 0
+    return record
+
+
+def _is_number(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+
+
+def read_tusimple_records(path: Path, predictions: bool = False) -> list[tuple[int, dict[str, Any]]]:
+    """(line number, record) of every non-blank line of a TuSimple JSON-lines file."""
+    text = read_text(path)
+    records = []
+    for number, line in enumerate(split_lines(text), start=1):
+        if line.strip():
+            records.append((number, parse_tusimple_record(line, path, number, predictions=predictions)))
+    return records
+
+
+def lane_from_tusimple(xs: list[float], h_samples: list[float]) -> Lane:
+    """A TuSimple lane (x per row, negative = no point) as the points it has."""
+    points = [(float(x), float(y)) for x, y in zip(xs, h_samples) if x >= 0]
+    return Lane(np.array(points, np.float64).reshape(-1, 2))
+
+
+def tusimple_xs(lane: Lane, h_samples: Iterable[float]) -> list[float]:
+    """x of a lane at each row, -2 where it has no point (exact for lanes read from labels)."""
+    lookup = {float(y): float(x) for x, y in lane.points}
+    return [lookup.get(float(y), -2.0) for y in h_samples]
+
+
+def sample_lane_at_rows(lane: Lane, rows: Iterable[float]) -> list[float]:
+    """x of a polyline lane at each row by linear interpolation, -2 outside its rows."""
+    rows = np.asarray(list(rows), np.float64)
+    if len(lane) < 2:
+        return [-2.0] * len(rows)
+    points = lane.top_to_bottom().points
+    ys, xs = points[:, 1], points[:, 0]
+    # Duplicate rows: keep the first point of each so the interpolation is defined.
+    keep = np.concatenate([[True], np.diff(ys) > 0])
+    ys, xs = ys[keep], xs[keep]
+    if len(ys) < 2:
+        return [-2.0] * len(rows)
+    values = np.interp(rows, ys, xs)
+    inside = (rows >= ys[0]) & (rows <= ys[-1]) & (values >= 0)
+    return [round(float(v), 3) if ok else -2.0 for v, ok in zip(values, inside)]
+
+
+def format_tusimple_record(raw_file: str, lanes_xs: list[list[float]], h_samples, run_time: float = 0) -> str:
+    """One TuSimple prediction line (JSON, no trailing newline)."""
+    def number(v: float):
+        return int(v) if float(v).is_integer() else v
+
+    record = {
+        "raw_file": raw_file,
+        "lanes": [[number(v) for v in xs] for xs in lanes_xs],
+        "h_samples": [number(v) for v in h_samples],
+        "run_time": run_time,
+    }
+    return json.dumps(record, separators=(", ", ": "))
