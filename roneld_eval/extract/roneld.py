@@ -1,0 +1,206 @@
+"""RONELD (Chng et al., ICPR 2020) as the authors' implementation runs it, per clip.
+
+Per frame: adaptive point extraction per channel, the curve test, weighted least squares
+with one pass of outlier removal for straight lanes, preceding-frame tracking (PFT) of every
+lane seen, and the choice of the left and right active lanes. Every constant is stated in
+shared/docs/roneld-method.md; `RoneldConstants` holds them. State lives in an immutable
+`RoneldState` that `roneld_step` returns anew; `RoneldTracker` wraps it for one clip.
+Not reproduced from the reference: its uint8 overflow in the RMS confidence and its random
+jitter of vertical lanes (ours is deterministic).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.interpolate import make_interp_spline
+
+from ..config import RoneldParams
+from ..geometry import MapGeometry
+from ..model import FrameMaps, Lane
+from . import _kernels
+
+
+@dataclass(frozen=True)
+class RoneldConstants:
+    """The reference's fixed numbers (lane_detection_functions.py)."""
+
+    min_straight_points: int = 3  # a lane needs more than this many points
+    min_curve_points: int = 9  # curve test needs at least this many; curves drawn above this
+    curve_top_points: int = 3  # the curve test drops this many top points
+    outlier_fraction: float = 0.2  # drop floor(0.2*m)+1 farthest points, once
+    rows_per_point: int = 20  # row stride = H // 20
+    merge_width_divisor: float = 200.0  # same lane when RMS distance < W/200
+    ego_channels: tuple[int, ...] = (1, 2)  # channels whose lanes weigh e^2 more
+    ego_weight: float = math.e**2
+    other_weight: float = 1.0
+    decay: float = math.e  # weight of a missed lane is divided by e per frame
+    min_weight: float = math.e**-10  # a missed lane below this weight is dropped
+    curve_ring: int = 10  # frames of curve counts remembered
+    curve_on: int = 15  # curve mode on when the ring sums to at least this
+    curve_off: int = 10  # and off when it sums to at most this
+    curve_step_px: int = 5  # curve samples every 5 map rows
+
+
+CONSTANTS = RoneldConstants()
+
+
+def _no_lanes() -> np.ndarray:
+    return np.zeros((0, _kernels.N_FIELDS), np.float64)
+
+
+@dataclass(frozen=True, eq=False)
+class RoneldState:
+    """What RONELD carries from one frame to the next within a clip.
+
+    `fields` has one row per tracked lane (columns: _kernels.F_*), heaviest first; `points`
+    holds each lane's raw points (xs, ys) in map pixels, top first.
+    """
+
+    fields: np.ndarray = field(default_factory=_no_lanes)
+    points: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    curve_counts: tuple[int, ...] = (0,) * CONSTANTS.curve_ring
+    curve_mode: bool = False
+
+    @property
+    def n_lanes(self) -> int:
+        return self.fields.shape[0]
+
+
+@dataclass(frozen=True, eq=False)
+class ActiveLanes:
+    """RONELD's output for one frame: left and right active lanes in image pixels (or None)."""
+
+    left: Lane | None
+    right: Lane | None
+    curve_mode: bool = False
+
+    def as_list(self) -> list[Lane]:
+        """The lanes present, left first (the order written to CULane files)."""
+        return [lane for lane in (self.left, self.right) if lane is not None]
+
+
+def current_lanes(maps: np.ndarray, constants: RoneldConstants = CONSTANTS):
+    """The lanes RONELD sees in one frame's (C, H, W) uint8 maps, in channel order.
+
+    Returns (fields, points) as in RoneldState (weights 0).
+    """
+    counts, xs, ys, fields = _kernels.frame_lanes(
+        maps,
+        constants.rows_per_point,
+        constants.min_straight_points,
+        constants.min_curve_points,
+        constants.curve_top_points,
+        constants.outlier_fraction,
+    )
+    points = []
+    offset = 0
+    for n in counts.tolist():
+        if n:
+            points.append((xs[offset:offset + n], ys[offset:offset + n]))
+        offset += n
+    return fields, points
+
+
+def lane_gains(fields: np.ndarray, constants: RoneldConstants = CONSTANTS) -> np.ndarray:
+    """Weight a lane adds when seen: psi * points * RMS confidence, psi = e^2 on ego channels."""
+    channels = fields[:, _kernels.F_CHANNEL]
+    psi = np.where(np.isin(channels, constants.ego_channels), constants.ego_weight, constants.other_weight)
+    return psi * fields[:, _kernels.F_POINTS] * fields[:, _kernels.F_RMS]
+
+
+def lane_outline(xs: np.ndarray, ys: np.ndarray, slope: float, intercept: float, top_row: float,
+                 height: int, width: int, curve_mode: bool, constants: RoneldConstants = CONSTANTS) -> np.ndarray:
+    """The polyline RONELD draws for a chosen lane, in map pixels, top first.
+
+    Curve mode and more than 9 points: an interpolating quadratic spline of x over y through
+    the raw points, sampled every 5 rows from the top point while above the last. Otherwise
+    the fitted line from the top row down to where it meets the bottom row (or the image side).
+    """
+    if curve_mode and xs.size > constants.min_curve_points:
+        spline = make_interp_spline(ys.astype(np.float64), xs.astype(np.float64), k=2)
+        rows = np.arange(ys[0], ys[-1], constants.curve_step_px, dtype=np.float64)
+        return np.stack([spline(rows), rows], axis=1)
+    x_bottom = (height - 1 - intercept) / slope
+    if x_bottom < 0:
+        bottom = (0.0, intercept)
+    elif x_bottom >= width:
+        bottom = (width - 1.0, intercept + width * slope)
+    else:
+        bottom = (x_bottom, height - 1.0)
+    top = ((top_row - intercept) / slope, float(top_row))
+    return np.array([top, bottom], np.float64)
+
+
+def roneld_step(
+    state: RoneldState, maps: np.ndarray, params: RoneldParams, constants: RoneldConstants = CONSTANTS
+) -> tuple[RoneldState, np.ndarray | None, np.ndarray | None, bool]:
+    """One frame: new state, left and right polylines in map pixels (or None), curve mode."""
+    if not params.pft:
+        # The ablation empties the state before every frame, curve memory included.
+        state = RoneldState()
+    _, height, width = maps.shape
+    fields, points = current_lanes(maps, constants)
+    tracked, sources = _kernels.track_lanes(
+        state.fields, fields, lane_gains(fields, constants), float(height),
+        width / constants.merge_width_divisor, constants.decay, constants.min_weight,
+    )
+    every_points = points + list(state.points)
+    tracked_points = tuple(every_points[source] for source in sources.tolist())
+    left, right = _kernels.choose_active(tracked, float(height), params.center_ratio * width, state.curve_mode)
+    chosen = [row for row in (left, right) if row >= 0]
+    count = int(sum(tracked[row, _kernels.F_CURVE] for row in chosen))
+    ring = state.curve_counts[1:] + (count,)
+    curve_mode = state.curve_mode
+    if sum(ring) >= constants.curve_on:
+        curve_mode = True
+    elif sum(ring) <= constants.curve_off:
+        curve_mode = False
+    top_row = height * (1 - params.lane_ratio)
+    for row in chosen:
+        top_row = min(top_row, tracked[row, _kernels.F_TOP_Y])
+    outlines = []
+    for row in (left, right):
+        if row < 0:
+            outlines.append(None)
+            continue
+        xs, ys = tracked_points[row]
+        outlines.append(lane_outline(
+            xs, ys, tracked[row, _kernels.F_SLOPE], tracked[row, _kernels.F_INTERCEPT],
+            top_row, height, width, curve_mode, constants,
+        ))
+    return RoneldState(tracked, tracked_points, ring, curve_mode), outlines[0], outlines[1], curve_mode
+
+
+@dataclass
+class RoneldTracker:
+    """RONELD over one clip: feed frames in order; `reset()` between clips."""
+
+    params: RoneldParams = field(default_factory=RoneldParams)
+    geometry: MapGeometry | None = None
+    state: RoneldState = field(default_factory=RoneldState)
+
+    def reset(self) -> None:
+        self.state = RoneldState()
+
+    def __call__(self, frame: FrameMaps | np.ndarray) -> ActiveLanes:
+        maps = frame.probabilities if isinstance(frame, FrameMaps) else frame
+        self.state, left, right, curve_mode = roneld_step(self.state, maps, self.params)
+        geometry = self.geometry
+        if geometry is None or (geometry.map_width, geometry.map_height) != (maps.shape[2], maps.shape[1]):
+            geometry = _geometry_for(geometry, maps)
+        return ActiveLanes(
+            left=None if left is None else Lane(geometry.map_to_image(left)),
+            right=None if right is None else Lane(geometry.map_to_image(right)),
+            curve_mode=curve_mode,
+        )
+
+
+def _geometry_for(geometry: MapGeometry | None, maps: np.ndarray) -> MapGeometry:
+    height, width = maps.shape[1:]
+    if geometry is None:
+        # Without a geometry, lanes stay in map pixels.
+        return MapGeometry(width, height, width, height)
+    return geometry.with_map_size(width, height)
