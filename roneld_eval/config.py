@@ -117,11 +117,18 @@ class PaperMetricParams:
     thickness_rule: str = "width"
     gt_thickness_px: int = 16
     pred_thickness_px: int = 30
+    # Map coordinates snap to pixels: "nearest" for both; "truncate" draws predictions with
+    # C's int() as the RONELD reference code does (ground truth stays "nearest").
+    prediction_rounding: str = "nearest"
     thresholds: str = "0.30:0.50:0.01"
 
     def __post_init__(self):
         if self.thickness_rule not in ("width", "height"):
             raise ConfigError(f"thickness_rule must be 'width' or 'height', got {self.thickness_rule!r}")
+        if self.prediction_rounding not in ("nearest", "truncate"):
+            raise ConfigError(
+                f"prediction_rounding must be 'nearest' or 'truncate', got {self.prediction_rounding!r}"
+            )
         parse_thresholds(self.thresholds)
 
     def thickness(self, base_px: int, map_width: int, map_height: int) -> int:

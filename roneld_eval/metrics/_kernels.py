@@ -1,0 +1,455 @@
+"""Numba kernels of the metrics: exact lane rasterisation and the official CULane spline.
+
+The official CULane evaluator draws each lane with OpenCV's `cv::line` (8-connected,
+thickness 30). Its pixels decide TP/FP/FN, and OpenCV's rasteriser changed between versions
+(pip's OpenCV 5 differs from the 4.6 the evaluator links here on long segments), so we do
+not call OpenCV: these kernels compute the same pixels as OpenCV 4.6's 16-bit fixed-point
+algorithm (a filled quad per segment, its outline, a filled disc at each vertex), in our own
+code, verified against masks the official tool's spline and OpenCV 4.6 drew
+(tests/golden/). Masks are drawn into canvases cropped to the lane's bounding box.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+XY_SHIFT = 16
+XY_ONE = 1 << XY_SHIFT
+HALF = XY_ONE >> 1
+INT_MIN = -(1 << 31)
+DBL_EPSILON = 2.220446049250313e-16
+
+
+# ---- numbers as C++ sees them -------------------------------------------------------------
+
+
+@njit(cache=True, nogil=True)
+def c_div(a, b):
+    """C integer division (truncates toward zero; Python's // floors)."""
+    q = abs(a) // abs(b)
+    return q if (a >= 0) == (b >= 0) else -q
+
+
+@njit(cache=True, nogil=True)
+def to_int32(value):
+    """A 64-bit integer cast to C's 32-bit int (two's complement wrap)."""
+    return ((value + (1 << 31)) & 0xFFFFFFFF) - (1 << 31)
+
+
+def round_like_opencv(values: np.ndarray) -> np.ndarray:
+    """cvRound of float32 values: half to even; NaN and out-of-range values give INT_MIN.
+
+    This is how `cv::Point2f` converts to `cv::Point` on x86-64 (SSE cvtss2si).
+    """
+    values = np.asarray(values, np.float32)
+    out = np.full(values.shape, INT_MIN, np.int64)
+    ok = np.isfinite(values) & (values < 2.0**31) & (values >= -(2.0**31))
+    out[ok] = np.rint(values[ok]).astype(np.int64)
+    return out
+
+
+# ---- the official spline ----------------------------------------------------------------
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def official_spline(xs, ys, times):
+    """SCNN lane_evaluation's Spline::splineInterpTimes for 3+ points, bit for bit.
+
+    A natural cubic spline of x and y over chord length, `times` samples per segment, then
+    the last input point. Inputs are the float32 values as doubles; operations keep the C++
+    order (pow(t, 2) and pow(t, 3) included) so that the doubles match exactly. Repeated
+    points divide by a zero chord: IEEE NaNs follow, as in C++ (error_model="numpy").
+    """
+    n = xs.size
+    h = np.empty(n - 1)
+    for i in range(n - 1):
+        h[i] = math.sqrt((xs[i + 1] - xs[i]) ** 2 + (ys[i + 1] - ys[i]) ** 2)
+    a = np.empty(n - 2)
+    b = np.empty(n - 2)
+    c = np.empty(n - 2)
+    dx = np.empty(n - 2)
+    dy = np.empty(n - 2)
+    for i in range(n - 2):
+        a[i] = h[i]
+        b[i] = 2 * (h[i] + h[i + 1])
+        c[i] = h[i + 1]
+        dx[i] = 6 * ((xs[i + 2] - xs[i + 1]) / h[i + 1] - (xs[i + 1] - xs[i]) / h[i])
+        dy[i] = 6 * ((ys[i + 2] - ys[i + 1]) / h[i + 1] - (ys[i + 1] - ys[i]) / h[i])
+    c[0] = c[0] / b[0]
+    dx[0] = dx[0] / b[0]
+    dy[0] = dy[0] / b[0]
+    for i in range(1, n - 2):
+        tmp = b[i] - a[i] * c[i - 1]
+        c[i] = c[i] / tmp
+        dx[i] = (dx[i] - a[i] * dx[i - 1]) / tmp
+        dy[i] = (dy[i] - a[i] * dy[i - 1]) / tmp
+    mx = np.empty(n)
+    my = np.empty(n)
+    mx[n - 2] = dx[n - 3]
+    my[n - 2] = dy[n - 3]
+    for i in range(n - 4, -1, -1):
+        mx[i + 1] = dx[i] - c[i] * mx[i + 2]
+        my[i + 1] = dy[i] - c[i] * my[i + 2]
+    mx[0] = 0.0
+    mx[n - 1] = 0.0
+    my[0] = 0.0
+    my[n - 1] = 0.0
+    out_x = np.empty((n - 1) * times + 1)
+    out_y = np.empty((n - 1) * times + 1)
+    k_out = 0
+    for i in range(n - 1):
+        hi = h[i]
+        ax = xs[i]
+        bx = (xs[i + 1] - xs[i]) / hi - (2 * hi * mx[i] + hi * mx[i + 1]) / 6
+        cx = mx[i] / 2
+        ddx = (mx[i + 1] - mx[i]) / (6 * hi)
+        ay = ys[i]
+        by = (ys[i + 1] - ys[i]) / hi - (2 * hi * my[i] + hi * my[i + 1]) / 6
+        cy = my[i] / 2
+        ddy = (my[i + 1] - my[i]) / (6 * hi)
+        delta = hi / times
+        for k in range(times):
+            t = delta * k
+            out_x[k_out] = ax + bx * t + cx * math.pow(t, 2.0) + ddx * math.pow(t, 3.0)
+            out_y[k_out] = ay + by * t + cy * math.pow(t, 2.0) + ddy * math.pow(t, 3.0)
+            k_out += 1
+    out_x[k_out] = xs[n - 1]
+    out_y[k_out] = ys[n - 1]
+    return out_x, out_y
+
+
+# ---- rasterisation (OpenCV 4.6 drawing.cpp, LINE_8, integer input points) -------------------
+
+
+@njit(cache=True, nogil=True)
+def _span(canvas, x0, y0, width, height, y, left, right):
+    """Set pixels left..right (inclusive) of image row y, clipped to the image.
+
+    The canvas lies inside the image and holds every pixel a lane can reach; clipping to it
+    as well only guards memory should that ever not hold.
+    """
+    row = y - y0
+    if y < 0 or y >= height or row < 0 or row >= canvas.shape[0]:
+        return
+    left = max(left, 0, x0) - x0
+    right = min(right, width - 1, x0 + canvas.shape[1] - 1) - x0
+    if right < left:
+        return
+    line = canvas[row]
+    for x in range(np.uint64(left), np.uint64(right + 1)):
+        line[x] = 1
+
+
+@njit(cache=True, nogil=True)
+def _pixel(canvas, x0, y0, width, height, x, y):
+    if 0 <= x < width and 0 <= y < height:
+        row = y - y0
+        column = x - x0
+        if 0 <= row < canvas.shape[0] and 0 <= column < canvas.shape[1]:
+            canvas[row, column] = 1
+
+
+@njit(cache=True, nogil=True)
+def _clip_line(width, height, x1, y1, x2, y2):
+    """cv::clipLine on a (width, height) box with 64-bit ends; returns (inside, x1, y1, x2, y2)."""
+    right = width - 1
+    bottom = height - 1
+    c1 = (x1 < 0) + (x1 > right) * 2 + (y1 < 0) * 4 + (y1 > bottom) * 8
+    c2 = (x2 < 0) + (x2 > right) * 2 + (y2 < 0) * 4 + (y2 > bottom) * 8
+    if (c1 & c2) == 0 and (c1 | c2) != 0:
+        if c1 & 12:
+            a = 0 if c1 < 8 else bottom
+            x1 += np.int64(float(a - y1) * float(x2 - x1) / float(y2 - y1))
+            y1 = a
+            c1 = (x1 < 0) + (x1 > right) * 2
+        if c2 & 12:
+            a = 0 if c2 < 8 else bottom
+            x2 += np.int64(float(a - y2) * float(x2 - x1) / float(y2 - y1))
+            y2 = a
+            c2 = (x2 < 0) + (x2 > right) * 2
+        if (c1 & c2) == 0 and (c1 | c2) != 0:
+            if c1:
+                a = 0 if c1 == 1 else right
+                y1 += np.int64(float(a - x1) * float(y2 - y1) / float(x2 - x1))
+                x1 = a
+                c1 = 0
+            if c2:
+                a = 0 if c2 == 1 else right
+                y2 += np.int64(float(a - x2) * float(y2 - y1) / float(x2 - x1))
+                x2 = a
+                c2 = 0
+    return (c1 | c2) == 0, x1, y1, x2, y2
+
+
+@njit(cache=True, nogil=True)
+def _fixed_line(canvas, x0, y0, width, height, x1, y1, x2, y2):
+    """OpenCV's Line2: a 1-px line between 16-bit fixed-point ends (the quad's outline)."""
+    inside, x1, y1, x2, y2 = _clip_line(np.int64(width) << XY_SHIFT, np.int64(height) << XY_SHIFT, x1, y1, x2, y2)
+    if not inside:
+        return
+    dx = x2 - x1
+    dy = y2 - y1
+    ax = abs(dx)
+    ay = abs(dy)
+    if ax > ay:
+        if dx < 0:
+            dy = -dy
+            x1, x2 = x2, x1
+            y1, y2 = y2, y1
+        y_step = c_div(dy * XY_ONE, ax | 1)
+        count = (x2 - x1) >> XY_SHIFT
+        _pixel(canvas, x0, y0, width, height, (x2 + HALF) >> XY_SHIFT, (y2 + HALF) >> XY_SHIFT)
+        x = (x1 + HALF) >> XY_SHIFT
+        y = y1 + HALF
+        while count >= 0:
+            _pixel(canvas, x0, y0, width, height, x, y >> XY_SHIFT)
+            x += 1
+            y += y_step
+            count -= 1
+    else:
+        if dy < 0:
+            dx = -dx
+            x1, x2 = x2, x1
+            y1, y2 = y2, y1
+        x_step = c_div(dx * XY_ONE, ay | 1)
+        count = (y2 - y1) >> XY_SHIFT
+        _pixel(canvas, x0, y0, width, height, (x2 + HALF) >> XY_SHIFT, (y2 + HALF) >> XY_SHIFT)
+        x = x1 + HALF
+        y = (y1 + HALF) >> XY_SHIFT
+        while count >= 0:
+            _pixel(canvas, x0, y0, width, height, x >> XY_SHIFT, y)
+            x += x_step
+            y += 1
+            count -= 1
+
+
+@njit(cache=True, nogil=True)
+def _fill_quad(canvas, x0, y0, width, height, ax, ay, bx, by, cx, cy, dx, dy):
+    """OpenCV's FillConvexPoly for 4 fixed-point vertices (shift 16, LINE_8): outline, then scanlines."""
+    qx = (ax, bx, cx, dx)
+    qy = (ay, by, cy, dy)
+    npts = 4
+    imin = 0
+    xmin = qx[0]
+    xmax = qx[0]
+    ymin = qy[0]
+    ymax = qy[0]
+    px = qx[npts - 1]
+    py = qy[npts - 1]
+    for i in range(npts):
+        if qy[i] < ymin:
+            ymin = qy[i]
+            imin = i
+        ymax = max(ymax, qy[i])
+        xmax = max(xmax, qx[i])
+        xmin = min(xmin, qx[i])
+        _fixed_line(canvas, x0, y0, width, height, px, py, qx[i], qy[i])
+        px = qx[i]
+        py = qy[i]
+    xmin = (xmin + HALF) >> XY_SHIFT
+    xmax = (xmax + HALF) >> XY_SHIFT
+    ymin = (ymin + HALF) >> XY_SHIFT
+    ymax = (ymax + HALF) >> XY_SHIFT
+    # C++ compares these after a cast to int: far-away (e.g. NaN) points wrap and bail out here.
+    if to_int32(xmax) < 0 or to_int32(ymax) < 0 or to_int32(xmin) >= width or to_int32(ymin) >= height:
+        return
+    ymax = min(ymax, height - 1)
+    y = to_int32(ymin)
+    last = to_int32(ymax)
+    index0 = imin
+    index1 = imin
+    edge_x0 = np.int64(-XY_ONE)
+    edge_x1 = np.int64(-XY_ONE)
+    step0 = np.int64(0)
+    step1 = np.int64(0)
+    end0 = y
+    end1 = y
+    edges = npts
+    while True:
+        for e in range(2):
+            if y >= (end0 if e == 0 else end1):
+                idx0 = index0 if e == 0 else index1
+                di = 1 if e == 0 else npts - 1
+                idx = idx0 + di
+                if idx >= npts:
+                    idx -= npts
+                while True:
+                    more = edges > 0
+                    edges -= 1
+                    if not more:
+                        break
+                    ty = to_int32((qy[idx] + HALF) >> XY_SHIFT)
+                    if ty > y:
+                        xs = qx[idx0]
+                        xe = qx[idx]
+                        step = c_div((xe - xs) * 2 + (ty - y), 2 * (ty - y))
+                        if e == 0:
+                            end0 = ty
+                            step0 = step
+                            edge_x0 = xs
+                            index0 = idx
+                        else:
+                            end1 = ty
+                            step1 = step
+                            edge_x1 = xs
+                            index1 = idx
+                        break
+                    idx0 = idx
+                    idx += di
+                    if idx >= npts:
+                        idx -= npts
+        if edges < 0:
+            break
+        if y >= 0:
+            if edge_x0 > edge_x1:
+                _span(canvas, x0, y0, width, height, y, (edge_x1 + HALF) >> XY_SHIFT, (edge_x0 + HALF) >> XY_SHIFT)
+            else:
+                _span(canvas, x0, y0, width, height, y, (edge_x0 + HALF) >> XY_SHIFT, (edge_x1 + HALF) >> XY_SHIFT)
+            edge_x0 += step0
+            edge_x1 += step1
+            y += 1
+        else:
+            # Rows above the image draw nothing: jump to the next edge change or row 0 at once.
+            jump = min(end0, end1, 0, last + 1) - y
+            if jump <= 0:
+                jump = 1
+            edge_x0 += step0 * jump
+            edge_x1 += step1 * jump
+            y += jump
+        if y > last:
+            break
+
+
+@njit(cache=True, nogil=True)
+def disc_half_widths(radius):
+    """Half-width per row offset -radius..radius of OpenCV's filled Circle (midpoint algorithm)."""
+    half = np.full(2 * radius + 1, -1, np.int64)
+    err = 0
+    dx = radius
+    dy = 0
+    plus = 1
+    minus = (radius << 1) - 1
+    while dx >= dy:
+        half[radius - dy] = max(half[radius - dy], dx)
+        half[radius + dy] = max(half[radius + dy], dx)
+        half[radius - dx] = max(half[radius - dx], dy)
+        half[radius + dx] = max(half[radius + dx], dy)
+        dy += 1
+        err += plus
+        plus += 2
+        if err > 0:
+            err -= minus
+            dx -= 1
+            minus -= 2
+    return half
+
+
+@njit(cache=True, nogil=True)
+def _segment_quad(canvas, x0, y0, width, height, ax, ay, bx, by, thickness):
+    """The filled quad ThickLine draws between two integer points (nothing for a point)."""
+    p0x = np.int64(ax) << XY_SHIFT
+    p0y = np.int64(ay) << XY_SHIFT
+    p1x = np.int64(bx) << XY_SHIFT
+    p1y = np.int64(by) << XY_SHIFT
+    dx = (p0x - p1x) / XY_ONE
+    dy = (p1y - p0y) / XY_ONE
+    r = dx * dx + dy * dy
+    if abs(r) > DBL_EPSILON:
+        odd = thickness & 1
+        half_thickness = np.int64(thickness) << (XY_SHIFT - 1)
+        r = (half_thickness + odd * XY_ONE * 0.5) / math.sqrt(r)
+        dpx = np.int64(np.rint(dy * r))
+        dpy = np.int64(np.rint(dx * r))
+        _fill_quad(
+            canvas, x0, y0, width, height,
+            p0x + dpx, p0y + dpy, p0x - dpx, p0y - dpy, p1x - dpx, p1y - dpy, p1x + dpx, p1y + dpy,
+        )
+
+
+@njit(cache=True, nogil=True)
+def draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness):
+    """Draw a thick polyline of integer points into a canvas whose (0, 0) is image (x0, y0).
+
+    Same pixels as cv::line(img, p[i], p[i+1], 1, thickness) for every segment on a
+    (width, height) image: a quad per segment and a disc of radius round(thickness/2) at every
+    vertex (the union is the same whichever segment draws a shared disc). One point or none
+    draws nothing, as a loop over segments would.
+    """
+    n = xs.size
+    if n < 2:
+        return
+    radius = ((np.int64(thickness) << (XY_SHIFT - 1)) + HALF) >> XY_SHIFT
+    half = disc_half_widths(radius)
+    for i in range(n - 1):
+        if xs[i] != xs[i + 1] or ys[i] != ys[i + 1]:
+            _segment_quad(canvas, x0, y0, width, height, xs[i], ys[i], xs[i + 1], ys[i + 1], thickness)
+    for i in range(n):
+        if i > 0 and xs[i] == xs[i - 1] and ys[i] == ys[i - 1]:
+            continue
+        cx = xs[i]
+        cy = ys[i]
+        if cx < -radius or cx >= width + radius or cy < -radius or cy >= height + radius:
+            continue
+        for k in range(2 * radius + 1):
+            _span(canvas, x0, y0, width, height, cy - radius + k, cx - half[k], cx + half[k])
+
+
+@njit(cache=True, nogil=True)
+def polyline_box(xs, ys, thickness, width, height):
+    """(x0, y0, x1, y1): the image box (exclusive ends) that can hold a polyline's pixels."""
+    margin = thickness // 2 + 3
+    if xs.size == 0:
+        return 0, 0, 0, 0
+    x0 = max(xs.min() - margin, 0)
+    y0 = max(ys.min() - margin, 0)
+    x1 = min(xs.max() + margin + 1, width)
+    y1 = min(ys.max() + margin + 1, height)
+    if x1 <= x0 or y1 <= y0:
+        return 0, 0, 0, 0
+    return x0, y0, x1, y1
+
+
+@njit(cache=True, nogil=True)
+def rasterise(xs, ys, thickness, width, height):
+    """(x0, y0, canvas): a thick polyline's pixels on a width x height image, cropped.
+
+    Points far outside the image (NaN converted to INT_MIN by cvRound) may still draw
+    1-px outlines across it, as OpenCV does: the canvas then spans the whole image.
+    """
+    if xs.size < 2:
+        return 0, 0, np.zeros((0, 0), np.uint8)
+    far = (xs.min() < -(1 << 20)) or (ys.min() < -(1 << 20)) or (xs.max() > (1 << 20)) or (ys.max() > (1 << 20))
+    if far:
+        x0, y0, x1, y1 = 0, 0, width, height
+    else:
+        x0, y0, x1, y1 = polyline_box(xs, ys, thickness, width, height)
+    canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    if canvas.size:
+        draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness)
+    return x0, y0, canvas
+
+
+@njit(cache=True, nogil=True)
+def overlap(ax0, ay0, a, bx0, by0, b):
+    """Pixels set in both of two cropped masks."""
+    left = max(ax0, bx0)
+    top = max(ay0, by0)
+    right = min(ax0 + a.shape[1], bx0 + b.shape[1])
+    bottom = min(ay0 + a.shape[0], by0 + b.shape[0])
+    total = 0
+    if right <= left:
+        return total
+    span = np.uint64(right - left)
+    offset_a = np.uint64(left - ax0)
+    offset_b = np.uint64(left - bx0)
+    for y in range(top, bottom):
+        row_a = a[y - ay0]
+        row_b = b[y - by0]
+        count = np.uint64(0)
+        for k in range(span):
+            count += row_a[offset_a + k] & row_b[offset_b + k]
+        total += count
+    return total

@@ -1,0 +1,34 @@
+"""Accuracy over a sweep of IoU thresholds from stored per-lane IoUs (geometry never again).
+
+accuracy(t) = N_TP(t) / N_gt with a true positive when IoU > t (strictly); sums first,
+the division last, so per-clip counts combine exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..config import Thresholds
+
+
+def sweep_counts(ious: np.ndarray, thresholds: Thresholds) -> np.ndarray:
+    """Number of IoUs strictly above each threshold."""
+    ious = np.asarray(ious, np.float64)
+    limits = np.asarray(thresholds.values)[:, None]
+    return np.count_nonzero(ious[None, :] > limits, axis=1)
+
+
+def sweep_accuracy(per_frame: pd.DataFrame, thresholds: Thresholds, methods=None) -> pd.DataFrame:
+    """method, threshold, n_tp, n_gt, accuracy for every method and threshold."""
+    if methods is None:
+        methods = list(dict.fromkeys(per_frame["method"]))
+    rows = []
+    for method in methods:
+        ious = per_frame.loc[per_frame["method"] == method, "iou"].to_numpy(np.float64)
+        counts = sweep_counts(ious, thresholds)
+        for label, n_tp in zip(thresholds.labels, counts.tolist()):
+            n_gt = len(ious)
+            rows.append(dict(method=method, threshold=label, n_tp=n_tp, n_gt=n_gt,
+                             accuracy=n_tp / n_gt if n_gt else float("nan")))
+    return pd.DataFrame(rows, columns=["method", "threshold", "n_tp", "n_gt", "accuracy"])

@@ -1,0 +1,134 @@
+"""The official TuSimple protocol (tusimple-benchmark evaluate/lane.py), number for number.
+
+Per labelled frame: a ground-truth lane's threshold is 20 / cos(atan(k)), k the least-squares
+slope of x over y of its valid points; a prediction matches a row when |x_pred - x_gt| is
+strictly below it (absent in both counts); a lane's accuracy is matching rows / rows; a
+ground-truth lane is found when its best prediction reaches 0.85. A frame over 200 ms or
+with more than ground truth + 2 predictions scores (0, 0, 1); frames with more than 4
+ground-truth lanes forgive one FN and their worst lane. Figures are means of per-frame
+ratios over all labelled frames (FP can be negative, as the official number is).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from ..lanes_io import read_tusimple_records
+from ..datasets._paths import normalise_relpath
+
+PIXEL_THRESHOLD = 20  # LaneEval.pixel_thresh
+POINT_THRESHOLD = 0.85  # LaneEval.pt_thresh
+MAX_RUN_TIME_MS = 200
+
+
+def lane_angle(xs: np.ndarray, y_samples: np.ndarray) -> float:
+    """atan of the slope of x over y (least squares with intercept) over the points with x >= 0."""
+    valid = xs >= 0
+    xs, ys = xs[valid], y_samples[valid]
+    if len(xs) <= 1:
+        return 0.0
+    # As sklearn's LinearRegression: centre both, then least squares (LAPACK gelsd).
+    yc = ys - ys.mean()
+    xc = xs - xs.mean()
+    slope = np.linalg.lstsq(yc[:, None], xc, rcond=None)[0][0]
+    return math.atan(slope)
+
+
+def line_accuracy(pred: np.ndarray, gt: np.ndarray, threshold: float) -> float:
+    pred = np.where(pred >= 0, pred, -100.0)
+    gt = np.where(gt >= 0, gt, -100.0)
+    return float(np.sum(np.where(np.abs(pred - gt) < threshold, 1.0, 0.0)) / len(gt))
+
+
+def bench_frame(pred: Sequence[Sequence[float]], gt: Sequence[Sequence[float]], y_samples: Sequence[float],
+                run_time: float = 0.0) -> tuple[float, float, float]:
+    """(accuracy, fp, fn) of one frame, as LaneEval.bench."""
+    if any(len(p) != len(y_samples) for p in pred):
+        raise ValueError("a predicted lane does not have one value per h_samples row")
+    if run_time > MAX_RUN_TIME_MS or len(gt) + 2 < len(pred):
+        return 0.0, 0.0, 1.0
+    y = np.array(y_samples, dtype=float)
+    thresholds = [PIXEL_THRESHOLD / math.cos(lane_angle(np.array(x_gts, dtype=float), y)) for x_gts in gt]
+    preds = [np.array(p, dtype=float) for p in pred]
+    line_accs = []
+    fn = 0.0
+    matched = 0.0
+    for x_gts, threshold in zip(gt, thresholds):
+        gt_array = np.array(x_gts, dtype=float)
+        accs = [line_accuracy(p, gt_array, threshold) for p in preds]
+        max_acc = max(accs) if accs else 0.0
+        if max_acc < POINT_THRESHOLD:
+            fn += 1
+        else:
+            matched += 1
+        line_accs.append(max_acc)
+    fp = len(pred) - matched
+    if len(gt) > 4 and fn > 0:
+        fn -= 1
+    total = sum(line_accs)
+    if len(gt) > 4:
+        total -= min(line_accs)
+    return (
+        total / max(min(4.0, len(gt)), 1.0),
+        fp / len(pred) if len(pred) > 0 else 0.0,
+        fn / max(min(len(gt), 4.0), 1.0),
+    )
+
+
+@dataclass(frozen=True)
+class TusimpleScore:
+    accuracy: float
+    fp: float
+    fn: float
+    n_frames: int
+
+
+def mean_scores(frame_scores: Sequence[tuple[float, float, float]], n_frames: int) -> TusimpleScore:
+    """Sum in the given order, divide by the number of labelled frames (as the official script)."""
+    accuracy = fp = fn = 0.0
+    for a, p, n in frame_scores:
+        accuracy += a
+        fp += p
+        fn += n
+    if n_frames == 0:
+        return TusimpleScore(float("nan"), float("nan"), float("nan"), 0)
+    return TusimpleScore(accuracy / n_frames, fp / n_frames, fn / n_frames, n_frames)
+
+
+def score_tusimple_files(labels: str | Path, predictions: str | Path) -> TusimpleScore:
+    """Score a TuSimple prediction file against a label file, as `lane.py pred label`."""
+    labels, predictions = Path(labels), Path(predictions)
+    gts = {}
+    for number, record in read_tusimple_records(labels):
+        key = normalise_relpath(record["raw_file"], labels, number)
+        if key in gts:
+            raise InputError(labels, f"{key} is labelled twice", line=number)
+        gts[key] = record
+    seen: dict[str, int] = {}
+    scores = []
+    for number, record in read_tusimple_records(predictions, predictions=True):
+        key = normalise_relpath(record["raw_file"], predictions, number)
+        if key not in gts:
+            raise InputError(predictions, f"{key} is not in the labels ({labels.name})", line=number)
+        if key in seen:
+            raise InputError(predictions, f"{key} is predicted twice (first on line {seen[key]})", line=number)
+        seen[key] = number
+        gt = gts[key]
+        try:
+            scores.append(bench_frame(record["lanes"], gt["lanes"], gt["h_samples"], record["run_time"]))
+        except ValueError:
+            raise InputError(
+                predictions, f"each lane needs one value per h_samples row ({len(gt['h_samples'])})", line=number
+            ) from None
+    missing = [key for key in gts if key not in seen]
+    if missing:
+        raise InputError(
+            predictions, f"no prediction for {len(missing)} of {len(gts)} labelled frames (first: {missing[0]})"
+        )
+    return mean_scores(scores, len(gts))
