@@ -343,17 +343,24 @@ def _toml_value(value: Any) -> str:
 # ---- presets -------------------------------------------------------------------------
 
 
+def _presets_folder() -> Path:
+    """configs/ as installed (roneld_eval.configs), or beside the package in a source checkout."""
+    try:
+        return Path(str(resources.files("roneld_eval.configs")))
+    except ModuleNotFoundError:
+        return Path(__file__).resolve().parents[1] / "configs"
+
+
 def preset_names() -> list[str]:
     """Names of the bundled presets (the TOML files in configs/)."""
-    folder = resources.files("roneld_eval.configs")
-    return sorted(entry.name[:-5] for entry in folder.iterdir() if entry.name.endswith(".toml"))
+    return sorted(entry.name[:-5] for entry in _presets_folder().iterdir() if entry.name.endswith(".toml"))
 
 
 def preset_path(name: str) -> Path:
     """The file of a bundled preset."""
     if name not in preset_names():
         raise ConfigError(f"unknown preset {name!r}; presets: {', '.join(preset_names())}")
-    return Path(str(resources.files("roneld_eval.configs") / f"{name}.toml"))
+    return _presets_folder() / f"{name}.toml"
 
 
 def resolve_config_path(value: str | Path) -> Path:

@@ -1,0 +1,188 @@
+"""The library's front door: one function per CLI command, with the same names and options.
+
+`run` evaluates and writes a report, `score_culane` / `score_tusimple` score lane files in
+the official formats, `synthesize` writes a generated dataset. The bundled fixture lives in
+`roneld_eval/_fixture` and is what `run` uses when no dataset is given.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import sys
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Sequence
+
+import pandas as pd
+
+from .config import DEFAULT_PRESETS, EvalConfig, IMAGE_SIZES, parse_thresholds
+from .datasets import read_culane
+from .errors import ConfigError, InputError
+from .evaluation import RunResult, default_workers, evaluate
+from .lanes_io import read_culane_lines
+from .metrics.culane_official import CulaneFrameResult, category_table, evaluate_culane_frame, sum_counts, f_measure
+from .metrics.tusimple_official import TusimpleScore, score_tusimple_files
+from .model import Frame
+from .report.write import LaneWriter, Staging, write_report
+from .synth import SynthResult, synthesize
+
+FIXTURE_MAPS_FORMAT = "npz"
+
+
+def fixture_roots(dataset: str) -> tuple[Path, Path]:
+    """(data root, maps root) of the bundled fixture of a dataset."""
+    base = Path(str(resources.files("roneld_eval._fixture"))) / dataset
+    data, maps = base / "data", base / "maps"
+    if not data.is_dir() or not maps.is_dir():
+        raise InputError(base, "the bundled fixture is missing from this installation")
+    return data, maps
+
+
+def default_config(dataset: str = "culane") -> EvalConfig:
+    """The preset for a dataset's default model (SCNN)."""
+    if dataset not in DEFAULT_PRESETS:
+        raise ConfigError(f"unknown dataset {dataset!r}")
+    return EvalConfig.preset(DEFAULT_PRESETS[dataset])
+
+
+def with_fixture(config: EvalConfig) -> EvalConfig:
+    """The configuration pointed at the bundled fixture when it names no data."""
+    if config.dataset.data_root is not None or config.maps.root is not None:
+        return config
+    data, maps = fixture_roots(config.dataset.name)
+    return config.with_overrides(**{"dataset.data_root": str(data), "maps.root": str(maps),
+                                    "maps.format": FIXTURE_MAPS_FORMAT})
+
+
+def run(config: EvalConfig | None = None, out: str | Path = "results", progress: bool = True) -> RunResult:
+    """Evaluate every configured method and write the report to `out` (see the README)."""
+    requested = config or default_config()
+    config = with_fixture(requested)
+    staging = Staging(Path(out))
+    try:
+        writer = None
+        if config.save_lanes:
+            writer = LaneWriter(staging, config.dataset.name)
+        dataset = None
+        if writer is not None and config.dataset.name == "tusimple":
+            from .datasets import read_dataset
+
+            dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
+                                   config.dataset.limit)
+            writer.h_samples = {f.relpath: f.h_samples for c in dataset.clips for f in c.frames if f.labelled}
+        result = evaluate(config, progress=progress, lane_sink=writer, dataset=dataset)
+        if writer is not None:
+            writer.close()
+        if config is not requested:
+            # Record the bundled fixture by name, not by this machine's paths, so the written
+            # config.toml reruns anywhere.
+            result.config = requested
+            result.fixture = config.dataset.name
+    except BaseException:
+        staging.discard()
+        raise
+    write_report(result, out, staging)
+    return result
+
+
+# ---- scoring lane files ----------------------------------------------------------------------
+
+
+@dataclass
+class CulaneScore:
+    """Official CULane scores of a prediction tree: per category at each threshold."""
+
+    table: pd.DataFrame  # category, tp, fp, fn, precision, recall, f1 at the first threshold
+    sweep: pd.DataFrame  # iou_threshold, category, tp, fp, fn, precision, recall, f1
+    n_frames: int
+
+
+def _score_frames(args) -> list[tuple[str, CulaneFrameResult]]:
+    frames, pred_root, width, height, lane_width = args
+    out = []
+    for frame in frames:
+        stem = frame.relpath.rsplit(".", 1)[0]
+        predictions = read_culane_lines(Path(pred_root) / f"{stem}.lines.txt")
+        out.append((frame.relpath, evaluate_culane_frame(frame.lanes, predictions, width, height, lane_width)))
+    return out
+
+
+def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | Path | None = None,
+                 iou: str | float = 0.5, width: int = 30, out: str | Path | None = None,
+                 workers: int | None = None, progress: bool = False) -> CulaneScore:
+    """Score `.lines.txt` predictions (mirrored under pred_root) with the official CULane protocol.
+
+    `iou` is one threshold or a sweep ('0.30:0.50:0.01'); every threshold costs one pass.
+    A missing prediction file means no lanes.
+    """
+    pred_root = Path(pred_root)
+    if not pred_root.is_dir():
+        raise InputError(pred_root, "prediction root not found")
+    if width < 1:
+        raise ConfigError(f"lane width must be positive, got {width}")
+    thresholds = parse_thresholds(str(iou))
+    dataset = read_culane(data_root, list_file)
+    image_width, image_height = IMAGE_SIZES["culane"]
+    frames: list[Frame] = [frame for clip in dataset.clips for frame in clip.frames]
+    chunks = [frames[i:i + 200] for i in range(0, len(frames), 200)]
+    tasks = [(chunk, pred_root, image_width, image_height, width) for chunk in chunks]
+    workers = min(workers or default_workers(), max(len(chunks), 1))
+    from tqdm import tqdm
+
+    results: dict[str, CulaneFrameResult] = {}
+    with tqdm(total=len(frames), unit="frame", desc="scoring", disable=not progress) as bar:
+        if workers <= 1:
+            pieces = map(_score_frames, tasks)
+            pool = None
+        else:
+            method = "fork" if sys.platform == "linux" else "spawn"
+            pool = multiprocessing.get_context(method).Pool(workers)
+            pieces = pool.imap(_score_frames, tasks)
+        try:
+            for piece in pieces:
+                results.update(piece)
+                bar.update(len(piece))
+        finally:
+            if pool is not None:
+                pool.close()
+                pool.join()
+    sweep = []
+    for label, value in zip(thresholds.labels, thresholds.values):
+        table = category_table(results, dataset.categories, value)
+        table.insert(0, "iou_threshold", label)
+        sweep.append(table)
+    sweep_table = pd.concat(sweep, ignore_index=True)
+    first = sweep_table[sweep_table["iou_threshold"] == thresholds.labels[0]].drop(columns="iou_threshold")
+    score = CulaneScore(first.reset_index(drop=True), sweep_table, len(frames))
+    if out is not None:
+        staging = Staging(Path(out))
+        try:
+            staging.write_text("official.csv", score.table.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
+            if len(thresholds) > 1:
+                staging.write_text("official_sweep.csv", sweep_table.to_csv(index=False, float_format="%.6f",
+                                                                            lineterminator="\n"))
+        except BaseException:
+            staging.discard()
+            raise
+        staging.commit()
+    return score
+
+
+def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None = None) -> TusimpleScore:
+    """Score TuSimple JSON-lines predictions against a label file, as evaluate/lane.py does."""
+    score = score_tusimple_files(labels, pred)
+    if out is not None:
+        staging = Staging(Path(out))
+        try:
+            table = pd.DataFrame([dict(accuracy=score.accuracy, fp=score.fp, fn=score.fn)])
+            staging.write_text("official.csv", table.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
+        except BaseException:
+            staging.discard()
+            raise
+        staging.commit()
+    return score
+
+
+__all__ = ["run", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
+           "CulaneScore", "SynthResult", "f_measure", "sum_counts"]

@@ -1,0 +1,375 @@
+"""The whole evaluation: read a dataset, load each clip's maps, extract lanes with every method,
+score them, and return one `RunResult`. Writes nothing itself (see report.write).
+
+A clip is the unit of state (RONELD's tracking) and of parallel work: `evaluate_clip` runs in
+worker processes and returns plain per-frame records; they are merged in clip order, so any
+number of workers gives the same result. Lanes to save stream to a `lane_sink` as clips finish,
+so memory stays flat in the number of frames.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import platform
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable, Iterator, Sequence
+
+import numpy as np
+import pandas as pd
+
+from . import __version__
+from .config import EvalConfig, parse_thresholds
+from .datasets import read_dataset
+from .errors import ConfigError, InputError
+from .extract import warm_up
+from .extract.baseline import baseline_lanes, sample_rows
+from .extract.roneld import RoneldTracker
+from .geometry import MapGeometry
+from .lanes_io import sample_lane_at_rows, tusimple_xs
+from .maps import load_maps, required_paths
+from .metrics.culane_official import (
+    CulaneFrameResult,
+    category_table,
+    evaluate_culane_frame,
+    official_masks,
+)
+from .metrics.paper import ego_lanes, ego_masks, side_ious
+from .metrics.sweep import sweep_accuracy
+from .metrics.tusimple_official import bench_frame, mean_scores
+from .model import Clip, Dataset, Frame, FrameMaps, Lane
+
+# Channels of the ego lanes in SCNN/ENet-SAD's CULane order (outer left, ego left, ego right,
+# outer right): the baseline's active lanes for the paper's protocol.
+EGO_CHANNELS = (1, 2)
+
+
+@dataclass(frozen=True)
+class FrameOutcome:
+    """One scored frame of one method: ego-lane IoUs per side, official record, lanes."""
+
+    relpath: str
+    method: str
+    ious: dict[str, float]
+    # CULane: (CulaneFrameResult of all lanes, of the two ego lanes); TuSimple: (accuracy, fp, fn)
+    official: object
+    lanes: tuple[Lane, ...]
+
+
+@dataclass
+class ClipResult:
+    """What a worker sends back for one clip (plain data, cheap to pickle)."""
+
+    clip_id: str
+    outcomes: list[FrameOutcome] = field(default_factory=list)
+    extract_ms: dict[str, list[float]] = field(default_factory=dict)
+    load_ms: list[float] = field(default_factory=list)
+    n_frames: int = 0
+    n_scored: int = 0
+    n_gt_lanes: int = 0
+    skipped: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """Everything a worker needs besides the clip."""
+
+    config: EvalConfig
+    dataset_name: str
+    image_width: int
+    image_height: int
+    maps_root: Path
+
+
+@dataclass
+class RunResult:
+    """A finished evaluation: the tables of every report, and where they came from."""
+
+    config: EvalConfig
+    dataset: Dataset
+    per_frame: pd.DataFrame
+    accuracy: pd.DataFrame
+    official: pd.DataFrame
+    runtime: pd.DataFrame
+    counts: dict
+    wall_time_s: float
+    skipped: list[str]
+    versions: dict
+    fixture: str | None = None  # the bundled fixture's dataset when that is what ran
+
+
+# ---- one clip ------------------------------------------------------------------------------
+
+
+def _geometry_for(context: RunContext, maps: FrameMaps) -> MapGeometry:
+    geometry = context.config.geometry
+    if (maps.width, maps.height) != (geometry.map_width, geometry.map_height):
+        geometry = geometry.with_map_size(maps.width, maps.height)
+    return geometry
+
+
+def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
+    """Run every method over one clip in frame order and score its labelled frames."""
+    config = context.config
+    result = ClipResult(clip_id=clip.clip_id, n_frames=len(clip.frames))
+    methods = config.methods
+    result.extract_ms = {method: [] for method in methods}
+    trackers = {}
+    if "roneld" in methods:
+        trackers["roneld"] = RoneldTracker(config.roneld)
+    if "roneld-nopft" in methods:
+        from dataclasses import replace
+
+        trackers["roneld-nopft"] = RoneldTracker(replace(config.roneld, pft=False))
+    clip_size = None
+    rows = None
+    for frame in clip.frames:
+        start = time.perf_counter()
+        maps = load_maps(context.maps_root, frame.relpath, config.maps)
+        result.load_ms.append((time.perf_counter() - start) * 1e3)
+        if clip_size is None:
+            clip_size = maps.probabilities.shape
+            geometry = _geometry_for(context, maps)
+            for tracker in trackers.values():
+                tracker.geometry = geometry
+            rows = sample_rows(config.baseline, geometry)
+        elif maps.probabilities.shape != clip_size:
+            raise InputError(
+                frame_map_path(context, frame),
+                f"maps of shape {maps.probabilities.shape} differ from the clip's first frame {clip_size}",
+            )
+        predictions: dict[str, tuple[list[Lane | None], list[Lane], bool]] = {}
+        for method in methods:
+            if method == "baseline":
+                if not frame.labelled:
+                    continue  # stateless: only scored frames need it
+                start = time.perf_counter()
+                per_channel = baseline_lanes(maps, config.baseline, geometry, rows)
+                result.extract_ms[method].append((time.perf_counter() - start) * 1e3)
+                active = [per_channel[c] if c < len(per_channel) else None for c in EGO_CHANNELS]
+                predictions[method] = (active, [lane for lane in per_channel if lane is not None], True)
+            else:
+                start = time.perf_counter()
+                lanes = trackers[method](maps)
+                result.extract_ms[method].append((time.perf_counter() - start) * 1e3)
+                predictions[method] = ([lanes.left, lanes.right], lanes.as_list(), False)
+        if frame.labelled:
+            result.n_scored += 1
+            result.n_gt_lanes += len(frame.lanes)
+            result.outcomes.extend(_score_frame(frame, predictions, geometry, context))
+    return result
+
+
+def frame_map_path(context: RunContext, frame: Frame) -> Path:
+    return required_paths(context.maps_root, frame.relpath, context.config.maps)[0]
+
+
+def _score_frame(frame: Frame, predictions, geometry: MapGeometry, context: RunContext) -> list[FrameOutcome]:
+    config = context.config
+    gt_masks = ego_masks(frame.lanes, geometry, config.paper, config.roneld.center_ratio)
+    if context.dataset_name == "culane":
+        official_gt = official_masks(frame.lanes, context.image_width, context.image_height,
+                                     config.official.lane_width_px)
+        ego_gt = ego_lanes(frame.lanes, context.image_width, context.image_height, config.roneld.center_ratio)
+    outcomes = []
+    for method, (active, all_lanes, spline) in predictions.items():
+        ious = side_ious(gt_masks, active, geometry, config.paper, spline=spline)
+        if context.dataset_name == "culane":
+            official = evaluate_culane_frame(
+                frame.lanes, all_lanes, context.image_width, context.image_height,
+                config.official.lane_width_px, gt_masks=official_gt,
+            )
+            # The same protocol restricted to the two ego lanes: its recall is the paper's
+            # accuracy measured the official way (full resolution, 30 px, one-to-one matching).
+            ego_official = evaluate_culane_frame(
+                [lane for lane in ego_gt if lane is not None], [lane for lane in active if lane is not None],
+                context.image_width, context.image_height, config.official.lane_width_px,
+            )
+            official = (official, ego_official)
+        else:
+            rows = frame.h_samples or ()
+            pred_xs = [sample_lane_at_rows(lane, rows) for lane in all_lanes]
+            gt_xs = [tusimple_xs(lane, rows) for lane in frame.lanes]
+            official = bench_frame(pred_xs, gt_xs, rows, 0.0)
+        outcomes.append(FrameOutcome(frame.relpath, method, ious, official, tuple(all_lanes)))
+    return outcomes
+
+
+# ---- many clips ----------------------------------------------------------------------------
+
+_WORKER_CONTEXT: RunContext | None = None
+
+
+def _init_worker(context: RunContext) -> None:
+    global _WORKER_CONTEXT
+    _WORKER_CONTEXT = context
+    warm_up()
+
+
+def _evaluate_in_worker(clip: Clip) -> ClipResult:
+    return evaluate_clip(clip, _WORKER_CONTEXT)
+
+
+def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int) -> Iterator[ClipResult]:
+    """Results in clip order, from a pool of `workers` processes (in-process for 1)."""
+    if workers <= 1 or len(clips) <= 1:
+        warm_up()
+        for clip in clips:
+            yield evaluate_clip(clip, context)
+        return
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() and sys.platform == "linux" else "spawn"
+    ctx = multiprocessing.get_context(method)
+    with ctx.Pool(workers, initializer=_init_worker, initargs=(context,)) as pool:
+        yield from pool.imap(_evaluate_in_worker, clips, chunksize=1)
+
+
+def default_workers() -> int:
+    """All cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tuple[str, Path]]:
+    """(clip id, missing file) for every frame whose maps are missing."""
+    missing = []
+    for clip in dataset.clips:
+        for frame in clip.frames:
+            for path in required_paths(maps_root, frame.relpath, config.maps):
+                if not path.is_file():
+                    missing.append((clip.clip_id, path))
+    return missing
+
+
+def evaluate(
+    config: EvalConfig,
+    progress: bool = True,
+    lane_sink: Callable[[FrameOutcome], None] | None = None,
+    dataset: Dataset | None = None,
+) -> RunResult:
+    """Evaluate every configured method on a dataset's stored maps (the library `run`)."""
+    started = time.perf_counter()
+    if config.dataset.data_root is None or config.maps.root is None:
+        raise ConfigError("a run needs both a data root and a maps root")
+    maps_root = Path(config.maps.root)
+    if not maps_root.is_dir():
+        raise InputError(maps_root, "maps root not found")
+    if dataset is None:
+        dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
+                               config.dataset.limit)
+    if (dataset.image_width, dataset.image_height) != (config.dataset.image_width, config.dataset.image_height):
+        raise ConfigError(
+            f"the configuration's image size {config.dataset.image_width}x{config.dataset.image_height} does not "
+            f"match {dataset.name}'s {dataset.image_width}x{dataset.image_height}"
+        )
+    missing = check_maps(dataset, maps_root, config)
+    skipped: list[str] = []
+    clips = list(dataset.clips)
+    if missing:
+        if config.on_error != "skip":
+            listing = "; ".join(str(path) for _, path in missing[:5])
+            more = f" and {len(missing) - 5} more" if len(missing) > 5 else ""
+            raise InputError(maps_root, f"maps missing for {len(missing)} frames: {listing}{more}")
+        bad = {clip_id for clip_id, _ in missing}
+        skipped = [f"{clip_id}: maps missing for some frames" for clip_id in sorted(bad)]
+        clips = [clip for clip in clips if clip.clip_id not in bad]
+
+    context = RunContext(config, dataset.name, dataset.image_width, dataset.image_height, maps_root)
+    workers = min(config.workers or default_workers(), max(len(clips), 1))
+    outcomes: list[FrameOutcome] = []
+    extract_ms = {method: [] for method in config.methods}
+    load_ms: list[float] = []
+    totals = dict(clips=0, frames=0, labelled_frames=0, gt_lanes=0)
+    bar = _progress_bar(sum(len(c.frames) for c in clips), progress)
+    try:
+        for result in _clip_results(clips, context, workers):
+            totals["clips"] += 1
+            totals["frames"] += result.n_frames
+            totals["labelled_frames"] += result.n_scored
+            totals["gt_lanes"] += result.n_gt_lanes
+            for method, values in result.extract_ms.items():
+                extract_ms[method].extend(values)
+            load_ms.extend(result.load_ms)
+            for outcome in result.outcomes:
+                if lane_sink is not None:
+                    lane_sink(outcome)
+                outcomes.append(FrameOutcome(outcome.relpath, outcome.method, outcome.ious, outcome.official, ()))
+            bar.update(result.n_frames)
+    finally:
+        bar.close()
+
+    per_frame = pd.DataFrame(
+        [(o.relpath, side, o.method, iou) for o in outcomes for side, iou in o.ious.items()],
+        columns=["frame", "side", "method", "iou"],
+    )
+    thresholds = parse_thresholds(config.paper.thresholds)
+    accuracy = sweep_accuracy(per_frame, thresholds, methods=config.methods)
+    official = _official_table(outcomes, dataset, config)
+    runtime = _runtime_table(extract_ms, load_ms)
+    totals["ego_lanes"] = int(len(per_frame) // max(len(config.methods), 1))
+    return RunResult(
+        config=config,
+        dataset=dataset,
+        per_frame=per_frame,
+        accuracy=accuracy,
+        official=official,
+        runtime=runtime,
+        counts=totals,
+        wall_time_s=time.perf_counter() - started,
+        skipped=skipped,
+        versions=versions(),
+    )
+
+
+def _official_table(outcomes: list[FrameOutcome], dataset: Dataset, config: EvalConfig) -> pd.DataFrame:
+    tables = []
+    for method in config.methods:
+        records = [o for o in outcomes if o.method == method]
+        if dataset.name == "culane":
+            frames = {o.relpath: o.official[0] for o in records}
+            table = category_table(frames, dataset.categories, config.official.iou_threshold)
+            ego = category_table({o.relpath: o.official[1] for o in records}, {}, config.official.iou_threshold)
+            ego["category"] = "ego"
+            table = pd.concat([table, ego], ignore_index=True)
+        else:
+            score = mean_scores([o.official for o in records], len(records))
+            table = pd.DataFrame([dict(accuracy=score.accuracy, fp=score.fp, fn=score.fn)])
+        table.insert(0, "method", method)
+        tables.append(table)
+    return pd.concat(tables, ignore_index=True)
+
+
+def _runtime_table(extract_ms: dict[str, list[float]], load_ms: list[float]) -> pd.DataFrame:
+    rows = []
+    for name, values in list(extract_ms.items()) + [("map loading", load_ms)]:
+        values = np.asarray(values, np.float64)
+        if values.size == 0:
+            continue
+        rows.append(dict(
+            method=name, frames=int(values.size), mean_ms=float(values.mean()),
+            median_ms=float(np.median(values)), p95_ms=float(np.percentile(values, 95)),
+        ))
+    return pd.DataFrame(rows, columns=["method", "frames", "mean_ms", "median_ms", "p95_ms"])
+
+
+def _progress_bar(total: int, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="frame", desc="evaluating", disable=not enabled, dynamic_ncols=True)
+
+
+def versions() -> dict:
+    """Versions of the tool, Python and the libraries that shape the numbers."""
+    import importlib.metadata as metadata
+
+    out = {"roneld-eval": __version__, "python": platform.python_version(), "platform": platform.platform()}
+    for package in ("numpy", "numba", "llvmlite", "scipy", "opencv-python-headless", "pandas", "matplotlib", "click", "tqdm"):
+        try:
+            out[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            out[package] = None
+    return out
