@@ -1,0 +1,230 @@
+"""The `roneld-eval` command: options in, one library call, our errors out as one line (exit 2).
+
+Nothing here computes anything; see api.py for the functions each command calls.
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from pathlib import Path
+
+import click
+
+from . import __version__
+from .config import DEFAULT_PRESETS, EvalConfig, MAP_FORMATS, METHODS, preset_names
+from .errors import ConfigError, RoneldEvalError
+
+
+class UsageProblem(click.ClickException):
+    """A RoneldEvalError as click shows it: 'error: <path>:<line>: <problem>', exit status 2."""
+
+    exit_code = 2
+
+    def show(self, file=None):
+        click.echo(f"error: {self.message}", err=True)
+
+
+def _fail(error: BaseException, debug: bool):
+    if debug:
+        traceback.print_exception(error)
+    raise UsageProblem(str(error)) from None
+
+
+def _guard(function, debug: bool, *args, **kwargs):
+    """Call the library; bad input becomes one line and exit 2, Ctrl-C a short note and 130."""
+    try:
+        return function(*args, **kwargs)
+    except RoneldEvalError as error:
+        _fail(error, debug)
+    except KeyboardInterrupt:
+        click.echo("interrupted: no result was written", err=True)
+        sys.exit(130)
+    except OSError as error:
+        where = getattr(error, "filename", None)
+        message = f"{where}: {error.strerror}" if where else str(error)
+        _fail(RoneldEvalError(message), debug)
+
+
+debug_option = click.option("--debug", is_flag=True, help="Show the full traceback of an error.")
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="roneld-eval")
+def main():
+    """Evaluate lane extractors on CULane and TuSimple from stored probability maps.
+
+    Runs the SCNN/ENet-SAD baseline and RONELD on the same maps and reports the RONELD
+    paper's active-lane accuracy, the official CULane F1 and TuSimple scores, and runtime.
+    With no arguments, `roneld-eval run` evaluates the bundled fixture.
+    """
+
+
+def _toml_scalar(text: str):
+    """A --set value as TOML reads it (1, 0.5, true, "x", [..]); bare words stay strings."""
+    try:
+        from .config import tomllib
+
+        return tomllib.loads(f"v = {text}")["v"]
+    except Exception:
+        return text
+
+
+@main.command()
+@click.option("--config", "config_file", metavar="FILE|PRESET",
+              help=f"Configuration TOML file or preset name ({', '.join(preset_names())}). "
+                   "Default: the SCNN preset of the dataset.")
+@click.option("--dataset", type=click.Choice(list(DEFAULT_PRESETS)),
+              help="Benchmark layout of --data-root. Default: the config's, else culane.")
+@click.option("--data-root", type=click.Path(path_type=Path),
+              help="Dataset root (CULane: holds list/test.txt; TuSimple: holds test_label.json). "
+                   "Without it and --maps-root, the bundled fixture is evaluated.")
+@click.option("--maps-root", type=click.Path(path_type=Path),
+              help="Folder of stored maps mirroring the dataset tree (<rel>/00000.npy for <rel>/00000.jpg).")
+@click.option("--maps-format", type=click.Choice(MAP_FORMATS),
+              help="How maps are stored: .npy, .npz, or SCNN's <frame>_<k>_avg.png + .exist.txt.")
+@click.option("--list", "list_file", type=click.Path(path_type=Path),
+              help="CULane list file (default <data-root>/list/test.txt) or TuSimple label file "
+                   "(default <data-root>/test_label.json).")
+@click.option("--methods", help=f"Comma-separated methods among {', '.join(METHODS)}. Default: baseline,roneld.")
+@click.option("--pft-ablation", is_flag=True, default=None,
+              help="Also run RONELD without preceding-frame tracking and write the ablation table.")
+@click.option("--no-pft", is_flag=True, help="Run RONELD itself without preceding-frame tracking.")
+@click.option("--thresholds", metavar="START:STOP:STEP",
+              help="IoU thresholds of the accuracy sweep, inclusive. Default: 0.30:0.50:0.01.")
+@click.option("--workers", type=click.IntRange(min=1), help="Worker processes (clips run in parallel). Default: all cores.")
+@click.option("--limit", type=click.IntRange(min=1), help="Evaluate only the first N clips.")
+@click.option("--save-lanes", is_flag=True, default=None,
+              help="Also write every method's lanes in the official formats under OUT/lanes/.")
+@click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="Override any configuration value, e.g. --set paper.thickness_rule=height (repeatable).")
+@click.option("--out", type=click.Path(path_type=Path), default=Path("results"), show_default=True,
+              help="Folder for the results.")
+@click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
+@debug_option
+def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, pft_ablation, no_pft,
+        thresholds, workers, limit, save_lanes, settings, out, quiet, debug):
+    """Evaluate the baseline and RONELD on a dataset's stored maps and write tables and curves.
+
+    Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
+    in OUT: accuracy.csv/.md/.tex, accuracy_curve.png/.svg, ablation.md/.tex (with
+    --pft-ablation), runtime.csv/.md, per_frame.csv, official.csv, summary.json, config.toml.
+    """
+    from . import api
+
+    def build() -> EvalConfig:
+        if config_file is not None:
+            config = EvalConfig.from_toml(config_file)
+            if dataset is not None and dataset != config.dataset.name:
+                raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
+        else:
+            config = api.default_config(dataset or "culane")
+        overrides = {
+            "dataset.data_root": None if data_root is None else str(data_root),
+            "maps.root": None if maps_root is None else str(maps_root),
+            "maps.format": maps_format,
+            "dataset.list_file": None if list_file is None else str(list_file),
+            "dataset.limit": limit,
+            "methods": None if methods is None else tuple(m.strip() for m in methods.split(",") if m.strip()),
+            "pft_ablation": pft_ablation,
+            "paper.thresholds": thresholds,
+            "workers": workers,
+            "save_lanes": save_lanes,
+        }
+        if no_pft:
+            overrides["roneld.pft"] = False
+        for setting in settings:
+            key, equals, value = setting.partition("=")
+            if not equals or "." not in key and key not in ("model", "methods", "workers", "pft_ablation", "save_lanes", "on_error"):
+                raise ConfigError(f"--set needs SECTION.KEY=VALUE, got {setting!r}")
+            parsed = _toml_scalar(value)
+            overrides[key.strip()] = tuple(parsed) if isinstance(parsed, list) else parsed
+        if (data_root is None) != (maps_root is None):
+            raise ConfigError("give both --data-root and --maps-root, or neither for the bundled fixture")
+        return config.with_overrides(**overrides)
+
+    config = _guard(build, debug)
+    result = _guard(api.run, debug, config, out, progress=not quiet)
+    if not quiet:
+        _print_summary(result, out)
+
+
+def _print_summary(result, out: Path) -> None:
+    from .report import tables
+
+    config = result.config
+    counts = result.counts
+    click.echo(f"\n{result.dataset.name}: {counts['clips']} clips, {counts['frames']} frames, "
+               f"{counts['labelled_frames']} scored, {counts['ego_lanes']} ego lanes; {result.wall_time_s:.1f} s")
+    click.echo(tables.comparison_table(result.accuracy, config.model, config.roneld.pft).to_markdown())
+    if result.skipped:
+        click.echo(f"skipped {len(result.skipped)}: " + "; ".join(result.skipped[:5]), err=True)
+    click.echo(f"results in {out}/")
+
+
+@main.group()
+def score():
+    """Score lane files in the official formats (no maps, any method's output)."""
+
+
+@score.command("culane")
+@click.option("--data-root", required=True, type=click.Path(path_type=Path),
+              help="CULane root with the ground-truth .lines.txt files and list/test.txt.")
+@click.option("--pred-root", required=True, type=click.Path(path_type=Path),
+              help="Predicted .lines.txt files mirrored under this folder; a missing file means no lanes.")
+@click.option("--list", "list_file", type=click.Path(path_type=Path), help="List file (default <data-root>/list/test.txt).")
+@click.option("--iou", default="0.5", show_default=True, metavar="T|START:STOP:STEP",
+              help="IoU threshold, or a sweep scored in one pass (e.g. 0.30:0.50:0.01).")
+@click.option("--width", default=30, show_default=True, type=click.IntRange(min=1), help="Lane width in pixels at 1640x590.")
+@click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
+@click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv (and official_sweep.csv).")
+@click.option("--quiet", is_flag=True, help="No progress bar or table.")
+@debug_option
+def score_culane_command(data_root, pred_root, list_file, iou, width, workers, out, quiet, debug):
+    """Official CULane precision, recall and F1 per category, as SCNN's lane_evaluation computes them."""
+    from . import api
+
+    score = _guard(api.score_culane, debug, data_root, pred_root, list_file, iou, width, out, workers, not quiet)
+    if not quiet:
+        from .report.tables import Table
+
+        rows = tuple(tuple(float(v) if isinstance(v, float) else str(v) for v in row)
+                     for row in score.table.itertuples(index=False))
+        click.echo(f"{score.n_frames} frames, IoU > {iou.split(':')[0]}, width {width}")
+        click.echo(Table(tuple(score.table.columns), rows).to_markdown())
+
+
+@score.command("tusimple")
+@click.option("--labels", required=True, type=click.Path(path_type=Path), help="TuSimple label file (test_label.json).")
+@click.option("--pred", required=True, type=click.Path(path_type=Path),
+              help="Predictions, one JSON object per line: raw_file, lanes, h_samples, optional run_time (ms).")
+@click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv.")
+@click.option("--quiet", is_flag=True, help="Print nothing.")
+@debug_option
+def score_tusimple_command(labels, pred, out, quiet, debug):
+    """Official TuSimple accuracy, FP and FN, as tusimple-benchmark's evaluate/lane.py computes them."""
+    from . import api
+
+    score = _guard(api.score_tusimple, debug, labels, pred, out)
+    if not quiet:
+        click.echo(f"{score.n_frames} frames: Accuracy {score.accuracy:.10g}  FP {score.fp:.10g}  FN {score.fn:.10g}")
+
+
+@main.command()
+@click.option("--dataset", required=True, type=click.Choice(list(DEFAULT_PRESETS)), help="Layout to generate.")
+@click.option("--out", required=True, type=click.Path(path_type=Path),
+              help="Folder to write: OUT/data is the dataset root, OUT/maps the maps root.")
+@click.option("--clips", default=3, show_default=True, type=click.IntRange(min=1), help="Number of clips.")
+@click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: 12 (CULane), 20 (TuSimple).")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed; the same seed gives the same bytes.")
+@click.option("--maps-format", default="npy", show_default=True, type=click.Choice(MAP_FORMATS), help="How to store maps.")
+@debug_option
+def synth(dataset, out, clips, frames, seed, maps_format, debug):
+    """Generate a small realistic dataset with SCNN-like maps (4 channels, 288x800)."""
+    from . import api
+
+    result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format)
+    click.echo(f"data root: {result.data_root}")
+    click.echo(f"maps root: {result.maps_root}")
+    click.echo(f"{result.n_clips} clips, {result.n_frames} frames. Evaluate them with:")
+    click.echo(f"  {result.command}")
