@@ -1,0 +1,90 @@
+"""Shared fixtures: tiny hand-written trees, the bundled fixture, and the real data in ../shared."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = Path(os.environ.get("RONELD_SHARED", REPO.parent / "shared")) / "data"
+GOLDEN = Path(__file__).parent / "golden"
+
+
+@pytest.fixture
+def shared_data() -> Path:
+    """../shared/data, or a clean skip where it is absent."""
+    if not SHARED.is_dir():
+        pytest.skip("real data (../shared/data) is not available")
+    return SHARED
+
+
+@pytest.fixture
+def real_clip(shared_data) -> Path:
+    path = shared_data / "culane-scnn-clip"
+    if not path.is_dir():
+        pytest.skip("culane-scnn-clip is not available")
+    return path
+
+
+def clip_frames(real_clip: Path) -> list[str]:
+    return sorted({p.name[:5] for p in real_clip.glob("*_1_avg.png")})
+
+
+@pytest.fixture
+def real_clip_tree(real_clip, tmp_path) -> tuple[Path, Path]:
+    """A CULane tree of symlinks around the real clip: (data root, maps root)."""
+    video = "driver_37_30frame/05181432_0203.MP4"
+    data, maps = tmp_path / "data", tmp_path / "maps"
+    (data / video).mkdir(parents=True)
+    (maps / video).mkdir(parents=True)
+    frames = clip_frames(real_clip)
+    for name in frames:
+        (data / video / f"{name}.lines.txt").symlink_to(real_clip / f"{name}.lines.txt")
+        for k in range(1, 5):
+            (maps / video / f"{name}_{k}_avg.png").symlink_to(real_clip / f"{name}_{k}_avg.png")
+        (maps / video / f"{name}.exist.txt").symlink_to(real_clip / f"{name}.exist.txt")
+    (data / "list").mkdir()
+    (data / "list" / "test.txt").write_text("".join(f"/{video}/{name}.jpg\n" for name in frames))
+    return data, maps
+
+
+def write_culane_tree(root: Path, frames: dict[str, str], categories: dict[str, list[str]] | None = None,
+                      list_text: str | None = None) -> Path:
+    """A CULane root with the given relpath -> .lines.txt content (None: no file)."""
+    for relpath, content in frames.items():
+        path = root / (relpath.rsplit(".", 1)[0] + ".lines.txt")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if content is not None:
+            path.write_text(content)
+    (root / "list").mkdir(parents=True, exist_ok=True)
+    (root / "list" / "test.txt").write_text(list_text if list_text is not None else "".join(f"/{r}\n" for r in frames))
+    for number, (name, members) in enumerate((categories or {}).items()):
+        split = root / "list" / "test_split"
+        split.mkdir(exist_ok=True)
+        (split / f"test{number}_{name}.txt").write_text("".join(f"{m} \n" for m in members))
+    return root
+
+
+def lane_map(height: int = 288, width: int = 800, xs=None, value: int = 220, sigma: float = 2.0) -> np.ndarray:
+    """One (H, W) uint8 channel with a ridge at x = xs[row] (NaN rows empty)."""
+    plane = np.zeros((height, width), np.float64)
+    columns = np.arange(width)
+    for row in range(height):
+        x = xs[row]
+        if np.isfinite(x):
+            plane[row] = value * np.exp(-((columns - x) ** 2) / (2 * sigma**2))
+    return np.rint(plane).astype(np.uint8)
+
+
+@pytest.fixture(scope="session")
+def fixture_run(tmp_path_factory):
+    """One run of the bundled CULane fixture with the ablation and lanes, shared by tests."""
+    from roneld_eval import api
+
+    out = tmp_path_factory.mktemp("fixture-run")
+    config = api.default_config("culane").with_overrides(pft_ablation=True, save_lanes=True, workers=1)
+    result = api.run(config, out, progress=False)
+    return result, out

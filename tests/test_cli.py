@@ -1,0 +1,105 @@
+"""The command line: help on everything, one-line errors with exit 2, synth, score."""
+
+import hashlib
+import json
+
+import click
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval.cli import main
+
+
+def all_commands(group, prefix=()):
+    for name, command in group.commands.items():
+        yield prefix + (name,), command
+        if isinstance(command, click.Group):
+            yield from all_commands(command, prefix + (name,))
+
+
+def test_every_command_and_option_has_help():
+    for path, command in all_commands(main):
+        assert command.help, f"{' '.join(path)} has no help"
+        for parameter in command.params:
+            if isinstance(parameter, click.Option):
+                assert parameter.help, f"{' '.join(path)} {parameter.opts[0]} has no help"
+        result = CliRunner().invoke(main, list(path) + ["--help"])
+        assert result.exit_code == 0 and "Usage:" in result.output
+
+
+@pytest.mark.parametrize("args, message", [
+    (["run", "--data-root", "nowhere", "--maps-root", "nowhere"], "nowhere: maps root not found"),
+    (["run", "--data-root", "x"], "give both --data-root and --maps-root"),
+    (["run", "--config", "no-such-preset"], "no such config file or preset"),
+    (["run", "--methods", "baseline,magic"], "unknown method 'magic'"),
+    (["run", "--thresholds", "0.3:0.5:0.07"], "does not divide"),
+    (["run", "--set", "paper.thickness_rule=diagonal"], "thickness_rule must be"),
+    (["score", "tusimple", "--labels", "nope.json", "--pred", "nope.json"], "nope.json: file not found"),
+])
+def test_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
+    result = CliRunner().invoke(main, args + (["--out", str(tmp_path / "out")] if args[0] == "run" else []))
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert "Traceback" not in result.output
+    assert result.output.startswith("error: ")
+    assert not (tmp_path / "out" / "accuracy.csv").exists()
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    result = CliRunner().invoke(main, ["run", "--config", "nope", "--debug", "--out", str(tmp_path)])
+    assert result.exit_code == 2 and "Traceback" in result.output
+
+
+def _digest(folder):
+    digest = hashlib.sha256()
+    for path in sorted(p for p in folder.rglob("*") if p.is_file()):
+        digest.update(str(path.relative_to(folder)).encode() + path.read_bytes())
+    return digest.hexdigest()
+
+
+@pytest.mark.parametrize("dataset, maps_format", [("culane", "npy"), ("tusimple", "npz"), ("culane", "scnn-png")])
+def test_synth_is_byte_identical_for_a_seed(dataset, maps_format, tmp_path):
+    args = ["synth", "--dataset", dataset, "--clips", "2", "--frames", "3", "--seed", "7", "--maps-format", maps_format]
+    first = CliRunner().invoke(main, args + ["--out", str(tmp_path / "a")])
+    second = CliRunner().invoke(main, args + ["--out", str(tmp_path / "b")])
+    assert first.exit_code == 0 and "roneld-eval run --dataset" in first.output
+    assert _digest(tmp_path / "a") == _digest(tmp_path / "b")
+    other = CliRunner().invoke(main, ["synth", "--dataset", dataset, "--clips", "2", "--frames", "3", "--seed", "8",
+                                      "--maps-format", maps_format, "--out", str(tmp_path / "c")])
+    assert other.exit_code == 0 and _digest(tmp_path / "a") != _digest(tmp_path / "c")
+
+
+def test_synth_then_run_as_printed(tmp_path):
+    result = CliRunner().invoke(main, ["synth", "--dataset", "culane", "--clips", "2", "--frames", "4",
+                                       "--out", str(tmp_path / "set")])
+    command = result.output.strip().splitlines()[-1].split()
+    assert command[:2] == ["roneld-eval", "run"]
+    ran = CliRunner().invoke(main, command[1:] + ["--out", str(tmp_path / "out"), "--quiet", "--workers", "1"])
+    assert ran.exit_code == 0, ran.output
+    assert (tmp_path / "out" / "accuracy.csv").exists()
+
+
+def test_score_culane_on_its_own_ground_truth(tmp_path):
+    CliRunner().invoke(main, ["synth", "--dataset", "culane", "--clips", "1", "--frames", "3", "--out", str(tmp_path)])
+    result = CliRunner().invoke(main, ["score", "culane", "--data-root", str(tmp_path / "data"), "--pred-root",
+                                       str(tmp_path / "data"), "--iou", "0.30:0.50:0.10", "--out", str(tmp_path / "o"),
+                                       "--workers", "1"])
+    assert result.exit_code == 0, result.output
+    table = (tmp_path / "o" / "official.csv").read_text().splitlines()
+    assert table[0] == "category,tp,fp,fn,precision,recall,f1"
+    assert table[-1].startswith("all,") and ",0,0,1.000000,1.000000,1.000000" in table[-1]
+    assert (tmp_path / "o" / "official_sweep.csv").exists()
+
+
+def test_score_tusimple(tmp_path):
+    rows = list(range(160, 720, 10))
+    label = {"lanes": [[500] * 56], "h_samples": rows, "raw_file": "clips/a/20.jpg"}
+    (tmp_path / "labels.json").write_text(json.dumps(label) + "\n")
+    (tmp_path / "pred.json").write_text(json.dumps({"raw_file": "clips/a/20.jpg", "lanes": [[505] * 56]}) + "\n")
+    result = CliRunner().invoke(main, ["score", "tusimple", "--labels", str(tmp_path / "labels.json"),
+                                       "--pred", str(tmp_path / "pred.json"), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0 and "Accuracy 1  FP 0  FN 0" in result.output
+    (tmp_path / "pred.json").write_text("")
+    result = CliRunner().invoke(main, ["score", "tusimple", "--labels", str(tmp_path / "labels.json"),
+                                       "--pred", str(tmp_path / "pred.json")])
+    assert result.exit_code == 2 and "no prediction for 1 of 1 labelled frames" in result.output

@@ -1,0 +1,81 @@
+"""Configuration: presets, overrides, TOML round trip, exact thresholds."""
+
+import pytest
+
+from roneld_eval.config import EvalConfig, PaperMetricParams, parse_rows, parse_thresholds, preset_names
+from roneld_eval.errors import ConfigError
+
+
+def test_presets_cover_both_models_and_datasets():
+    assert preset_names() == ["enet-sad-culane", "enet-sad-tusimple", "scnn-culane", "scnn-tusimple"]
+    scnn = EvalConfig.preset("scnn-culane")
+    assert (scnn.maps.width, scnn.maps.height, scnn.maps.crop_top_px) == (800, 288, 0)
+    enet = EvalConfig.preset("enet-sad-culane")
+    assert (enet.maps.width, enet.maps.height, enet.maps.crop_top_px, enet.maps.crop_bottom_px) == (976, 208, 240, 590)
+    tusimple = EvalConfig.preset("scnn-tusimple")
+    assert tusimple.roneld.lane_ratio == 0.6 and tusimple.dataset.image_height == 720
+    assert scnn.roneld.lane_ratio == 0.0 and scnn.roneld.center_ratio == 0.5
+
+
+def test_toml_round_trip(tmp_path):
+    config = EvalConfig.preset("enet-sad-tusimple").with_overrides(**{"dataset.limit": 3, "pft_ablation": True})
+    path = tmp_path / "c.toml"
+    path.write_text(config.to_toml())
+    assert EvalConfig.from_toml(path) == config
+
+
+def test_overrides_ignore_none_and_reject_unknown_keys():
+    config = EvalConfig.preset("scnn-culane")
+    assert config.with_overrides(**{"dataset.limit": None}) == config
+    with pytest.raises(ConfigError, match="unknown setting"):
+        config.with_overrides(**{"maps.colour": 1})
+
+
+def test_unknown_and_mistyped_toml_keys_are_named(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text("[maps]\nwidht = 800\n")
+    with pytest.raises(ConfigError, match="unknown key 'widht'"):
+        EvalConfig.from_toml(path)
+    path.write_text("[maps]\nwidth = 'wide'\n")
+    with pytest.raises(ConfigError, match="width must be an integer"):
+        EvalConfig.from_toml(path)
+
+
+def test_pft_ablation_adds_the_method_once():
+    config = EvalConfig(pft_ablation=True)
+    assert config.methods == ("baseline", "roneld", "roneld-nopft")
+    with pytest.raises(ConfigError):
+        EvalConfig(methods=("baseline", "baseline"))
+    with pytest.raises(ConfigError):
+        EvalConfig(methods=("magic",))
+
+
+def test_thresholds_are_exact_hundredths():
+    thresholds = parse_thresholds("0.30:0.50:0.01")
+    assert len(thresholds) == 21
+    assert thresholds.labels[0] == "0.30" and thresholds.labels[-1] == "0.50"
+    assert thresholds.values[0] == 0.3 and repr(thresholds.values[0]) == "0.3"
+    assert all(len(repr(v)) <= 4 for v in thresholds.values)  # 0.31, never 0.31000000000000005
+    assert [float(label) for label in thresholds.labels] == list(thresholds.values)
+    assert parse_thresholds("0.5").values == (0.5,)
+    assert parse_thresholds("0.3, 0.5").labels == ("0.30", "0.50")
+    with pytest.raises(ConfigError):
+        parse_thresholds("0.30:0.50:0.03")
+    with pytest.raises(ConfigError):
+        parse_thresholds("1.5")
+
+
+def test_thickness_rules():
+    width_rule = PaperMetricParams(thickness_rule="width")
+    height_rule = PaperMetricParams(thickness_rule="height")
+    assert width_rule.thickness(16, 800, 288) == height_rule.thickness(16, 800, 288) == 16
+    assert width_rule.thickness(30, 976, 351) == 37  # round(36.6)
+    assert height_rule.thickness(30, 976, 351) == 36  # int(36.56), the RONELD reference
+    assert height_rule.thickness(16, 976, 351) == 19
+
+
+def test_rows_parse():
+    assert list(parse_rows("249:590:20"))[-1] == 589
+    assert len(parse_rows("249:590:20")) == 18
+    with pytest.raises(ConfigError):
+        parse_rows("a:b")

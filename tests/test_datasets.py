@@ -1,0 +1,144 @@
+"""Dataset readers on hand-written trees and on the real CULane and TuSimple files."""
+
+import gzip
+import shutil
+
+import numpy as np
+import pytest
+
+from conftest import write_culane_tree
+from roneld_eval.datasets import read_culane, read_dataset, read_tusimple
+from roneld_eval.errors import InputError
+from roneld_eval.lanes_io import parse_culane_lines, tusimple_xs
+
+
+def test_culane_clips_frames_and_lanes(tmp_path):
+    root = write_culane_tree(tmp_path, {
+        "driver_1/a.MP4/00060.jpg": "1 590 2 580 \n3 590 4 580",
+        "driver_1/a.MP4/00000.jpg": "",
+        "driver_2/b.MP4/00030.jpg": None,
+        "driver_1/a.MP4/00030.jpg": "10.5 300.25 11 290\n",
+    }, categories={"normal": ["driver_1/a.MP4/00000.jpg"], "curve": ["driver_2/b.MP4/00030.jpg"]})
+    dataset = read_culane(root)
+    assert [clip.clip_id for clip in dataset.clips] == ["driver_1/a.MP4", "driver_2/b.MP4"]
+    first = dataset.clips[0]
+    assert [f.relpath for f in first.frames] == [
+        "driver_1/a.MP4/00000.jpg", "driver_1/a.MP4/00030.jpg", "driver_1/a.MP4/00060.jpg"]
+    assert first.frames[0].lanes == ()
+    assert first.frames[1].lanes[0].points.tolist() == [[10.5, 300.25], [11.0, 290.0]]
+    assert len(first.frames[2].lanes) == 2  # last line without a newline
+    assert dataset.clips[1].frames[0].lanes == ()  # no file: no lanes
+    assert dataset.categories == {"normal": frozenset({"driver_1/a.MP4/00000.jpg"}),
+                                  "curve": frozenset({"driver_2/b.MP4/00030.jpg"})}
+    assert (dataset.image_width, dataset.image_height) == (1640, 590)
+    assert len(read_culane(root, limit=1).clips) == 1
+
+
+def test_culane_lines_follow_the_official_reader():
+    # Every line is a lane, an empty one too; a final newline does not start another.
+    lanes = parse_culane_lines("1 2 3 4 \n\n5 6 7 8\n", "x")
+    assert [len(lane) for lane in lanes] == [2, 0, 2]
+    assert parse_culane_lines("", "x") == ()
+    assert len(parse_culane_lines("\n", "x")) == 1
+    assert parse_culane_lines("-38.0034 440 8.8 430\r\n", "x")[0].points[0].tolist() == [-38.0034, 440]
+
+
+@pytest.mark.parametrize("text, problem", [
+    ("1 2 3\n", "line 1: odd number of values"),
+    ("1 2\n3 x\n", "line 2: 'x' is not a number"),
+    ("1 nan\n", "'nan' is not a number"),
+    ("1_000 2\n", "'1_000' is not a number"),
+])
+def test_bad_lines_name_the_file_and_line(text, problem):
+    with pytest.raises(InputError) as caught:
+        parse_culane_lines(text, "gt/00000.lines.txt")
+    assert str(caught.value).startswith("gt/00000.lines.txt:")
+    assert problem.split(": ", 1)[-1] in str(caught.value)
+
+
+def test_culane_bad_trees(tmp_path):
+    with pytest.raises(InputError, match="dataset root not found"):
+        read_culane(tmp_path / "nowhere")
+    with pytest.raises(InputError, match="list file not found"):
+        read_culane(tmp_path)
+    write_culane_tree(tmp_path, {}, list_text="\n \n")
+    with pytest.raises(InputError, match="names no images"):
+        read_culane(tmp_path)
+    write_culane_tree(tmp_path, {}, list_text="/a/b.MP4/00000.jpg\n/../etc/passwd\n")
+    with pytest.raises(InputError, match=r"test.txt:2: .* outside the dataset root"):
+        read_culane(tmp_path)
+    write_culane_tree(tmp_path, {}, list_text="/a/b.MP4/00000.jpg\na/b.MP4/00000.jpg \n")
+    with pytest.raises(InputError, match="listed twice"):
+        read_culane(tmp_path)
+
+
+def test_tusimple_clips(tmp_path):
+    rows = list(range(160, 720, 10))
+    lane = [-2] * 10 + list(range(600, 600 + 46))
+    (tmp_path / "test_label.json").write_text(
+        '{"lanes": [%s], "h_samples": %s, "raw_file": "clips/0530/x_0/20.jpg"}\n' % (lane, rows)
+        + '{"lanes": [], "h_samples": %s, "raw_file": "clips/0601/y/20.jpg"}\n' % rows
+    )
+    dataset = read_tusimple(tmp_path)
+    assert [c.clip_id for c in dataset.clips] == ["clips/0530/x_0", "clips/0601/y"]
+    clip = dataset.clips[0]
+    assert [f.relpath for f in clip.frames][:2] == ["clips/0530/x_0/1.jpg", "clips/0530/x_0/2.jpg"]
+    assert len(clip.frames) == 20 and [f.labelled for f in clip.frames].count(True) == 1
+    labelled = clip.frames[-1]
+    assert labelled.h_samples == tuple(rows)
+    assert len(labelled.lanes[0]) == 46 and labelled.lanes[0].points[0].tolist() == [600, 260]
+    assert tusimple_xs(labelled.lanes[0], rows) == [float(v) for v in lane]
+    assert (dataset.image_width, dataset.image_height) == (1280, 720)
+
+
+@pytest.mark.parametrize("line, problem", [
+    ("not json", "not valid JSON"),
+    ('{"lanes": [], "raw_file": "a/20.jpg"}', "missing key 'h_samples'"),
+    ('{"lanes": [[1, 2]], "h_samples": [1], "raw_file": "a/20.jpg"}', "lane 0 has 2 values but h_samples has 1"),
+    ('{"lanes": [["a"]], "h_samples": [1], "raw_file": "a/20.jpg"}', "not a finite number"),
+    ('[1, 2]', "JSON object"),
+])
+def test_tusimple_bad_labels(tmp_path, line, problem):
+    (tmp_path / "test_label.json").write_text('{"lanes": [], "h_samples": [], "raw_file": "b/20.jpg"}\n' + line + "\n")
+    with pytest.raises(InputError, match=problem) as caught:
+        read_tusimple(tmp_path)
+    assert ":2:" in str(caught.value)
+
+
+def test_real_culane_lists(shared_data, tmp_path):
+    lists = shared_data / "culane-lists"
+    (tmp_path / "list").mkdir()
+    shutil.copy(lists / "test.txt", tmp_path / "list" / "test.txt")
+    shutil.copytree(lists / "test_split", tmp_path / "list" / "test_split")
+    dataset = read_culane(tmp_path)
+    assert dataset.n_frames == 34680 and len(dataset.clips) == 419
+    sizes = {name: len(members) for name, members in dataset.categories.items()}
+    assert sizes == dict(normal=9621, crowd=8113, hlight=486, shadow=930, noline=4067, arrow=890,
+                         curve=422, cross=3122, night=7029)
+    everything = set().union(*dataset.categories.values())
+    assert everything == {f.relpath for c in dataset.clips for f in c.frames}
+    numbers = [int(f.relpath[-9:-4]) for f in dataset.clips[0].frames]
+    assert numbers == sorted(numbers)
+
+
+def test_real_culane_raw_labels(shared_data):
+    from roneld_eval.lanes_io import read_culane_lines
+
+    files = sorted((shared_data / "culane-raw-labels").glob("*.lines.txt"))
+    assert len(files) == 47
+    for path in files:
+        lanes = read_culane_lines(path)
+        assert 2 <= len(lanes) <= 4
+        assert all(len(lane) >= 2 for lane in lanes)
+    first = read_culane_lines(shared_data / "culane-raw-labels" / "00000.lines.txt")
+    assert first[0].points[0].tolist() == [-38.0034, 440.0]
+
+
+def test_real_tusimple_labels(shared_data, tmp_path):
+    with gzip.open(shared_data / "tusimple" / "test_label.json.gz", "rb") as handle:
+        (tmp_path / "test_label.json").write_bytes(handle.read())
+    dataset = read_dataset("tusimple", tmp_path)
+    assert len(dataset.clips) == 2782 and dataset.n_labelled == 2782 and dataset.n_frames == 2782 * 20
+    lanes = [len(f.lanes) for c in dataset.clips for f in c.labelled_frames]
+    assert max(lanes) == 5 and min(lanes) >= 1
+    assert all(np.all(lane.points[:, 0] >= 0) for c in dataset.clips[:50] for f in c.labelled_frames for lane in f.lanes)

@@ -1,0 +1,217 @@
+"""Every numba kernel against a slow, obvious Python version (and its own uncompiled .py_func)."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+from conftest import lane_map
+from roneld_eval.extract import _kernels as K
+from roneld_eval.extract.roneld import CONSTANTS
+
+
+# ---- obvious versions, written from shared/docs/roneld-method.md ------------------------------
+
+
+def obvious_extract_points(channel, threshold, stride):
+    height, width = channel.shape
+    points, confidences = [], []
+    left, right, row = 0, width, 0
+    while row < height:
+        for column in range(left, right):
+            if channel[row][column] >= threshold:
+                best, where = 0, None
+                for r in range(row, min(row + stride, height)):
+                    for c in range(left, right):
+                        if channel[r][c] > best:
+                            best, where = channel[r][c], (c, r)
+                points.append(where)
+                confidences.append(best)
+                left = int(where[0] - width * 0.25) if where[0] - width * 0.25 >= 0 else 0
+                right = int(where[0] + width * 0.25) if where[0] + width * 0.25 <= width else width
+                row += stride
+                break
+        row += 1
+    return points, confidences
+
+
+def obvious_r2(xs, ys):
+    if len(xs) <= 1:
+        return -1
+    vx, vy = np.var(xs), np.var(ys)
+    if vx == 0 or vy == 0:
+        return 1
+    return np.cov(np.stack([xs, ys]), bias=True)[0][1] ** 2 / (vx * vy)
+
+
+def random_channel(rng, height=120, width=200):
+    xs = np.full(height, np.nan)
+    start = int(rng.integers(0, height // 2))
+    slope = rng.uniform(-1.5, 1.5)
+    xs[start:] = rng.uniform(20, width - 20) + slope * np.arange(height - start) + rng.normal(0, 2, height - start).cumsum() * 0.2
+    plane = lane_map(height, width, xs, value=int(rng.integers(60, 255)), sigma=rng.uniform(1, 4)).astype(np.int64)
+    plane[rng.random((height, width)) < 0.02] += rng.integers(0, 120, (height, width))[rng.random((height, width)) < 0.02].mean().astype(np.int64) if False else 0
+    noise = (rng.random((height, width)) < 0.01) * rng.integers(0, 150, (height, width))
+    gaps = rng.random(height) < 0.2
+    plane[gaps] = 0
+    return np.clip(plane + noise, 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_extract_points_matches_the_obvious_scan(seed):
+    rng = np.random.default_rng(seed)
+    channel = random_channel(rng)
+    threshold = max(int(channel.max()) // 3, 1)
+    stride = channel.shape[0] // 20
+    expected_points, expected_conf = obvious_extract_points(channel, threshold, stride)
+    row_max = channel.max(axis=1)
+    for kernel in (K.extract_points, K.extract_points.py_func):
+        xs, ys, conf = kernel(channel, row_max, threshold, stride)
+        assert list(zip(xs.tolist(), ys.tolist())) == expected_points
+        assert conf.tolist() == [float(c) for c in expected_conf]
+
+
+def test_row_maxima_and_threshold():
+    maps = np.random.default_rng(1).integers(0, 200, (4, 30, 50)).astype(np.uint8)
+    np.testing.assert_array_equal(K.row_maxima(maps), maps.max(axis=2))
+    assert K.frame_threshold(K.row_maxima(maps)) == maps.max() // 3
+    assert K.frame_threshold(np.zeros((4, 3), np.uint8)) == 1
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_r_squared(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 15))
+    xs = rng.integers(0, 100, n).astype(np.int64)
+    ys = np.sort(rng.integers(0, 100, n)).astype(np.int64)
+    for kernel in (K.r_squared, K.r_squared.py_func):
+        assert kernel(xs, ys) == pytest.approx(obvious_r2(xs, ys), abs=1e-12)
+    assert K.r_squared(np.array([5, 5, 5]), np.array([1, 2, 3])) == 1.0
+
+
+def test_curve_test_on_hand_made_points():
+    ys = np.arange(0, 200, 20)
+    straight = 100 + ys // 2
+    bent = straight.copy()
+    bent[:3] += np.array([60, 35, 15])  # the top points stray: a curve
+    assert not K.is_curve(straight, ys, 9, 3)
+    assert K.is_curve(bent, ys, 9, 3)
+    assert not K.is_curve(bent[-8:], ys[-8:], 9, 3)  # fewer than 9 points: never a curve
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_weighted_line_fit_matches_numpy(seed):
+    rng = np.random.default_rng(seed)
+    xs = rng.integers(0, 800, 12)
+    ys = np.sort(rng.integers(0, 288, 12))
+    weights = rng.uniform(1, 255, 12)
+    slope, intercept = K.weighted_line_fit(xs, ys, weights)
+    expected = np.polyfit(xs.astype(float), ys.astype(float), 1, w=np.sqrt(weights))
+    assert slope == pytest.approx(expected[0], rel=1e-9)
+    assert intercept == pytest.approx(expected[1], rel=1e-9, abs=1e-6)
+    assert K.weighted_line_fit.py_func(xs, ys, weights) == pytest.approx((slope, intercept))
+
+
+def test_vertical_and_flat_lines_stay_finite():
+    slope, intercept = K.weighted_line_fit(np.array([50, 50, 50, 50]), np.array([0, 10, 20, 30]), np.ones(4))
+    assert math.isfinite(slope) and math.isfinite(intercept)
+    assert (20 - intercept) / slope == pytest.approx(50, abs=0.01)
+    slope, _ = K.weighted_line_fit(np.array([0, 10, 20]), np.array([7, 7, 7]), np.ones(3))
+    assert slope == 0.001
+
+
+def test_outlier_rule_on_hand_made_points():
+    ys = np.arange(0, 100, 10)
+    xs = 200 + ys
+    xs[4] += 40  # one far point
+    xs[7] += 15  # a nearer one
+    keep = K.remove_outliers(xs, ys, np.ones(10), 0.2, 3)
+    # m = 10: floor(0.2 * 10) + 1 = 3 points go, the farthest from the first fit.
+    slope, intercept = np.polyfit(xs.astype(float), ys.astype(float), 1)
+    distance = np.abs(xs - (ys - intercept) / slope)
+    expected = np.ones(10, bool)
+    expected[np.argsort(distance, kind="stable")[-3:]] = False
+    assert keep.sum() == 7 and not keep[4]
+    assert (keep == expected).all()
+    assert K.remove_outliers(xs[:3], ys[:3], np.ones(3), 0.2, 3).all()  # m <= 3: nothing dropped
+    assert (K.remove_outliers.py_func(xs, ys, np.ones(10), 0.2, 3) == keep).all()
+
+
+@pytest.mark.parametrize("lines", [((2.0, 10.0), (2.1, 30.0)), ((-1.5, 500.0), (1.2, -300.0)), ((3.0, 5.0), (3.0, 80.0))])
+def test_line_distance_is_the_rms_integral(lines):
+    (a1, b1), (a2, b2) = lines
+    height = 288
+    mean_square = integrate.quad(lambda y: ((y - b1) / a1 - (y - b2) / a2) ** 2, 0, height)[0] / height
+    assert K.line_distance(a1, b1, a2, b2, height) == pytest.approx(math.sqrt(mean_square), rel=1e-9)
+    assert K.line_distance(a1, b1, a1, b1, height) == 0
+
+
+# ---- tracking: the rule in words, as a slow twin -----------------------------------------------
+
+
+def obvious_track(previous, current, gains, height, merge, decay, min_weight):
+    """previous/current: lists of dicts with slope, intercept, weight; returns (weights, sources)."""
+    closest = []
+    for lane in current:
+        candidates = [(K.line_distance(lane["slope"], lane["intercept"], old["slope"], old["intercept"], height), j)
+                      for j, old in enumerate(previous)]
+        candidates = [c for c in candidates if c[0] < merge]
+        closest.append(min(candidates)[1] if candidates else -1)
+    tracked = []
+    for j, old in enumerate(previous):
+        for i in range(len(current)):
+            if closest[i] == j:
+                tracked.append((old["weight"] + gains[i], i))
+    for i in range(len(current)):
+        if closest[i] < 0:
+            tracked.append((gains[i], i))
+    for j, old in enumerate(previous):
+        if j not in closest and old["weight"] >= min_weight:
+            tracked.append((old["weight"] / decay, len(current) + j))
+    tracked = sorted(tracked, key=lambda item: -item[0])
+    return [w for w, _ in tracked], [s for _, s in tracked]
+
+
+def _fields(lanes):
+    out = np.zeros((len(lanes), K.N_FIELDS))
+    for row, lane in enumerate(lanes):
+        out[row, K.F_SLOPE] = lane["slope"]
+        out[row, K.F_INTERCEPT] = lane["intercept"]
+        out[row, K.F_WEIGHT] = lane.get("weight", 0.0)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(15))
+def test_track_lanes_matches_the_rule(seed):
+    rng = np.random.default_rng(seed)
+    def lane():
+        return dict(slope=rng.choice([-1, 1]) * rng.uniform(0.3, 2), intercept=rng.uniform(-300, 600),
+                    weight=float(rng.choice([1e-5, 0.1, 5, 50])))
+    previous = [lane() for _ in range(int(rng.integers(0, 8)))]
+    current = [dict(previous[j % len(previous)]) if previous and rng.random() < 0.5 else lane() for j in range(int(rng.integers(0, 5)))]
+    for c in current:
+        c["intercept"] += rng.normal(0, 1)
+    gains = rng.uniform(0, 100, len(current))
+    args = (288.0, 4.0, math.e, math.e ** -10)
+    expected_weights, expected_sources = obvious_track(previous, current, gains, *args)
+    for kernel in (K.track_lanes, K.track_lanes.py_func):
+        tracked, sources = kernel(_fields(previous), _fields(current), gains, *args)
+        assert sources.tolist() == expected_sources
+        assert tracked[:, K.F_WEIGHT].tolist() == pytest.approx(expected_weights)
+
+
+def test_choose_active_leans_and_weights():
+    lanes = np.zeros((3, K.N_FIELDS))
+    # Rows sorted heaviest first. Lane 0 meets the bottom left of centre but leans left: skipped.
+    for row, (slope, intercept, top_x, bottom_x) in enumerate([(-1.0, 387.0, 100, 200), (-1.0, 487.0, 300, 200),
+                                                                (1.0, -313.0, 450, 600)]):
+        lanes[row, [K.F_SLOPE, K.F_INTERCEPT, K.F_TOP_X, K.F_BOTTOM_X]] = slope, intercept, top_x, bottom_x
+    assert K.choose_active(lanes, 288.0, 400.0, False) == (1, 2)
+    assert K.choose_active(lanes, 288.0, 400.0, True) == (0, 2)  # curve mode: any lean
+    assert K.choose_active(lanes[:0], 288.0, 400.0, False) == (-1, -1)
+
+
+def test_constants_are_the_references():
+    assert (CONSTANTS.min_straight_points, CONSTANTS.min_curve_points, CONSTANTS.outlier_fraction) == (3, 9, 0.2)
+    assert CONSTANTS.ego_weight == pytest.approx(7.389056) and CONSTANTS.min_weight == pytest.approx(4.54e-5, rel=1e-3)

@@ -1,0 +1,105 @@
+"""Whole runs: the committed results are reproduced, workers do not change a byte, outputs hold."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import REPO
+from roneld_eval import api
+from roneld_eval.config import EvalConfig
+from roneld_eval.lanes_io import read_culane_lines
+from roneld_eval.metrics.culane_official import evaluate_culane_frame
+
+
+def test_fixture_accuracy_equals_the_committed_results(fixture_run):
+    _, out = fixture_run
+    committed = (REPO / "results" / "accuracy.csv").read_text()
+    assert (out / "accuracy.csv").read_text() == committed, (
+        "accuracy on the bundled fixture changed; if on purpose, regenerate results/ with the README's "
+        "main command and say why in the commit")
+
+
+def test_run_writes_every_output(fixture_run):
+    result, out = fixture_run
+    names = {p.name for p in out.iterdir()}
+    assert names >= {"accuracy.csv", "accuracy.md", "accuracy.tex", "accuracy_curve.png", "accuracy_curve.svg",
+                     "ablation.md", "ablation.tex", "runtime.csv", "runtime.md", "per_frame.csv", "official.csv",
+                     "summary.json", "config.toml", "lanes"}
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no staging left behind
+    accuracy = pd.read_csv(out / "accuracy.csv", dtype={"threshold": str})
+    assert list(accuracy.columns) == ["method", "threshold", "n_tp", "n_gt", "accuracy"]
+    assert accuracy["threshold"].iloc[:3].tolist() == ["0.30", "0.31", "0.32"]
+    assert set(accuracy["method"]) == {"baseline", "roneld", "roneld-nopft"}
+    per_frame = pd.read_csv(out / "per_frame.csv")
+    assert list(per_frame.columns) == ["frame", "side", "method", "iou"]
+    # Every table can be recomputed from per_frame.csv.
+    for row in accuracy.itertuples():
+        ious = per_frame.loc[per_frame["method"] == row.method, "iou"]
+        assert (ious > float(row.threshold)).sum() == row.n_tp and len(ious) == row.n_gt
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["counts"]["frames"] == result.counts["frames"] == 40
+    assert summary["versions"]["numpy"] == np.__version__
+    assert "**(" in (out / "accuracy.md").read_text() and "\\textbf{(" in (out / "accuracy.tex").read_text()
+    official = pd.read_csv(out / "official.csv")
+    assert list(official.columns) == ["method", "category", "tp", "fp", "fn", "precision", "recall", "f1"]
+    assert {"all", "ego"} <= set(official["category"])
+    runtime = pd.read_csv(out / "runtime.csv")
+    assert set(runtime["method"]) == {"baseline", "roneld", "roneld-nopft", "map loading"}
+
+
+def test_rerun_from_the_written_config(fixture_run, tmp_path):
+    _, out = fixture_run
+    again = api.run(EvalConfig.from_toml(out / "config.toml"), tmp_path, progress=False)
+    assert (tmp_path / "accuracy.csv").read_text() == (out / "accuracy.csv").read_text()
+    assert again.counts["clips"] == 4
+
+
+def test_saved_lanes_score_like_the_run(fixture_run):
+    """The saved .lines.txt give the official tool exactly the numbers in official.csv."""
+    result, out = fixture_run
+    dataset = result.dataset
+    official = pd.read_csv(out / "official.csv")
+    for method in result.config.methods:
+        tp = fp = fn = 0
+        for clip in dataset.clips:
+            for frame in clip.frames:
+                stem = frame.relpath.rsplit(".", 1)[0]
+                lanes = read_culane_lines(out / "lanes" / method / f"{stem}.lines.txt")
+                outcome = evaluate_culane_frame(frame.lanes, lanes)
+                tp += outcome.true_positives(0.5)
+                fp += outcome.n_pred - outcome.true_positives(0.5)
+                fn += outcome.n_gt - outcome.true_positives(0.5)
+        row = official[(official["method"] == method) & (official["category"] == "all")].iloc[0]
+        assert (row.tp, row.fp, row.fn) == (tp, fp, fn)
+
+
+@pytest.mark.parametrize("dataset", ["culane", "tusimple"])
+def test_workers_do_not_change_results(dataset, tmp_path):
+    config = api.default_config(dataset).with_overrides(pft_ablation=True)
+    one = api.run(config.with_overrides(workers=1), tmp_path / "one", progress=False)
+    two = api.run(config.with_overrides(workers=2), tmp_path / "two", progress=False)
+    for name in ("accuracy.csv", "per_frame.csv", "official.csv"):
+        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes()
+    assert one.counts == two.counts
+
+
+def test_tusimple_fixture_scores_only_labelled_frames(tmp_path):
+    result = api.run(api.default_config("tusimple").with_overrides(save_lanes=True), tmp_path, progress=False)
+    assert result.counts["frames"] == 80 and result.counts["labelled_frames"] == 4
+    assert list(result.official.columns) == ["method", "accuracy", "fp", "fn"]
+    lines = (tmp_path / "lanes" / "roneld" / "predictions.json").read_text().splitlines()
+    assert len(lines) == 4
+    record = json.loads(lines[0])
+    assert len(record["h_samples"]) == 56 and all(len(lane) == 56 for lane in record["lanes"])
+    # RONELD's runtime covers all 20 frames of each clip; the baseline only scored frames.
+    runtime = result.runtime.set_index("method")
+    assert runtime.loc["roneld", "frames"] == 80 and runtime.loc["baseline", "frames"] == 4
+    # The saved predictions give the official script's numbers.
+    from roneld_eval.api import score_tusimple
+
+    (tmp_path / "labels.json").write_text((api.fixture_roots("tusimple")[0] / "test_label.json").read_text())
+    score = score_tusimple(tmp_path / "labels.json", tmp_path / "lanes" / "roneld" / "predictions.json")
+    row = result.official.set_index("method").loc["roneld"]
+    assert (score.accuracy, score.fp, score.fn) == (row.accuracy, row.fp, row.fn)
