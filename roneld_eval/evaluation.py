@@ -13,6 +13,7 @@ import multiprocessing
 import os
 import platform
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -171,22 +172,22 @@ def _score_frame(frame: Frame, predictions, geometry: MapGeometry, context: RunC
     config = context.config
     gt_masks = ego_masks(frame.lanes, geometry, config.paper, config.roneld.center_ratio)
     if context.dataset_name == "culane":
-        official_gt = official_masks(frame.lanes, context.image_width, context.image_height,
-                                     config.official.lane_width_px)
+        size = (context.image_width, context.image_height, config.official.lane_width_px)
+        official_gt = official_masks(frame.lanes, *size)
         ego_gt = ego_lanes(frame.lanes, context.image_width, context.image_height, config.roneld.center_ratio)
+        ego_rows = [i for lane in ego_gt if lane is not None for i, other in enumerate(frame.lanes) if other is lane]
     outcomes = []
     for method, (active, all_lanes, spline) in predictions.items():
         ious = side_ious(gt_masks, active, geometry, config.paper, spline=spline)
         if context.dataset_name == "culane":
-            official = evaluate_culane_frame(
-                frame.lanes, all_lanes, context.image_width, context.image_height,
-                config.official.lane_width_px, gt_masks=official_gt,
-            )
+            pred_masks = official_masks(all_lanes, *size)
+            official = evaluate_culane_frame(frame.lanes, all_lanes, *size, gt_masks=official_gt, pred_masks=pred_masks)
             # The same protocol restricted to the two ego lanes: its recall is the paper's
             # accuracy measured the official way (full resolution, 30 px, one-to-one matching).
+            active_rows = [i for lane in active if lane is not None for i, other in enumerate(all_lanes) if other is lane]
             ego_official = evaluate_culane_frame(
-                [lane for lane in ego_gt if lane is not None], [lane for lane in active if lane is not None],
-                context.image_width, context.image_height, config.official.lane_width_px,
+                [frame.lanes[i] for i in ego_rows], [all_lanes[i] for i in active_rows], *size,
+                gt_masks=[official_gt[i] for i in ego_rows], pred_masks=[pred_masks[i] for i in active_rows],
             )
             official = (official, ego_official)
         else:
@@ -223,7 +224,17 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int) -> I
     method = "fork" if "fork" in multiprocessing.get_all_start_methods() and sys.platform == "linux" else "spawn"
     ctx = multiprocessing.get_context(method)
     with ctx.Pool(workers, initializer=_init_worker, initargs=(context,)) as pool:
+        # The workers exist now (no thread is alive when they fork); meanwhile the main
+        # process, idle until results come, imports the plotting library the report needs.
+        threading.Thread(target=_import_plotting, daemon=True).start()
         yield from pool.imap(_evaluate_in_worker, clips, chunksize=1)
+
+
+def _import_plotting() -> None:
+    try:
+        import matplotlib.pyplot  # noqa: F401
+    except Exception:  # pragma: no cover - the report raises it properly later
+        pass
 
 
 def default_workers() -> int:

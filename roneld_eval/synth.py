@@ -361,3 +361,66 @@ def synthesize(dataset: str, out: str | Path, clips: int = 3, frames: int | None
     if dataset == "tusimple":
         return synth_tusimple(out, clips, frames or 20, seed, maps_format, progress=progress)
     raise InputError(None, f"unknown dataset {dataset!r}")
+
+
+def synth_lane_files(out: str | Path, frames: int = 2000, seed: int = 0) -> tuple[Path, Path]:
+    """Ground-truth and predicted `.lines.txt` trees for checking and timing a CULane scorer.
+
+    `out/gt` is a CULane root (with list/test.txt), `out/pred` mirrors it. Predictions are
+    noisy copies of the ground truth with the awkward cases the official evaluator must
+    handle: missed and extra lanes, 2-point, 1-point and empty lanes, repeated points,
+    reversed point order, lanes outside the image and missing files. Returns (gt, pred).
+    """
+    rng = np.random.default_rng([seed, 590])
+    out = Path(out)
+    gt_root, pred_root = out / "gt", out / "pred"
+    width, height = CULANE_SIZE
+    listing = []
+
+    def lane(x_bottom: float, step: int = 10) -> np.ndarray:
+        top = rng.integers(255, 330)
+        ys = np.arange(height, top, -step, dtype=float)
+        t = (height - ys) / (height - 250)
+        xs = x_bottom + (width / 2 - x_bottom) * t + rng.normal(0, 60) * t**2
+        return np.stack([xs, ys], 1)
+
+    def text(lanes: list[np.ndarray]) -> str:
+        return "".join(" ".join(f"{v:.3f}" for v in points.ravel()) + " \n" for points in lanes)
+
+    for index in range(frames):
+        relpath = f"driver_x_30frame/{index // 50:05d}.MP4/{(index % 50) * 30:05d}.jpg"
+        listing.append("/" + relpath)
+        truth = [lane(x) for x in np.sort(rng.uniform(-300, width + 260, int(rng.integers(0, 5))))]
+        predicted = []
+        for points in truth:
+            if rng.random() < 0.15:
+                continue
+            points = points.copy()
+            points[:, 0] += rng.normal(0, rng.choice([2, 8, 20, 40]), len(points)).cumsum() * 0.3 + rng.normal(0, 15)
+            if rng.random() < 0.5:
+                points = points[::2]
+            if rng.random() < 0.3:
+                points = points[::-1]
+            if rng.random() < 0.1:
+                points = points[[0, -1]]
+            if rng.random() < 0.05:
+                points = points[:1]
+            if rng.random() < 0.03 and len(points) > 3:
+                points[2] = points[1]
+            predicted.append(points)
+        if rng.random() < 0.2:
+            predicted.append(lane(rng.uniform(0, width), step=20))
+        if rng.random() < 0.03:
+            predicted.append(np.zeros((0, 2)))
+        if rng.random() < 0.02:
+            predicted.append(np.array([[-900.0, 700.0], [-500.0, 800.0]]))
+        stem = relpath.rsplit(".", 1)[0]
+        for root, lanes in ((gt_root, truth), (pred_root, predicted)):
+            path = root / f"{stem}.lines.txt"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if root is pred_root and rng.random() < 0.04:
+                continue
+            path.write_text(text(lanes))
+    (gt_root / "list").mkdir(parents=True, exist_ok=True)
+    (gt_root / "list" / "test.txt").write_text("".join(line + "\n" for line in listing))
+    return gt_root, pred_root

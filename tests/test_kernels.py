@@ -215,3 +215,12 @@ def test_choose_active_leans_and_weights():
 def test_constants_are_the_references():
     assert (CONSTANTS.min_straight_points, CONSTANTS.min_curve_points, CONSTANTS.outlier_fraction) == (3, 9, 0.2)
     assert CONSTANTS.ego_weight == pytest.approx(7.389056) and CONSTANTS.min_weight == pytest.approx(4.54e-5, rel=1e-3)
+
+
+def test_row_argmax_is_numpys_first_maximum():
+    maps = np.random.default_rng(5).integers(0, 4, (4, 30, 50)).astype(np.uint8)  # many ties
+    rows = np.array([0, 7, 29, 13])
+    for kernel in (K.row_argmax, K.row_argmax.py_func):
+        columns, values = kernel(maps, rows)
+        np.testing.assert_array_equal(columns, maps[:, rows, :].argmax(axis=2))
+        np.testing.assert_array_equal(values, maps[:, rows, :].max(axis=2))

@@ -377,3 +377,22 @@ def choose_active(tracked, height, center, curve_mode):
         if left >= 0 and right >= 0:
             break
     return left, right
+
+
+@njit(cache=True, nogil=True)
+def row_argmax(maps, rows):
+    """(columns, values): first maximum of each channel's map row `rows[k]` (as MATLAB's max)."""
+    channels, _, width = maps.shape
+    columns = np.zeros((channels, rows.size), np.int64)
+    values = np.zeros((channels, rows.size), np.uint8)
+    for channel in range(channels):
+        plane = maps[channel]
+        for k in range(rows.size):
+            best = window_max(plane, rows[k], 0, width)
+            line = plane[rows[k]]
+            for column in range(width):
+                if line[column] == best:
+                    columns[channel, k] = column
+                    break
+            values[channel, k] = best
+    return columns, values

@@ -17,6 +17,7 @@ import numpy as np
 from ..config import BaselineParams, parse_rows
 from ..geometry import MapGeometry
 from ..model import FrameMaps, Lane
+from ._kernels import row_argmax
 
 
 def _round_half_up(numerator: np.ndarray, denominator: int) -> np.ndarray:
@@ -50,9 +51,7 @@ def baseline_lanes(maps: FrameMaps, params: BaselineParams, geometry: MapGeometr
         rows = None
     if rows is None:
         rows = sample_rows(params, geometry)
-    sampled = probabilities[:, rows.map_rows, :]  # (C, R, W)
-    columns = sampled.argmax(axis=2)  # first maximum, as MATLAB's max
-    values = np.take_along_axis(sampled, columns[..., None], axis=2)[..., 0]
+    columns, values = row_argmax(probabilities, rows.map_rows)  # first maximum, as MATLAB's max
     found = values.astype(np.float64) / 255.0 > params.threshold
     xs = _round_half_up((columns + 1) * geometry.image_width, geometry.map_width) - 1
     lanes: list[Lane | None] = []

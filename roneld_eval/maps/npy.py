@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import mmap
+import re
 import zipfile
 from pathlib import Path
 
@@ -13,10 +15,39 @@ from ..model import FrameMaps
 from ._checks import canonical_existence, canonical_probabilities
 
 
+# The header numpy writes for a C-ordered uint8 array of 3 dimensions; anything else goes
+# through np.load. np.load parses headers with ast.literal_eval, a third of a millisecond
+# per frame, which matters at 400 frames per second.
+_SIMPLE_HEADER = re.compile(
+    rb"\{'descr': '\|u1', 'fortran_order': False, 'shape': \((\d+), (\d+), (\d+)\), \}\s*\n\Z"
+)
+
+
+def _map_simple_npy(path: Path) -> np.ndarray | None:
+    """A read-only memory map of a plain uint8 (C, H, W) .npy file, or None if not that simple."""
+    with open(path, "rb") as handle:
+        start = handle.read(10)
+        if len(start) < 10 or start[:6] != b"\x93NUMPY" or start[6] != 1:
+            return None
+        header_length = int.from_bytes(start[8:10], "little")
+        match = _SIMPLE_HEADER.match(handle.read(header_length))
+        if match is None:
+            return None
+        shape = tuple(int(v) for v in match.groups())
+        offset = 10 + header_length
+        size = shape[0] * shape[1] * shape[2]
+        if size == 0 or handle.seek(0, 2) != offset + size:
+            return None
+        buffer = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
+    return np.frombuffer(buffer, np.uint8, count=size, offset=offset).reshape(shape)
+
+
 def load_npy(path: Path, config: MapsConfig) -> FrameMaps:
     """A (C, H, W) array from `.npy`; uint8 files stay memory-mapped."""
     try:
-        array = np.load(path, mmap_mode="r", allow_pickle=False)
+        array = _map_simple_npy(path)
+        if array is None:
+            array = np.load(path, mmap_mode="r", allow_pickle=False)
     except FileNotFoundError:
         raise InputError(path, "maps file not found") from None
     except (ValueError, OSError, EOFError) as error:

@@ -370,31 +370,124 @@ def _segment_quad(canvas, x0, y0, width, height, ax, ay, bx, by, thickness):
 
 
 @njit(cache=True, nogil=True)
-def draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness):
+def draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness, extras, extra_counts, crescents, crescent_counts):
     """Draw a thick polyline of integer points into a canvas whose (0, 0) is image (x0, y0).
 
     Same pixels as cv::line(img, p[i], p[i+1], 1, thickness) for every segment on a
     (width, height) image: a quad per segment and a disc of radius round(thickness/2) at every
     vertex (the union is the same whichever segment draws a shared disc). One point or none
     draws nothing, as a loop over segments would.
+
+    Most segments of a sampled lane join 8-neighbour pixels. Far enough from the image border
+    that nothing is clipped, such a quad is the same shape wherever it lies, so only the few
+    pixels it adds to the discs at its ends need drawing: `extras` (from `short_quad_extras`)
+    lists them per direction, and drawing them instead of the quad changes no pixel. Likewise
+    the union of discs along such steps is the first disc plus, per step, the `crescents` of
+    the new disc outside the previous one.
     """
     n = xs.size
     if n < 2:
         return
     radius = ((np.int64(thickness) << (XY_SHIFT - 1)) + HALF) >> XY_SHIFT
     half = disc_half_widths(radius)
+    margin = radius + 3
     for i in range(n - 1):
-        if xs[i] != xs[i + 1] or ys[i] != ys[i + 1]:
-            _segment_quad(canvas, x0, y0, width, height, xs[i], ys[i], xs[i + 1], ys[i + 1], thickness)
+        ax, ay, bx, by = xs[i], ys[i], xs[i + 1], ys[i + 1]
+        if ax == bx and ay == by:
+            continue
+        if (
+            abs(bx - ax) <= 1 and abs(by - ay) <= 1
+            and min(ax, bx) >= margin and max(ax, bx) < width - margin
+            and min(ay, by) >= margin and max(ay, by) < height - margin
+        ):
+            direction = (bx - ax + 1) * 3 + (by - ay + 1)
+            for k in range(extra_counts[direction]):
+                _pixel(canvas, x0, y0, width, height, ax + extras[direction, k, 0], ay + extras[direction, k, 1])
+            continue
+        _segment_quad(canvas, x0, y0, width, height, ax, ay, bx, by, thickness)
+    previous = -1
     for i in range(n):
         if i > 0 and xs[i] == xs[i - 1] and ys[i] == ys[i - 1]:
             continue
         cx = xs[i]
         cy = ys[i]
         if cx < -radius or cx >= width + radius or cy < -radius or cy >= height + radius:
+            previous = -1
             continue
+        inside = margin <= cx < width - margin and margin <= cy < height - margin
+        if previous >= 0 and inside:
+            step_x = cx - xs[previous]
+            step_y = cy - ys[previous]
+            if abs(step_x) <= 1 and abs(step_y) <= 1:
+                # The disc before is drawn: only this disc's crescent beyond it is new.
+                direction = (step_x + 1) * 3 + (step_y + 1)
+                # Inside the margin the crescent lies in the image and the canvas: no checks.
+                base_x = np.uint64(cx - x0)
+                base_y = np.uint64(cy - y0)
+                for k in range(crescent_counts[direction]):
+                    canvas[base_y + np.uint64(crescents[direction, k, 1] + radius) - np.uint64(radius),
+                           base_x + np.uint64(crescents[direction, k, 0] + radius) - np.uint64(radius)] = 1
+                previous = i
+                continue
         for k in range(2 * radius + 1):
             _span(canvas, x0, y0, width, height, cy - radius + k, cx - half[k], cx + half[k])
+        previous = i if inside else -1
+
+
+@njit(cache=True, nogil=True)
+def short_quad_extras(thickness):
+    """For each 8-neighbour step (dx, dy), the pixels its quad holds outside the discs at both ends.
+
+    Returns (extras, counts, crescents, crescent_counts): extras[d, k] = (x, y) offsets from
+    the segment's first point, d = (dx + 1) * 3 + (dy + 1); crescents[d, k] offsets from the
+    new vertex of the pixels of its disc outside the disc of the vertex one step back. Found by
+    drawing each case once, away from any border.
+    """
+    radius = ((np.int64(thickness) << (XY_SHIFT - 1)) + HALF) >> XY_SHIFT
+    size = 2 * radius + 16
+    centre = size // 2
+    half = disc_half_widths(radius)
+    extras = np.zeros((9, size * size, 2), np.int64)
+    counts = np.zeros(9, np.int64)
+    for dx in range(-1, 2):
+        for dy in range(-1, 2):
+            if dx == 0 and dy == 0:
+                continue
+            direction = (dx + 1) * 3 + (dy + 1)
+            quad = np.zeros((size, size), np.uint8)
+            _segment_quad(quad, 0, 0, size, size, centre, centre, centre + dx, centre + dy, thickness)
+            discs = np.zeros((size, size), np.uint8)
+            for cx, cy in ((centre, centre), (centre + dx, centre + dy)):
+                for k in range(2 * radius + 1):
+                    _span(discs, 0, 0, size, size, cy - radius + k, cx - half[k], cx + half[k])
+            for y in range(size):
+                for x in range(size):
+                    if quad[y, x] and not discs[y, x]:
+                        extras[direction, counts[direction], 0] = x - centre
+                        extras[direction, counts[direction], 1] = y - centre
+                        counts[direction] += 1
+    # Crescents: pixels of the disc at the origin outside the disc one step (dx, dy) back.
+    crescents = np.zeros((9, size * size, 2), np.int64)
+    crescent_counts = np.zeros(9, np.int64)
+    disc = np.zeros((size, size), np.uint8)
+    for k in range(2 * radius + 1):
+        _span(disc, 0, 0, size, size, centre - radius + k, centre - half[k], centre + half[k])
+    for dx in range(-1, 2):
+        for dy in range(-1, 2):
+            if dx == 0 and dy == 0:
+                continue
+            direction = (dx + 1) * 3 + (dy + 1)
+            for y in range(size):
+                for x in range(size):
+                    back_x, back_y = x + dx, y + dy  # the same pixel seen from the previous centre
+                    outside = not (0 <= back_x < size and 0 <= back_y < size and disc[back_y, back_x])
+                    if disc[y, x] and outside:
+                        crescents[direction, crescent_counts[direction], 0] = x - centre
+                        crescents[direction, crescent_counts[direction], 1] = y - centre
+                        crescent_counts[direction] += 1
+    most = max(counts.max(), 1)
+    widest = max(crescent_counts.max(), 1)
+    return extras[:, :most].copy(), counts, crescents[:, :widest].copy(), crescent_counts
 
 
 @njit(cache=True, nogil=True)
@@ -413,8 +506,10 @@ def polyline_box(xs, ys, thickness, width, height):
 
 
 @njit(cache=True, nogil=True)
-def rasterise(xs, ys, thickness, width, height):
+def rasterise(xs, ys, thickness, width, height, extras, extra_counts, crescents, crescent_counts):
     """(x0, y0, canvas): a thick polyline's pixels on a width x height image, cropped.
+
+    `extras` .. `crescent_counts`: short_quad_extras(thickness).
 
     Points far outside the image (NaN converted to INT_MIN by cvRound) may still draw
     1-px outlines across it, as OpenCV does: the canvas then spans the whole image.
@@ -428,7 +523,7 @@ def rasterise(xs, ys, thickness, width, height):
         x0, y0, x1, y1 = polyline_box(xs, ys, thickness, width, height)
     canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
     if canvas.size:
-        draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness)
+        draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness, extras, extra_counts, crescents, crescent_counts)
     return x0, y0, canvas
 
 
@@ -453,3 +548,78 @@ def overlap(ax0, ay0, a, bx0, by0, b):
             count += row_a[offset_a + k] & row_b[offset_b + k]
         total += count
     return total
+
+
+@njit(cache=True, nogil=True)
+def _round_float32(value):
+    """cvRound of a float32 (given as a float64 holding it): half to even, INT_MIN when out of range."""
+    if not np.isfinite(value) or value >= 2.0**31 or value < -(2.0**31):
+        return INT_MIN
+    return np.int64(np.rint(value))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def official_lane(points, width, height, thickness, extras, extra_counts, crescents, crescent_counts):
+    """(x0, y0, canvas, area) of a lane as the official CULane evaluator draws it.
+
+    `points` (N, 2) float64, N >= 2. Points become float32 (cv::Point2f), 3+ points go through
+    the official spline, samples become float32 again, then cv::Point (cvRound), then pixels.
+    """
+    n = points.shape[0]
+    xs = np.empty(n)
+    ys = np.empty(n)
+    for i in range(n):
+        xs[i] = np.float32(points[i, 0])
+        ys[i] = np.float32(points[i, 1])
+    if n >= 3:
+        xs, ys = official_spline(xs, ys, 50)
+    m = xs.size
+    px = np.empty(m, np.int64)
+    py = np.empty(m, np.int64)
+    for i in range(m):
+        px[i] = _round_float32(np.float64(np.float32(xs[i])))
+        py[i] = _round_float32(np.float64(np.float32(ys[i])))
+    x0, y0, canvas = rasterise(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts)
+    area = 0
+    for y in range(canvas.shape[0]):
+        for x in range(canvas.shape[1]):
+            area += canvas[y, x]
+    return x0, y0, canvas, area
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height, extras, extra_counts,
+             crescents, crescent_counts):
+    """(x0, y0, canvas, area) of a lane drawn at map resolution (the paper's protocol).
+
+    Image points (optionally through the official spline, non-finite samples dropped) map to
+    x / scale_x, (y - offset_y) / scale_y, then snap to pixels: half to even, or C's int()
+    with `truncate`.
+    """
+    n = points.shape[0]
+    if spline and n >= 3:
+        xs, ys = official_spline(points[:, 0].copy(), points[:, 1].copy(), 50)
+    else:
+        xs = points[:, 0].copy()
+        ys = points[:, 1].copy()
+    px = np.empty(xs.size, np.int64)
+    py = np.empty(xs.size, np.int64)
+    count = 0
+    limit = float(1 << 30)
+    for i in range(xs.size):
+        if not (np.isfinite(xs[i]) and np.isfinite(ys[i])):
+            continue
+        x = xs[i] / scale_x
+        y = (ys[i] - offset_y) / scale_y
+        x = np.trunc(x) if truncate else np.rint(x)
+        y = np.trunc(y) if truncate else np.rint(y)
+        px[count] = np.int64(min(max(x, -limit), limit))
+        py[count] = np.int64(min(max(y, -limit), limit))
+        count += 1
+    x0, y0, canvas = rasterise(px[:count], py[:count], thickness, width, height, extras, extra_counts, crescents,
+                               crescent_counts)
+    area = 0
+    for y in range(canvas.shape[0]):
+        for x in range(canvas.shape[1]):
+            area += canvas[y, x]
+    return x0, y0, canvas, area

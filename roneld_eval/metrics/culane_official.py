@@ -47,14 +47,19 @@ def evaluate_culane_frame(
     height: int = 590,
     lane_width: int = 30,
     gt_masks: Sequence[LaneMask | None] | None = None,
+    pred_masks: Sequence[LaneMask | None] | None = None,
 ) -> CulaneFrameResult:
-    """Match one frame's predictions to its ground truth as the official evaluator does."""
+    """Match one frame's predictions to its ground truth as the official evaluator does.
+
+    Masks already drawn (official_masks of the same lanes) can be passed to save drawing.
+    """
     n_gt, n_pred = len(gt_lanes), len(pred_lanes)
     if n_gt == 0 or n_pred == 0:
         return CulaneFrameResult(n_gt, n_pred, np.full(n_gt, UNMATCHED))
     if gt_masks is None:
         gt_masks = official_masks(gt_lanes, width, height, lane_width)
-    pred_masks = official_masks(pred_lanes, width, height, lane_width)
+    if pred_masks is None:
+        pred_masks = official_masks(pred_lanes, width, height, lane_width)
     similarity = iou_matrix(gt_masks, pred_masks)
     match = match_lanes(similarity)
     matched = np.full(n_gt, UNMATCHED)

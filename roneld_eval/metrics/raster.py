@@ -9,6 +9,7 @@ Both draw with the same exact rasteriser (`_kernels.rasterise`). No thresholds h
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -45,10 +46,17 @@ class LaneMask:
         return image
 
 
+@lru_cache(maxsize=None)
+def _quad_extras(thickness: int) -> tuple[np.ndarray, np.ndarray]:
+    return _kernels.short_quad_extras(thickness)
+
+
 def mask_from_pixels(xs: np.ndarray, ys: np.ndarray, thickness: int, width: int, height: int) -> LaneMask:
     """Rasterise integer polyline vertices."""
+    thickness = int(thickness)
     x0, y0, pixels = _kernels.rasterise(
-        np.ascontiguousarray(xs, np.int64), np.ascontiguousarray(ys, np.int64), int(thickness), int(width), int(height)
+        np.ascontiguousarray(xs, np.int64), np.ascontiguousarray(ys, np.int64), thickness, int(width), int(height),
+        *_quad_extras(thickness),
     )
     area = int(np.count_nonzero(pixels)) if pixels.size else 0
     return LaneMask(int(x0), int(y0), pixels, area)
@@ -68,16 +76,14 @@ def official_mask(lane: Lane, width: int, height: int, thickness: int) -> LaneMa
     """A lane as the official CULane evaluator draws it, or None for fewer than 2 points.
 
     Points go through float32 (cv::Point2f) before the spline, the spline samples through
-    float32 again, and cv::Point conversion rounds half to even.
+    float32 again, and cv::Point conversion rounds half to even (all in one kernel call).
     """
     if len(lane) < 2:
         return None
-    points = lane.points.astype(np.float32).astype(np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        samples = spline_points(points).astype(np.float32)
-    xs = _kernels.round_like_opencv(samples[:, 0])
-    ys = _kernels.round_like_opencv(samples[:, 1])
-    return mask_from_pixels(xs, ys, thickness, width, height)
+    x0, y0, pixels, area = _kernels.official_lane(
+        np.ascontiguousarray(lane.points), int(width), int(height), int(thickness), *_quad_extras(int(thickness))
+    )
+    return LaneMask(int(x0), int(y0), pixels, int(area))
 
 
 def map_mask(lane: Lane | None, geometry: MapGeometry, thickness: int, spline: bool = False,
@@ -90,16 +96,11 @@ def map_mask(lane: Lane | None, geometry: MapGeometry, thickness: int, spline: b
     """
     if lane is None or len(lane) < 2:
         return LaneMask.empty()
-    points = lane.points
-    if spline:
-        with np.errstate(invalid="ignore", divide="ignore"):
-            points = spline_points(points)
-        points = points[np.isfinite(points).all(axis=1)]
-    mapped = geometry.image_to_map(points)
-    snap = {"nearest": np.rint, "truncate": np.trunc}[rounding]
-    xs = snap(mapped[:, 0])
-    ys = snap(mapped[:, 1])
-    limit = 1 << 30
-    xs = np.clip(xs, -limit, limit).astype(np.int64)
-    ys = np.clip(ys, -limit, limit).astype(np.int64)
-    return mask_from_pixels(xs, ys, thickness, geometry.map_width, geometry.map_height)
+    if rounding not in ("nearest", "truncate"):
+        raise ValueError(f"rounding must be 'nearest' or 'truncate', got {rounding!r}")
+    x0, y0, pixels, area = _kernels.map_lane(
+        np.ascontiguousarray(lane.points), bool(spline), geometry.scale_x, geometry.scale_y,
+        float(geometry.crop_top_px), rounding == "truncate", int(thickness),
+        int(geometry.map_width), int(geometry.map_height), *_quad_extras(int(thickness)),
+    )
+    return LaneMask(int(x0), int(y0), pixels, int(area))

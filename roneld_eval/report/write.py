@@ -17,7 +17,6 @@ from ..errors import InputError
 from ..lanes_io import format_culane_lines, format_tusimple_record, sample_lane_at_rows
 from ..evaluation import FrameOutcome, RunResult
 from . import tables
-from .plots import accuracy_figure, save_figure
 
 
 class Staging:
@@ -144,6 +143,8 @@ def write_report(result: RunResult, out_dir: str | Path, staging: Staging | None
         staging.write_text("official.csv", result.official.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
         staging.write_text("config.toml", config.to_toml())
         staging.write_text("summary.json", json.dumps(summary(result), indent=2) + "\n")
+        from .plots import accuracy_figure, save_figure  # matplotlib: imported only to draw
+
         figure = accuracy_figure(result.accuracy, model, result.dataset.name, pft)
         save_figure(figure, staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg"))
     except BaseException:
