@@ -7,7 +7,12 @@ the official formats, `synthesize` writes a generated dataset. The bundled fixtu
 
 from __future__ import annotations
 
+import hashlib
+import json
 import multiprocessing
+import os
+import pickle
+import shutil
 import sys
 from dataclasses import dataclass
 from importlib import resources
@@ -18,8 +23,9 @@ import pandas as pd
 
 from .config import DEFAULT_PRESETS, EvalConfig, IMAGE_SIZES, parse_thresholds
 from .datasets import read_culane
-from .errors import ConfigError, InputError
-from .evaluation import RunResult, default_workers, evaluate
+from . import __version__
+from .errors import ConfigError, InputError, RunInterrupted
+from .evaluation import ClipResult, RunResult, default_workers, evaluate
 from .lanes_io import read_culane_lines
 from .metrics.culane_official import CulaneFrameResult, category_table, evaluate_culane_frame, sum_counts, f_measure
 from .metrics.tusimple_official import TusimpleScore, score_tusimple_files
@@ -55,12 +61,74 @@ def with_fixture(config: EvalConfig) -> EvalConfig:
                                     "maps.format": FIXTURE_MAPS_FORMAT})
 
 
-def run(config: EvalConfig | None = None, out: str | Path = "results", progress: bool = True) -> RunResult:
-    """Evaluate every configured method and write the report to `out` (see the README)."""
+class ResultCache:
+    """Finished clips of a run, kept in `<out>/.roneld-cache/<key>/` until the run completes.
+
+    The key hashes the configuration (all but the number of workers) and the tool's version,
+    so --resume only reuses clips evaluated exactly as the new run would.
+    """
+
+    def __init__(self, out: Path, config: EvalConfig, resume: bool):
+        settings = config.to_dict()
+        settings.pop("workers", None)
+        key = hashlib.sha256(json.dumps([settings, __version__], sort_keys=True).encode()).hexdigest()[:20]
+        self.folder = Path(out) / CACHE_FOLDER / key
+        if not resume:
+            shutil.rmtree(self.folder, ignore_errors=True)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise InputError(self.folder, f"cannot write here: {error.strerror}") from None
+
+    def _path(self, clip_id: str) -> Path:
+        return self.folder / (hashlib.sha1(clip_id.encode()).hexdigest() + ".pkl")
+
+    def load(self, clip_id: str) -> ClipResult | None:
+        path = self._path(clip_id)
+        try:
+            with open(path, "rb") as handle:
+                result = pickle.load(handle)
+        except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ValueError):
+            return None
+        return result if isinstance(result, ClipResult) and result.clip_id == clip_id else None
+
+    def store(self, result: ClipResult) -> None:
+        path = self._path(result.clip_id)
+        temporary = path.with_suffix(".tmp")
+        try:
+            with open(temporary, "wb") as handle:
+                pickle.dump(result, handle, protocol=pickle.HIGHEST_PROTOCOL)
+            os.replace(temporary, path)
+        except OSError as error:
+            raise InputError(path, f"cannot keep this clip's results: {error.strerror}") from None
+
+    def count(self) -> int:
+        return sum(1 for _ in self.folder.glob("*.pkl"))
+
+    def discard(self) -> None:
+        shutil.rmtree(self.folder, ignore_errors=True)
+        try:
+            self.folder.parent.rmdir()
+        except OSError:
+            pass
+
+
+CACHE_FOLDER = ".roneld-cache"
+
+
+def run(config: EvalConfig | None = None, out: str | Path = "results", progress: bool = True,
+        resume: bool = False) -> RunResult:
+    """Evaluate every configured method and write the report to `out` (see the README).
+
+    Finished clips are kept in `out` while the run goes on; after an interruption,
+    `resume=True` evaluates only the clips not yet finished and gives the same numbers.
+    """
     requested = config or default_config()
     config = with_fixture(requested)
     staging = Staging(Path(out))
+    cache = None
     try:
+        cache = ResultCache(Path(out), config, resume)
         writer = None
         if config.save_lanes:
             writer = LaneWriter(staging, config.dataset.name)
@@ -71,7 +139,12 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
             dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
                                    config.dataset.limit)
             writer.h_samples = {f.relpath: f.h_samples for c in dataset.clips for f in c.frames if f.labelled}
-        result = evaluate(config, progress=progress, lane_sink=writer, dataset=dataset)
+        try:
+            result = evaluate(config, progress=progress, lane_sink=writer, dataset=dataset, cache=cache)
+        except KeyboardInterrupt:
+            raise RunInterrupted(_unfinished("interrupted", cache), exit_code=130) from None
+        except RunInterrupted as error:
+            raise RunInterrupted(_unfinished(str(error), cache)) from None
         if writer is not None:
             writer.close()
         if config is not requested:
@@ -79,11 +152,28 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
             # config.toml reruns anywhere.
             result.config = requested
             result.fixture = config.dataset.name
-    except BaseException:
+    except RunInterrupted:
         staging.discard()
         raise
-    write_report(result, out, staging)
+    except BaseException:
+        # Bad input or a bug: nothing to resume from, so nothing is left behind.
+        staging.discard()
+        if cache is not None:
+            cache.discard()
+        raise
+    try:
+        write_report(result, out, staging)
+    except BaseException:
+        cache.discard()
+        raise
+    cache.discard()
     return result
+
+
+def _unfinished(reason: str, cache: ResultCache) -> str:
+    done = cache.count()
+    return (f"{reason}: no result was written; {done} finished clip{'s' if done != 1 else ''} "
+            f"kept in {cache.folder}; run the same command with --resume to continue")
 
 
 # ---- scoring lane files ----------------------------------------------------------------------

@@ -21,6 +21,10 @@ class UsageProblem(click.ClickException):
 
     exit_code = 2
 
+    def __init__(self, message: str, exit_code: int = 2):
+        super().__init__(message)
+        self.exit_code = exit_code
+
     def show(self, file=None):
         click.echo(f"error: {self.message}", err=True)
 
@@ -28,7 +32,7 @@ class UsageProblem(click.ClickException):
 def _fail(error: BaseException, debug: bool):
     if debug:
         traceback.print_exception(error)
-    raise UsageProblem(str(error)) from None
+    raise UsageProblem(str(error), getattr(error, "exit_code", 2)) from None
 
 
 def _guard(function, debug: bool, *args, **kwargs):
@@ -40,6 +44,8 @@ def _guard(function, debug: bool, *args, **kwargs):
     except KeyboardInterrupt:
         click.echo("interrupted: no result was written", err=True)
         sys.exit(130)
+    except MemoryError:
+        _fail(RoneldEvalError("out of memory (try fewer --workers)"), debug)
     except OSError as error:
         where = getattr(error, "filename", None)
         message = f"{where}: {error.strerror}" if where else str(error)
@@ -98,12 +104,17 @@ def _toml_scalar(text: str):
               help="Also write every method's lanes in the official formats under OUT/lanes/.")
 @click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
               help="Override any configuration value, e.g. --set paper.thickness_rule=height (repeatable).")
+@click.option("--on-error", type=click.Choice(["fail", "skip"]),
+              help="On a bad frame, label or clip: stop with an error (default), or skip it and list it in "
+                   "summary.json and on screen.")
+@click.option("--resume", is_flag=True,
+              help="Continue an interrupted run into the same --out: reuse its finished clips (same numbers).")
 @click.option("--out", type=click.Path(path_type=Path), default=Path("results"), show_default=True,
               help="Folder for the results.")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
 def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, pft_ablation, no_pft,
-        thresholds, workers, limit, save_lanes, settings, out, quiet, debug):
+        thresholds, workers, limit, save_lanes, settings, on_error, resume, out, quiet, debug):
     """Evaluate the baseline and RONELD on a dataset's stored maps and write tables and curves.
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
@@ -130,6 +141,7 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
             "paper.thresholds": thresholds,
             "workers": workers,
             "save_lanes": save_lanes,
+            "on_error": on_error,
         }
         if no_pft:
             overrides["roneld.pft"] = False
@@ -144,9 +156,15 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         return config.with_overrides(**overrides)
 
     config = _guard(build, debug)
-    result = _guard(api.run, debug, config, out, progress=not quiet)
+    result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume)
     if not quiet:
         _print_summary(result, out)
+    if result.skipped:  # never silently, --quiet or not
+        click.echo(f"skipped {len(result.skipped)} (listed in summary.json):", err=True)
+        for line in result.skipped[:10]:
+            click.echo(f"  {line}", err=True)
+        if len(result.skipped) > 10:
+            click.echo(f"  ... and {len(result.skipped) - 10} more", err=True)
 
 
 def _print_summary(result, out: Path) -> None:
@@ -157,8 +175,6 @@ def _print_summary(result, out: Path) -> None:
     click.echo(f"\n{result.dataset.name}: {counts['clips']} clips, {counts['frames']} frames, "
                f"{counts['labelled_frames']} scored, {counts['ego_lanes']} ego lanes; {result.wall_time_s:.1f} s")
     click.echo(tables.comparison_table(result.accuracy, config.model, config.roneld.pft).to_markdown())
-    if result.skipped:
-        click.echo(f"skipped {len(result.skipped)}: " + "; ".join(result.skipped[:5]), err=True)
     click.echo(f"results in {out}/")
 
 

@@ -36,3 +36,14 @@ class InputError(RoneldEvalError):
 
 class ConfigError(RoneldEvalError):
     """A configuration value is invalid or inconsistent."""
+
+
+class RunInterrupted(RoneldEvalError):
+    """A run stopped before its end (Ctrl-C, a worker killed); finished clips may be cached."""
+
+    def __init__(self, message: str, exit_code: int = 1):
+        super().__init__(message)
+        self.exit_code = exit_code
+
+    def __reduce__(self):
+        return (type(self), (str(self), self.exit_code))

@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 import platform
 import sys
 import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Iterator, Sequence
+from typing import Callable, Iterator, Protocol, Sequence
 
 import numpy as np
 import pandas as pd
@@ -25,7 +27,7 @@ import pandas as pd
 from . import __version__
 from .config import EvalConfig, parse_thresholds
 from .datasets import read_dataset
-from .errors import ConfigError, InputError
+from .errors import ConfigError, InputError, RunInterrupted
 from .extract import warm_up
 from .extract.baseline import baseline_lanes, sample_rows
 from .extract.roneld import RoneldTracker
@@ -68,7 +70,7 @@ class ClipResult:
     outcomes: list[FrameOutcome] = field(default_factory=list)
     extract_ms: dict[str, list[float]] = field(default_factory=dict)
     load_ms: list[float] = field(default_factory=list)
-    n_frames: int = 0
+    n_frames: int = 0  # frames evaluated (skipped ones not counted)
     n_scored: int = 0
     n_gt_lanes: int = 0
     skipped: list[str] = field(default_factory=list)
@@ -127,9 +129,23 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
         trackers["roneld-nopft"] = RoneldTracker(replace(config.roneld, pft=False))
     clip_size = None
     rows = None
+    skip = config.on_error == "skip"
     for frame in clip.frames:
         start = time.perf_counter()
-        maps = load_maps(context.maps_root, frame.relpath, config.maps)
+        try:
+            maps = load_maps(context.maps_root, frame.relpath, config.maps)
+            if clip_size is not None and maps.probabilities.shape != clip_size:
+                raise InputError(
+                    frame_map_path(context, frame),
+                    f"maps of shape {maps.probabilities.shape} differ from the clip's first frame {clip_size}",
+                )
+        except InputError as error:
+            if not skip:
+                raise
+            # The frame is left out: neither scored nor seen by RONELD (as a dropped frame).
+            result.skipped.append(f"{error} (frame skipped)")
+            result.n_frames -= 1
+            continue
         result.load_ms.append((time.perf_counter() - start) * 1e3)
         if clip_size is None:
             clip_size = maps.probabilities.shape
@@ -137,11 +153,6 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
             for tracker in trackers.values():
                 tracker.geometry = geometry
             rows = sample_rows(config.baseline, geometry)
-        elif maps.probabilities.shape != clip_size:
-            raise InputError(
-                frame_map_path(context, frame),
-                f"maps of shape {maps.probabilities.shape} differ from the clip's first frame {clip_size}",
-            )
         predictions: dict[str, tuple[list[Lane | None], list[Lane], bool]] = {}
         for method in methods:
             if method == "baseline":
@@ -161,6 +172,9 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
             result.n_scored += 1
             result.n_gt_lanes += len(frame.lanes)
             result.outcomes.extend(_score_frame(frame, predictions, geometry, context))
+    if not config.save_lanes:
+        # Lanes only travel back to the main process when they are to be written.
+        result.outcomes = [FrameOutcome(o.relpath, o.method, o.ious, o.official, ()) for o in result.outcomes]
     return result
 
 
@@ -214,20 +228,76 @@ def _evaluate_in_worker(clip: Clip) -> ClipResult:
     return evaluate_clip(clip, _WORKER_CONTEXT)
 
 
-def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int) -> Iterator[ClipResult]:
-    """Results in clip order, from a pool of `workers` processes (in-process for 1)."""
-    if workers <= 1 or len(clips) <= 1:
-        warm_up()
-        for clip in clips:
-            yield evaluate_clip(clip, context)
+class ClipCache(Protocol):
+    """Where finished clips are kept so an interrupted run can resume (see api.ResultCache)."""
+
+    def load(self, clip_id: str) -> ClipResult | None: ...
+
+    def store(self, result: ClipResult) -> None: ...
+
+
+def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
+                  cache: ClipCache | None = None) -> Iterator[ClipResult]:
+    """Results in clip order: cached ones, then from `workers` processes (in-process for 1).
+
+    Each finished clip is stored in the cache before it is yielded. A worker that dies
+    (killed, out of memory) ends the run with RunInterrupted instead of a hang.
+    """
+    cached = {}
+    if cache is not None:
+        for index, clip in enumerate(clips):
+            found = cache.load(clip.clip_id)
+            if found is not None:
+                cached[index] = found
+    todo = [index for index in range(len(clips)) if index not in cached]
+    if workers <= 1 or len(todo) <= 1:
+        if todo:
+            warm_up()
+        for index, clip in enumerate(clips):
+            result = cached.get(index)
+            if result is None:
+                result = evaluate_clip(clip, context)
+                if cache is not None:
+                    cache.store(result)
+            yield result
         return
-    method = "fork" if "fork" in multiprocessing.get_all_start_methods() and sys.platform == "linux" else "spawn"
-    ctx = multiprocessing.get_context(method)
-    with ctx.Pool(workers, initializer=_init_worker, initargs=(context,)) as pool:
-        # The workers exist now (no thread is alive when they fork); meanwhile the main
-        # process, idle until results come, imports the plotting library the report needs.
-        threading.Thread(target=_import_plotting, daemon=True).start()
-        yield from pool.imap(_evaluate_in_worker, clips, chunksize=1)
+    method = "fork" if sys.platform == "linux" else "spawn"
+    executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method),
+                                   initializer=_init_worker, initargs=(context,))
+    futures: dict[int, Future] = {}
+    queue = iter(todo)
+    plotting = False
+    try:
+        for index, clip in enumerate(clips):
+            if index in cached:
+                yield cached[index]
+                continue
+            # Keep a few clips in flight, in order: results wait in memory only briefly.
+            while len(futures) < 2 * workers:
+                following = next(queue, None)
+                if following is None:
+                    break
+                futures[following] = executor.submit(_evaluate_in_worker, clips[following])
+            if not plotting:
+                # The workers exist now (none forks later); the idle main process meanwhile
+                # imports the plotting library the report needs.
+                threading.Thread(target=_import_plotting, daemon=True).start()
+                plotting = True
+            try:
+                result = futures.pop(index).result()
+            except BrokenProcessPool:
+                raise RunInterrupted(
+                    f"a worker process died (killed, or out of memory) while evaluating clip {clip.clip_id}"
+                ) from None
+            if cache is not None:
+                cache.store(result)
+            yield result
+    except BaseException:
+        for process in list(getattr(executor, "_processes", {}).values()):
+            process.terminate()
+        executor.shutdown(wait=False, cancel_futures=True)
+        raise
+    executor.shutdown(wait=True)
 
 
 def _import_plotting() -> None:
@@ -256,38 +326,56 @@ def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tu
     return missing
 
 
+def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
+    """'maps missing for N frames of K clips: ...' naming the first files (and TuSimple's 20 frames)."""
+    clips = {clip_id for clip_id, _ in missing}
+    listing = "; ".join(str(path) for _, path in missing[:3])
+    more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+    hint = " (each TuSimple clip needs maps for all its 20 frames)" if dataset.name == "tusimple" else ""
+    return f"maps missing for {len(missing)} frames of {len(clips)} clips{hint}: {listing}{more}"
+
+
 def evaluate(
     config: EvalConfig,
     progress: bool = True,
     lane_sink: Callable[[FrameOutcome], None] | None = None,
     dataset: Dataset | None = None,
+    cache: ClipCache | None = None,
 ) -> RunResult:
-    """Evaluate every configured method on a dataset's stored maps (the library `run`)."""
+    """Evaluate every configured method on a dataset's stored maps (the library `run`).
+
+    With on_error = "skip", bad label lines, bad map files and clips with missing maps are
+    left out and listed in `RunResult.skipped`; otherwise the first one raises InputError
+    before anything is computed (maps' contents are checked as they load).
+    """
     started = time.perf_counter()
     if config.dataset.data_root is None or config.maps.root is None:
         raise ConfigError("a run needs both a data root and a maps root")
     maps_root = Path(config.maps.root)
     if not maps_root.is_dir():
         raise InputError(maps_root, "maps root not found")
+    skipped: list[str] = []
     if dataset is None:
+        errors: list[InputError] | None = [] if config.on_error == "skip" else None
         dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
-                               config.dataset.limit)
+                               config.dataset.limit, errors)
+        skipped += [f"{error} (labels skipped)" for error in errors or ()]
     if (dataset.image_width, dataset.image_height) != (config.dataset.image_width, config.dataset.image_height):
         raise ConfigError(
             f"the configuration's image size {config.dataset.image_width}x{config.dataset.image_height} does not "
             f"match {dataset.name}'s {dataset.image_width}x{dataset.image_height}"
         )
     missing = check_maps(dataset, maps_root, config)
-    skipped: list[str] = []
     clips = list(dataset.clips)
     if missing:
         if config.on_error != "skip":
-            listing = "; ".join(str(path) for _, path in missing[:5])
-            more = f" and {len(missing) - 5} more" if len(missing) > 5 else ""
-            raise InputError(maps_root, f"maps missing for {len(missing)} frames: {listing}{more}")
-        bad = {clip_id for clip_id, _ in missing}
-        skipped = [f"{clip_id}: maps missing for some frames" for clip_id in sorted(bad)]
-        clips = [clip for clip in clips if clip.clip_id not in bad]
+            raise InputError(maps_root, describe_missing(missing, dataset))
+        by_clip: dict[str, list[Path]] = {}
+        for clip_id, path in missing:
+            by_clip.setdefault(clip_id, []).append(path)
+        for clip_id, paths in by_clip.items():
+            skipped.append(f"{clip_id}: maps missing for {len(paths)} frames, first {paths[0]} (clip skipped)")
+        clips = [clip for clip in clips if clip.clip_id not in by_clip]
 
     context = RunContext(config, dataset.name, dataset.image_width, dataset.image_height, maps_root)
     workers = min(config.workers or default_workers(), max(len(clips), 1))
@@ -295,9 +383,10 @@ def evaluate(
     extract_ms = {method: [] for method in config.methods}
     load_ms: list[float] = []
     totals = dict(clips=0, frames=0, labelled_frames=0, gt_lanes=0)
-    bar = _progress_bar(sum(len(c.frames) for c in clips), progress)
+    sizes = {clip.clip_id: len(clip.frames) for clip in clips}
+    bar = _progress_bar(sum(sizes.values()), progress)
     try:
-        for result in _clip_results(clips, context, workers):
+        for result in _clip_results(clips, context, workers, cache):
             totals["clips"] += 1
             totals["frames"] += result.n_frames
             totals["labelled_frames"] += result.n_scored
@@ -305,11 +394,12 @@ def evaluate(
             for method, values in result.extract_ms.items():
                 extract_ms[method].extend(values)
             load_ms.extend(result.load_ms)
+            skipped.extend(result.skipped)
             for outcome in result.outcomes:
                 if lane_sink is not None:
                     lane_sink(outcome)
                 outcomes.append(FrameOutcome(outcome.relpath, outcome.method, outcome.ious, outcome.official, ()))
-            bar.update(result.n_frames)
+            bar.update(sizes[result.clip_id])
     finally:
         bar.close()
 

@@ -20,7 +20,7 @@ from .model import Lane
 
 # A decimal number as C++'s `istream >> double` reads it (no Python-only spellings such
 # as '1_000', 'nan' or 'inf').
-_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
+_NUMBER = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?\Z")
 # Characters of decimal numbers and whitespace. A file made only of them is parsed with
 # float() at C speed; any other file (or a float() failure) goes token by token through
 # _NUMBER, which names the bad line. float() alone would accept 'nan', 'inf' and '1_000'.
@@ -153,13 +153,22 @@ def _is_number(value) -> bool:
     return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
 
 
-def read_tusimple_records(path: Path, predictions: bool = False) -> list[tuple[int, dict[str, Any]]]:
-    """(line number, record) of every non-blank line of a TuSimple JSON-lines file."""
+def read_tusimple_records(path: Path, predictions: bool = False,
+                          errors: list[InputError] | None = None) -> list[tuple[int, dict[str, Any]]]:
+    """(line number, record) of every non-blank line of a TuSimple JSON-lines file.
+
+    With an `errors` list, bad lines are left out and their errors appended.
+    """
     text = read_text(path)
     records = []
     for number, line in enumerate(split_lines(text), start=1):
         if line.strip():
-            records.append((number, parse_tusimple_record(line, path, number, predictions=predictions)))
+            try:
+                records.append((number, parse_tusimple_record(line, path, number, predictions=predictions)))
+            except InputError as error:
+                if errors is None:
+                    raise
+                errors.append(error)
     return records
 
 

@@ -11,6 +11,8 @@ import posixpath
 import re
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
 from ..lanes_io import read_culane_lines, read_text, split_lines
 from ..model import Clip, Dataset, Frame
@@ -55,8 +57,25 @@ def read_categories(root: Path) -> dict[str, frozenset[str]]:
     return categories
 
 
-def read_culane(root: str | Path, list_file: str | Path | None = None, limit: int | None = None) -> Dataset:
-    """Read a CULane tree into clips of frames with their ground-truth lanes."""
+def check_inside(lanes, path, width: int, height: int) -> None:
+    """Refuse points farther outside the image than its own size (labels overshoot a little)."""
+    for number, lane in enumerate(lanes, start=1):
+        points = lane.points
+        if not len(points):
+            continue
+        bad = (points[:, 0] < -width) | (points[:, 0] > 2 * width) | (points[:, 1] < -height) | (points[:, 1] > 2 * height)
+        if bad.any():
+            x, y = points[np.argmax(bad)]
+            raise InputError(path, f"point ({x:g}, {y:g}) lies far outside the {width}x{height} image", line=number)
+
+
+def read_culane(root: str | Path, list_file: str | Path | None = None, limit: int | None = None,
+                errors: list[InputError] | None = None) -> Dataset:
+    """Read a CULane tree into clips of frames with their ground-truth lanes.
+
+    With an `errors` list, a frame whose labels are bad is left out and its error appended;
+    without one, the first bad file raises.
+    """
     root = Path(root)
     if not root.is_dir():
         raise InputError(root, "dataset root not found (expected a folder with list/test.txt)")
@@ -81,9 +100,18 @@ def read_culane(root: str | Path, list_file: str | Path | None = None, limit: in
     for clip_id in clip_ids:
         frames = []
         for relpath in sorted(by_clip[clip_id], key=frame_sort_key):
-            lanes = read_culane_lines(labels_path(root, relpath))
+            path = labels_path(root, relpath)
+            try:
+                lanes = read_culane_lines(path)
+                check_inside(lanes, path, IMAGE_WIDTH, IMAGE_HEIGHT)
+            except InputError as error:
+                if errors is None:
+                    raise
+                errors.append(error)
+                continue
             frames.append(Frame(relpath=relpath, lanes=lanes, labelled=True))
-        clips.append(Clip(clip_id=clip_id, frames=tuple(frames)))
+        if frames:
+            clips.append(Clip(clip_id=clip_id, frames=tuple(frames)))
 
     return Dataset(
         name="culane",

@@ -18,24 +18,39 @@ from ._paths import normalise_relpath
 IMAGE_WIDTH, IMAGE_HEIGHT = 1280, 720
 
 
-def read_tusimple(root: str | Path, label_file: str | Path | None = None, limit: int | None = None) -> Dataset:
-    """Read TuSimple labels into 20-frame clips whose last frame carries the ground truth."""
+def read_tusimple(root: str | Path, label_file: str | Path | None = None, limit: int | None = None,
+                  errors: list[InputError] | None = None) -> Dataset:
+    """Read TuSimple labels into 20-frame clips whose last frame carries the ground truth.
+
+    With an `errors` list, a bad label line is left out (its clip with it) and its error
+    appended; without one, it raises.
+    """
     root = Path(root)
     if not root.is_dir():
         raise InputError(root, "dataset root not found (expected a folder with test_label.json)")
     label_path = Path(label_file) if label_file is not None else root / "test_label.json"
     if not label_path.is_file():
         raise InputError(label_path, "label file not found" if not label_path.exists() else "label file is not a file")
-    records = read_tusimple_records(label_path)
+    records = read_tusimple_records(label_path, errors=errors)
     if not records:
-        raise InputError(label_path, "the label file holds no labels")
+        raise InputError(label_path, "the label file holds no usable labels")
 
     clips = []
     seen: dict[str, int] = {}
     for number, record in records:
-        relpath = normalise_relpath(record["raw_file"], label_path, number)
-        if relpath in seen:
-            raise InputError(label_path, f"{relpath} is labelled twice (first on line {seen[relpath]})", line=number)
+        try:
+            relpath = normalise_relpath(record["raw_file"], label_path, number)
+            if relpath in seen:
+                raise InputError(label_path, f"{relpath} is labelled twice (first on line {seen[relpath]})", line=number)
+            too_far = [x for lane in record["lanes"] for x in lane if x > 2 * IMAGE_WIDTH]
+            if too_far:
+                raise InputError(label_path, f"x = {too_far[0]:g} lies far outside the {IMAGE_WIDTH}-px-wide image",
+                                 line=number)
+        except InputError as error:
+            if errors is None:
+                raise
+            errors.append(error)
+            continue
         seen[relpath] = number
         h_samples = tuple(int(y) if float(y).is_integer() else y for y in record["h_samples"])
         lanes = tuple(lane_from_tusimple(xs, record["h_samples"]) for xs in record["lanes"])

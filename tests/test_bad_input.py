@@ -1,0 +1,308 @@
+"""Bad input, interruptions and reproducibility: one clear line, exit 2, nothing written.
+
+Each case corrupts a small valid dataset one way and runs the CLI; the output folder holds an
+earlier result that must survive untouched.
+"""
+
+import errno
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval import api
+from roneld_eval.cli import main
+from roneld_eval.errors import InputError, RunInterrupted
+from roneld_eval.synth import synth_culane, synth_tusimple
+
+SENTINEL = "method,threshold,n_tp,n_gt,accuracy\nearlier,0.30,1,1,1\n"
+
+
+@pytest.fixture(scope="session")
+def base_sets(tmp_path_factory):
+    root = tmp_path_factory.mktemp("base")
+    synth_culane(root / "culane", clips=2, frames=3, seed=3)
+    synth_culane(root / "culane-png", clips=1, frames=3, seed=3, maps_format="scnn-png")
+    synth_tusimple(root / "tusimple", clips=2, frames=20, seed=3, maps_format="npz")
+    return root
+
+
+@pytest.fixture
+def sets(base_sets, tmp_path):
+    shutil.copytree(base_sets, tmp_path / "sets")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "accuracy.csv").write_text(SENTINEL)
+    return tmp_path / "sets", out
+
+
+def first_map(root: Path, suffix=".npy") -> Path:
+    return sorted((root / "maps").rglob(f"*{suffix}"))[0]
+
+
+def first_labels(root: Path) -> Path:
+    return sorted((root / "data").rglob("*.lines.txt"))[0]
+
+
+def tusimple_labels(root: Path) -> Path:
+    return root / "data" / "test_label.json"
+
+
+def rewrite_label_line(root: Path, change) -> None:
+    path = tusimple_labels(root)
+    lines = path.read_text().splitlines()
+    lines[1] = change(lines[1])
+    path.write_text("\n".join(lines) + "\n")
+
+
+def set_record(key, value):
+    def change(line):
+        record = json.loads(line)
+        if value is None:
+            del record[key]
+        else:
+            record[key] = value
+        return json.dumps(record)
+    return change
+
+
+# (name, dataset folder, extra args, corruption(root) -> None, expected text, file named in the message)
+CASES = [
+    ("dataset root missing", "culane", ["--data-root", "{root}/nowhere"], None, "dataset root not found", "nowhere"),
+    ("maps root missing", "culane", ["--maps-root", "{root}/nowhere"], None, "maps root not found", "nowhere"),
+    ("list file missing", "culane", ["--list", "{root}/nope.txt"], None, "list file not found", "nope.txt"),
+    ("label file missing", "tusimple", ["--list", "{root}/nope.json"], None, "label file not found", "nope.json"),
+    ("list file empty", "culane", [], lambda r: (r / "data/list/test.txt").write_text("\n"), "names no images", "test.txt"),
+    ("list entry outside the root", "culane", [],
+     lambda r: (r / "data/list/test.txt").write_text("/../../etc/x.jpg\n"), "outside the dataset root", "test.txt:1"),
+    ("frame listed twice", "culane", [],
+     lambda r: (r / "data/list/test.txt").write_text((r / "data/list/test.txt").read_text() * 2), "listed twice", "test.txt"),
+    ("maps missing for a frame", "culane", [], lambda r: first_map(r).unlink(), "maps missing for 1 frames", "00000.npy"),
+    ("clip with maps for part of its frames", "culane", [],
+     lambda r: [p.unlink() for p in sorted((r / "maps").rglob("*.npy"))[1:3]], "maps missing for 2 frames", ".npy"),
+    ("truncated map", "culane", [],
+     lambda r: first_map(r).write_bytes(first_map(r).read_bytes()[:5000]), "truncated or corrupt", "00000.npy"),
+    ("map that is not an array", "culane", [], lambda r: first_map(r).write_text("hello"), "not a readable .npy", "00000.npy"),
+    ("map of the wrong dtype", "culane", [],
+     lambda r: np.save(first_map(r), np.zeros((4, 288, 800), np.int32)), "dtype int32", "00000.npy"),
+    ("map with the wrong channels", "culane", [],
+     lambda r: np.save(first_map(r), np.zeros((3, 288, 800), np.uint8)), "has 3 channels, expected 4", "00000.npy"),
+    ("map size differing within a clip", "culane", [],
+     lambda r: np.save(sorted((r / "maps").rglob("*.npy"))[1], np.zeros((4, 144, 400), np.uint8)),
+     "differ from the clip's first frame", "00030.npy"),
+    ("map with NaN", "culane", [],
+     lambda r: np.save(first_map(r), np.full((4, 288, 800), np.nan, np.float32)), "NaN or infinite", "00000.npy"),
+    ("map values outside [0, 1]", "culane", [],
+     lambda r: np.save(first_map(r), np.full((4, 288, 800), 2.0, np.float32)), "found 2..2", "00000.npy"),
+    ("existence with the wrong count", "culane-png", ["--maps-format", "scnn-png"],
+     lambda r: first_map(r, ".exist.txt").write_text("1 1 1\n"), "existence has 3 values", "00000.exist.txt"),
+    ("existence that is not numbers", "culane-png", ["--maps-format", "scnn-png"],
+     lambda r: first_map(r, ".exist.txt").write_text("1 one 1 1\n"), "'one' is not a number", "00000.exist.txt"),
+    ("labels with an odd number of values", "culane", [],
+     lambda r: first_labels(r).write_text("1 590 2\n"), "odd number of values", "00000.lines.txt:1"),
+    ("labels that are not numbers", "culane", [],
+     lambda r: first_labels(r).write_text("1 590 2 580\n3 x\n"), "'x' is not a number", "00000.lines.txt:2"),
+    ("labels far outside the image", "culane", [],
+     lambda r: first_labels(r).write_text("1 590 90000 580\n"), "far outside the 1640x590 image", "00000.lines.txt:1"),
+    ("TuSimple line that is not JSON", "tusimple", [],
+     lambda r: rewrite_label_line(r, lambda line: line[:-5]), "not valid JSON", "test_label.json:2"),
+    ("TuSimple line without a key", "tusimple", [],
+     lambda r: rewrite_label_line(r, set_record("h_samples", None)), "missing key 'h_samples'", "test_label.json:2"),
+    ("TuSimple lanes and h_samples differ", "tusimple", [],
+     lambda r: rewrite_label_line(r, set_record("h_samples", [160, 170])), "but h_samples has 2", "test_label.json:2"),
+    ("TuSimple clip with fewer than 20 frames", "tusimple", [],
+     lambda r: sorted((r / "maps").rglob("*.npz"))[5].unlink(), "needs maps for all its 20 frames", ".npz"),
+    ("TuSimple frame labelled twice", "tusimple", [],
+     lambda r: tusimple_labels(r).write_text(tusimple_labels(r).read_text().splitlines()[0] + "\n"
+                                            + tusimple_labels(r).read_text()), "labelled twice", "test_label.json:2"),
+]
+
+
+@pytest.mark.parametrize("name, folder, extra, corrupt, expected, named", CASES, ids=[c[0] for c in CASES])
+def test_bad_input(sets, name, folder, extra, corrupt, expected, named):
+    root_all, out = sets
+    root = root_all / folder
+    if corrupt is not None:
+        corrupt(root)
+    dataset = "tusimple" if folder == "tusimple" else "culane"
+    args = ["run", "--dataset", dataset, "--data-root", str(root / "data"), "--maps-root", str(root / "maps"),
+            "--maps-format", "npz" if folder == "tusimple" else "npy", "--workers", "1", "--quiet", "--out", str(out)]
+    args += [a.format(root=root) for a in extra]
+    # Later options win: the case's own --data-root/--maps-root/--maps-format replace the defaults.
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.output
+    assert expected in lines[0] and named in lines[0], lines[0]
+    assert "Traceback" not in result.output
+    assert (out / "accuracy.csv").read_text() == SENTINEL
+    assert sorted(p.name for p in out.iterdir()) == ["accuracy.csv"]
+
+
+def test_cases_cover_the_issue():
+    assert len(CASES) >= 25
+
+
+def test_output_folder_that_is_not_writable(sets, tmp_path):
+    root, _ = sets
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    result = CliRunner().invoke(main, ["run", "--out", str(blocker / "results"), "--quiet"])
+    assert result.exit_code == 2 and "cannot write results here" in result.output and "a-file" in result.output
+
+
+def test_disk_full_while_writing_leaves_earlier_results(sets, monkeypatch):
+    _, out = sets
+    from roneld_eval.report import write
+
+    original = write.Staging.write_text
+
+    def full_disk(self, name, text):
+        if name == "per_frame.csv":
+            raise InputError(self.out_dir / name, f"cannot write: {os.strerror(errno.ENOSPC)}")
+        return original(self, name, text)
+
+    monkeypatch.setattr(write.Staging, "write_text", full_disk)
+    result = CliRunner().invoke(main, ["run", "--out", str(out), "--quiet", "--workers", "1"])
+    assert result.exit_code == 2 and "No space left on device" in result.output
+    assert (out / "accuracy.csv").read_text() == SENTINEL
+    assert sorted(p.name for p in out.iterdir()) == ["accuracy.csv"]
+
+
+# ---- skipping ------------------------------------------------------------------------------
+
+
+def test_skip_mode_skips_and_lists(sets):
+    root_all, out = sets
+    root = root_all / "culane"
+    first_map(root).write_text("hello")  # a bad map: that frame is skipped
+    sorted((root / "data").rglob("*.lines.txt"))[1].write_text("1 x\n")  # bad labels: skipped too
+    result = CliRunner().invoke(main, ["run", "--data-root", str(root / "data"), "--maps-root", str(root / "maps"),
+                                       "--on-error", "skip", "--workers", "1", "--quiet", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(summary["skipped"]) == 2
+    assert any("labels skipped" in s for s in summary["skipped"])
+    assert "skipped 2" in result.output
+    assert any("frame skipped" in s and "00000.npy" in s for s in summary["skipped"])
+    assert summary["counts"]["frames"] == 6 - 2
+
+
+def test_skip_mode_skips_clips_without_all_maps(sets):
+    root_all, out = sets
+    root = root_all / "tusimple"
+    sorted((root / "maps").rglob("*.npz"))[3].unlink()
+    result = CliRunner().invoke(main, ["run", "--dataset", "tusimple", "--data-root", str(root / "data"),
+                                       "--maps-root", str(root / "maps"), "--maps-format", "npz", "--on-error", "skip",
+                                       "--workers", "1", "--quiet", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["counts"]["clips"] == 1 and "clip skipped" in summary["skipped"][0]
+
+
+# ---- interruptions -------------------------------------------------------------------------
+
+
+def _config(root: Path, workers: int = 1):
+    return api.default_config("culane").with_overrides(**{
+        "dataset.data_root": str(root / "data"), "maps.root": str(root / "maps"), "workers": workers,
+        "pft_ablation": True})
+
+
+def test_interrupted_run_writes_nothing_and_resume_gives_the_same_numbers(sets, monkeypatch, tmp_path):
+    root_all, out = sets
+    root = root_all / "culane"
+    synth_culane(root, clips=5, frames=3, seed=4)
+    clean = tmp_path / "clean"
+    api.run(_config(root), clean, progress=False)
+
+    from roneld_eval import evaluation
+
+    original = evaluation.evaluate_clip
+    calls = []
+
+    def interrupting(clip, context):
+        calls.append(clip.clip_id)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return original(clip, context)
+
+    monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
+    with pytest.raises(RunInterrupted) as caught:
+        api.run(_config(root), out, progress=False)
+    assert caught.value.exit_code == 130
+    assert "2 finished clips kept" in str(caught.value) and "--resume" in str(caught.value)
+    assert sorted(p.name for p in out.iterdir()) == [".roneld-cache", "accuracy.csv"]
+    assert (out / "accuracy.csv").read_text() == SENTINEL
+
+    calls.clear()
+    monkeypatch.setattr(evaluation, "evaluate_clip", lambda clip, context: calls.append(clip.clip_id) or original(clip, context))
+    api.run(_config(root), out, progress=False, resume=True)
+    assert len(calls) == 3  # only the clips that had not finished
+    for name in ("accuracy.csv", "per_frame.csv", "official.csv"):
+        assert (out / name).read_bytes() == (clean / name).read_bytes()
+    assert not (out / ".roneld-cache").exists()  # kept only while unfinished
+
+
+def test_ctrl_c_on_the_command_line(sets, monkeypatch):
+    _, out = sets
+
+    def interrupted(*args, **kwargs):
+        raise RunInterrupted("interrupted: no result was written; 2 finished clips kept in x", exit_code=130)
+
+    monkeypatch.setattr(api, "run", interrupted)
+    result = CliRunner().invoke(main, ["run", "--out", str(out), "--quiet"])
+    assert result.exit_code == 130 and "interrupted" in result.output and "Traceback" not in result.output
+
+
+def test_a_killed_worker_ends_the_run_clearly(sets, monkeypatch):
+    root_all, out = sets
+    root = root_all / "culane"
+    from roneld_eval import evaluation
+
+    original = evaluation.evaluate_clip
+    parent = os.getpid()
+
+    def dying(clip, context):
+        if os.getpid() != parent and clip.clip_id.endswith("0204.MP4"):
+            os._exit(9)  # as if killed
+        return original(clip, context)
+
+    monkeypatch.setattr(evaluation, "evaluate_clip", dying)
+    with pytest.raises(RunInterrupted) as caught:
+        api.run(_config(root, workers=2), out, progress=False)
+    assert "worker process died" in str(caught.value) and "--resume" in str(caught.value)
+    assert (out / "accuracy.csv").read_text() == SENTINEL
+
+
+# ---- unusual but valid ---------------------------------------------------------------------
+
+
+def test_unusual_valid_input(sets, tmp_path):
+    root_all, _ = sets
+    root = root_all / "culane"
+    maps = sorted((root / "maps").rglob("*.npy"))
+    np.save(maps[0], np.zeros((4, 288, 800), np.uint8))  # all-zero maps: no lanes
+    labels = sorted((root / "data").rglob("*.lines.txt"))
+    labels[1].write_text("")  # a frame without ground truth
+    labels[2].write_text(labels[2].read_text().splitlines()[1] + "\n")  # a one-lane road
+    for path in maps[3:]:  # a whole clip with maps of another size
+        np.save(path, np.ascontiguousarray(np.load(path)[:, ::2, ::2]))
+    result = api.run(_config(root), tmp_path / "o", progress=False)
+    assert result.counts["frames"] == 6
+    per_frame = result.per_frame
+    assert (per_frame[per_frame["frame"].str.endswith("00000.jpg")]["iou"] == 0).any()
+    assert result.accuracy["n_gt"].iloc[0] == len(per_frame) // 3
+
+
+def test_same_numbers_on_every_run(sets, tmp_path):
+    root_all, _ = sets
+    root = root_all / "culane"
+    api.run(_config(root, workers=2), tmp_path / "a", progress=False)
+    api.run(_config(root, workers=1), tmp_path / "b", progress=False)
+    for name in ("accuracy.csv", "per_frame.csv", "official.csv", "config.toml"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes() or name == "config.toml"
