@@ -19,6 +19,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Sequence
 
+import numpy as np
 import pandas as pd
 
 from .config import DEFAULT_PRESETS, EvalConfig, IMAGE_SIZES, parse_thresholds
@@ -117,11 +118,12 @@ CACHE_FOLDER = ".roneld-cache"
 
 
 def run(config: EvalConfig | None = None, out: str | Path = "results", progress: bool = True,
-        resume: bool = False) -> RunResult:
+        resume: bool = False, overlays: int = 0) -> RunResult:
     """Evaluate every configured method and write the report to `out` (see the README).
 
     Finished clips are kept in `out` while the run goes on; after an interruption,
     `resume=True` evaluates only the clips not yet finished and gives the same numbers.
+    `overlays=N` also draws the N frames where the baseline and RONELD differ most.
     """
     requested = config or default_config()
     config = with_fixture(requested)
@@ -162,6 +164,12 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
             cache.discard()
         raise
     try:
+        if overlays:
+            from .report.overlays import worst_frames
+            from .report.write import write_pictures
+
+            chosen = worst_frames(result.per_frame, overlays)
+            write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods)))
         write_report(result, out, staging)
     except BaseException:
         cache.discard()
@@ -276,3 +284,104 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
 
 __all__ = ["run", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
            "CulaneScore", "SynthResult", "f_measure", "sum_counts"]
+
+
+# ---- pictures --------------------------------------------------------------------------------
+
+
+def frame_pictures(config: EvalConfig, dataset, frames: Sequence[str], methods: Sequence[str]):
+    """(relpath, picture) for each frame: its clip is evaluated again up to it (RONELD's state)."""
+    import cv2
+
+    from dataclasses import replace
+
+    from .evaluation import RunContext, evaluate_clip
+    from .maps import load_maps
+    from .metrics.paper import ego_lanes
+    from .report.overlays import FramePicture, draw_frame, heat_map
+
+    wanted = list(dict.fromkeys(frames))
+    clip_of = {f.relpath: clip for clip in dataset.clips for f in clip.frames}
+    missing = [f for f in wanted if f not in clip_of]
+    if missing:
+        raise InputError(dataset.source_file, f"frame {missing[0]} is not in this run's dataset")
+    methods = [m for m in methods if m in config.methods] or list(config.methods)
+    run_config = config.with_overrides(save_lanes=True, methods=tuple(methods), pft_ablation=False)
+    context = RunContext(run_config, dataset.name, dataset.image_width, dataset.image_height, Path(config.maps.root))
+    outcomes = {}
+    for clip in dict.fromkeys(clip_of[f] for f in wanted).keys():
+        last = max(i for i, f in enumerate(clip.frames) if f.relpath in wanted)
+        part = replace(clip, frames=clip.frames[:last + 1])
+        for outcome in evaluate_clip(part, context).outcomes:
+            outcomes[(outcome.relpath, outcome.method)] = outcome
+    pictures = []
+    for relpath in wanted:
+        frame = next(f for f in clip_of[relpath].frames if f.relpath == relpath)
+        if not frame.labelled:
+            raise InputError(dataset.source_file, f"frame {relpath} has no labels to compare with")
+        image_path = Path(config.dataset.data_root) / relpath
+        background = cv2.imread(str(image_path)) if image_path.is_file() else None
+        if background is None:
+            geometry = config.geometry
+            maps = load_maps(Path(config.maps.root), relpath, config.maps).probabilities
+            background = heat_map(np.asarray(maps), dataset.image_width, dataset.image_height,
+                                  geometry.crop_top_px, geometry.crop_bottom_px)
+        elif background.shape[:2] != (dataset.image_height, dataset.image_width):
+            background = cv2.resize(background, (dataset.image_width, dataset.image_height))
+        left, right = ego_lanes(frame.lanes, dataset.image_width, dataset.image_height, config.roneld.center_ratio)
+        chosen = {id(left), id(right)}
+        picture = FramePicture(
+            relpath=relpath,
+            ground_truth=(left, right),
+            other_ground_truth=tuple(l for l in frame.lanes if id(l) not in chosen and len(l) >= 2),
+            lanes={m: outcomes[(relpath, m)].active for m in methods if (relpath, m) in outcomes},
+            ious={m: outcomes[(relpath, m)].ious for m in methods if (relpath, m) in outcomes},
+        )
+        scores = "  ".join(
+            f"{m}: " + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in picture.ious[m].items())
+            for m in picture.ious)
+        pictures.append((relpath, draw_frame(picture, background, config.model, f"{relpath}   {scores}")))
+    return pictures
+
+
+def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = None, methods: Sequence[str] = (),
+         out: str | Path | None = None) -> list[Path]:
+    """Draw frames of a finished run (given ones, or the `worst` N where methods differ most).
+
+    Pictures go to `out` (default: the run folder): overlays/<frame>.png and the contact sheet
+    overlays.png; written into the run folder, they also join its report.html.
+    """
+    run_dir = Path(run_dir)
+    for name in ("config.toml", "per_frame.csv"):
+        if not (run_dir / name).is_file():
+            raise InputError(run_dir / name, "not found: is this a roneld-eval run folder?")
+    requested = EvalConfig.from_toml(run_dir / "config.toml")
+    config = with_fixture(requested)
+    per_frame = pd.read_csv(run_dir / "per_frame.csv")
+    chosen = list(frames)
+    if worst or not chosen:
+        from .report.overlays import worst_frames
+
+        chosen += worst_frames(per_frame, worst or 6)
+    from .datasets import read_dataset
+
+    dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file, config.dataset.limit)
+    pictures = frame_pictures(config, dataset, chosen, methods)
+    target = Path(out) if out is not None else run_dir
+    staging = Staging(target)
+    try:
+        from .report.write import write_pictures
+
+        write_pictures(staging, pictures)
+    except BaseException:
+        staging.discard()
+        raise
+    written = staging.commit()
+    if target.resolve() == run_dir.resolve():
+        from .report.html import build_html
+
+        # Rebuilt from the run folder now that the new pictures are in place.
+        page = run_dir / "report.html.tmp"
+        page.write_text(build_html(run_dir))
+        os.replace(page, run_dir / "report.html")
+    return written

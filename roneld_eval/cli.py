@@ -104,6 +104,8 @@ def _toml_scalar(text: str):
               help="Also write every method's lanes in the official formats under OUT/lanes/.")
 @click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
               help="Override any configuration value, e.g. --set paper.thickness_rule=height (repeatable).")
+@click.option("--overlays", type=click.IntRange(min=0), default=0,
+              help="Also draw the N frames where the baseline and RONELD differ most (overlays/, overlays.png).")
 @click.option("--on-error", type=click.Choice(["fail", "skip"]),
               help="On a bad frame, label or clip: stop with an error (default), or skip it and list it in "
                    "summary.json and on screen.")
@@ -114,7 +116,7 @@ def _toml_scalar(text: str):
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
 def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, pft_ablation, no_pft,
-        thresholds, workers, limit, save_lanes, settings, on_error, resume, out, quiet, debug):
+        thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, out, quiet, debug):
     """Evaluate the baseline and RONELD on a dataset's stored maps and write tables and curves.
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
@@ -156,7 +158,7 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         return config.with_overrides(**overrides)
 
     config = _guard(build, debug)
-    result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume)
+    result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume, overlays=overlays)
     if not quiet:
         _print_summary(result, out)
     if result.skipped:  # never silently, --quiet or not
@@ -244,3 +246,27 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
     click.echo(f"maps root: {result.maps_root}")
     click.echo(f"{result.n_clips} clips, {result.n_frames} frames. Evaluate them with:")
     click.echo(f"  {result.command}")
+
+
+@main.command()
+@click.option("--run", "run_dir", required=True, type=click.Path(path_type=Path),
+              help="A folder written by `roneld-eval run` (it holds config.toml and per_frame.csv).")
+@click.option("--frame", "frames", multiple=True, metavar="REL",
+              help="A frame to draw, as its image path relative to the dataset root (repeatable).")
+@click.option("--worst", type=click.IntRange(min=1),
+              help="Draw the N frames where the baseline's and RONELD's IoUs differ most. Default: 6 without --frame.")
+@click.option("--method", "methods", multiple=True, type=click.Choice(METHODS),
+              help="Methods to draw (repeatable). Default: those of the run.")
+@click.option("--out", type=click.Path(path_type=Path), help="Folder for the pictures. Default: the run folder.")
+@debug_option
+def show(run_dir, frames, worst, methods, out, debug):
+    """Draw frames of a run: camera image (or the maps), ground truth blue, baseline red, RONELD green.
+
+    Each lane's IoU is written beside it; overlays.png gathers the pictures, and the run's
+    report.html shows them.
+    """
+    from . import api
+
+    written = _guard(api.show, debug, run_dir, frames, worst, methods, out)
+    for path in written:
+        click.echo(str(path))

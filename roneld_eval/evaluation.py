@@ -41,6 +41,7 @@ from .metrics.culane_official import (
     official_masks,
 )
 from .metrics.paper import ego_lanes, ego_masks, side_ious
+from .metrics.bootstrap import paired_bootstrap
 from .metrics.sweep import sweep_accuracy
 from .metrics.tusimple_official import bench_frame, mean_scores
 from .model import Clip, Dataset, Frame, FrameMaps, Lane
@@ -60,6 +61,7 @@ class FrameOutcome:
     # CULane: (CulaneFrameResult of all lanes, of the two ego lanes); TuSimple: (accuracy, fp, fn)
     official: object
     lanes: tuple[Lane, ...]
+    active: tuple[Lane | None, Lane | None] = (None, None)  # the scored left and right lanes
 
 
 @dataclass
@@ -209,7 +211,7 @@ def _score_frame(frame: Frame, predictions, geometry: MapGeometry, context: RunC
             pred_xs = [sample_lane_at_rows(lane, rows) for lane in all_lanes]
             gt_xs = [tusimple_xs(lane, rows) for lane in frame.lanes]
             official = bench_frame(pred_xs, gt_xs, rows, 0.0)
-        outcomes.append(FrameOutcome(frame.relpath, method, ious, official, tuple(all_lanes)))
+        outcomes.append(FrameOutcome(frame.relpath, method, ious, official, tuple(all_lanes), tuple(active)))
     return outcomes
 
 
@@ -408,7 +410,7 @@ def evaluate(
         columns=["frame", "side", "method", "iou"],
     )
     thresholds = parse_thresholds(config.paper.thresholds)
-    accuracy = sweep_accuracy(per_frame, thresholds, methods=config.methods)
+    accuracy = with_intervals(sweep_accuracy(per_frame, thresholds, methods=config.methods), per_frame, thresholds)
     official = _official_table(outcomes, dataset, config)
     runtime = _runtime_table(extract_ms, load_ms)
     totals["ego_lanes"] = int(len(per_frame) // max(len(config.methods), 1))
@@ -424,6 +426,23 @@ def evaluate(
         skipped=skipped,
         versions=versions(),
     )
+
+
+def with_intervals(accuracy: pd.DataFrame, per_frame: pd.DataFrame, thresholds) -> pd.DataFrame:
+    """Add RONELD's gain over each other method with its 95% paired-bootstrap interval over clips."""
+    accuracy = accuracy.copy()
+    for column in ("roneld_gain", "roneld_gain_ci_low", "roneld_gain_ci_high"):
+        accuracy[column] = np.nan
+    methods = set(accuracy["method"])
+    if "roneld" not in methods or per_frame.empty:
+        return accuracy
+    for method in sorted(methods - {"roneld"}):
+        gains = paired_bootstrap(per_frame, thresholds, method)
+        rows = (accuracy["method"] == method).to_numpy()
+        accuracy.loc[rows, "roneld_gain"] = gains["difference"].to_numpy()
+        accuracy.loc[rows, "roneld_gain_ci_low"] = gains["ci_low"].to_numpy()
+        accuracy.loc[rows, "roneld_gain_ci_high"] = gains["ci_high"].to_numpy()
+    return accuracy
 
 
 def _official_table(outcomes: list[FrameOutcome], dataset: Dataset, config: EvalConfig) -> pd.DataFrame:

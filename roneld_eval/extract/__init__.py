@@ -16,9 +16,14 @@ def warm_up() -> None:
     maps = np.zeros((4, 40, 60), np.uint8)
     maps[1, 5:, 20] = 200
     maps[2, 5:, 40] = 200
+    from ..config import BaselineParams
+    from ..geometry import MapGeometry
+    from ..model import FrameMaps
+
     tracker = RoneldTracker(RoneldParams())
     for _ in range(2):
         tracker(maps)
+    baseline_lanes(FrameMaps(maps), BaselineParams(), MapGeometry(1640, 590, 60, 40))
 
 
 __all__.append("warm_up")

@@ -32,3 +32,19 @@ def sweep_accuracy(per_frame: pd.DataFrame, thresholds: Thresholds, methods=None
             rows.append(dict(method=method, threshold=label, n_tp=n_tp, n_gt=n_gt,
                              accuracy=n_tp / n_gt if n_gt else float("nan")))
     return pd.DataFrame(rows, columns=["method", "threshold", "n_tp", "n_gt", "accuracy"])
+
+
+def category_accuracy(per_frame: pd.DataFrame, categories, threshold: float, methods=None) -> pd.DataFrame:
+    """category, method, n_tp, n_gt, accuracy at one threshold, per category list and 'all'."""
+    if methods is None:
+        methods = list(dict.fromkeys(per_frame["method"]))
+    groups = [(name, per_frame["frame"].isin(members)) for name, members in categories.items()]
+    groups.append(("all", pd.Series(True, index=per_frame.index)))
+    rows = []
+    for name, inside in groups:
+        for method in methods:
+            ious = per_frame.loc[inside & (per_frame["method"] == method), "iou"].to_numpy(np.float64)
+            n_tp = int(np.count_nonzero(ious > threshold))
+            rows.append(dict(category=name, method=method, n_tp=n_tp, n_gt=len(ious),
+                             accuracy=n_tp / len(ious) if len(ious) else float("nan")))
+    return pd.DataFrame(rows, columns=["category", "method", "n_tp", "n_gt", "accuracy"])

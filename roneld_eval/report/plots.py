@@ -50,3 +50,36 @@ def save_figure(figure, png: Path, svg: Path | None = None) -> None:
         if svg is not None:
             figure.savefig(svg, metadata={"Date": None, "Creator": None})
     plt.close(figure)
+
+
+HATCHES = {"baseline": "//", "roneld": "", "roneld-nopft": ".."}
+
+
+def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, model: str, threshold_label: str,
+                    pft: bool = True):
+    """Grouped bars per CULane category: the paper's accuracy (left) and the official F1 (right)."""
+    import numpy as np
+
+    names = [c for c in dict.fromkeys(categories["category"])]
+    methods = list(dict.fromkeys(categories["method"]))
+    panels = [("accuracy", categories, f"Active-lane accuracy (IoU > {threshold_label})")]
+    if official is not None and "f1" in official.columns:
+        panels.append(("f1", official[official["category"].isin(names)], "Official CULane F1 (all lanes)"))
+    figure, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.2), dpi=150, squeeze=False)
+    width = 0.8 / max(len(methods), 1)
+    positions = np.arange(len(names))
+    for ax, (column, table, title) in zip(axes[0], panels):
+        for k, method in enumerate(methods):
+            rows = table[table["method"] == method].set_index("category").reindex(names)
+            style = STYLES.get(method, {})
+            ax.bar(positions + (k - (len(methods) - 1) / 2) * width, rows[column].fillna(0), width,
+                   label=display_name(method, model, pft), color=style.get("color", "#777777"),
+                   hatch=HATCHES.get(method, "xx"), edgecolor="black", linewidth=0.6)
+        ax.set_xticks(positions, names, rotation=30, ha="right")
+        ax.set_ylim(0, 1.05)
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, axis="y", alpha=0.3)
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="upper center", ncol=len(methods), fontsize=9, frameon=False)
+    figure.tight_layout(rect=(0, 0, 1, 0.92))
+    return figure

@@ -21,6 +21,8 @@ class Increase:
 
     absolute: float
     relative: float  # NaN when the base accuracy is 0
+    low: float = math.nan  # 95% interval of the absolute increase (paired bootstrap over clips)
+    high: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -56,9 +58,10 @@ class Table:
 def _cell(value, latex: bool) -> str:
     if isinstance(value, Increase):
         percent = "n/a" if math.isnan(value.relative) else f"{value.relative * 100:.1f}%"
+        interval = "" if math.isnan(value.low) else f" [{value.low:.3f}, {value.high:.3f}]"
         if latex:
-            return f"{value.absolute:.3f} \\textbf{{({percent.replace('%', chr(92) + '%')})}}"
-        return f"{value.absolute:.3f} **({percent})**"
+            return f"{value.absolute:+.3f}{interval} \\textbf{{({percent.replace('%', chr(92) + '%')})}}"
+        return f"{value.absolute:+.3f}{interval} **({percent})**"
     if isinstance(value, float):
         return "n/a" if math.isnan(value) else f"{value:.3f}"
     return _latex_escape(str(value)) if latex else str(value)
@@ -101,6 +104,10 @@ def comparison_table(accuracy: pd.DataFrame, model: str, pft: bool = True) -> Ta
     labels = list(dict.fromkeys(accuracy["threshold"]))
     methods = list(dict.fromkeys(accuracy["method"]))
     value = {(r.method, r.threshold): float(r.accuracy) for r in accuracy.itertuples()}
+    interval = {}
+    if "roneld_gain_ci_low" in accuracy.columns:
+        interval = {(r.method, r.threshold): (float(r.roneld_gain_ci_low), float(r.roneld_gain_ci_high))
+                    for r in accuracy.itertuples()}
     others = [m for m in methods if m != "roneld"]
     headers = ["IoU threshold"]
     if "roneld" in methods and others:
@@ -116,7 +123,8 @@ def comparison_table(accuracy: pd.DataFrame, model: str, pft: bool = True) -> Ta
             for method in others:
                 base = value[(method, label)]
                 relative = (ours - base) / base if base else math.nan
-                row += [base, ours, Increase(ours - base, relative)]
+                low, high = interval.get((method, label), (math.nan, math.nan))
+                row += [base, ours, Increase(ours - base, relative, low, high)]
         else:
             row += [value[(m, label)] for m in methods]
         rows.append(tuple(row))

@@ -117,6 +117,20 @@ def summary(result: RunResult) -> dict:
     })
 
 
+def write_pictures(staging: Staging, pictures: list[tuple[str, "np.ndarray"]]) -> None:
+    """overlays/<frame>.png for each picture and overlays.png, the contact sheet."""
+    import cv2
+
+    from .overlays import contact_sheet
+
+    for relpath, image in pictures:
+        name = relpath.rsplit(".", 1)[0].replace("/", "__") + ".png"
+        if not cv2.imwrite(str(staging.file(f"overlays/{name}")), image):
+            raise InputError(staging.out_dir / "overlays" / name, "cannot write")
+    if pictures and not cv2.imwrite(str(staging.file("overlays.png")), contact_sheet([image for _, image in pictures])):
+        raise InputError(staging.out_dir / "overlays.png", "cannot write")
+
+
 def write_report(result: RunResult, out_dir: str | Path, staging: Staging | None = None) -> list[Path]:
     """Write every output file of a run into `out_dir` (see README for what each holds)."""
     staging = staging or Staging(Path(out_dir))
@@ -147,6 +161,18 @@ def write_report(result: RunResult, out_dir: str | Path, staging: Staging | None
 
         figure = accuracy_figure(result.accuracy, model, result.dataset.name, pft)
         save_figure(figure, staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg"))
+        if result.dataset.categories:
+            from ..metrics.sweep import category_accuracy
+            from .plots import category_figure
+
+            threshold = config.official.iou_threshold
+            label = f"{threshold:g}"
+            by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
+            staging.write_text("categories.csv", by_category.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
+            save_figure(category_figure(by_category, result.official, model, label, pft), staging.file("categories.png"))
+        from .html import build_html
+
+        staging.write_text("report.html", build_html(staging.path))
     except BaseException:
         staging.discard()
         raise

@@ -1,0 +1,152 @@
+"""Pictures of single frames, as the paper's Fig. 3: ground truth blue, baseline red, RONELD green.
+
+Each picture is the camera image when the dataset has it, else the maps as a heat map, with
+each method's left and right lanes and their IoU beside them. Colours differ in lightness
+(dark blue, mid red, light green) and in line style (baseline dashed), so greyscale prints stay
+readable. `worst_frames` picks the frames where the methods differ most; `contact_sheet`
+gathers pictures on one page. Nothing here computes a metric.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import pandas as pd
+
+from ..model import Lane
+from .tables import display_name
+
+OUTPUT_WIDTH = 1000  # pixels of one picture
+BLUE, RED, GREEN, CYAN = (200, 90, 20), (40, 40, 230), (90, 235, 120), (235, 200, 60)  # BGR
+STYLES = {  # colour, thickness at OUTPUT_WIDTH, dashed
+    "ground truth": (BLUE, 9, False),
+    "baseline": (RED, 4, True),
+    "roneld": (GREEN, 3, False),
+    "roneld-nopft": (CYAN, 3, True),
+}
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+
+
+@dataclass(frozen=True)
+class FramePicture:
+    """What one picture shows: a frame, its ego ground truth and each method's lanes and IoUs."""
+
+    relpath: str
+    ground_truth: tuple[Lane | None, Lane | None]
+    lanes: dict[str, tuple[Lane | None, Lane | None]]  # method -> (left, right)
+    ious: dict[str, dict[str, float]]  # method -> side -> IoU
+    other_ground_truth: tuple[Lane, ...] = ()
+
+
+def worst_frames(per_frame: pd.DataFrame, count: int, first: str = "baseline", second: str = "roneld") -> list[str]:
+    """The `count` frames where two methods' IoUs differ most (summed over sides), largest first."""
+    table = per_frame[per_frame["method"].isin([first, second])].pivot_table(
+        index=["frame", "side"], columns="method", values="iou", aggfunc="first")
+    if first not in table.columns or second not in table.columns:
+        return list(dict.fromkeys(per_frame["frame"]))[:count]
+    difference = (table[first] - table[second]).abs().groupby(level="frame").sum()
+    ranked = sorted(difference.items(), key=lambda item: (-item[1], item[0]))
+    return [frame for frame, _ in ranked[:count]]
+
+
+def heat_map(probabilities: np.ndarray, width: int, height: int, crop_top: int, crop_bottom: int) -> np.ndarray:
+    """The maps' strongest channel as a dim colour image of the whole frame (BGR)."""
+    strongest = probabilities.max(axis=0)
+    image = np.zeros((height, width), np.uint8)
+    image[crop_top:crop_bottom] = cv2.resize(strongest, (width, crop_bottom - crop_top), interpolation=cv2.INTER_LINEAR)
+    coloured = cv2.applyColorMap(image, cv2.COLORMAP_BONE)
+    return (coloured * 0.75 + 20).astype(np.uint8)
+
+
+def _polyline(image, points: np.ndarray, colour, thickness: int, dashed: bool) -> None:
+    points = np.asarray(points, np.float64)
+    if len(points) < 2:
+        return
+    if not dashed:
+        cv2.polylines(image, [np.rint(points).astype(np.int32)], False, colour, thickness, cv2.LINE_AA)
+        return
+    # Dashes of ~14 px along the polyline.
+    steps = np.hypot(*np.diff(points, axis=0).T)
+    length = np.concatenate([[0.0], np.cumsum(steps)])
+    samples = np.arange(0.0, length[-1], 2.0)
+    xs = np.interp(samples, length, points[:, 0])
+    ys = np.interp(samples, length, points[:, 1])
+    for start in range(0, len(samples) - 1, 11):
+        piece = np.stack([xs[start:start + 7], ys[start:start + 7]], axis=1)
+        if len(piece) >= 2:
+            cv2.polylines(image, [np.rint(piece).astype(np.int32)], False, colour, thickness, cv2.LINE_AA)
+
+
+def _label(image, text: str, anchor: tuple[float, float], colour) -> None:
+    """Text in a dark box next to a point, kept inside the picture."""
+    scale, weight = 0.62, 2
+    (width, height), base = cv2.getTextSize(text, FONT, scale, weight)
+    x = int(min(max(anchor[0] + 10, 4), image.shape[1] - width - 8))
+    y = int(min(max(anchor[1], height + 8), image.shape[0] - base - 6))
+    overlay = image.copy()
+    cv2.rectangle(overlay, (x - 4, y - height - 5), (x + width + 4, y + base + 3), (0, 0, 0), -1)
+    cv2.addWeighted(overlay, 0.65, image, 0.35, 0, dst=image)
+    cv2.putText(image, text, (x, y), FONT, scale, colour, weight, cv2.LINE_AA)
+
+
+def _point_at_height(points: np.ndarray, y: float) -> tuple[float, float]:
+    order = np.argsort(points[:, 1])
+    ys, xs = points[order, 1], points[order, 0]
+    y = min(max(y, ys[0]), ys[-1])
+    return float(np.interp(y, ys, xs)), float(y)
+
+
+def draw_frame(picture: FramePicture, background: np.ndarray, model: str, caption: str = "") -> np.ndarray:
+    """One annotated picture (BGR), OUTPUT_WIDTH wide, with a legend and a caption bar."""
+    height, width = background.shape[:2]
+    scale = OUTPUT_WIDTH / width
+    image = cv2.resize(background, (OUTPUT_WIDTH, round(height * scale)), interpolation=cv2.INTER_AREA)
+    out_height = image.shape[0]
+    colour, thickness, dashed = STYLES["ground truth"]
+    for lane in picture.other_ground_truth:
+        _polyline(image, lane.points * scale, colour, 2, False)
+    for lane in picture.ground_truth:
+        if lane is not None and len(lane) >= 2:
+            _polyline(image, lane.points * scale, colour, thickness, dashed)
+    for rank, (method, sides) in enumerate(picture.lanes.items()):
+        colour, thickness, dashed = STYLES.get(method, (CYAN, 3, True))
+        for side, lane in zip(("left", "right"), sides):
+            if lane is None or len(lane) < 2:
+                continue
+            points = lane.points * scale
+            _polyline(image, points, colour, thickness, dashed)
+            iou = picture.ious.get(method, {}).get(side)
+            if iou is not None:
+                anchor = _point_at_height(points, out_height * (0.62 + 0.12 * rank))
+                _label(image, f"{iou:.2f}", anchor, colour)
+    legend = [("ground truth", STYLES["ground truth"][0])] + [
+        (display_name(method, model), STYLES.get(method, (CYAN, 3, True))[0]) for method in picture.lanes]
+    for row, (text, colour) in enumerate(legend):
+        y = 24 + 24 * row
+        overlay = image.copy()
+        cv2.rectangle(overlay, (6, y - 17), (250, y + 7), (0, 0, 0), -1)
+        cv2.addWeighted(overlay, 0.6, image, 0.4, 0, dst=image)
+        cv2.line(image, (12, y - 5), (44, y - 5), colour, 4, cv2.LINE_AA)
+        cv2.putText(image, text, (52, y), FONT, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
+    bar = np.full((34, OUTPUT_WIDTH, 3), 255, np.uint8)
+    cv2.putText(bar, caption or picture.relpath, (8, 23), FONT, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
+    return np.vstack([image, bar])
+
+
+def contact_sheet(pictures: list[np.ndarray], columns: int = 2, gap: int = 8) -> np.ndarray:
+    """Pictures in a grid on white, each scaled to the same width."""
+    if not pictures:
+        return np.full((10, 10, 3), 255, np.uint8)
+    width = OUTPUT_WIDTH
+    scaled = [cv2.resize(p, (width, round(p.shape[0] * width / p.shape[1])), interpolation=cv2.INTER_AREA) for p in pictures]
+    cell = max(p.shape[0] for p in scaled)
+    rows = math.ceil(len(scaled) / columns)
+    sheet = np.full((rows * (cell + gap) + gap, columns * (width + gap) + gap, 3), 255, np.uint8)
+    for k, picture in enumerate(scaled):
+        r, c = divmod(k, columns)
+        y, x = gap + r * (cell + gap), gap + c * (width + gap)
+        sheet[y:y + picture.shape[0], x:x + width] = picture
+    return sheet

@@ -1,0 +1,134 @@
+"""Confidence intervals, pictures and the HTML report."""
+
+import shutil
+import subprocess
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval import api
+from roneld_eval.cli import main
+from roneld_eval.config import parse_thresholds
+from roneld_eval.metrics.bootstrap import paired_bootstrap
+from roneld_eval.report.overlays import worst_frames
+
+THRESHOLDS = parse_thresholds("0.30:0.50:0.10")
+
+
+def per_frame_table(rows):
+    return pd.DataFrame(rows, columns=["frame", "side", "method", "iou"])
+
+
+def test_identical_methods_give_a_zero_interval():
+    rng = np.random.default_rng(0)
+    rows = []
+    for clip in range(30):
+        for frame in range(5):
+            for side in ("left", "right"):
+                iou = float(rng.random())
+                rows += [(f"c{clip}/{frame}.jpg", side, m, iou) for m in ("baseline", "roneld")]
+    gains = paired_bootstrap(per_frame_table(rows), THRESHOLDS, "baseline")
+    assert (gains[["difference", "ci_low", "ci_high"]].to_numpy() == 0).all()
+
+
+def test_a_constant_difference_is_recovered_exactly():
+    # In every clip RONELD finds 4 of 4 lanes and the baseline 2 of 4: the difference is 0.5 in
+    # every resample, so the interval collapses onto it.
+    rows = []
+    for clip in range(12):
+        for frame in range(2):
+            for side, base in (("left", 0.9), ("right", 0.1)):
+                rows += [(f"c{clip}/{frame}.jpg", side, "roneld", 0.9), (f"c{clip}/{frame}.jpg", side, "baseline", base)]
+    gains = paired_bootstrap(per_frame_table(rows), THRESHOLDS, "baseline")
+    np.testing.assert_allclose(gains[["difference", "ci_low", "ci_high"]].to_numpy(), 0.5)
+
+
+def test_interval_covers_a_known_difference():
+    # 400 clips; RONELD is right with probability 0.8, the baseline 0.7, independently:
+    # the difference is about 0.1 with a standard error of about sqrt(.16+.21)/sqrt(800) = 0.0215.
+    rng = np.random.default_rng(7)
+    rows = []
+    for clip in range(400):
+        for side in ("left", "right"):
+            rows.append((f"c{clip}/0.jpg", side, "roneld", 0.9 if rng.random() < 0.8 else 0.1))
+            rows.append((f"c{clip}/0.jpg", side, "baseline", 0.9 if rng.random() < 0.7 else 0.1))
+    gains = paired_bootstrap(per_frame_table(rows), parse_thresholds("0.5"), "baseline").iloc[0]
+    assert gains.ci_low < 0.1 < gains.ci_high
+    assert 0.06 < gains.ci_high - gains.ci_low < 0.11  # about 2 x 1.96 x 0.0215
+    again = paired_bootstrap(per_frame_table(rows), parse_thresholds("0.5"), "baseline").iloc[0]
+    assert (again.ci_low, again.ci_high) == (gains.ci_low, gains.ci_high)  # fixed seed
+
+
+def test_intervals_appear_in_the_tables(fixture_run):
+    result, out = fixture_run
+    accuracy = pd.read_csv(out / "accuracy.csv")
+    assert {"roneld_gain", "roneld_gain_ci_low", "roneld_gain_ci_high"} <= set(accuracy.columns)
+    baseline = accuracy[accuracy["method"] == "baseline"]
+    assert (baseline["roneld_gain_ci_low"] <= baseline["roneld_gain"]).all()
+    assert (baseline["roneld_gain"] <= baseline["roneld_gain_ci_high"]).all()
+    assert accuracy[accuracy["method"] == "roneld"]["roneld_gain"].isna().all()
+    assert " [" in (out / "accuracy.md").read_text() and " [" in (out / "accuracy.tex").read_text()
+
+
+def test_worst_frames_ranks_by_difference():
+    rows = per_frame_table([
+        ("a.jpg", "left", "baseline", 0.1), ("a.jpg", "left", "roneld", 0.9),
+        ("b.jpg", "left", "baseline", 0.5), ("b.jpg", "left", "roneld", 0.6),
+        ("c.jpg", "left", "baseline", 0.9), ("c.jpg", "left", "roneld", 0.2),
+        ("c.jpg", "right", "baseline", 0.5), ("c.jpg", "right", "roneld", 0.5),
+    ])
+    assert worst_frames(rows, 2) == ["a.jpg", "c.jpg"]
+
+
+def test_show_draws_frames_and_refreshes_the_report(fixture_run, tmp_path):
+    _, out = fixture_run
+    run_dir = tmp_path / "run"
+    shutil.copytree(out, run_dir)
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--worst", "2"])
+    assert result.exit_code == 0, result.output
+    pictures = sorted((run_dir / "overlays").glob("*.png"))
+    assert len(pictures) == 2 and (run_dir / "overlays.png").exists()
+    import cv2
+
+    image = cv2.imread(str(pictures[0]))
+    assert image.shape[1] == 1000 and image.std() > 10
+    page = (run_dir / "report.html").read_text()
+    assert "Where the methods differ most" in page and page.count("data:image/png;base64") >= 3
+    frame = "driver_100_30frame/05181432_0203.MP4/00030.jpg"
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--frame", frame, "--method", "roneld",
+                                       "--out", str(tmp_path / "pictures")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "pictures" / "overlays" / "driver_100_30frame__05181432_0203.MP4__00030.png").exists()
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--frame", "nowhere/0.jpg"])
+    assert result.exit_code == 2 and "not in this run's dataset" in result.output
+    result = CliRunner().invoke(main, ["show", "--run", str(tmp_path)])
+    assert result.exit_code == 2 and "config.toml: not found" in result.output
+
+
+def test_run_with_overlays_and_categories(tmp_path):
+    api.run(api.default_config("culane").with_overrides(workers=1), tmp_path, progress=False, overlays=3)
+    assert len(list((tmp_path / "overlays").glob("*.png"))) == 3
+    categories = pd.read_csv(tmp_path / "categories.csv")
+    assert set(categories["category"]) == {"normal", "crowd", "shadow", "curve", "all"}
+    assert (tmp_path / "categories.png").exists()
+
+
+def test_report_renders_in_chromium(fixture_run, tmp_path):
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+    if chromium is None:
+        pytest.skip("Chromium is not installed")
+    _, out = fixture_run
+    flags = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+             "--disable-background-networking", "--disable-component-update", "--disable-sync",
+             f"--user-data-dir={tmp_path / 'profile'}"]
+    url = (out / "report.html").resolve().as_uri()
+    dom = subprocess.run(flags + ["--dump-dom", url], capture_output=True, text=True, timeout=120).stdout
+    assert "roneld-eval: SCNN on CULane" in dom and dom.count("<table") >= 4
+    shot = tmp_path / "page.png"
+    subprocess.run(flags + ["--window-size=1200,2400", f"--screenshot={shot}", url], capture_output=True, timeout=120)
+    import cv2
+
+    image = cv2.imread(str(shot))
+    assert image is not None and (image < 200).mean() > 0.02  # text, tables and figures, not a blank page
