@@ -241,7 +241,11 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
     """Generate a small realistic dataset with SCNN-like maps (4 channels, 288x800)."""
     from . import api
 
-    result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format)
+    from tqdm import tqdm
+
+    total = clips * (frames or (12 if dataset == "culane" else 20))
+    with tqdm(total=total, unit="frame", desc="generating", disable=total < 200) as bar:
+        result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
     click.echo(f"data root: {result.data_root}")
     click.echo(f"maps root: {result.maps_root}")
     click.echo(f"{result.n_clips} clips, {result.n_frames} frames. Evaluate them with:")
