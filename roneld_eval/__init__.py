@@ -3,12 +3,13 @@ TuSimple from stored CNN probability maps, with the RONELD paper's protocol and 
 CULane and TuSimple scores.
 
 The CLI is a thin layer over these functions: `run`, `score_culane`, `score_tusimple`,
-`synthesize` do what `roneld-eval run`, `score culane`, `score tusimple` and `synth` do.
+`show`, `synthesize` do what `roneld-eval run`, `score culane`, `score tusimple`, `show` and
+`synth` do.
 """
 
 __version__ = "0.1.0"
 
-from .api import run, score_culane, score_tusimple, synthesize  # noqa: E402
+from .api import run, score_culane, score_tusimple, show, synthesize  # noqa: E402
 from .config import EvalConfig  # noqa: E402
 from .datasets import read_dataset  # noqa: E402
 from .errors import ConfigError, InputError, RoneldEvalError  # noqa: E402
@@ -18,6 +19,7 @@ from .model import Clip, Dataset, Frame, FrameMaps, Lane  # noqa: E402
 
 __all__ = [
     "run",
+    "show",
     "evaluate",
     "score_culane",
     "score_tusimple",

@@ -28,10 +28,10 @@ from . import __version__
 from .errors import ConfigError, InputError, RunInterrupted
 from .evaluation import ClipResult, RunResult, default_workers, evaluate
 from .lanes_io import read_culane_lines
-from .metrics.culane_official import CulaneFrameResult, category_table, evaluate_culane_frame, sum_counts, f_measure
+from .metrics.culane_official import CulaneFrameResult, category_table, evaluate_culane_frame
 from .metrics.tusimple_official import TusimpleScore, score_tusimple_files
 from .model import Frame
-from .report.write import LaneWriter, Staging, write_report
+from .report.write import LaneWriter, Staging, stage_report
 from .synth import SynthResult, synthesize
 
 FIXTURE_MAPS_FORMAT = "npz"
@@ -127,53 +127,42 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
     """
     requested = config or default_config()
     config = with_fixture(requested)
-    staging = Staging(Path(out))
-    cache = None
-    try:
+    with Staging(Path(out)) as staging:
         cache = ResultCache(Path(out), config, resume)
-        writer = None
-        if config.save_lanes:
-            writer = LaneWriter(staging, config.dataset.name)
-        dataset = None
-        if writer is not None and config.dataset.name == "tusimple":
-            from .datasets import read_dataset
-
-            dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
-                                   config.dataset.limit)
-            writer.h_samples = {f.relpath: f.h_samples for c in dataset.clips for f in c.frames if f.labelled}
         try:
-            result = evaluate(config, progress=progress, lane_sink=writer, dataset=dataset, cache=cache)
-        except KeyboardInterrupt:
-            raise RunInterrupted(_unfinished("interrupted", cache), exit_code=130) from None
-        except RunInterrupted as error:
-            raise RunInterrupted(_unfinished(str(error), cache)) from None
-        if writer is not None:
-            writer.close()
-        if config is not requested:
-            # Record the bundled fixture by name, not by this machine's paths, so the written
-            # config.toml reruns anywhere.
-            result.config = requested
-            result.fixture = config.dataset.name
-    except RunInterrupted:
-        staging.discard()
-        raise
-    except BaseException:
-        # Bad input or a bug: nothing to resume from, so nothing is left behind.
-        staging.discard()
-        if cache is not None:
-            cache.discard()
-        raise
-    try:
-        if overlays:
-            from .report.overlays import worst_frames
-            from .report.write import write_pictures
+            writer = LaneWriter(staging, config.dataset.name) if config.save_lanes else None
+            dataset = None
+            if writer is not None and config.dataset.name == "tusimple":
+                from .datasets import read_dataset
 
-            chosen = worst_frames(result.per_frame, overlays)
-            write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods)))
-        write_report(result, out, staging)
-    except BaseException:
-        cache.discard()
-        raise
+                dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
+                                       config.dataset.limit)
+                writer.h_samples = {f.relpath: f.h_samples for c in dataset.clips for f in c.frames if f.labelled}
+            try:
+                result = evaluate(config, progress=progress, lane_sink=writer, dataset=dataset, cache=cache)
+            except KeyboardInterrupt:
+                raise RunInterrupted(_unfinished("interrupted", cache), exit_code=130) from None
+            except RunInterrupted as error:
+                raise RunInterrupted(_unfinished(str(error), cache)) from None
+            if writer is not None:
+                writer.close()
+            if config is not requested:
+                # Record the bundled fixture by name, not by this machine's paths, so the written
+                # config.toml reruns anywhere.
+                result.config = requested
+                result.fixture = config.dataset.name
+            if overlays:
+                from .report.overlays import worst_frames
+                from .report.write import write_pictures
+
+                chosen = worst_frames(result.per_frame, overlays)
+                write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods)))
+            stage_report(result, staging)
+        except RunInterrupted:
+            raise  # finished clips stay for --resume
+        except BaseException:
+            cache.discard()  # bad input or a bug: nothing to resume from
+            raise
     cache.discard()
     return result
 
@@ -254,16 +243,11 @@ def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | 
     first = sweep_table[sweep_table["iou_threshold"] == thresholds.labels[0]].drop(columns="iou_threshold")
     score = CulaneScore(first.reset_index(drop=True), sweep_table, len(frames))
     if out is not None:
-        staging = Staging(Path(out))
-        try:
+        with Staging(Path(out)) as staging:
             staging.write_text("official.csv", score.table.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
             if len(thresholds) > 1:
                 staging.write_text("official_sweep.csv", sweep_table.to_csv(index=False, float_format="%.6f",
                                                                             lineterminator="\n"))
-        except BaseException:
-            staging.discard()
-            raise
-        staging.commit()
     return score
 
 
@@ -271,19 +255,14 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
     """Score TuSimple JSON-lines predictions against a label file, as evaluate/lane.py does."""
     score = score_tusimple_files(labels, pred)
     if out is not None:
-        staging = Staging(Path(out))
-        try:
+        with Staging(Path(out)) as staging:
             table = pd.DataFrame([dict(accuracy=score.accuracy, fp=score.fp, fn=score.fn)])
             staging.write_text("official.csv", table.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
-        except BaseException:
-            staging.discard()
-            raise
-        staging.commit()
     return score
 
 
-__all__ = ["run", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
-           "CulaneScore", "SynthResult", "f_measure", "sum_counts"]
+__all__ = ["run", "show", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
+           "CulaneScore", "SynthResult"]
 
 
 # ---- pictures --------------------------------------------------------------------------------
@@ -368,15 +347,11 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
     dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file, config.dataset.limit)
     pictures = frame_pictures(config, dataset, chosen, methods)
     target = Path(out) if out is not None else run_dir
-    staging = Staging(target)
-    try:
-        from .report.write import write_pictures
+    from .report.write import write_pictures
 
+    with Staging(target) as staging:
         write_pictures(staging, pictures)
-    except BaseException:
-        staging.discard()
-        raise
-    written = staging.commit()
+    written = staging.written
     if target.resolve() == run_dir.resolve():
         from .report.html import build_html
 

@@ -17,7 +17,7 @@ import platform
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator, Protocol, Sequence
 
@@ -126,8 +126,6 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
     if "roneld" in methods:
         trackers["roneld"] = RoneldTracker(config.roneld)
     if "roneld-nopft" in methods:
-        from dataclasses import replace
-
         trackers["roneld-nopft"] = RoneldTracker(replace(config.roneld, pft=False))
     clip_size = None
     rows = None

@@ -101,11 +101,6 @@ def format_culane_lines(lanes: Iterable[Lane]) -> str:
     return "".join(line + "\n" for line in out)
 
 
-def as_float32_lanes(lanes: Iterable[Lane]) -> tuple[Lane, ...]:
-    """The lanes as the official CULane evaluator holds them after reading our files."""
-    return tuple(Lane(lane.points.astype(np.float32).astype(np.float64)) for lane in lanes)
-
-
 # ---- TuSimple --------------------------------------------------------------------------
 
 

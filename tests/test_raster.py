@@ -9,7 +9,7 @@ from scipy.interpolate import CubicSpline
 
 from conftest import GOLDEN
 from roneld_eval.metrics import _kernels as K
-from roneld_eval.metrics.raster import LaneMask, mask_from_pixels, official_mask, spline_points
+from roneld_eval.metrics.raster import LaneMask, mask_from_pixels, official_mask
 from roneld_eval.model import Lane
 
 CASES = json.loads((GOLDEN / "raster_opencv46.json").read_text())["cases"]
@@ -34,7 +34,7 @@ def test_golden_covers_the_awkward_cases():
 
 def test_official_spline_is_a_natural_spline_over_chord_length():
     points = np.array([[100.0, 590], [130, 500], [180, 420], [250, 350], [330, 300]])
-    samples = spline_points(points)
+    samples = np.stack(K.official_spline(points[:, 0].copy(), points[:, 1].copy(), 50), axis=1)
     assert len(samples) == 4 * 50 + 1
     chord = np.concatenate([[0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
     reference = CubicSpline(chord, points, bc_type="natural")
@@ -44,9 +44,11 @@ def test_official_spline_is_a_natural_spline_over_chord_length():
     np.testing.assert_array_equal(np.stack(py, axis=1), samples)
 
 
-def test_round_like_opencv():
-    values = np.array([0.5, 1.5, 2.5, -0.5, np.nan, 3e9, -1.4], np.float32)
-    assert K.round_like_opencv(values).tolist() == [0, 2, 2, 0, K.INT_MIN, K.INT_MIN, -1]
+def test_rounding_like_opencv():
+    """cv::Point2f -> cv::Point: half to even; NaN and out-of-range values become INT_MIN."""
+    values = [0.5, 1.5, 2.5, -0.5, float("nan"), 3e9, -1.4]
+    for kernel in (K._round_float32, K._round_float32.py_func):
+        assert [kernel(v) for v in values] == [0, 2, 2, 0, K.INT_MIN, K.INT_MIN, -1]
 
 
 def test_overlap_matches_numpy():

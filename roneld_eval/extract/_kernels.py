@@ -223,16 +223,6 @@ def line_distance(slope_a, intercept_a, slope_b, intercept_b, height):
 
 
 @njit(cache=True, nogil=True)
-def distance_matrix(slopes_a, intercepts_a, slopes_b, intercepts_b, height):
-    """line_distance for every pair (a row per lane of the first set)."""
-    out = np.empty((slopes_a.size, slopes_b.size), np.float64)
-    for i in range(slopes_a.size):
-        for j in range(slopes_b.size):
-            out[i, j] = line_distance(slopes_a[i], intercepts_a[i], slopes_b[j], intercepts_b[j], height)
-    return out
-
-
-@njit(cache=True, nogil=True)
 def channel_lane(channel, row_max, threshold, stride, min_points, min_curve_points, top_points, outlier_fraction):
     """Points, curve flag and line of one channel, as RONELD builds a lane from a map.
 

@@ -39,18 +39,6 @@ def to_int32(value):
     return ((value + (1 << 31)) & 0xFFFFFFFF) - (1 << 31)
 
 
-def round_like_opencv(values: np.ndarray) -> np.ndarray:
-    """cvRound of float32 values: half to even; NaN and out-of-range values give INT_MIN.
-
-    This is how `cv::Point2f` converts to `cv::Point` on x86-64 (SSE cvtss2si).
-    """
-    values = np.asarray(values, np.float32)
-    out = np.full(values.shape, INT_MIN, np.int64)
-    ok = np.isfinite(values) & (values < 2.0**31) & (values >= -(2.0**31))
-    out[ok] = np.rint(values[ok]).astype(np.int64)
-    return out
-
-
 # ---- the official spline ----------------------------------------------------------------
 
 

@@ -62,16 +62,6 @@ def mask_from_pixels(xs: np.ndarray, ys: np.ndarray, thickness: int, width: int,
     return LaneMask(int(x0), int(y0), pixels, area)
 
 
-def spline_points(points: np.ndarray) -> np.ndarray:
-    """The official evaluator's polyline for a lane: itself for 2 points, its spline for 3+."""
-    if len(points) < 3:
-        return np.asarray(points, np.float64)
-    xs, ys = _kernels.official_spline(
-        np.ascontiguousarray(points[:, 0], np.float64), np.ascontiguousarray(points[:, 1], np.float64), SPLINE_SAMPLES
-    )
-    return np.stack([xs, ys], axis=1)
-
-
 def official_mask(lane: Lane, width: int, height: int, thickness: int) -> LaneMask | None:
     """A lane as the official CULane evaluator draws it, or None for fewer than 2 points.
 

@@ -152,20 +152,3 @@ def runtime_table(runtime: pd.DataFrame, model: str, pft: bool = True) -> Table:
         name = "Map loading" if row.method == "map loading" else display_name(row.method, model, pft)
         rows.append((name, str(row.frames), float(row.mean_ms), float(row.median_ms), float(row.p95_ms)))
     return Table(("Method", "Frames", "Mean (ms)", "Median (ms)", "p95 (ms)"), tuple(rows))
-
-
-def official_table(official: pd.DataFrame, model: str, pft: bool = True) -> Table:
-    """The official scores per method (CULane per category, or TuSimple Acc/FP/FN)."""
-    headers = tuple(str(c) for c in official.columns)
-    rows = []
-    for record in official.itertuples(index=False):
-        cells = []
-        for column, value in zip(headers, record):
-            if column == "method":
-                cells.append(display_name(value, model, pft))
-            elif isinstance(value, (int,)) or (hasattr(value, "dtype") and "int" in str(value.dtype)):
-                cells.append(str(value))
-            else:
-                cells.append(float(value) if not isinstance(value, str) else value)
-        rows.append(tuple(cells))
-    return Table(headers, tuple(rows))

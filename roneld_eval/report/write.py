@@ -20,7 +20,11 @@ from . import tables
 
 
 class Staging:
-    """A private folder inside the output folder; `commit()` moves its files into place."""
+    """A private folder inside the output folder; `commit()` moves its files into place.
+
+    As a context manager it commits when the block ends normally and discards everything when
+    it raises, so no reader ever sees a half-written set of results.
+    """
 
     def __init__(self, out_dir: Path):
         self.out_dir = Path(out_dir)
@@ -29,6 +33,16 @@ class Staging:
             self.path = Path(tempfile.mkdtemp(prefix=".staging-", dir=self.out_dir))
         except OSError as error:
             raise InputError(self.out_dir, f"cannot write results here: {error.strerror}") from None
+
+    def __enter__(self) -> "Staging":
+        return self
+
+    def __exit__(self, kind, error, trace) -> bool:
+        if kind is None:
+            self.written = self.commit()
+        else:
+            self.discard()
+        return False
 
     def file(self, name: str) -> Path:
         path = self.path / name
@@ -131,49 +145,50 @@ def write_pictures(staging: Staging, pictures: list[tuple[str, "np.ndarray"]]) -
         raise InputError(staging.out_dir / "overlays.png", "cannot write")
 
 
-def write_report(result: RunResult, out_dir: str | Path, staging: Staging | None = None) -> list[Path]:
+def write_report(result: RunResult, out_dir: str | Path) -> list[Path]:
     """Write every output file of a run into `out_dir` (see README for what each holds)."""
-    staging = staging or Staging(Path(out_dir))
-    try:
-        config = result.config
-        model, pft = config.model, config.roneld.pft
-        staging.write_text("accuracy.csv", result.accuracy.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
-        comparison = tables.comparison_table(result.accuracy, model, pft)
-        name = {"culane": "CULane", "tusimple": "TuSimple"}.get(result.dataset.name, result.dataset.name)
-        staging.write_text("accuracy.md", f"# Accuracy on {name} ({model})\n\n" + comparison.to_markdown())
-        staging.write_text("accuracy.tex", comparison.to_latex(
-            f"Accuracy on {name} with {model} probability maps; Acc. Inc. is RONELD's increase, "
-            f"in bold relative to the method it improves on.", f"tab:accuracy-{result.dataset.name}"))
-        ablation = tables.ablation_table(result.accuracy, result.dataset.name)
-        if ablation is not None:
-            staging.write_text("ablation.md", f"# RONELD with and without PFT ({model})\n\n" + ablation.to_markdown())
-            staging.write_text("ablation.tex", ablation.to_latex(
-                f"Accuracy of {model} + RONELD with and without preceding frame tracking (PFT).",
-                f"tab:pft-{result.dataset.name}"))
-        staging.write_text("runtime.csv", result.runtime.to_csv(index=False, float_format="%.4f", lineterminator="\n"))
-        staging.write_text("runtime.md", f"# Runtime per frame ({model})\n\n" + tables.runtime_table(
-            result.runtime, model, pft).to_markdown())
-        staging.write_text("per_frame.csv", result.per_frame.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
-        staging.write_text("official.csv", result.official.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
-        staging.write_text("config.toml", config.to_toml())
-        staging.write_text("summary.json", json.dumps(summary(result), indent=2) + "\n")
-        from .plots import accuracy_figure, save_figure  # matplotlib: imported only to draw
+    with Staging(Path(out_dir)) as staging:
+        stage_report(result, staging)
+    return staging.written
 
-        figure = accuracy_figure(result.accuracy, model, result.dataset.name, pft)
-        save_figure(figure, staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg"))
-        if result.dataset.categories:
-            from ..metrics.sweep import category_accuracy
-            from .plots import category_figure
 
-            threshold = config.official.iou_threshold
-            label = f"{threshold:g}"
-            by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
-            staging.write_text("categories.csv", by_category.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
-            save_figure(category_figure(by_category, result.official, model, label, pft), staging.file("categories.png"))
-        from .html import build_html
+def stage_report(result: RunResult, staging: Staging) -> None:
+    """Write the report's files into a staging folder (they appear on its commit)."""
+    config = result.config
+    model, pft = config.model, config.roneld.pft
+    staging.write_text("accuracy.csv", result.accuracy.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
+    comparison = tables.comparison_table(result.accuracy, model, pft)
+    name = {"culane": "CULane", "tusimple": "TuSimple"}.get(result.dataset.name, result.dataset.name)
+    staging.write_text("accuracy.md", f"# Accuracy on {name} ({model})\n\n" + comparison.to_markdown())
+    staging.write_text("accuracy.tex", comparison.to_latex(
+        f"Accuracy on {name} with {model} probability maps; Acc. Inc. is RONELD's increase, "
+        f"in bold relative to the method it improves on.", f"tab:accuracy-{result.dataset.name}"))
+    ablation = tables.ablation_table(result.accuracy, result.dataset.name)
+    if ablation is not None:
+        staging.write_text("ablation.md", f"# RONELD with and without PFT ({model})\n\n" + ablation.to_markdown())
+        staging.write_text("ablation.tex", ablation.to_latex(
+            f"Accuracy of {model} + RONELD with and without preceding frame tracking (PFT).",
+            f"tab:pft-{result.dataset.name}"))
+    staging.write_text("runtime.csv", result.runtime.to_csv(index=False, float_format="%.4f", lineterminator="\n"))
+    staging.write_text("runtime.md", f"# Runtime per frame ({model})\n\n" + tables.runtime_table(
+        result.runtime, model, pft).to_markdown())
+    staging.write_text("per_frame.csv", result.per_frame.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
+    staging.write_text("official.csv", result.official.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
+    staging.write_text("config.toml", config.to_toml())
+    staging.write_text("summary.json", json.dumps(summary(result), indent=2) + "\n")
+    from .plots import accuracy_figure, save_figure  # matplotlib: imported only to draw
 
-        staging.write_text("report.html", build_html(staging.path))
-    except BaseException:
-        staging.discard()
-        raise
-    return staging.commit()
+    figure = accuracy_figure(result.accuracy, model, result.dataset.name, pft)
+    save_figure(figure, staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg"))
+    if result.dataset.categories:
+        from ..metrics.sweep import category_accuracy
+        from .plots import category_figure
+
+        threshold = config.official.iou_threshold
+        by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
+        staging.write_text("categories.csv", by_category.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
+        save_figure(category_figure(by_category, result.official, model, f"{threshold:g}", pft),
+                    staging.file("categories.png"))
+    from .html import build_html
+
+    staging.write_text("report.html", build_html(staging.path))
