@@ -270,10 +270,11 @@ __all__ = ["run", "show", "score_culane", "score_tusimple", "synthesize", "fixtu
 
 def frame_pictures(config: EvalConfig, dataset, frames: Sequence[str], methods: Sequence[str]):
     """(relpath, picture) for each frame: its clip is evaluated again up to it (RONELD's state)."""
-    import cv2
-
     from dataclasses import replace
 
+    import cv2
+
+    from .datasets import load_labels
     from .evaluation import RunContext, evaluate_clip
     from .maps import load_maps
     from .metrics.paper import ego_lanes
@@ -284,6 +285,8 @@ def frame_pictures(config: EvalConfig, dataset, frames: Sequence[str], methods: 
     missing = [f for f in wanted if f not in clip_of]
     if missing:
         raise InputError(dataset.source_file, f"frame {missing[0]} is not in this run's dataset")
+    labelled = {clip.clip_id: load_labels(dataset, clip) for clip in {clip_of[f].clip_id: clip_of[f] for f in wanted}.values()}
+    clip_of = {f: labelled[clip_of[f].clip_id] for f in wanted}
     methods = [m for m in methods if m in config.methods] or list(config.methods)
     run_config = config.with_overrides(save_lanes=True, methods=tuple(methods), pft_ablation=False)
     context = RunContext(run_config, dataset.name, dataset.image_width, dataset.image_height, Path(config.maps.root))

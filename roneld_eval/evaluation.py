@@ -27,6 +27,7 @@ import pandas as pd
 from . import __version__
 from .config import EvalConfig, parse_thresholds
 from .datasets import read_dataset
+from .datasets.culane import with_labels
 from .errors import ConfigError, InputError, RunInterrupted
 from .extract import warm_up
 from .extract.baseline import baseline_lanes, sample_rows
@@ -87,6 +88,7 @@ class RunContext:
     image_width: int
     image_height: int
     maps_root: Path
+    labels_root: Path | None = None  # CULane root when clips come without their labels
 
 
 @dataclass
@@ -120,6 +122,11 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
     """Run every method over one clip in frame order and score its labelled frames."""
     config = context.config
     result = ClipResult(clip_id=clip.clip_id, n_frames=len(clip.frames))
+    if context.labels_root is not None:
+        errors: list[InputError] | None = [] if config.on_error == "skip" else None
+        clip = with_labels(clip, context.labels_root, errors)
+        result.skipped += [f"{error} (labels skipped)" for error in errors or ()]
+        result.n_frames = len(clip.frames)
     methods = config.methods
     result.extract_ms = {method: [] for method in methods}
     trackers = {}
@@ -357,8 +364,9 @@ def evaluate(
     skipped: list[str] = []
     if dataset is None:
         errors: list[InputError] | None = [] if config.on_error == "skip" else None
+        # CULane labels are read by the workers, clip by clip, in parallel.
         dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
-                               config.dataset.limit, errors)
+                               config.dataset.limit, errors, labels=False)
         skipped += [f"{error} (labels skipped)" for error in errors or ()]
     if (dataset.image_width, dataset.image_height) != (config.dataset.image_width, config.dataset.image_height):
         raise ConfigError(
@@ -377,7 +385,8 @@ def evaluate(
             skipped.append(f"{clip_id}: maps missing for {len(paths)} frames, first {paths[0]} (clip skipped)")
         clips = [clip for clip in clips if clip.clip_id not in by_clip]
 
-    context = RunContext(config, dataset.name, dataset.image_width, dataset.image_height, maps_root)
+    context = RunContext(config, dataset.name, dataset.image_width, dataset.image_height, maps_root,
+                         None if dataset.labels_loaded else dataset.root)
     workers = min(config.workers or default_workers(), max(len(clips), 1))
     outcomes: list[FrameOutcome] = []
     extract_ms = {method: [] for method in config.methods}

@@ -114,6 +114,9 @@ class Dataset:
     # category name -> relpaths of the frames it holds (CULane's test_split lists)
     categories: Mapping[str, frozenset[str]] = field(default_factory=dict)
     source_file: Path | None = None
+    # False when frames do not carry their lanes yet (CULane read with labels=False: each
+    # clip's labels are read where the clip is evaluated).
+    labels_loaded: bool = True
 
     @property
     def n_frames(self) -> int:

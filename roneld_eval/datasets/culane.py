@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import posixpath
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -69,12 +70,36 @@ def check_inside(lanes, path, width: int, height: int) -> None:
             raise InputError(path, f"point ({x:g}, {y:g}) lies far outside the {width}x{height} image", line=number)
 
 
+def read_frame_labels(root: Path, relpath: str):
+    """A frame's ground-truth lanes from the `.lines.txt` beside its image (none if absent)."""
+    path = labels_path(root, relpath)
+    lanes = read_culane_lines(path)
+    check_inside(lanes, path, IMAGE_WIDTH, IMAGE_HEIGHT)
+    return lanes
+
+
+def with_labels(clip: Clip, root: Path, errors: list[InputError] | None = None) -> Clip:
+    """The clip with its frames' labels read (frames with bad labels left out when collecting errors)."""
+    frames = []
+    for frame in clip.frames:
+        try:
+            lanes = read_frame_labels(Path(root), frame.relpath)
+        except InputError as error:
+            if errors is None:
+                raise
+            errors.append(error)
+            continue
+        frames.append(replace(frame, lanes=lanes))
+    return replace(clip, frames=tuple(frames))
+
+
 def read_culane(root: str | Path, list_file: str | Path | None = None, limit: int | None = None,
-                errors: list[InputError] | None = None) -> Dataset:
+                errors: list[InputError] | None = None, labels: bool = True) -> Dataset:
     """Read a CULane tree into clips of frames with their ground-truth lanes.
 
     With an `errors` list, a frame whose labels are bad is left out and its error appended;
-    without one, the first bad file raises.
+    without one, the first bad file raises. With `labels=False` only the list is read and
+    `with_labels` reads each clip's labels later (a run's workers do, in parallel).
     """
     root = Path(root)
     if not root.is_dir():
@@ -99,19 +124,11 @@ def read_culane(root: str | Path, list_file: str | Path | None = None, limit: in
     clips = []
     for clip_id in clip_ids:
         frames = []
-        for relpath in sorted(by_clip[clip_id], key=frame_sort_key):
-            path = labels_path(root, relpath)
-            try:
-                lanes = read_culane_lines(path)
-                check_inside(lanes, path, IMAGE_WIDTH, IMAGE_HEIGHT)
-            except InputError as error:
-                if errors is None:
-                    raise
-                errors.append(error)
-                continue
-            frames.append(Frame(relpath=relpath, lanes=lanes, labelled=True))
-        if frames:
-            clips.append(Clip(clip_id=clip_id, frames=tuple(frames)))
+        clip = Clip(clip_id, tuple(Frame(relpath=relpath) for relpath in sorted(by_clip[clip_id], key=frame_sort_key)))
+        if labels:
+            clip = with_labels(clip, root, errors)
+        if clip.frames:
+            clips.append(clip)
 
     return Dataset(
         name="culane",
@@ -121,4 +138,5 @@ def read_culane(root: str | Path, list_file: str | Path | None = None, limit: in
         clips=tuple(clips),
         categories=read_categories(root),
         source_file=list_path,
+        labels_loaded=labels,
     )
