@@ -22,13 +22,17 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from .config import DEFAULT_PRESETS, EvalConfig, IMAGE_SIZES, parse_thresholds
-from .datasets import read_culane
 from . import __version__
+from .config import DEFAULT_PRESETS, IMAGE_SIZES, EvalConfig, parse_thresholds
+from .datasets import read_culane
 from .errors import ConfigError, InputError, RunInterrupted
 from .evaluation import ClipResult, RunResult, default_workers, evaluate
 from .lanes_io import read_culane_lines
-from .metrics.culane_official import CulaneFrameResult, category_table, evaluate_culane_frame
+from .metrics.culane_official import (
+    CulaneFrameResult,
+    category_table,
+    evaluate_culane_frame,
+)
 from .metrics.tusimple_official import TusimpleScore, score_tusimple_files
 from .model import Frame
 from .report.write import LaneWriter, Staging, stage_report

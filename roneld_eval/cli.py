@@ -12,7 +12,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .config import DEFAULT_PRESETS, EvalConfig, MAP_FORMATS, METHODS, preset_names
+from .config import DEFAULT_PRESETS, MAP_FORMATS, METHODS, EvalConfig, preset_names
 from .errors import ConfigError, RoneldEvalError
 
 
@@ -239,9 +239,9 @@ def score_tusimple_command(labels, pred, out, quiet, debug):
 @debug_option
 def synth(dataset, out, clips, frames, seed, maps_format, debug):
     """Generate a small realistic dataset with SCNN-like maps (4 channels, 288x800)."""
-    from . import api
-
     from tqdm import tqdm
+
+    from . import api
 
     total = clips * (frames or (12 if dataset == "culane" else 20))
     with tqdm(total=total, unit="frame", desc="generating", disable=total < 200) as bar:

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-from concurrent.futures import Future, ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 import platform
 import sys
 import threading
 import time
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator, Protocol, Sequence
@@ -35,14 +35,13 @@ from .extract.roneld import RoneldTracker
 from .geometry import MapGeometry
 from .lanes_io import sample_lane_at_rows, tusimple_xs
 from .maps import load_maps, required_paths
+from .metrics.bootstrap import paired_bootstrap
 from .metrics.culane_official import (
-    CulaneFrameResult,
     category_table,
     evaluate_culane_frame,
     official_masks,
 )
 from .metrics.paper import ego_lanes, ego_masks, side_ious
-from .metrics.bootstrap import paired_bootstrap
 from .metrics.sweep import sweep_accuracy
 from .metrics.tusimple_official import bench_frame, mean_scores
 from .model import Clip, Dataset, Frame, FrameMaps, Lane

@@ -62,7 +62,7 @@ def test_synth_is_byte_identical_for_a_seed(dataset, maps_format, tmp_path):
     args = ["synth", "--dataset", dataset, "--clips", "2", "--frames", "3", "--seed", "7", "--maps-format", maps_format]
     first = CliRunner().invoke(main, args + ["--out", str(tmp_path / "a")])
     second = CliRunner().invoke(main, args + ["--out", str(tmp_path / "b")])
-    assert first.exit_code == 0 and "roneld-eval run --dataset" in first.output
+    assert first.exit_code == 0 and second.exit_code == 0 and "roneld-eval run --dataset" in first.output
     assert _digest(tmp_path / "a") == _digest(tmp_path / "b")
     other = CliRunner().invoke(main, ["synth", "--dataset", dataset, "--clips", "2", "--frames", "3", "--seed", "8",
                                       "--maps-format", maps_format, "--out", str(tmp_path / "c")])

@@ -2,7 +2,13 @@
 
 import pytest
 
-from roneld_eval.config import EvalConfig, PaperMetricParams, parse_rows, parse_thresholds, preset_names
+from roneld_eval.config import (
+    EvalConfig,
+    PaperMetricParams,
+    parse_rows,
+    parse_thresholds,
+    preset_names,
+)
 from roneld_eval.errors import ConfigError
 
 

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from conftest import clip_frames, lane_map
+
 from roneld_eval.config import BaselineParams, MapsConfig, RoneldParams
 from roneld_eval.extract import RoneldTracker, baseline_lanes, sample_rows
 from roneld_eval.geometry import MapGeometry

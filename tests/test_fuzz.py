@@ -9,7 +9,11 @@ from hypothesis import strategies as st
 from roneld_eval.config import MapsConfig
 from roneld_eval.datasets.culane import read_list_file
 from roneld_eval.errors import InputError
-from roneld_eval.lanes_io import parse_culane_lines, read_culane_lines, read_tusimple_records
+from roneld_eval.lanes_io import (
+    parse_culane_lines,
+    read_culane_lines,
+    read_tusimple_records,
+)
 from roneld_eval.maps import load_maps
 
 FUZZ = settings(max_examples=150, deadline=None, derandomize=True,

@@ -4,12 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from conftest import lane_map
 from scipy import integrate
 
-from conftest import lane_map
 from roneld_eval.extract import _kernels as K
 from roneld_eval.extract.roneld import CONSTANTS
-
 
 # ---- obvious versions, written from shared/docs/roneld-method.md ------------------------------
 

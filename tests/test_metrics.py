@@ -6,12 +6,17 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-
 from conftest import GOLDEN
+
 from roneld_eval.config import PaperMetricParams, parse_thresholds
 from roneld_eval.geometry import MapGeometry
 from roneld_eval.lanes_io import parse_culane_lines
-from roneld_eval.metrics.culane_official import category_table, evaluate_culane_frame, f_measure, sum_counts
+from roneld_eval.metrics.culane_official import (
+    category_table,
+    evaluate_culane_frame,
+    f_measure,
+    sum_counts,
+)
 from roneld_eval.metrics.iou import match_lanes
 from roneld_eval.metrics.paper import bottom_x, ego_lanes, ego_masks, side_ious
 from roneld_eval.metrics.sweep import sweep_accuracy

@@ -5,9 +5,9 @@ import json
 
 import numpy as np
 import pytest
+from conftest import GOLDEN
 from scipy.interpolate import CubicSpline
 
-from conftest import GOLDEN
 from roneld_eval.metrics import _kernels as K
 from roneld_eval.metrics.raster import LaneMask, mask_from_pixels, official_mask
 from roneld_eval.model import Lane

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-
 from conftest import REPO
+
 from roneld_eval import api
 from roneld_eval.config import EvalConfig
 from roneld_eval.lanes_io import read_culane_lines

@@ -123,8 +123,8 @@ def read_culane(root: str | Path, list_file: str | Path | None = None, limit: in
         clip_ids = clip_ids[:limit]
     clips = []
     for clip_id in clip_ids:
-        frames = []
-        clip = Clip(clip_id, tuple(Frame(relpath=relpath) for relpath in sorted(by_clip[clip_id], key=frame_sort_key)))
+        ordered = sorted(by_clip[clip_id], key=frame_sort_key)
+        clip = Clip(clip_id, tuple(Frame(relpath=relpath) for relpath in ordered))
         if labels:
             clip = with_labels(clip, root, errors)
         if clip.frames:

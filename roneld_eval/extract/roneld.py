@@ -119,7 +119,9 @@ def lane_outline(xs: np.ndarray, ys: np.ndarray, slope: float, intercept: float,
     the fitted line from the top row down to where it meets the bottom row (or the image side).
     """
     if curve_mode and xs.size > constants.min_curve_points:
-        from scipy.interpolate import make_interp_spline  # rarely needed; scipy.interpolate is slow to import
+        from scipy.interpolate import (
+            make_interp_spline,  # rarely needed; scipy.interpolate is slow to import
+        )
 
         spline = make_interp_spline(ys.astype(np.float64), xs.astype(np.float64), k=2)
         rows = np.arange(ys[0], ys[-1], constants.curve_step_px, dtype=np.float64)

@@ -14,7 +14,6 @@ from ..errors import InputError
 from ..model import FrameMaps
 from ._checks import canonical_existence, canonical_probabilities
 
-
 # The header numpy writes for a C-ordered uint8 array of 3 dimensions; anything else goes
 # through np.load. np.load parses headers with ast.literal_eval, a third of a millisecond
 # per frame, which matters at 400 frames per second.

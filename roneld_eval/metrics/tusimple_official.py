@@ -18,9 +18,9 @@ from typing import Sequence
 
 import numpy as np
 
+from ..datasets._paths import normalise_relpath
 from ..errors import InputError
 from ..lanes_io import read_tusimple_records
-from ..datasets._paths import normalise_relpath
 
 PIXEL_THRESHOLD = 20  # LaneEval.pixel_thresh
 POINT_THRESHOLD = 0.85  # LaneEval.pt_thresh

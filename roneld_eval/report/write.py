@@ -13,9 +13,11 @@ import shutil
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
-from ..lanes_io import format_culane_lines, format_tusimple_record, sample_lane_at_rows
 from ..evaluation import FrameOutcome, RunResult
+from ..lanes_io import format_culane_lines, format_tusimple_record, sample_lane_at_rows
 from . import tables
 
 
@@ -131,7 +133,7 @@ def summary(result: RunResult) -> dict:
     })
 
 
-def write_pictures(staging: Staging, pictures: list[tuple[str, "np.ndarray"]]) -> None:
+def write_pictures(staging: Staging, pictures: list[tuple[str, np.ndarray]]) -> None:
     """overlays/<frame>.png for each picture and overlays.png, the contact sheet."""
     import cv2
 
