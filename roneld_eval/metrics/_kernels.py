@@ -539,6 +539,17 @@ def overlap(ax0, ay0, a, bx0, by0, b):
 
 
 @njit(cache=True, nogil=True)
+def rasterise_with_area(xs, ys, thickness, width, height, extras, extra_counts, crescents, crescent_counts):
+    """rasterise(), plus the number of pixels set: (x0, y0, canvas, area)."""
+    x0, y0, canvas = rasterise(xs, ys, thickness, width, height, extras, extra_counts, crescents, crescent_counts)
+    area = 0
+    for y in range(canvas.shape[0]):
+        for x in range(canvas.shape[1]):
+            area += canvas[y, x]
+    return x0, y0, canvas, area
+
+
+@njit(cache=True, nogil=True)
 def _round_float32(value):
     """cvRound of a float32 (given as a float64 holding it): half to even, INT_MIN when out of range."""
     if not np.isfinite(value) or value >= 2.0**31 or value < -(2.0**31):
@@ -567,12 +578,7 @@ def official_lane(points, width, height, thickness, extras, extra_counts, cresce
     for i in range(m):
         px[i] = _round_float32(np.float64(np.float32(xs[i])))
         py[i] = _round_float32(np.float64(np.float32(ys[i])))
-    x0, y0, canvas = rasterise(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts)
-    area = 0
-    for y in range(canvas.shape[0]):
-        for x in range(canvas.shape[1]):
-            area += canvas[y, x]
-    return x0, y0, canvas, area
+    return rasterise_with_area(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -604,10 +610,5 @@ def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, wi
         px[count] = np.int64(min(max(x, -limit), limit))
         py[count] = np.int64(min(max(y, -limit), limit))
         count += 1
-    x0, y0, canvas = rasterise(px[:count], py[:count], thickness, width, height, extras, extra_counts, crescents,
+    return rasterise_with_area(px[:count], py[:count], thickness, width, height, extras, extra_counts, crescents,
                                crescent_counts)
-    area = 0
-    for y in range(canvas.shape[0]):
-        for x in range(canvas.shape[1]):
-            area += canvas[y, x]
-    return x0, y0, canvas, area

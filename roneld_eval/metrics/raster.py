@@ -54,12 +54,11 @@ def _quad_extras(thickness: int) -> tuple[np.ndarray, np.ndarray]:
 def mask_from_pixels(xs: np.ndarray, ys: np.ndarray, thickness: int, width: int, height: int) -> LaneMask:
     """Rasterise integer polyline vertices."""
     thickness = int(thickness)
-    x0, y0, pixels = _kernels.rasterise(
+    x0, y0, pixels, area = _kernels.rasterise_with_area(
         np.ascontiguousarray(xs, np.int64), np.ascontiguousarray(ys, np.int64), thickness, int(width), int(height),
         *_quad_extras(thickness),
     )
-    area = int(np.count_nonzero(pixels)) if pixels.size else 0
-    return LaneMask(int(x0), int(y0), pixels, area)
+    return LaneMask(int(x0), int(y0), pixels, int(area))
 
 
 def official_mask(lane: Lane, width: int, height: int, thickness: int) -> LaneMask | None:
