@@ -63,6 +63,10 @@ class FrameOutcome:
     lanes: tuple[Lane, ...]
     active: tuple[Lane | None, Lane | None] = (None, None)  # the scored left and right lanes
 
+    def without_lanes(self) -> "FrameOutcome":
+        """The scores alone: what the main process keeps once lanes are written (or not wanted)."""
+        return replace(self, lanes=(), active=(None, None))
+
 
 @dataclass
 class ClipResult:
@@ -180,7 +184,7 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
             result.outcomes.extend(_score_frame(frame, predictions, geometry, context))
     if not config.save_lanes:
         # Lanes only travel back to the main process when they are to be written.
-        result.outcomes = [FrameOutcome(o.relpath, o.method, o.ious, o.official, ()) for o in result.outcomes]
+        result.outcomes = [outcome.without_lanes() for outcome in result.outcomes]
     return result
 
 
@@ -406,7 +410,7 @@ def evaluate(
             for outcome in result.outcomes:
                 if lane_sink is not None:
                     lane_sink(outcome)
-                outcomes.append(FrameOutcome(outcome.relpath, outcome.method, outcome.ious, outcome.official, ()))
+                outcomes.append(outcome.without_lanes())
             bar.update(sizes[result.clip_id])
     finally:
         bar.close()
