@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import multiprocessing
 import os
 import pickle
 import shutil
-import sys
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -26,7 +25,7 @@ from . import __version__
 from .config import DEFAULT_PRESETS, IMAGE_SIZES, EvalConfig, parse_thresholds
 from .datasets import read_culane
 from .errors import ConfigError, InputError, RunInterrupted
-from .evaluation import ClipResult, RunResult, default_workers, evaluate
+from .evaluation import ClipResult, RunResult, default_workers, evaluate, process_pool
 from .lanes_io import read_culane_lines
 from .metrics.culane_official import (
     CulaneFrameResult,
@@ -223,21 +222,18 @@ def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | 
 
     results: dict[str, CulaneFrameResult] = {}
     with tqdm(total=len(frames), unit="frame", desc="scoring", disable=not progress) as bar:
-        if workers <= 1:
-            pieces = map(_score_frames, tasks)
-            pool = None
-        else:
-            method = "fork" if sys.platform == "linux" else "spawn"
-            pool = multiprocessing.get_context(method).Pool(workers)
-            pieces = pool.imap(_score_frames, tasks)
+        pool = process_pool(workers) if workers > 1 else None
+        pieces = pool.map(_score_frames, tasks) if pool is not None else map(_score_frames, tasks)
         try:
             for piece in pieces:
                 results.update(piece)
                 bar.update(len(piece))
+        except BrokenProcessPool:
+            raise RunInterrupted("a worker process died (killed, or out of memory) while scoring: "
+                                 "no result was written") from None
         finally:
             if pool is not None:
-                pool.close()
-                pool.join()
+                pool.shutdown(wait=False, cancel_futures=True)
     sweep = []
     for label, value in zip(thresholds.labels, thresholds.values):
         table = category_table(results, dataset.categories, value)

@@ -246,6 +246,13 @@ class ClipCache(Protocol):
     def store(self, result: ClipResult) -> None: ...
 
 
+def process_pool(workers: int, **options) -> ProcessPoolExecutor:
+    """Worker processes (forked where the platform allows). Unlike multiprocessing.Pool, a
+    worker that dies makes its pending results raise BrokenProcessPool instead of hanging."""
+    method = "fork" if sys.platform == "linux" else "spawn"
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method), **options)
+
+
 def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
                   cache: ClipCache | None = None) -> Iterator[ClipResult]:
     """Results in clip order: cached ones, then from `workers` processes (in-process for 1).
@@ -271,9 +278,7 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
                     cache.store(result)
             yield result
         return
-    method = "fork" if sys.platform == "linux" else "spawn"
-    executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method),
-                                   initializer=_init_worker, initargs=(context,))
+    executor = process_pool(workers, initializer=_init_worker, initargs=(context,))
     futures: dict[int, Future] = {}
     queue = iter(todo)
     plotting = False

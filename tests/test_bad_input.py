@@ -306,3 +306,22 @@ def test_same_numbers_on_every_run(sets, tmp_path):
     api.run(_config(root, workers=1), tmp_path / "b", progress=False)
     for name in ("accuracy.csv", "per_frame.csv", "official.csv", "config.toml"):
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes() or name == "config.toml"
+
+
+def test_a_killed_worker_ends_scoring_clearly(tmp_path, monkeypatch):
+    from roneld_eval.synth import synth_lane_files
+
+    gt, pred = synth_lane_files(tmp_path / "lanes", frames=450, seed=1)
+    original = api.evaluate_culane_frame
+    parent = os.getpid()
+
+    def dying(*args, **kwargs):
+        if os.getpid() != parent:
+            os._exit(9)  # as if killed
+        return original(*args, **kwargs)
+
+    # Workers are forked, so they see the patched name that _score_frames looks up.
+    monkeypatch.setattr(api, "evaluate_culane_frame", dying)
+    with pytest.raises(RunInterrupted, match="worker process died .* while scoring"):
+        api.score_culane(gt, pred, workers=2, out=tmp_path / "out")
+    assert not (tmp_path / "out" / "official.csv").exists()
