@@ -1,14 +1,21 @@
 """The evaluation configuration: one frozen tree, read from TOML presets and overridden by the CLI.
 
 Every constant of a protocol lives here with the official value as its default and its
-source in a comment. Stages receive only their own part. `EvalConfig.to_dict()` is what
-`summary.json` records, and `to_toml()` writes a file `--config` reads back.
+source in a comment, and every number has a range (RANGES). Presets, TOML files, `--set`
+(`parse_setting`) and the library all build the same dataclasses, which check types and
+ranges when built, so a bad value is one ConfigError wherever it comes from. Stages receive
+only their own part. `EvalConfig.to_dict()` is what `summary.json` records, and `to_toml()`
+writes a file `--config` reads back to an equal configuration.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
+import numbers
+import os
+import stat
 import sys
 from dataclasses import dataclass, field, fields, replace
 from decimal import Decimal, InvalidOperation
@@ -35,6 +42,145 @@ DEFAULT_PRESETS = {"culane": "scnn-culane", "tusimple": "scnn-tusimple"}
 
 
 @dataclass(frozen=True)
+class Range:
+    """The documented range of a numeric setting: low and high, each included unless open."""
+
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    high_open: bool = False
+
+    def __contains__(self, value) -> bool:
+        if self.low is not None and (value <= self.low if self.low_open else value < self.low):
+            return False
+        if self.high is not None and (value >= self.high if self.high_open else value > self.high):
+            return False
+        return True
+
+    def __str__(self) -> str:
+        if self.high is None:
+            return f"{'>' if self.low_open else '>='} {self.low:g}"
+        return f"in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
+
+
+# The range of every numeric setting, checked the same way for presets, TOML files, `--set`
+# and the library (each dataclass checks its fields when built). Sources of the defaults are
+# beside the fields; the bounds keep a typo from running for hours or drawing nonsense.
+RANGES: dict[str, Range] = {
+    "dataset.image_width": Range(1, 100_000),
+    "dataset.image_height": Range(1, 100_000),
+    "dataset.limit": Range(1),  # clips
+    "maps.width": Range(1, 10_000),  # reference map size in pixels (maps of another size rescale)
+    "maps.height": Range(1, 10_000),
+    "maps.crop_top_px": Range(0, 100_000),  # also: inside the image, above crop_bottom_px
+    "maps.crop_bottom_px": Range(1, 100_000),
+    "maps.lane_channels": Range(1, 32),
+    "baseline.threshold": Range(0, 1, high_open=True),  # probability a row maximum must exceed
+    "baseline.min_points": Range(2, 10_000),  # a lane needs two points to be a line
+    "baseline.existence_threshold": Range(0, 1),
+    "roneld.center_ratio": Range(0, 1, low_open=True, high_open=True),
+    "roneld.lane_ratio": Range(0, 1, high_open=True),
+    "paper.gt_thickness_px": Range(1, 1000),
+    "paper.pred_thickness_px": Range(1, 1000),
+    "official.iou_threshold": Range(0, 1, high_open=True),  # TP when IoU > threshold
+    "official.lane_width_px": Range(1, 1000),
+    "workers": Range(1, 1024),
+}
+# IoU thresholds (paper.thresholds, `score --iou`): at most this many in a sweep, each with at
+# most this many decimals (a sweep costs one array comparison per threshold).
+MAX_THRESHOLDS = 1000
+MAX_THRESHOLD_DECIMALS = 12
+
+# Settings that no longer exist, with what to write instead.
+REMOVED_SETTINGS = {
+    "roneld.pft": (
+        "roneld.pft was removed: preceding-frame tracking is chosen by the method; use "
+        'methods = ["baseline", "roneld-nopft"] to run RONELD without it, or add "roneld-nopft" '
+        'beside "roneld" (pft_ablation = true) for the ablation'
+    ),
+}
+
+
+def _qualified(section: str, name: str) -> str:
+    return f"{section}.{name}" if section else name
+
+
+def _typed(qualified: str, annotation: str, value: Any) -> Any:
+    """`value` as the field's type wants it (ints stay ints, numbers become floats), or ConfigError."""
+    optional = "None" in annotation
+    base = annotation.split("|")[0].strip()
+    if value is None:
+        if optional:
+            return None
+        raise ConfigError(f"{qualified} needs a value")
+    if base.startswith("tuple"):
+        if isinstance(value, str):
+            value = [part.strip() for part in value.split(",") if part.strip()]
+        if not isinstance(value, (list, tuple)) or not all(isinstance(item, str) for item in value):
+            raise ConfigError(f"{qualified} must be a list of names or a comma-separated string, got {value!r}")
+        return tuple(_checked_text(qualified, item) for item in value)
+    if base == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(f"{qualified} must be true or false, got {value!r}")
+        return value
+    if base == "int":
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            raise ConfigError(f"{qualified} must be an integer, got {_shown(value)}")
+        value = int(value)
+    elif base == "float":
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ConfigError(f"{qualified} must be a number, got {_shown(value)}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ConfigError(f"{qualified} must be a finite number, got {value}")
+    elif base == "str":
+        if isinstance(value, os.PathLike):
+            value = os.fspath(value)
+        if not isinstance(value, str):
+            hint = f' (write it in quotes: "{value}")' if isinstance(value, (int, float)) else ""
+            raise ConfigError(f"{qualified} must be a string, got {_shown(value)}{hint}")
+        return _checked_text(qualified, value)
+    else:  # pragma: no cover - every field type is handled above
+        return value
+    limits = RANGES.get(qualified)
+    if limits is not None and value not in limits:
+        raise ConfigError(f"{qualified} must be {limits}, got {value if isinstance(value, int) else f'{value:g}'}")
+    return value
+
+
+def _shown(value: Any) -> str:
+    return f"the text {value!r}" if isinstance(value, str) else repr(value)
+
+
+def _checked_text(qualified: str, text: str) -> str:
+    """Text config.toml can hold and a path can carry: valid Unicode, no NUL character."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise ConfigError(
+            f"{qualified} is not valid Unicode text (a name that is not UTF-8: {text!a}); "
+            "rename it, or run under a UTF-8 locale such as LC_ALL=C.UTF-8"
+        ) from None
+    if "\0" in text:
+        raise ConfigError(f"{qualified} holds a NUL character: {text!a}")
+    return text
+
+
+def _check_fields(record, section: str) -> None:
+    """Type- and range-check every field of a config dataclass in place (normalised: 1 -> 1.0)."""
+    for item in fields(record):
+        section_type = _SECTION_TYPES.get(item.name) if not section else None
+        value = getattr(record, item.name)
+        if section_type is not None:
+            if not isinstance(value, section_type):
+                raise ConfigError(f"[{item.name}] must be a {section_type.__name__}, got {value!r}")
+            continue
+        checked = _typed(_qualified(section, item.name), str(item.type), value)
+        if checked is not value:
+            object.__setattr__(record, item.name, checked)
+
+
+@dataclass(frozen=True)
 class DatasetConfig:
     """Which benchmark, where it lies, and how much of it to read."""
 
@@ -48,10 +194,9 @@ class DatasetConfig:
     limit: int | None = None  # at most this many clips, in dataset order
 
     def __post_init__(self):
+        _check_fields(self, "dataset")
         if self.name not in DATASETS:
             raise ConfigError(f"dataset must be one of {', '.join(DATASETS)}, got {self.name!r}")
-        if self.limit is not None and self.limit < 1:
-            raise ConfigError(f"limit must be at least 1, got {self.limit}")
 
 
 @dataclass(frozen=True)
@@ -69,10 +214,9 @@ class MapsConfig:
     npz_key: str = "probs"  # .npz: array name of the maps; optional "exist" beside it
 
     def __post_init__(self):
+        _check_fields(self, "maps")
         if self.format not in MAP_FORMATS:
             raise ConfigError(f"maps format must be one of {', '.join(MAP_FORMATS)}, got {self.format!r}")
-        if self.lane_channels < 1:
-            raise ConfigError(f"lane_channels must be at least 1, got {self.lane_channels}")
 
 
 @dataclass(frozen=True)
@@ -87,24 +231,23 @@ class BaselineParams:
     existence_threshold: float = 0.5  # main.m keeps channels whose exist flag is 1
 
     def __post_init__(self):
+        _check_fields(self, "baseline")
         parse_rows(self.rows)
-        if not 0 <= self.threshold < 1:
-            raise ConfigError(f"baseline threshold must be in [0, 1), got {self.threshold}")
 
 
 @dataclass(frozen=True)
 class RoneldParams:
-    """RONELD's camera constants and the PFT switch (czming/RONELD-Lane-Detection)."""
+    """RONELD's camera constants (czming/RONELD-Lane-Detection).
+
+    Preceding-frame tracking is not a parameter: the method chooses it ('roneld' tracks,
+    'roneld-nopft' does not).
+    """
 
     center_ratio: float = 0.5  # vehicle centre column / map width
     lane_ratio: float = 0.0  # horizon height / map height from the bottom (TuSimple: 0.6)
-    pft: bool = True  # preceding-frame tracking
 
     def __post_init__(self):
-        if not 0 < self.center_ratio < 1:
-            raise ConfigError(f"center_ratio must be in (0, 1), got {self.center_ratio}")
-        if not 0 <= self.lane_ratio < 1:
-            raise ConfigError(f"lane_ratio must be in [0, 1), got {self.lane_ratio}")
+        _check_fields(self, "roneld")
 
 
 @dataclass(frozen=True)
@@ -123,6 +266,7 @@ class PaperMetricParams:
     thresholds: str = "0.30:0.50:0.01"
 
     def __post_init__(self):
+        _check_fields(self, "paper")
         if self.thickness_rule not in ("width", "height"):
             raise ConfigError(f"thickness_rule must be 'width' or 'height', got {self.thickness_rule!r}")
         if self.prediction_rounding not in ("nearest", "truncate"):
@@ -147,6 +291,9 @@ class OfficialParams:
     iou_threshold: float = 0.5  # Run.sh: iou=0.5
     lane_width_px: int = 30  # Run.sh: w_lane=30
 
+    def __post_init__(self):
+        _check_fields(self, "official")
+
 
 @dataclass(frozen=True)
 class EvalConfig:
@@ -159,14 +306,16 @@ class EvalConfig:
     roneld: RoneldParams = field(default_factory=RoneldParams)
     paper: PaperMetricParams = field(default_factory=PaperMetricParams)
     official: OfficialParams = field(default_factory=OfficialParams)
+    # "roneld" runs RONELD with preceding-frame tracking, "roneld-nopft" without: the only PFT switch.
     methods: tuple[str, ...] = ("baseline", "roneld")
-    pft_ablation: bool = False
+    pft_ablation: bool = False  # only adds "roneld-nopft" to the methods
     workers: int | None = None  # None: all cores
     save_lanes: bool = False
     on_error: str = "fail"
 
     def __post_init__(self):
-        methods = tuple(self.methods)
+        _check_fields(self, "")
+        methods = self.methods
         if self.pft_ablation and "roneld-nopft" not in methods:
             methods = methods + ("roneld-nopft",)
         object.__setattr__(self, "methods", methods)
@@ -177,14 +326,18 @@ class EvalConfig:
                 raise ConfigError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
         if len(set(methods)) != len(methods):
             raise ConfigError(f"a method is listed twice: {', '.join(methods)}")
-        if self.workers is not None and self.workers < 1:
-            raise ConfigError(f"workers must be at least 1, got {self.workers}")
         if self.on_error not in ON_ERROR:
             raise ConfigError(f"on_error must be one of {', '.join(ON_ERROR)}, got {self.on_error!r}")
         crop_bottom = self.maps.crop_bottom_px
         if crop_bottom is not None and crop_bottom > self.dataset.image_height:
             raise ConfigError(
                 f"maps crop_bottom_px {crop_bottom} is below the {self.dataset.image_height}-row image"
+            )
+        rows = parse_rows(self.baseline.rows)
+        if rows.stop > self.dataset.image_height:
+            raise ConfigError(
+                f"baseline.rows {self.baseline.rows!r} must lie inside the {self.dataset.image_height}-row "
+                f"image (stop <= {self.dataset.image_height})"
             )
         self.geometry  # validates the crop against the image
 
@@ -204,36 +357,51 @@ class EvalConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "configuration") -> "EvalConfig":
-        """Build from a nested dict as TOML gives it; unknown keys are errors."""
+        """Build from a nested dict as TOML gives it; unknown keys are errors.
+
+        Values are checked as every other way of building a configuration checks them
+        (types and RANGES); a problem names `source`.
+        """
+        if not isinstance(data, dict):
+            raise ConfigError(f"{source}: a configuration must be a table of settings")
         kwargs: dict[str, Any] = {}
-        sections = {f.name: f for f in fields(cls)}
-        for key, value in data.items():
-            if key not in sections:
-                raise ConfigError(f"{source}: unknown key {key!r}")
-            section_type = _SECTION_TYPES.get(key)
-            if section_type is not None:
-                if not isinstance(value, dict):
-                    raise ConfigError(f"{source}: [{key}] must be a table")
-                kwargs[key] = _build_section(section_type, value, f"{source} [{key}]")
-            else:
-                kwargs[key] = _coerce(cls, key, value, source)
+        known = {f.name for f in fields(cls)}
         try:
+            for key, value in data.items():
+                if key not in known:
+                    raise ConfigError(f"unknown key {key!r}")
+                section_type = _SECTION_TYPES.get(key)
+                if section_type is None:
+                    kwargs[key] = value
+                    continue
+                if not isinstance(value, dict):
+                    raise ConfigError(f"[{key}] must be a table")
+                section_known = {f.name for f in fields(section_type)}
+                for name in value:
+                    removed = REMOVED_SETTINGS.get(f"{key}.{name}")
+                    if removed is not None:
+                        raise ConfigError(removed)
+                    if name not in section_known:
+                        raise ConfigError(f"[{key}] unknown key {name!r}")
+                kwargs[key] = section_type(**value)
             return cls(**kwargs)
-        except TypeError as error:  # pragma: no cover - guarded by the checks above
+        except ConfigError as error:
             raise ConfigError(f"{source}: {error}") from None
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "EvalConfig":
         """Read a TOML file (a preset name also works: see `preset_path`)."""
         path = resolve_config_path(path)
+        return cls.from_toml_text(_read_config_text(path), source=str(path))
+
+    @classmethod
+    def from_toml_text(cls, text: str, source: str = "configuration") -> "EvalConfig":
+        """Build from TOML text (what `to_toml` writes)."""
         try:
-            with open(path, "rb") as handle:
-                data = tomllib.load(handle)
+            data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as error:
-            raise ConfigError(f"{path}: not valid TOML: {error}") from None
-        except OSError as error:
-            raise ConfigError(f"{path}: cannot read: {error.strerror}") from None
-        return cls.from_dict(data, source=str(path))
+            raise ConfigError(f"{source}: not valid TOML: {error}") from None
+        return cls.from_dict(data, source=source)
 
     @classmethod
     def preset(cls, name: str) -> "EvalConfig":
@@ -243,23 +411,35 @@ class EvalConfig:
     def with_overrides(self, **overrides: Any) -> "EvalConfig":
         """A copy with dotted-path overrides, e.g. ``**{"dataset.limit": 3, "workers": 2}``.
 
-        None values are ignored, so unset CLI options leave the file's values alone.
+        None values are ignored, so unset CLI options leave the file's values alone. All
+        overrides apply together and the result is checked once (types and RANGES).
         """
-        config = self
+        top: dict[str, Any] = {}
+        sections: dict[str, dict[str, Any]] = {}
         for dotted, value in overrides.items():
             if value is None:
                 continue
-            section, _, name = dotted.rpartition(".")
+            section, name = _setting_field(dotted)[:2]
             if section:
-                current = getattr(config, section)
-                if name not in {f.name for f in fields(current)}:
-                    raise ConfigError(f"unknown setting {dotted!r}")
-                config = replace(config, **{section: replace(current, **{name: value})})
+                sections.setdefault(section, {})[name] = value
             else:
-                if name not in {f.name for f in fields(config)}:
-                    raise ConfigError(f"unknown setting {dotted!r}")
-                config = replace(config, **{name: value})
-        return config
+                top[name] = value
+        changed = {section: replace(getattr(self, section), **values) for section, values in sections.items()}
+        if not top and not changed:
+            return self
+        return replace(self, **changed, **top)
+
+    def without_pft(self) -> "EvalConfig":
+        """The same run with RONELD's preceding-frame tracking off: 'roneld' becomes 'roneld-nopft'."""
+        methods = self.methods
+        if "roneld" in methods and "roneld-nopft" in methods:
+            raise ConfigError(
+                "cannot turn PFT off: the configuration runs RONELD both with and without PFT "
+                "(pft_ablation or methods); drop one of them"
+            )
+        if "roneld" not in methods and "roneld-nopft" not in methods:
+            raise ConfigError(f"cannot turn PFT off: RONELD is not among the methods ({', '.join(methods)})")
+        return replace(self, methods=tuple("roneld-nopft" if m == "roneld" else m for m in methods))
 
     # ---- writing --------------------------------------------------------------------
 
@@ -292,41 +472,74 @@ _SECTION_TYPES = {
 }
 
 
-def _build_section(section_type, values: dict[str, Any], source: str):
-    known = {f.name for f in fields(section_type)}
-    kwargs = {}
-    for key, value in values.items():
-        if key not in known:
-            raise ConfigError(f"{source}: unknown key {key!r}")
-        kwargs[key] = _coerce(section_type, key, value, source)
-    return section_type(**kwargs)
+def _setting_field(dotted: str) -> tuple[str, str, str]:
+    """(section, name, type annotation) of a setting such as 'paper.thresholds' or 'workers'."""
+    if dotted in REMOVED_SETTINGS:
+        raise ConfigError(REMOVED_SETTINGS[dotted])
+    section, _, name = dotted.strip().rpartition(".")
+    if section:
+        owner = _SECTION_TYPES.get(section)
+    else:
+        owner = EvalConfig
+    types = {} if owner is None else {f.name: str(f.type) for f in fields(owner)}
+    if name not in types or (not section and name in _SECTION_TYPES):
+        every = [_qualified(s, f.name) for s, t in _SECTION_TYPES.items() for f in fields(t)]
+        every += [f.name for f in fields(EvalConfig) if f.name not in _SECTION_TYPES]
+        close = difflib.get_close_matches(dotted, every, n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise ConfigError(f"unknown setting {dotted!r}{hint}")
+    return section, name, types[name]
 
 
-def _coerce(owner, key: str, value: Any, source: str) -> Any:
-    """Check a TOML value against the field's annotation (TOML has no None, lists for tuples)."""
-    annotation = str({f.name: f.type for f in fields(owner)}[key])
-    if "tuple" in annotation:
-        if isinstance(value, str):
-            value = [part.strip() for part in value.split(",") if part.strip()]
-        if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"{source}: {key} must be a list")
-        return tuple(value)
-    if annotation.startswith("bool"):
-        if not isinstance(value, bool):
-            raise ConfigError(f"{source}: {key} must be true or false")
-        return value
-    if annotation.startswith("int"):
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{source}: {key} must be an integer")
-        return value
-    if annotation.startswith("float"):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{source}: {key} must be a number")
-        return float(value)
-    if annotation.startswith("str"):
-        if not isinstance(value, str):
-            raise ConfigError(f"{source}: {key} must be a string")
-    return value
+def parse_setting(text: str) -> tuple[str, Any]:
+    """A `--set` value 'section.key=value' -> ('section.key', value typed by the field).
+
+    The value is read as TOML (1, 0.5, true, "x", [..]) where the field is a number, a flag or
+    a list; a text field takes the text as written (0.5 stays '0.5', quotes are removed), and a
+    list also takes comma-separated names (methods=baseline,roneld). The value is then checked
+    exactly as a TOML file's is, when the configuration is built.
+    """
+    key, equals, raw = text.partition("=")
+    key, raw = key.strip(), raw.strip()
+    if not equals or not key:
+        raise ConfigError(f"--set needs SECTION.KEY=VALUE, got {text!r}")
+    _, _, annotation = _setting_field(key)
+    base = annotation.split("|")[0].strip()
+    try:
+        parsed = tomllib.loads(f"v = {raw}")
+        value, understood = parsed.get("v"), len(parsed) == 1 and "v" in parsed
+    except tomllib.TOMLDecodeError:
+        value, understood = None, False
+    if base == "str":
+        return key, value if understood and isinstance(value, str) else raw
+    if base.startswith("tuple"):
+        return key, value if understood and isinstance(value, (str, list)) else raw
+    return key, value if understood else raw
+
+
+def _read_config_text(path: Path) -> str:
+    """A config file's text: a regular UTF-8 file (a BOM is dropped), or one ConfigError line."""
+    try:
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode):
+            raise ConfigError(f"{path}: not a regular file")
+        with open(path, "rb") as handle:
+            data = handle.read()
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read: {error.strerror}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise ConfigError(
+            f"{path}: not UTF-8 text (byte 0x{data[error.start]:02x} at offset {error.start}); save it as UTF-8"
+        ) from None
+    return text[1:] if text.startswith("\ufeff") else text
+
+
+# TOML basic-string escapes: quote, backslash, and every control character.
+_TOML_ESCAPES = {ord('"'): '\\"', ord("\\"): "\\\\", ord("\b"): "\\b", ord("\t"): "\\t", ord("\n"): "\\n",
+                 ord("\f"): "\\f", ord("\r"): "\\r"}
+_TOML_ESCAPES.update({code: f"\\u{code:04X}" for code in [*range(0x20), 0x7F] if code not in _TOML_ESCAPES})
 
 
 def _toml_value(value: Any) -> str:
@@ -336,8 +549,7 @@ def _toml_value(value: Any) -> str:
         return repr(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    text = str(value).replace("\\", "\\\\").replace('"', '\\"')
-    return f'"{text}"'
+    return '"' + str(value).translate(_TOML_ESCAPES) + '"'
 
 
 # ---- presets -------------------------------------------------------------------------
@@ -366,7 +578,7 @@ def preset_path(name: str) -> Path:
 def resolve_config_path(value: str | Path) -> Path:
     """A config file path, or a preset name when no such file exists."""
     path = Path(value)
-    if path.is_file():
+    if os.path.lexists(path):  # read (or refused: a folder, a FIFO) by the caller
         return path
     if path.suffix == "" and str(value) in preset_names():
         return preset_path(str(value))
@@ -379,11 +591,13 @@ def resolve_config_path(value: str | Path) -> Path:
 def parse_rows(spec: str) -> range:
     """Image rows 'start:stop:step' (Python range semantics, 0-based)."""
     try:
-        start, stop, step = (int(part) for part in spec.split(":"))
+        start, stop, step = (int(part) for part in str(spec).split(":"))
     except ValueError:
         raise ConfigError(f"rows must look like 'start:stop:step' with integers, got {spec!r}") from None
     if step <= 0 or start < 0 or stop <= start:
         raise ConfigError(f"rows {spec!r} must have 0 <= start < stop and a positive step")
+    if stop > RANGES["dataset.image_height"].high:
+        raise ConfigError(f"rows {spec!r} go below any image (stop must be at most the image height)")
     return range(start, stop, step)
 
 
@@ -398,36 +612,62 @@ class Thresholds:
         return len(self.values)
 
 
+_THRESHOLD_FORMS = "START:STOP:STEP (e.g. 0.30:0.50:0.01), one number (0.5), or numbers separated by commas"
+
+
+def _threshold_decimal(part: str, spec: str) -> Decimal:
+    """One number of a threshold spec: finite, in [0, 1), at most MAX_THRESHOLD_DECIMALS places."""
+    try:
+        value = Decimal(part.strip())
+    except InvalidOperation:
+        raise ConfigError(f"thresholds {spec!r}: {part.strip()!r} is not a number; write {_THRESHOLD_FORMS}") from None
+    if not value.is_finite():
+        raise ConfigError(f"thresholds {spec!r}: {part.strip()!r} is not a finite number")
+    if -value.as_tuple().exponent > MAX_THRESHOLD_DECIMALS:
+        raise ConfigError(f"thresholds {spec!r}: {part.strip()} has more than {MAX_THRESHOLD_DECIMALS} decimals")
+    return value
+
+
 def parse_thresholds(spec: str) -> Thresholds:
     """'0.30:0.50:0.01' (inclusive) or '0.5' or '0.3,0.5' -> exact decimal thresholds.
 
     Values are built as integer multiples of the step divided last, so 0.30 is the double
-    nearest 0.3, never 0.30000000000000004.
+    nearest 0.3, never 0.30000000000000004. Every value lies in [0, 1); a sweep has a positive
+    step and at most MAX_THRESHOLDS values. Anything else is one ConfigError line.
     """
-    try:
-        if ":" in spec:
-            start, stop, step = (Decimal(part.strip()) for part in spec.split(":"))
-            if step <= 0 or stop < start:
-                raise ConfigError(f"thresholds {spec!r} need start <= stop and a positive step")
-            count = (stop - start) / step
-            if count != count.to_integral_value():
-                raise ConfigError(f"thresholds {spec!r}: the step does not divide stop - start")
-            decimals = [start + step * i for i in range(int(count) + 1)]
-        else:
-            decimals = [Decimal(part.strip()) for part in spec.split(",") if part.strip()]
-    except InvalidOperation:
-        raise ConfigError(f"thresholds must be numbers like '0.30:0.50:0.01', got {spec!r}") from None
+    text = str(spec).strip()
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise ConfigError(f"thresholds {text!r} must be {_THRESHOLD_FORMS}")
+        start, stop, step = (_threshold_decimal(part, text) for part in parts)
+        for value in (start, stop):
+            if not 0 <= value < 1:
+                raise ConfigError(f"IoU thresholds must lie in [0, 1), got {value}")
+        if step <= 0 or stop < start:
+            raise ConfigError(f"thresholds {text!r} need start <= stop and a positive step")
+        count = (stop - start) / step
+        if count + 1 > MAX_THRESHOLDS:
+            raise ConfigError(f"thresholds {text!r} give {int(count) + 1:,} values; at most {MAX_THRESHOLDS:,} are allowed")
+        if count != count.to_integral_value():
+            raise ConfigError(f"thresholds {text!r}: the step does not divide stop - start")
+        decimals = [start + step * i for i in range(int(count) + 1)]
+    else:
+        parts = [part for part in text.split(",") if part.strip()]
+        if len(parts) > MAX_THRESHOLDS:
+            raise ConfigError(f"{len(parts):,} thresholds given; at most {MAX_THRESHOLDS:,} are allowed")
+        decimals = [_threshold_decimal(part, text) for part in parts]
     if not decimals:
-        raise ConfigError("no thresholds given")
-    places = max(max(-d.as_tuple().exponent, 0) for d in decimals)
-    places = max(places, 2)
+        raise ConfigError(f"no thresholds given; write {_THRESHOLD_FORMS}")
     for value in decimals:
         if not 0 <= value < 1:
             raise ConfigError(f"IoU thresholds must lie in [0, 1), got {value}")
+    places = max(max(-d.as_tuple().exponent, 0) for d in decimals)
+    places = max(places, 2)
     labels = tuple(f"{value:.{places}f}" for value in decimals)
     # Exact: a Decimal with few digits converts to the nearest double.
     values = tuple(float(value) for value in decimals)
-    if len(set(labels)) != len(labels):
-        raise ConfigError(f"thresholds {spec!r} repeat a value")
+    if len(set(labels)) != len(labels) or len(set(values)) != len(values):
+        raise ConfigError(f"thresholds {text!r} repeat a value")
     assert all(math.isfinite(v) for v in values)
     return Thresholds(labels=labels, values=values)

@@ -2,14 +2,19 @@
 
 Parsing follows the official tools where they are strict and fails loudly where they are
 silent (the C++ CULane reader stops at the first non-number; we name the file and line).
-Writers produce files the official tools read back to exactly the lanes we scored.
+Writers produce files the official tools read back to exactly the lanes we scored. Every text
+input (config TOML aside: config.py reads it by the same rules) goes through `read_text`:
+regular files only (a FIFO or a device is refused before anything is read), UTF-8 whatever
+the locale, a byte-order mark dropped, and every OSError an InputError naming the file.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import re
+import stat
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -27,20 +32,90 @@ _NUMBER = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?\Z")
 _NOT_NUMERIC = str.maketrans("", "", "0123456789.eE+- \t\r\n")
 
 
-def read_text(path: Path) -> str:
-    """A text file's content, or an InputError saying why it cannot be read."""
+_OPEN_FLAGS = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+
+
+def _not_regular(mode: int) -> str | None:
+    """What a file that is not a regular file is, in words (None for a regular file)."""
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "is a folder, not a file"
+    if stat.S_ISFIFO(mode):
+        return "is a FIFO (named pipe), not a regular file"
+    if stat.S_ISSOCK(mode):
+        return "is a socket, not a regular file"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "is a device, not a regular file"
+    return "is not a regular file"
+
+
+def _os_problem(error: OSError) -> str:
+    if isinstance(error, (FileNotFoundError, NotADirectoryError)):
+        return "file not found"
+    return f"cannot read: {error.strerror or error}"
+
+
+def check_regular_file(path: Path, missing: str = "file not found") -> None:
+    """Refuse, naming the file, anything but a readable regular file (before a library opens it).
+
+    A FIFO or a device is refused without being opened, so it cannot hang a run.
+    """
     try:
-        data = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise InputError(path, "file not found") from None
+        info = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        raise InputError(path, missing) from None
+    except OSError as error:
+        raise InputError(path, _os_problem(error)) from None
+    except ValueError:  # a NUL character in the name
+        raise InputError(path, "not a usable file name") from None
+    problem = _not_regular(info.st_mode)
+    if problem is not None:
+        raise InputError(path, problem)
+
+
+def read_bytes(path: Path, missing_ok: bool = False) -> bytes | None:
+    """A regular file's bytes, or an InputError naming it (None for a missing file if `missing_ok`).
+
+    Opened without blocking and checked before reading, so a FIFO or a device given as an
+    input is one clear error, never a hang. Every OSError becomes an InputError.
+    """
+    try:
+        descriptor = os.open(path, _OPEN_FLAGS)
+    except (FileNotFoundError, NotADirectoryError) as error:
+        if missing_ok:
+            return None
+        raise InputError(path, _os_problem(error)) from None
     except IsADirectoryError:
         raise InputError(path, "is a folder, not a file") from None
     except OSError as error:
-        raise InputError(path, f"cannot read: {error.strerror}") from None
+        raise InputError(path, _os_problem(error)) from None
+    except ValueError:  # a NUL character in the name
+        raise InputError(path, "not a usable file name") from None
+    with os.fdopen(descriptor, "rb") as handle:
+        try:
+            problem = _not_regular(os.fstat(descriptor).st_mode)
+            if problem is not None:
+                raise InputError(path, problem)
+            return handle.read()
+        except OSError as error:
+            raise InputError(path, _os_problem(error)) from None
+
+
+def decode_text(data: bytes, path) -> str:
+    """UTF-8 text whatever the locale, a leading byte-order mark dropped (as every text input)."""
     try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise InputError(path, "not a text file (not UTF-8)") from None
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise InputError(
+            path, f"not a UTF-8 text file (byte 0x{data[error.start]:02x} at offset {error.start})"
+        ) from None
+    return text[1:] if text.startswith("\ufeff") else text
+
+
+def read_text(path: Path) -> str:
+    """A text file's content (UTF-8, BOM dropped), or an InputError saying why it cannot be read."""
+    return decode_text(read_bytes(path), path)
 
 
 def split_lines(text: str) -> list[str]:
@@ -83,9 +158,10 @@ def parse_culane_lines(text: str, path) -> tuple[Lane, ...]:
 def read_culane_lines(path: Path, missing_ok: bool = True) -> tuple[Lane, ...]:
     """Lanes of one `.lines.txt`; a missing file means no lanes when `missing_ok`."""
     path = Path(path)
-    if missing_ok and not path.exists():
+    data = read_bytes(path, missing_ok=missing_ok)
+    if data is None:
         return ()
-    return parse_culane_lines(read_text(path), path)
+    return parse_culane_lines(decode_text(data, path), path)
 
 
 def format_coordinate(value: float) -> str:
@@ -142,6 +218,18 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
     elif predictions:
         record["run_time"] = 0
     return record
+
+
+def check_h_samples(rows, path, line: int, image_height: int) -> None:
+    """A label's rows: at least one, each inside the image, none twice (lanes are read row by row)."""
+    if not rows:
+        raise InputError(path, "h_samples is empty: a label needs at least one row", line=line)
+    for y in rows:
+        if not 0 <= y < image_height:
+            raise InputError(path, f"h_samples row {y:g} lies outside the {image_height}-row image", line=line)
+    if len(set(rows)) != len(rows):
+        repeated = next(y for y in rows if rows.count(y) > 1)
+        raise InputError(path, f"h_samples lists row {repeated:g} twice", line=line)
 
 
 def _is_number(value) -> bool:

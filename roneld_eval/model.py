@@ -6,6 +6,7 @@ y grows downwards. Nothing here reads files or computes metrics.
 
 from __future__ import annotations
 
+import posixpath
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -69,6 +70,16 @@ class Lane:
         return f"Lane({len(self)} points)"
 
 
+def image_stem(relpath: str) -> str:
+    """An image path without its extension, cut at the last '.' of the file name only.
+
+    Every file of a frame (labels, maps) is named by this stem: ``d/05.MP4/00000.jpg`` ->
+    ``d/05.MP4/00000``; ``d/05.MP4/00000`` (no extension) stays whole; a name that starts
+    with its only dot (``d/.png``) has no extension.
+    """
+    return posixpath.splitext(relpath)[0]
+
+
 @dataclass(frozen=True)
 class Frame:
     """One video frame: where it lies in the dataset, and its ground truth when labelled.
@@ -85,9 +96,8 @@ class Frame:
 
     @property
     def stem(self) -> str:
-        """`relpath` without its image extension."""
-        head, dot, _ = self.relpath.rpartition(".")
-        return head if dot else self.relpath
+        """`relpath` without its image extension (see `image_stem`)."""
+        return image_stem(self.relpath)
 
 
 @dataclass(frozen=True)

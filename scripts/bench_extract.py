@@ -67,7 +67,7 @@ def timed(function, frames, repeats) -> np.ndarray:
 def bench(name: str, frames: list[np.ndarray], repeats: int) -> None:
     height, width = frames[0].shape[1:]
     geometry = MapGeometry(1640, 590, width, height)
-    tracker = RoneldTracker(RoneldParams(pft=True), geometry)
+    tracker = RoneldTracker(RoneldParams(), geometry)
     rows = sample_rows(BaselineParams(), geometry)
     from roneld_eval.model import FrameMaps
 

@@ -116,15 +116,15 @@ def test_curves_switch_curve_mode_on_after_enough_frames():
     assert modes[:7] == [False] * 7 and modes[-1] is True  # 2 curves a frame: ring sum 16 at frame 8
     lanes = tracker(curve_left)
     assert len(lanes.left) > 2  # drawn as a sampled quadratic spline
-    no_pft = RoneldTracker(RoneldParams(pft=False), GEOMETRY)
+    no_pft = RoneldTracker(RoneldParams(), GEOMETRY, pft=False)
     assert not any(no_pft(curve_left).curve_mode for _ in range(12))
 
 
 def test_tracking_carries_a_lane_through_missing_frames():
     seen = EGO
     gone = frame((2, line(560, 420)))  # the left ego lane vanishes
-    with_pft = RoneldTracker(RoneldParams(pft=True), GEOMETRY)
-    without = RoneldTracker(RoneldParams(pft=False), GEOMETRY)
+    with_pft = RoneldTracker(RoneldParams(), GEOMETRY, pft=True)
+    without = RoneldTracker(RoneldParams(), GEOMETRY, pft=False)
     for _ in range(5):
         last_seen = with_pft(seen)
         without(seen)
@@ -171,7 +171,7 @@ def test_real_clip_matches_the_reference_masks(real_clip, mode):
     frames = clip_frames(real_clip)
     assert list(reference["frames"]) == frames
     geometry = MapGeometry(1640, 590, 976, 351)
-    tracker = RoneldTracker(RoneldParams(pft=mode == "pft"), geometry)
+    tracker = RoneldTracker(RoneldParams(), geometry, pft=mode == "pft")
     ious = []
     config = MapsConfig(format="scnn-png", width=976, height=351)
     for k, name in enumerate(frames):

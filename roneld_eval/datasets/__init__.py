@@ -17,14 +17,15 @@ def read_dataset(name: str, root: str | Path, list_file: str | Path | None = Non
     """Read a benchmark by name ('culane' or 'tusimple'); see the readers for `errors`.
 
     `labels=False` lets CULane defer reading labels to `load_labels` (TuSimple's labels are one
-    file and are always read).
+    file and are always read). A CULane root where no listed frame has its `.lines.txt` is
+    refused (a wrong root, not a dataset without lanes).
     """
     try:
         reader = READERS[name]
     except KeyError:
         raise ConfigError(f"unknown dataset {name!r}; choose from {', '.join(READERS)}") from None
     if name == "culane":
-        return reader(root, list_file, limit, errors, labels)
+        return reader(root, list_file, limit, errors, labels, require_labels=True)
     return reader(root, list_file, limit, errors)
 
 

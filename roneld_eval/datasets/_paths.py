@@ -1,10 +1,19 @@
-"""Normalising the image paths that list and label files hold."""
+"""Normalising the image paths that list and label files hold, and finding their files on disk."""
 
 from __future__ import annotations
 
+import os
 import posixpath
+import stat
+import sys
+from pathlib import Path
 
 from ..errors import InputError
+from ..model import image_stem
+
+# Whether str paths reach the disk as UTF-8 (almost always; not under LC_ALL=C without
+# Python's UTF-8 mode, where the file system encoding is ASCII).
+_FS_UTF8 = sys.getfilesystemencoding().lower().replace("-", "") == "utf8"
 
 
 def normalise_relpath(entry: str, path, line: int) -> str:
@@ -12,14 +21,46 @@ def normalise_relpath(entry: str, path, line: int) -> str:
     cleaned = entry.strip().replace("\\", "/").lstrip("/")
     if not cleaned:
         raise InputError(path, "empty image path", line=line)
+    if "\0" in cleaned:
+        raise InputError(path, f"image path {cleaned!a} holds a NUL character", line=line)
+    try:
+        cleaned.encode("utf-8")
+    except UnicodeEncodeError:  # a lone surrogate, as a JSON \udcff escape gives
+        raise InputError(path, f"image path {cleaned!a} is not valid Unicode text (a name that is not UTF-8?)",
+                         line=line) from None
     normal = posixpath.normpath(cleaned)
     if normal == "." or normal == ".." or normal.startswith("../"):
         raise InputError(path, f"{entry.strip()!r} points outside the dataset root", line=line)
     return normal
 
 
+def check_folder(path: Path, missing: str) -> None:
+    """Refuse, naming it, a folder that is missing, not a folder, or unreadable."""
+    try:
+        info = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        raise InputError(path, missing) from None
+    except OSError as error:
+        raise InputError(path, f"cannot read: {error.strerror}") from None
+    except ValueError:  # a NUL character in the name
+        raise InputError(path, "not a usable folder name") from None
+    if not stat.S_ISDIR(info.st_mode):
+        raise InputError(path, "is not a folder")
+
+
+def under_root(root, relpath: str) -> Path:
+    """`root / relpath`, the relpath's text reaching the disk as UTF-8 bytes whatever the locale.
+
+    List and label files are UTF-8, so the files they name are too; a non-UTF-8 file system
+    encoding (LC_ALL=C without UTF-8 mode) must not turn 'é' into another name or an error.
+    """
+    if _FS_UTF8:
+        return Path(root) / relpath
+    return Path(root) / os.fsdecode(relpath.encode("utf-8", "surrogateescape"))
+
+
 def frame_sort_key(relpath: str):
     """Frames of a clip sort by frame number where the file name is one, else by name."""
     name = posixpath.basename(relpath)
-    stem = name.rsplit(".", 1)[0]
-    return (0, int(stem), name) if stem.isdigit() else (1, 0, name)
+    stem = image_stem(name)
+    return (0, int(stem), name) if stem.isdigit() and stem.isascii() else (1, 0, name)

@@ -7,6 +7,7 @@ by frame number. Clips keep the order in which the list first names them. Catego
 
 from __future__ import annotations
 
+import os
 import posixpath
 import re
 from dataclasses import replace
@@ -15,9 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..lanes_io import read_culane_lines, read_text, split_lines
-from ..model import Clip, Dataset, Frame
-from ._paths import frame_sort_key, normalise_relpath
+from ..lanes_io import check_regular_file, read_culane_lines, read_text, split_lines
+from ..model import Clip, Dataset, Frame, image_stem
+from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
 
 IMAGE_WIDTH, IMAGE_HEIGHT = 1640, 590
 _CATEGORY_FILE = re.compile(r"test(\d+)_(\w+)\.txt\Z")
@@ -37,20 +38,23 @@ def read_list_file(path: Path) -> list[tuple[int, str]]:
 
 def labels_path(root: Path, relpath: str) -> Path:
     """Where CULane keeps the ground truth of an image: the `.lines.txt` beside it."""
-    stem = relpath.rsplit(".", 1)[0] if "." in posixpath.basename(relpath) else relpath
-    return root / f"{stem}.lines.txt"
+    return under_root(root, f"{image_stem(relpath)}.lines.txt")
 
 
 def read_categories(root: Path) -> dict[str, frozenset[str]]:
     """Category name -> frame relpaths, from list/test_split/ when it exists."""
     folder = root / "list" / "test_split"
-    if not folder.is_dir():
+    try:
+        names = sorted(entry.name for entry in os.scandir(folder))
+    except (FileNotFoundError, NotADirectoryError):
         return {}
+    except OSError as error:
+        raise InputError(folder, f"cannot read: {error.strerror}") from None
     found = []
-    for path in folder.iterdir():
-        match = _CATEGORY_FILE.match(path.name)
+    for name in names:
+        match = _CATEGORY_FILE.match(name)
         if match:
-            found.append((int(match.group(1)), match.group(2), path))
+            found.append((int(match.group(1)), match.group(2), folder / name))
     categories = {}
     for _, name, path in sorted(found):
         entries = read_list_file(path)
@@ -93,34 +97,60 @@ def with_labels(clip: Clip, root: Path, errors: list[InputError] | None = None) 
     return replace(clip, frames=tuple(frames))
 
 
+def check_some_labels(root: Path, relpaths: list[str]) -> None:
+    """Refuse a root where no listed frame has its `.lines.txt` (a wrong --data-root).
+
+    A missing file means a frame without lanes, so a wrong root would otherwise score zero
+    lanes silently. Stops at the first label file found: one stat for a right root.
+    """
+    for relpath in relpaths:
+        try:
+            os.stat(labels_path(root, relpath))
+            return
+        except (FileNotFoundError, NotADirectoryError):
+            continue
+        except (OSError, ValueError):
+            return  # there, but unreadable: reading it names the problem
+    if relpaths:
+        first = labels_path(root, relpaths[0])
+        raise InputError(root, f"no listed frame has its ground truth here (first missing: {first}); "
+                               "is this the CULane root?")
+
+
 def read_culane(root: str | Path, list_file: str | Path | None = None, limit: int | None = None,
-                errors: list[InputError] | None = None, labels: bool = True) -> Dataset:
+                errors: list[InputError] | None = None, labels: bool = True,
+                require_labels: bool = False) -> Dataset:
     """Read a CULane tree into clips of frames with their ground-truth lanes.
 
     With an `errors` list, a frame whose labels are bad is left out and its error appended;
     without one, the first bad file raises. With `labels=False` only the list is read and
     `with_labels` reads each clip's labels later (a run's workers do, in parallel).
+    `require_labels` refuses a root where no listed frame has its `.lines.txt` (a wrong root
+    would otherwise score zero lanes); `read_dataset` always asks for it.
     """
     root = Path(root)
-    if not root.is_dir():
-        raise InputError(root, "dataset root not found (expected a folder with list/test.txt)")
+    check_folder(root, "dataset root not found (expected a folder with list/test.txt)")
     list_path = Path(list_file) if list_file is not None else root / "list" / "test.txt"
-    if not list_path.is_file():
-        raise InputError(list_path, "list file not found" if not list_path.exists() else "list file is not a file")
+    check_regular_file(list_path, "list file not found")
     entries = read_list_file(list_path)
 
-    seen: dict[str, int] = {}
+    seen: dict[str, tuple[int, str]] = {}  # image stem -> (line, relpath): 00000.jpg and 00000.png are one frame
     by_clip: dict[str, list[str]] = {}
     for number, relpath in entries:
-        if relpath in seen:
-            raise InputError(list_path, f"{relpath} is listed twice (first on line {seen[relpath]})", line=number)
-        seen[relpath] = number
+        stem = image_stem(relpath)
+        if stem in seen:
+            first_line, first = seen[stem]
+            also = "" if first == relpath else f" as {first}"
+            raise InputError(list_path, f"{relpath} is listed twice (first on line {first_line}{also})", line=number)
+        seen[stem] = (number, relpath)
         clip_id = posixpath.dirname(relpath)
         by_clip.setdefault(clip_id, []).append(relpath)
 
     clip_ids = list(by_clip)
     if limit is not None:
         clip_ids = clip_ids[:limit]
+    if require_labels:
+        check_some_labels(root, [relpath for clip_id in clip_ids for relpath in by_clip[clip_id]])
     clips = []
     for clip_id in clip_ids:
         ordered = sorted(by_clip[clip_id], key=frame_sort_key)

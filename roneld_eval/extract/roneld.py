@@ -138,10 +138,14 @@ def lane_outline(xs: np.ndarray, ys: np.ndarray, slope: float, intercept: float,
 
 
 def roneld_step(
-    state: RoneldState, maps: np.ndarray, params: RoneldParams, constants: RoneldConstants = CONSTANTS
+    state: RoneldState, maps: np.ndarray, params: RoneldParams, constants: RoneldConstants = CONSTANTS,
+    pft: bool = True,
 ) -> tuple[RoneldState, np.ndarray | None, np.ndarray | None, bool]:
-    """One frame: new state, left and right polylines in map pixels (or None), curve mode."""
-    if not params.pft:
+    """One frame: new state, left and right polylines in map pixels (or None), curve mode.
+
+    `pft=False` is RONELD without preceding-frame tracking (the method 'roneld-nopft').
+    """
+    if not pft:
         # The ablation empties the state before every frame, curve memory included.
         state = RoneldState()
     _, height, width = maps.shape
@@ -179,18 +183,22 @@ def roneld_step(
 
 @dataclass
 class RoneldTracker:
-    """RONELD over one clip: feed frames in order; `reset()` between clips."""
+    """RONELD over one clip: feed frames in order; `reset()` between clips.
+
+    `pft` is preceding-frame tracking: on for the method 'roneld', off for 'roneld-nopft'.
+    """
 
     params: RoneldParams = field(default_factory=RoneldParams)
     geometry: MapGeometry | None = None
     state: RoneldState = field(default_factory=RoneldState)
+    pft: bool = True
 
     def reset(self) -> None:
         self.state = RoneldState()
 
     def __call__(self, frame: FrameMaps | np.ndarray) -> ActiveLanes:
         maps = frame.probabilities if isinstance(frame, FrameMaps) else frame
-        self.state, left, right, curve_mode = roneld_step(self.state, maps, self.params)
+        self.state, left, right, curve_mode = roneld_step(self.state, maps, self.params, pft=self.pft)
         geometry = self.geometry
         if geometry is None or (geometry.map_width, geometry.map_height) != (maps.shape[2], maps.shape[1]):
             geometry = _geometry_for(geometry, maps)

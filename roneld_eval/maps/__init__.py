@@ -8,11 +8,14 @@ and RONELD's thresholds are defined on 0..255; float maps in [0, 1] are rounded 
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
 from ..config import MapsConfig
+from ..datasets._paths import under_root
 from ..errors import InputError
-from ..model import FrameMaps
+from ..model import FrameMaps, image_stem
 from .npy import load_npy, load_npz
 from .scnn_png import load_scnn_png, scnn_png_paths
 
@@ -21,31 +24,70 @@ FORMATS = ("npy", "npz", "scnn-png")
 
 def map_stem(root: Path, relpath: str) -> Path:
     """`<root>/<relpath without extension>`: the common prefix of a frame's map files."""
-    name = relpath.rsplit("/", 1)[-1]
-    stem = relpath.rsplit(".", 1)[0] if "." in name else relpath
-    return Path(root) / stem
+    return under_root(root, image_stem(relpath))
+
+
+# The file that must exist for a frame's maps in each format: <stem> + suffix.
+_FORMAT_SUFFIXES = {"npy": ".npy", "npz": ".npz", "scnn-png": ".exist.txt"}
+
+
+def format_files(stem: Path, fmt: str, lane_channels: int = 4) -> list[Path]:
+    """The files by which a format's maps of one frame are recognised (any one suffices)."""
+    if fmt == "scnn-png":
+        pngs, exist = scnn_png_paths(stem, lane_channels)
+        return [pngs[0], exist] + pngs[1:]
+    return [stem.with_name(stem.name + _FORMAT_SUFFIXES[fmt])]
+
+
+def found_in_other_format(missing: Path, lane_channels: int = 4) -> str | None:
+    """For a frame's missing map file (as `required_paths` names it): 'found <file>: use
+    --maps-format <format>' when the frame's maps lie beside it in another format, else None."""
+    missing = Path(missing)
+    wanted = next((fmt for fmt, suffix in _FORMAT_SUFFIXES.items() if missing.name.endswith(suffix)), None)
+    if wanted is None:
+        return None
+    stem = missing.with_name(missing.name[: -len(_FORMAT_SUFFIXES[wanted])])
+    for fmt in FORMATS:
+        if fmt == wanted:
+            continue
+        for path in format_files(stem, fmt, lane_channels):
+            try:
+                if stat.S_ISREG(os.stat(path).st_mode):
+                    return f"found {path.name}: use --maps-format {fmt}"
+            except (OSError, ValueError):
+                continue
+    return None
+
+
+def missing_reason(path: Path) -> str:
+    """Why a map file `check`ed as absent cannot be read: '' when it simply does not exist."""
+    try:
+        os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return ""
+    except OSError as error:
+        return f"cannot read: {error.strerror}"
+    except ValueError:
+        return "not a usable file name"
+    return ""
 
 
 def required_paths(root: Path, relpath: str, config: MapsConfig) -> list[Path]:
     """Files that must exist for a frame's maps to load (PNGs of absent lanes may be missing)."""
     stem = map_stem(root, relpath)
-    if config.format == "npy":
-        return [stem.with_name(stem.name + ".npy")]
-    if config.format == "npz":
-        return [stem.with_name(stem.name + ".npz")]
-    return [scnn_png_paths(stem, config.lane_channels)[1]]
+    return [stem.with_name(stem.name + _FORMAT_SUFFIXES[config.format])]
 
 
 def load_maps(root: Path, relpath: str, config: MapsConfig) -> FrameMaps:
     """The maps of one frame in the canonical form, or an InputError naming the bad file."""
     stem = map_stem(root, relpath)
     if config.format == "npy":
-        return load_npy(stem.with_name(stem.name + ".npy"), config)
+        return load_npy(stem.with_name(stem.name + _FORMAT_SUFFIXES["npy"]), config)
     if config.format == "npz":
-        return load_npz(stem.with_name(stem.name + ".npz"), config)
+        return load_npz(stem.with_name(stem.name + _FORMAT_SUFFIXES["npz"]), config)
     if config.format == "scnn-png":
         return load_scnn_png(stem, config)
     raise InputError(None, f"unknown maps format {config.format!r}")
 
 
-__all__ = ["load_maps", "required_paths", "map_stem", "FORMATS"]
+__all__ = ["load_maps", "required_paths", "map_stem", "found_in_other_format", "missing_reason", "FORMATS"]

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..config import MapsConfig
 from ..errors import InputError
+from ..lanes_io import check_regular_file
 from ..model import FrameMaps
 from ._checks import canonical_existence, canonical_probabilities
 
@@ -43,12 +44,15 @@ def _map_simple_npy(path: Path) -> np.ndarray | None:
 
 def load_npy(path: Path, config: MapsConfig) -> FrameMaps:
     """A (C, H, W) array from `.npy`; uint8 files stay memory-mapped."""
+    check_regular_file(path, "maps file not found")
     try:
         array = _map_simple_npy(path)
         if array is None:
             array = np.load(path, mmap_mode="r", allow_pickle=False)
     except FileNotFoundError:
         raise InputError(path, "maps file not found") from None
+    except PermissionError as error:
+        raise InputError(path, f"cannot read: {error.strerror}") from None
     except (ValueError, OSError, EOFError) as error:
         raise InputError(path, f"not a readable .npy array (truncated or corrupt?): {error}") from None
     return FrameMaps(probabilities=canonical_probabilities(array, path, config))
@@ -56,6 +60,7 @@ def load_npy(path: Path, config: MapsConfig) -> FrameMaps:
 
 def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
     """Maps under `config.npz_key` (or the only array) and `exist` when present."""
+    check_regular_file(path, "maps file not found")
     try:
         with np.load(path, allow_pickle=False) as archive:
             names = list(archive.files)
@@ -68,6 +73,8 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
         raise InputError(path, "maps file not found") from None
     except InputError:
         raise
+    except PermissionError as error:
+        raise InputError(path, f"cannot read: {error.strerror}") from None
     except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as error:
         raise InputError(path, f"not a readable .npz archive (truncated or corrupt?): {error}") from None
     probabilities = canonical_probabilities(array, path, config)

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import zlib
 from pathlib import Path
 
 import cv2
@@ -13,7 +14,7 @@ import numpy as np
 
 from ..config import MapsConfig
 from ..errors import InputError
-from ..lanes_io import parse_number, read_text
+from ..lanes_io import decode_text, parse_number, read_bytes
 from ..model import FrameMaps
 from ._checks import canonical_existence
 
@@ -24,15 +25,42 @@ def scnn_png_paths(stem: Path, channels: int) -> tuple[list[Path], Path]:
     return pngs, stem.with_name(stem.name + ".exist.txt")
 
 
-def read_existence(path: Path, config: MapsConfig) -> np.ndarray:
-    text = read_text(path)
-    tokens = text.split()
+def read_existence(path: Path, config: MapsConfig, data: bytes | None = None) -> np.ndarray:
+    if data is None:
+        data = read_bytes(path)
+    tokens = decode_text(data, path).split()
     values = [parse_number(token, path, 1) for token in tokens]
     return canonical_existence(values, path, config)
 
 
-def _read_png(path: Path) -> np.ndarray:
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def check_png(data: bytes, path: Path) -> None:
+    """Refuse a truncated or corrupt PNG before libpng sees it (libpng prints its own line to
+    stderr for those): the signature, every chunk inside the file with its CRC, and an IEND."""
+    if not data.startswith(_PNG_SIGNATURE):
+        raise InputError(path, "not a PNG file")
+    view = memoryview(data)
+    offset, size = len(_PNG_SIGNATURE), len(data)
+    while True:
+        if offset + 12 > size:
+            raise InputError(path, "truncated PNG (it ends before its IEND chunk)")
+        length = int.from_bytes(view[offset:offset + 4], "big")
+        end = offset + 12 + length
+        if end > size:
+            raise InputError(path, "truncated PNG (a chunk runs past the end of the file)")
+        kind = bytes(view[offset + 4:offset + 8])
+        if zlib.crc32(view[offset + 4:end - 4]) != int.from_bytes(view[end - 4:end], "big"):
+            raise InputError(path, f"corrupt PNG ({kind.decode('latin-1')!r} chunk fails its CRC check)")
+        if kind == b"IEND":
+            return
+        offset = end
+
+
+def _read_png(path: Path, data: bytes) -> np.ndarray:
+    check_png(data, path)
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None:
         raise InputError(path, "not a readable image (truncated or not a PNG?)")
     if image.dtype != np.uint8:
@@ -48,11 +76,13 @@ def _read_png(path: Path) -> np.ndarray:
 def load_scnn_png(stem: Path, config: MapsConfig) -> FrameMaps:
     """Stack the per-channel PNGs of one frame; missing PNGs of absent lanes are zeros."""
     pngs, exist_path = scnn_png_paths(stem, config.lane_channels)
-    existence = read_existence(exist_path, config) if exist_path.exists() else None
+    exist_data = read_bytes(exist_path, missing_ok=True)
+    existence = None if exist_data is None else read_existence(exist_path, config, exist_data)
     maps: list[np.ndarray | None] = []
     for channel, path in enumerate(pngs):
-        if path.exists():
-            maps.append(_read_png(path))
+        data = read_bytes(path, missing_ok=True)
+        if data is not None:
+            maps.append(_read_png(path, data))
         elif existence is not None and existence[channel] <= 0:
             maps.append(None)
         else:

@@ -19,8 +19,9 @@ from typing import Sequence
 import numpy as np
 
 from ..datasets._paths import normalise_relpath
+from ..datasets.tusimple import IMAGE_HEIGHT
 from ..errors import InputError
-from ..lanes_io import read_tusimple_records
+from ..lanes_io import check_h_samples, read_tusimple_records
 
 PIXEL_THRESHOLD = 20  # LaneEval.pixel_thresh
 POINT_THRESHOLD = 0.85  # LaneEval.pt_thresh
@@ -109,6 +110,7 @@ def score_tusimple_files(labels: str | Path, predictions: str | Path) -> Tusimpl
         key = normalise_relpath(record["raw_file"], labels, number)
         if key in gts:
             raise InputError(labels, f"{key} is labelled twice", line=number)
+        check_h_samples(record["h_samples"], labels, number, IMAGE_HEIGHT)
         gts[key] = record
     seen: dict[str, int] = {}
     scores = []
