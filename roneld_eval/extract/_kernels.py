@@ -9,14 +9,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import types
+
+from .._numba_cache import cached_njit
 
 # The r^2 comparison of the curve test treats differences below this as ties (straight):
 # for exactly collinear points both sides are 1 up to rounding noise.
 R2_TIE = 1e-12
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def window_max(channel, row, left, right):
     """Largest value of channel[row, left:right] (0 when empty) of a uint8 map.
 
@@ -31,25 +33,30 @@ def window_max(channel, row, left, right):
     return best
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def row_maxima(maps):
     """(C, H) maximum of every row of every channel: one pass over the maps."""
     channels, height, width = maps.shape
     out = np.empty((channels, height), np.uint8)
+    start = np.int64(0)  # a typed 0: a literal 0 would compile window_max once more
     for channel in range(channels):
         plane = maps[channel]
         for row in range(height):
-            out[channel, row] = window_max(plane, row, 0, width)
+            out[channel, row] = window_max(plane, row, start, width)
     return out
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def frame_threshold(row_max):
     """RONELD's adaptive confidence threshold: floor(max over all maps / 3), at least 1."""
-    return max(int(row_max.max()) // 3, 1)
+    best = 0
+    for channel in range(row_max.shape[0]):
+        for row in range(row_max.shape[1]):
+            best = max(best, int(row_max[channel, row]))
+    return max(best // 3, 1)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def extract_points(channel, row_max, threshold, stride):
     """Adaptive lane point extraction of one (H, W) uint8 map (row_max: its row maxima).
 
@@ -64,9 +71,10 @@ def extract_points(channel, row_max, threshold, stride):
     ys = np.empty(height, np.int64)
     confidences = np.empty(height, np.float64)
     count = 0
-    left = 0
+    # Typed zeros: literal ones would have type inference compile window_max for them too.
+    left = np.int64(0)
     right = width
-    row = 0
+    row = np.int64(0)
     while row < height:
         # The whole-row maximum rules most rows out without touching the map again.
         if row_max[row] >= threshold and (
@@ -99,7 +107,7 @@ def extract_points(channel, row_max, threshold, stride):
     return xs[:count].copy(), ys[:count].copy(), confidences[:count].copy()
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def r_squared(xs, ys):
     """Coefficient of determination of a linear fit: Cov(x,y)^2 / (Var x Var y), population moments.
 
@@ -129,7 +137,7 @@ def r_squared(xs, ys):
     return (sxy * sxy) / (sxx * syy)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def is_curve(xs, ys, min_curve_points, top_points):
     """RONELD's curve test: enough points, and r^2 rises when the top points are removed."""
     if xs.size < min_curve_points:
@@ -137,7 +145,7 @@ def is_curve(xs, ys, min_curve_points, top_points):
     return r_squared(xs, ys) < r_squared(xs[top_points:], ys[top_points:]) - R2_TIE
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def weighted_line_fit(xs, ys, weights):
     """Weighted least squares y = intercept + slope * x -> (slope, intercept).
 
@@ -177,7 +185,37 @@ def weighted_line_fit(xs, ys, weights):
     return slope, intercept
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
+def stable_argsort(keys):
+    """np.argsort(keys, kind="mergesort") of a float64 array: ascending, NaN last, ties in order.
+
+    An insertion sort: a lane has a few dozen points and a frame a few lanes, and numba's
+    mergesort takes seconds to compile. A stable sort's permutation is unique, so both agree.
+    """
+    n = keys.size
+    order = np.empty(n, np.int64)
+    for i in range(n):
+        key = keys[i]
+        j = i
+        # Move i before every earlier key that sorts strictly after it (NaN after any number).
+        while j > 0 and _before(key, keys[order[j - 1]]):
+            order[j] = order[j - 1]
+            j -= 1
+        order[j] = i
+    return order
+
+
+@cached_njit(nogil=True)
+def _before(a, b):
+    """a sorts strictly before b: numpy's order for floats, NaN after every number."""
+    if math.isnan(a):
+        return False
+    if math.isnan(b):
+        return True
+    return a < b
+
+
+@cached_njit(nogil=True)
 def remove_outliers(xs, ys, weights, fraction, min_points):
     """One pass: fit, then drop the floor(fraction*m)+1 points farthest (horizontally) from the line.
 
@@ -193,13 +231,13 @@ def remove_outliers(xs, ys, weights, fraction, min_points):
     distances = np.empty(n, np.float64)
     for i in range(n):
         distances[i] = abs(xs[i] - (ys[i] - intercept) / slope)
-    order = np.argsort(distances, kind="mergesort")
+    order = stable_argsort(distances)
     for k in range(n - drop, n):
         keep[order[k]] = False
     return keep
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def root_mean_square(values):
     """sqrt(mean(v^2)) in floating point (the reference squared uint8 and overflowed)."""
     total = 0.0
@@ -208,7 +246,7 @@ def root_mean_square(values):
     return math.sqrt(total / values.size)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def line_distance(slope_a, intercept_a, slope_b, intercept_b, height):
     """RMS over y in [0, height] of x_a(y) - x_b(y) for lines y = intercept + slope * x.
 
@@ -222,7 +260,7 @@ def line_distance(slope_a, intercept_a, slope_b, intercept_b, height):
     return math.sqrt(max(mean_square, 0.0))
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def channel_lane(channel, row_max, threshold, stride, min_points, min_curve_points, top_points, outlier_fraction):
     """Points, curve flag and line of one channel, as RONELD builds a lane from a map.
 
@@ -236,9 +274,17 @@ def channel_lane(channel, row_max, threshold, stride, min_points, min_curve_poin
     curve = is_curve(xs, ys, min_curve_points, top_points)
     if not curve:
         keep = remove_outliers(xs, ys, confidences, outlier_fraction, min_points)
-        xs = xs[keep]
-        ys = ys[keep]
-        confidences = confidences[keep]
+        # xs[keep] etc. as loops: boolean indexing compiles numba's error-message machinery.
+        kept = 0
+        for i in range(keep.size):
+            if keep[i]:
+                xs[kept] = xs[i]
+                ys[kept] = ys[i]
+                confidences[kept] = confidences[i]
+                kept += 1
+        xs = xs[:kept]
+        ys = ys[:kept]
+        confidences = confidences[:kept]
     slope, intercept = weighted_line_fit(xs, ys, confidences)
     return xs, ys, confidences, curve, slope, intercept, root_mean_square(confidences)
 
@@ -248,7 +294,7 @@ F_SLOPE, F_INTERCEPT, F_WEIGHT, F_RMS, F_CURVE, F_CHANNEL, F_TOP_X, F_BOTTOM_X, 
 N_FIELDS = 10
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def frame_lanes(maps, rows_per_point, min_points, min_curve_points, top_points, outlier_fraction):
     """channel_lane for every channel of a (C, H, W) frame, packed into flat arrays.
 
@@ -274,8 +320,9 @@ def frame_lanes(maps, rows_per_point, min_points, min_curve_points, top_points, 
         counts[channel] = n
         if n == 0:
             continue
-        xs_all[offset:offset + n] = xs
-        ys_all[offset:offset + n] = ys
+        for i in range(n):  # a loop: slice assignment compiles a shape check with string formatting
+            xs_all[offset + i] = xs[i]
+            ys_all[offset + i] = ys[i]
         offset += n
         row = fields[lanes]
         row[F_SLOPE] = slope
@@ -291,7 +338,7 @@ def frame_lanes(maps, rows_per_point, min_points, min_curve_points, top_points, 
     return counts, xs_all[:offset], ys_all[:offset], fields[:lanes].copy()
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def track_lanes(previous, current, gains, height, merge_distance, decay, min_weight):
     """Preceding-frame tracking over field matrices (see roneld.py for the rule in words).
 
@@ -302,8 +349,9 @@ def track_lanes(previous, current, gains, height, merge_distance, decay, min_wei
     """
     n_current = current.shape[0]
     n_previous = previous.shape[0]
-    closest = np.full(n_current, -1, np.int64)
+    closest = np.empty(n_current, np.int64)
     for i in range(n_current):
+        closest[i] = -1
         best = np.inf
         for j in range(n_previous):
             distance = line_distance(
@@ -333,21 +381,25 @@ def track_lanes(previous, current, gains, height, merge_distance, decay, min_wei
             sources[k] = n_current + j
             weights[k] = previous[j, F_WEIGHT] / decay
             k += 1
-    order = np.argsort(-weights[:k], kind="mergesort")
+    keys = np.empty(k, np.float64)
+    for row in range(k):
+        keys[row] = -weights[row]
+    order = stable_argsort(keys)
     tracked = np.empty((k, N_FIELDS), np.float64)
     ordered_sources = np.empty(k, np.int64)
     for row in range(k):
         source = sources[order[row]]
         ordered_sources[row] = source
-        if source < n_current:
-            tracked[row] = current[source]
-        else:
-            tracked[row] = previous[source - n_current]
+        for column in range(N_FIELDS):
+            if source < n_current:
+                tracked[row, column] = current[source, column]
+            else:
+                tracked[row, column] = previous[source - n_current, column]
         tracked[row, F_WEIGHT] = weights[order[row]]
     return tracked, ordered_sources
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def choose_active(tracked, height, center, curve_mode):
     """(left, right) row indices of the active lanes (-1 = none).
 
@@ -369,16 +421,17 @@ def choose_active(tracked, height, center, curve_mode):
     return left, right
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def row_argmax(maps, rows):
     """(columns, values): first maximum of each channel's map row `rows[k]` (as MATLAB's max)."""
     channels, _, width = maps.shape
     columns = np.zeros((channels, rows.size), np.int64)
     values = np.zeros((channels, rows.size), np.uint8)
+    start = np.int64(0)
     for channel in range(channels):
         plane = maps[channel]
         for k in range(rows.size):
-            best = window_max(plane, rows[k], 0, width)
+            best = window_max(plane, rows[k], start, width)
             line = plane[rows[k]]
             for column in range(width):
                 if line[column] == best:
@@ -386,3 +439,25 @@ def row_argmax(maps, rows):
                     break
             values[channel, k] = best
     return columns, values
+
+
+# ---- the argument types the extractors call the kernels above with --------------------------
+# numba compiles one specialisation per tuple of argument types, where it is first called.
+# roneld_eval.kernels compiles these ahead of a run, so that no call inside a timed region
+# compiles. Maps come writable (PNG, float maps) or read-only (memory-mapped uint8 .npy):
+# numba tells them apart, so both are listed.
+_MAPS = (types.Array(types.uint8, 3, "C"), types.Array(types.uint8, 3, "C", readonly=True))
+_FIELDS = types.Array(types.float64, 2, "C")
+_VALUES = types.Array(types.float64, 1, "C")
+_ROWS = types.Array(types.int64, 1, "C")
+_I, _F = types.int64, types.float64
+
+ENTRY_SIGNATURES = {
+    # roneld.current_lanes, roneld_step
+    "roneld": [(frame_lanes, (maps, _I, _I, _I, _I, _F)) for maps in _MAPS] + [
+        (track_lanes, (_FIELDS, _FIELDS, _VALUES, _F, _F, _F, _F)),
+        (choose_active, (_FIELDS, _F, _F, types.boolean)),
+    ],
+    # baseline.baseline_lanes
+    "baseline": [(row_argmax, (maps, _ROWS)) for maps in _MAPS],
+}

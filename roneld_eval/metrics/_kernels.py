@@ -14,7 +14,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import types
+
+from .._numba_cache import cached_njit
 
 XY_SHIFT = 16
 XY_ONE = 1 << XY_SHIFT
@@ -26,14 +28,14 @@ DBL_EPSILON = 2.220446049250313e-16
 # ---- numbers as C++ sees them -------------------------------------------------------------
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def c_div(a, b):
     """C integer division (truncates toward zero; Python's // floors)."""
     q = abs(a) // abs(b)
     return q if (a >= 0) == (b >= 0) else -q
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def to_int32(value):
     """A 64-bit integer cast to C's 32-bit int (two's complement wrap)."""
     return ((value + (1 << 31)) & 0xFFFFFFFF) - (1 << 31)
@@ -42,7 +44,7 @@ def to_int32(value):
 # ---- the official spline ----------------------------------------------------------------
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@cached_njit(nogil=True, error_model="numpy")
 def official_spline(xs, ys, times):
     """SCNN lane_evaluation's Spline::splineInterpTimes for 3+ points, bit for bit.
 
@@ -112,7 +114,7 @@ def official_spline(xs, ys, times):
 # ---- rasterisation (OpenCV 4.6 drawing.cpp, LINE_8, integer input points) -------------------
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _span(canvas, x0, y0, width, height, y, left, right):
     """Set pixels left..right (inclusive) of image row y, clipped to the image.
 
@@ -131,7 +133,7 @@ def _span(canvas, x0, y0, width, height, y, left, right):
         line[x] = 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _pixel(canvas, x0, y0, width, height, x, y):
     if 0 <= x < width and 0 <= y < height:
         row = y - y0
@@ -140,7 +142,7 @@ def _pixel(canvas, x0, y0, width, height, x, y):
             canvas[row, column] = 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _clip_line(width, height, x1, y1, x2, y2):
     """cv::clipLine on a (width, height) box with 64-bit ends; returns (inside, x1, y1, x2, y2)."""
     right = width - 1
@@ -172,7 +174,7 @@ def _clip_line(width, height, x1, y1, x2, y2):
     return (c1 | c2) == 0, x1, y1, x2, y2
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _fixed_line(canvas, x0, y0, width, height, x1, y1, x2, y2):
     """OpenCV's Line2: a 1-px line between 16-bit fixed-point ends (the quad's outline)."""
     inside, x1, y1, x2, y2 = _clip_line(np.int64(width) << XY_SHIFT, np.int64(height) << XY_SHIFT, x1, y1, x2, y2)
@@ -214,7 +216,7 @@ def _fixed_line(canvas, x0, y0, width, height, x1, y1, x2, y2):
             count -= 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _fill_quad(canvas, x0, y0, width, height, ax, ay, bx, by, cx, cy, dx, dy):
     """OpenCV's FillConvexPoly for 4 fixed-point vertices (shift 16, LINE_8): outline, then scanlines."""
     qx = (ax, bx, cx, dx)
@@ -311,10 +313,12 @@ def _fill_quad(canvas, x0, y0, width, height, ax, ay, bx, by, cx, cy, dx, dy):
             break
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def disc_half_widths(radius):
     """Half-width per row offset -radius..radius of OpenCV's filled Circle (midpoint algorithm)."""
-    half = np.full(2 * radius + 1, -1, np.int64)
+    half = np.empty(2 * radius + 1, np.int64)
+    for k in range(half.size):
+        half[k] = -1
     err = 0
     dx = radius
     dy = 0
@@ -335,7 +339,7 @@ def disc_half_widths(radius):
     return half
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _segment_quad(canvas, x0, y0, width, height, ax, ay, bx, by, thickness):
     """The filled quad ThickLine draws between two integer points (nothing for a point)."""
     p0x = np.int64(ax) << XY_SHIFT
@@ -357,7 +361,7 @@ def _segment_quad(canvas, x0, y0, width, height, ax, ay, bx, by, thickness):
         )
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness, extras, extra_counts, crescents, crescent_counts):
     """Draw a thick polyline of integer points into a canvas whose (0, 0) is image (x0, y0).
 
@@ -422,7 +426,7 @@ def draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness, extras, extr
         previous = i if inside else -1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def short_quad_extras(thickness):
     """For each 8-neighbour step (dx, dy), the pixels its quad holds outside the discs at both ends.
 
@@ -434,6 +438,7 @@ def short_quad_extras(thickness):
     radius = ((np.int64(thickness) << (XY_SHIFT - 1)) + HALF) >> XY_SHIFT
     size = 2 * radius + 16
     centre = size // 2
+    zero = np.int64(0)  # a literal 0 would compile every drawing kernel a second time
     half = disc_half_widths(radius)
     extras = np.zeros((9, size * size, 2), np.int64)
     counts = np.zeros(9, np.int64)
@@ -443,11 +448,11 @@ def short_quad_extras(thickness):
                 continue
             direction = (dx + 1) * 3 + (dy + 1)
             quad = np.zeros((size, size), np.uint8)
-            _segment_quad(quad, 0, 0, size, size, centre, centre, centre + dx, centre + dy, thickness)
+            _segment_quad(quad, zero, zero, size, size, centre, centre, centre + dx, centre + dy, thickness)
             discs = np.zeros((size, size), np.uint8)
             for cx, cy in ((centre, centre), (centre + dx, centre + dy)):
                 for k in range(2 * radius + 1):
-                    _span(discs, 0, 0, size, size, cy - radius + k, cx - half[k], cx + half[k])
+                    _span(discs, zero, zero, size, size, cy - radius + k, cx - half[k], cx + half[k])
             for y in range(size):
                 for x in range(size):
                     if quad[y, x] and not discs[y, x]:
@@ -459,7 +464,7 @@ def short_quad_extras(thickness):
     crescent_counts = np.zeros(9, np.int64)
     disc = np.zeros((size, size), np.uint8)
     for k in range(2 * radius + 1):
-        _span(disc, 0, 0, size, size, centre - radius + k, centre - half[k], centre + half[k])
+        _span(disc, zero, zero, size, size, centre - radius + k, centre - half[k], centre + half[k])
     for dx in range(-1, 2):
         for dy in range(-1, 2):
             if dx == 0 and dy == 0:
@@ -473,27 +478,43 @@ def short_quad_extras(thickness):
                         crescents[direction, crescent_counts[direction], 0] = x - centre
                         crescents[direction, crescent_counts[direction], 1] = y - centre
                         crescent_counts[direction] += 1
-    most = max(counts.max(), 1)
-    widest = max(crescent_counts.max(), 1)
+    most = 1
+    widest = 1
+    for direction in range(9):
+        most = max(most, counts[direction])
+        widest = max(widest, crescent_counts[direction])
     return extras[:, :most].copy(), counts, crescents[:, :widest].copy(), crescent_counts
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
+def _low_high(values):
+    """(min, max) of a non-empty int64 array (a loop: ndarray.min/max cost seconds to compile)."""
+    low = values[0]
+    high = values[0]
+    for i in range(1, values.size):
+        low = min(low, values[i])
+        high = max(high, values[i])
+    return low, high
+
+
+@cached_njit(nogil=True)
 def polyline_box(xs, ys, thickness, width, height):
     """(x0, y0, x1, y1): the image box (exclusive ends) that can hold a polyline's pixels."""
     margin = thickness // 2 + 3
     if xs.size == 0:
         return 0, 0, 0, 0
-    x0 = max(xs.min() - margin, 0)
-    y0 = max(ys.min() - margin, 0)
-    x1 = min(xs.max() + margin + 1, width)
-    y1 = min(ys.max() + margin + 1, height)
+    x_low, x_high = _low_high(xs)
+    y_low, y_high = _low_high(ys)
+    x0 = max(x_low - margin, 0)
+    y0 = max(y_low - margin, 0)
+    x1 = min(x_high + margin + 1, width)
+    y1 = min(y_high + margin + 1, height)
     if x1 <= x0 or y1 <= y0:
         return 0, 0, 0, 0
     return x0, y0, x1, y1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def rasterise(xs, ys, thickness, width, height, extras, extra_counts, crescents, crescent_counts):
     """(x0, y0, canvas): a thick polyline's pixels on a width x height image, cropped.
 
@@ -504,7 +525,9 @@ def rasterise(xs, ys, thickness, width, height, extras, extra_counts, crescents,
     """
     if xs.size < 2:
         return 0, 0, np.zeros((0, 0), np.uint8)
-    far = (xs.min() < -(1 << 20)) or (ys.min() < -(1 << 20)) or (xs.max() > (1 << 20)) or (ys.max() > (1 << 20))
+    x_low, x_high = _low_high(xs)
+    y_low, y_high = _low_high(ys)
+    far = (x_low < -(1 << 20)) or (y_low < -(1 << 20)) or (x_high > (1 << 20)) or (y_high > (1 << 20))
     if far:
         x0, y0, x1, y1 = 0, 0, width, height
     else:
@@ -515,7 +538,7 @@ def rasterise(xs, ys, thickness, width, height, extras, extra_counts, crescents,
     return x0, y0, canvas
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def overlap(ax0, ay0, a, bx0, by0, b):
     """Pixels set in both of two cropped masks."""
     left = max(ax0, bx0)
@@ -538,7 +561,7 @@ def overlap(ax0, ay0, a, bx0, by0, b):
     return total
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def rasterise_with_area(xs, ys, thickness, width, height, extras, extra_counts, crescents, crescent_counts):
     """rasterise(), plus the number of pixels set: (x0, y0, canvas, area)."""
     x0, y0, canvas = rasterise(xs, ys, thickness, width, height, extras, extra_counts, crescents, crescent_counts)
@@ -549,7 +572,7 @@ def rasterise_with_area(xs, ys, thickness, width, height, extras, extra_counts, 
     return x0, y0, canvas, area
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _round_float32(value):
     """cvRound of a float32 (given as a float64 holding it): half to even, INT_MIN when out of range."""
     if not np.isfinite(value) or value >= 2.0**31 or value < -(2.0**31):
@@ -557,7 +580,7 @@ def _round_float32(value):
     return np.int64(np.rint(value))
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@cached_njit(nogil=True, error_model="numpy")
 def official_lane(points, width, height, thickness, extras, extra_counts, crescents, crescent_counts):
     """(x0, y0, canvas, area) of a lane as the official CULane evaluator draws it.
 
@@ -581,7 +604,7 @@ def official_lane(points, width, height, thickness, extras, extra_counts, cresce
     return rasterise_with_area(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@cached_njit(nogil=True, error_model="numpy")
 def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height, extras, extra_counts,
              crescents, crescent_counts):
     """(x0, y0, canvas, area) of a lane drawn at map resolution (the paper's protocol).
@@ -612,3 +635,23 @@ def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, wi
         count += 1
     return rasterise_with_area(px[:count], py[:count], thickness, width, height, extras, extra_counts, crescents,
                                crescent_counts)
+
+
+# ---- the argument types raster.py calls the kernels above with ------------------------------
+# Compiled ahead of a run by roneld_eval.kernels (numba compiles one specialisation per tuple
+# of argument types); raster.py passes exactly these (lane points read-only, as Lane holds them).
+_POINTS = types.Array(types.float64, 2, "C", readonly=True)
+_TABLE = types.Array(types.int64, 3, "C")
+_COUNTS = types.Array(types.int64, 1, "C")
+_MASK = types.Array(types.uint8, 2, "C")
+_I, _F, _B = types.int64, types.float64, types.boolean
+_TABLES = (_TABLE, _COUNTS, _TABLE, _COUNTS)  # short_quad_extras(thickness)
+
+ENTRY_SIGNATURES = {
+    # raster._quad_extras, LaneMask.intersection: every protocol needs them
+    "tables": [(short_quad_extras, (_I,)), (overlap, (_I, _I, _MASK, _I, _I, _MASK))],
+    # raster.official_mask
+    "official": [(official_lane, (_POINTS, _I, _I, _I) + _TABLES)],
+    # raster.map_mask
+    "paper": [(map_lane, (_POINTS, _B, _F, _F, _F, _B, _I, _I, _I) + _TABLES)],
+}

@@ -13,6 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .._numba_cache import compile_now
 from ..geometry import MapGeometry
 from ..model import Lane
 from . import _kernels
@@ -47,15 +48,25 @@ class LaneMask:
 
 
 @lru_cache(maxsize=None)
-def _quad_extras(thickness: int) -> tuple[np.ndarray, np.ndarray]:
+def _quad_extras(thickness: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     return _kernels.short_quad_extras(thickness)
+
+
+def _points(lane: Lane) -> np.ndarray:
+    """A lane's (N, 2) float64 points, C-contiguous and read-only: the one array type the
+    kernels are compiled for (_kernels.ENTRY_SIGNATURES), whoever built the lane."""
+    points = np.ascontiguousarray(lane.points, dtype=np.float64)
+    if points.flags.writeable:
+        points = points.view()
+        points.flags.writeable = False
+    return points
 
 
 def mask_from_pixels(xs: np.ndarray, ys: np.ndarray, thickness: int, width: int, height: int) -> LaneMask:
     """Rasterise integer polyline vertices."""
     thickness = int(thickness)
     x0, y0, pixels, area = _kernels.rasterise_with_area(
-        np.ascontiguousarray(xs, np.int64), np.ascontiguousarray(ys, np.int64), thickness, int(width), int(height),
+        np.array(xs, np.int64), np.array(ys, np.int64), thickness, int(width), int(height),
         *_quad_extras(thickness),
     )
     return LaneMask(int(x0), int(y0), pixels, int(area))
@@ -70,7 +81,7 @@ def official_mask(lane: Lane, width: int, height: int, thickness: int) -> LaneMa
     if len(lane) < 2:
         return None
     x0, y0, pixels, area = _kernels.official_lane(
-        np.ascontiguousarray(lane.points), int(width), int(height), int(thickness), *_quad_extras(int(thickness))
+        _points(lane), int(width), int(height), int(thickness), *_quad_extras(int(thickness))
     )
     return LaneMask(int(x0), int(y0), pixels, int(area))
 
@@ -88,8 +99,26 @@ def map_mask(lane: Lane | None, geometry: MapGeometry, thickness: int, spline: b
     if rounding not in ("nearest", "truncate"):
         raise ValueError(f"rounding must be 'nearest' or 'truncate', got {rounding!r}")
     x0, y0, pixels, area = _kernels.map_lane(
-        np.ascontiguousarray(lane.points), bool(spline), geometry.scale_x, geometry.scale_y,
+        _points(lane), bool(spline), float(geometry.scale_x), float(geometry.scale_y),
         float(geometry.crop_top_px), rounding == "truncate", int(thickness),
         int(geometry.map_width), int(geometry.map_height), *_quad_extras(int(thickness)),
     )
     return LaneMask(int(x0), int(y0), pixels, int(area))
+
+
+def warm_up(groups=("tables", "official", "paper")) -> None:
+    """Compile (or load from numba's cache) the drawing kernels of these groups of
+    `_kernels.ENTRY_SIGNATURES`, and draw a lane each way once."""
+    for group in groups:
+        for kernel, signature in _kernels.ENTRY_SIGNATURES[group]:
+            compile_now(kernel, signature)
+    lane = Lane(np.array([[700.0, 589.0], [760.0, 450.0], [800.0, 330.0], [815.0, 260.0]]))
+    masks = []
+    if "official" in groups:
+        masks.append(official_mask(lane, 1640, 590, 30))
+    if "paper" in groups:
+        geometry = MapGeometry(1640, 590, 800, 288)
+        masks += [map_mask(lane, geometry, 16, spline, rounding) for spline in (False, True)
+                  for rounding in ("nearest", "truncate")]
+    if masks:
+        masks[0].intersection(masks[-1])

@@ -1,0 +1,121 @@
+"""Where numba keeps our compiled kernels: a per-user cache folder, never inside the package.
+
+numba's default for `cache=True` is a `__pycache__` beside the source file. In an installed
+package that is site-packages/roneld_eval/*/__pycache__/, which pip does not know about: an
+uninstall (e.g. by a later `pip install -e .`) leaves those folders behind, and they then
+shadow the package as an empty namespace package. So every kernel is decorated with
+`cached_njit`, which gives its dispatcher numba's user-provided cache locator (the one
+NUMBA_CACHE_DIR selects, numba.core.caching.UserProvidedCacheLocator) on `cache_dir()`:
+
+- NUMBA_CACHE_DIR when the user set it (in numba.config or the environment);
+- else $XDG_CACHE_HOME/roneld-eval/numba, else ~/.cache/roneld-eval/numba
+  (%LOCALAPPDATA%\\roneld-eval\\numba on Windows);
+- else, when that cannot be written, <temp>/roneld-eval-<user>/numba;
+- else no cache at all (each run compiles).
+
+The locator is chosen when a function is decorated, from numba.config.CACHE_DIR: it is set
+only for the duration of our decorations, so it works whether or not numba was imported
+before us, and the user's own cached functions keep numba's defaults. numba keys each
+entry by the source file's path and contents, so installs and versions never mix.
+"""
+
+from __future__ import annotations
+
+import functools
+import getpass
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numba
+from numba.core import config as numba_config
+
+
+def _writable(folder: Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+        return True
+    except OSError:
+        return False
+
+
+def _user_name() -> str:
+    try:
+        return getpass.getuser()
+    except Exception:  # no user name in the environment or the password database
+        return str(os.getuid()) if hasattr(os, "getuid") else "user"
+
+
+def user_cache_dir() -> Path:
+    """Our per-user folder for numba's cache (whether or not NUMBA_CACHE_DIR is set)."""
+    if sys.platform == "win32" and os.environ.get("LOCALAPPDATA"):
+        base = Path(os.environ["LOCALAPPDATA"])
+    elif os.environ.get("XDG_CACHE_HOME"):
+        base = Path(os.environ["XDG_CACHE_HOME"])
+    else:
+        base = Path.home() / ".cache"
+    return base / "roneld-eval" / "numba"
+
+
+@functools.lru_cache(maxsize=None)
+def cache_dir() -> Path | None:
+    """The folder numba caches our kernels in (see the module's docstring), None if none is writable."""
+    chosen = numba_config.CACHE_DIR or os.environ.get("NUMBA_CACHE_DIR")
+    if chosen:
+        return Path(chosen)
+    candidates = (user_cache_dir, lambda: Path(tempfile.gettempdir()) / f"roneld-eval-{_user_name()}" / "numba")
+    for candidate in candidates:
+        try:
+            folder = candidate()
+        except RuntimeError:  # Path.home() without a home
+            continue
+        if _writable(folder):
+            return folder
+    return None
+
+
+def cached_njit(**options):
+    """numba.njit(cache=True, **options), caching in `cache_dir()` instead of beside the source.
+
+    Without any writable folder the kernels are not cached at all (numba would otherwise fall
+    back to the package's own folders).
+    """
+    def decorate(function):
+        folder = cache_dir()
+        if folder is None:
+            return numba.njit(**options)(function)
+        previous = numba_config.CACHE_DIR
+        numba_config.CACHE_DIR = str(folder)
+        try:
+            return numba.njit(cache=True, **options)(function)
+        finally:
+            numba_config.CACHE_DIR = previous
+
+    return decorate
+
+
+def compile_now(kernel, signature: tuple) -> None:
+    """Compile `kernel` for these argument types, or load them from the cache (a no-op when this
+    process has them, or when numba's JIT is disabled and kernels are plain functions)."""
+    compile_ = getattr(kernel, "compile", None)
+    if compile_ is not None:
+        compile_(signature)
+
+
+def in_cache(kernel, signature: tuple) -> bool | None:
+    """Whether this process has `kernel` for these argument types, or numba's cache holds them;
+    None when that cannot be told (numba's cache internals changed, or no cache).
+
+    Reads only the kernel's small cache index (numba.core.caching: the key is the one
+    `Dispatcher.compile` looks up), never the machine code.
+    """
+    if tuple(signature) in getattr(kernel, "overloads", {}):
+        return True
+    try:
+        cache = kernel._cache
+        key = cache._index_key(tuple(signature), kernel.targetctx.codegen())
+        return key in cache._cache_file._load_index()
+    except Exception:
+        return None

@@ -1,0 +1,188 @@
+"""Compiling the numba kernels ahead of a run: once, in parallel, and never inside a timed region.
+
+numba compiles a kernel the first time it meets new argument types and keeps the machine code
+in its on-disk cache (roneld_eval._numba_cache), so only the first run after an install (or an
+upgrade) compiles: about 20 s of CPU time. Left to itself, that happens inside every worker
+process at once, in the middle of the first clip. Instead:
+
+- `prepare()` runs once in the main process before the workers start. It looks the kernels up
+  in the cache (index files only, ~2 ms); when some are missing it says so through `announce`
+  and compiles them, independent groups in parallel processes that share numba's cache (one
+  share in this process itself, which workers forked later inherit).
+- `warm_up()` runs in every process that evaluates (each worker as it starts, and the main
+  process before evaluating in-process): it loads from the cache what the process lacks
+  (~0.4 s, the workers in parallel) and runs every extractor's code path once, RONELD's curve
+  mode included, so that no compile or first-call import lands in a timed region.
+
+Kernel groups: "roneld" and "baseline" (extract/_kernels.ENTRY_SIGNATURES), "official" and
+"paper" (metrics/_kernels.ENTRY_SIGNATURES; both bring "tables"). `groups_for` says which a
+run needs. Nothing here changes a result: it only decides when compiling happens.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import sys
+from typing import Callable, Iterable
+
+from ._numba_cache import cache_dir, compile_now, in_cache
+from .extract import _kernels as extract_kernels
+from .extract import warm_up as warm_up_extraction
+from .metrics import _kernels as metric_kernels
+from .metrics.raster import warm_up as warm_up_scoring
+
+GROUPS = ("roneld", "baseline", "official", "paper")
+EXTRACTION = ("roneld", "baseline")
+SCORING = ("official", "paper")
+
+# Groups compiled in the same process, because their kernels share callees (the rasteriser),
+# and the seconds each unit takes to compile from nothing on one core of the 2-core machine
+# this is developed on (scripts/bench_cold.py): to balance processes and announce a duration.
+_UNITS = {"roneld": ("roneld",), "baseline": ("baseline",), "scoring": ("tables", "official", "paper")}
+_UNIT_COMPILE_S = {"roneld": 9.0, "baseline": 1.0, "scoring": 12.0}
+
+
+def groups_for(methods: Iterable[str], dataset: str) -> tuple[str, ...]:
+    """The kernel groups a run of these methods on this dataset ("culane", "tusimple") needs."""
+    methods = set(methods)
+    needed = []
+    if methods & {"roneld", "roneld-nopft"}:
+        needed.append("roneld")
+    if "baseline" in methods:
+        needed.append("baseline")
+    if dataset == "culane":
+        needed.append("official")
+    needed.append("paper")  # every run scores with the paper's protocol
+    return tuple(needed)
+
+
+def _groups(needed: Iterable[str] | None) -> tuple[str, ...]:
+    needed = GROUPS if needed is None else tuple(needed)
+    unknown = set(needed) - set(GROUPS)
+    if unknown:
+        raise ValueError(f"unknown kernel groups {sorted(unknown)}; known: {', '.join(GROUPS)}")
+    return tuple(group for group in GROUPS if group in needed)
+
+
+def _entries(groups: Iterable[str]) -> list[tuple[object, tuple]]:
+    """(kernel, argument types) of these groups (including "tables" for a scoring group)."""
+    groups = set(groups)
+    if groups & set(SCORING):
+        groups.add("tables")
+    entries = []
+    for table in (extract_kernels.ENTRY_SIGNATURES, metric_kernels.ENTRY_SIGNATURES):
+        for group, listed in table.items():
+            if group in groups:
+                entries += listed
+    return entries
+
+
+def _compile_units(units: tuple[str, ...]) -> None:
+    """Compile (or load) every kernel of these units; in a compiling process, into the cache."""
+    for unit in units:
+        for kernel, signature in _entries(_UNITS[unit]):
+            compile_now(kernel, signature)
+
+
+def _cores() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _schedule(units: list[str], processes: int) -> list[list[str]]:
+    """Units in at most `processes` bins of about equal compile time, heaviest bin first."""
+    bins: list[list[str]] = [[] for _ in range(max(1, min(processes, len(units))))]
+    for unit in sorted(units, key=lambda name: -_UNIT_COMPILE_S[name]):
+        min(bins, key=lambda b: sum(_UNIT_COMPILE_S[name] for name in b)).append(unit)
+    return sorted(bins, key=lambda b: -sum(_UNIT_COMPILE_S[name] for name in b))
+
+
+def missing_units(needed: Iterable[str] | None = None) -> list[str]:
+    """The compile units of `needed` groups that neither this process nor numba's cache holds.
+
+    A kernel whose presence cannot be told (see `_numba_cache.in_cache`) counts as present:
+    it is then compiled where it is loaded, without an announcement.
+    """
+    groups = set(_groups(needed))
+    units = []
+    for unit, members in _UNITS.items():
+        if not groups & set(members):
+            continue
+        wanted = [group for group in members if group in groups or group == "tables"]
+        if any(in_cache(kernel, signature) is False for kernel, signature in _entries(wanted)):
+            units.append(unit)
+    return units
+
+
+def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str] | None = None,
+            processes: int | None = None) -> None:
+    """Make sure numba's cache holds every kernel of the `needed` groups (default: all).
+
+    Call once in the main process before worker processes start. When the cache lacks some
+    (the first run after an install or an upgrade), `announce` (if given) receives one line,
+    "compiling kernels (first run only, about N s)", and they are compiled in up to
+    `processes` (default: the usable cores) processes at once. Nothing else happens when the
+    cache is warm. Each evaluating process then calls `warm_up`.
+    """
+    groups = _groups(needed)
+    units = missing_units(groups)
+    if units:
+        parallel = _cores() if processes is None else max(1, processes)
+        if cache_dir() is None:
+            parallel = 1  # without a cache other processes cannot hand their work over
+        bins = _schedule(units, parallel)
+        if announce is not None:
+            seconds = max(sum(_UNIT_COMPILE_S[unit] for unit in b) for b in bins)
+            announce(f"compiling kernels (first run only, about {5 * math.ceil(seconds / 5):.0f} s)")
+        _compile_in_parallel(bins)
+
+
+def _compile_in_parallel(bins: list[list[str]]) -> None:
+    """The first bin here, each other in a process of its own. Theirs reach other processes
+    through numba's cache (`warm_up` loads them, and compiles whatever a failed one left)."""
+    method = "fork" if sys.platform == "linux" else "spawn"
+    context = multiprocessing.get_context(method)
+    helpers = [context.Process(target=_compile_units, args=(tuple(b),), daemon=True) for b in bins[1:]]
+    try:
+        for helper in helpers:
+            helper.start()
+        _compile_units(tuple(bins[0]))
+        for helper in helpers:
+            helper.join()
+    finally:
+        for helper in helpers:
+            if helper.is_alive():
+                helper.terminate()
+                helper.join()
+
+
+def warm_up(needed: Iterable[str] | None = None) -> None:
+    """Load the `needed` kernel groups (default: all) and run each code path once, here.
+
+    Call in every process that evaluates, before anything is timed: each worker process as
+    it starts, and the main process before evaluating in-process. Compiles only what neither
+    this process nor numba's cache holds (nothing after `prepare`). About 0.6 s loading from
+    the cache (scipy's spline import included), 10 ms when the process has everything.
+    """
+    groups = _groups(needed)
+    extraction = tuple(group for group in groups if group in EXTRACTION)
+    scoring = tuple(group for group in groups if group in SCORING)
+    if extraction:
+        warm_up_extraction(extraction)
+    if scoring:
+        warm_up_scoring(("tables",) + scoring)
+
+
+def dispatchers() -> dict[str, object]:
+    """Every numba kernel of the package by qualified name ("roneld_eval.extract._kernels.frame_lanes"),
+    each with `.signatures` (the argument types compiled in this process)."""
+    found = {}
+    for module in (extract_kernels, metric_kernels):
+        for name, value in vars(module).items():
+            if hasattr(value, "signatures") and hasattr(value, "py_func"):
+                found[f"{module.__name__}.{name}"] = value
+    return found

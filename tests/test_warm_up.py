@@ -1,0 +1,233 @@
+"""Kernels compile before a run, never inside it; numba's cache lives outside the package.
+
+After `kernels.warm_up()`, evaluating (RONELD with and without PFT, the baseline, every score)
+must add no compiled signature to any numba kernel: otherwise the first frame that needs it
+compiles inside the timed region. Checked on the real clip, the bundled fixtures and a synthetic
+clip that enters RONELD's curve mode, on writable and read-only (memory-mapped .npy) maps.
+No timings here.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import REPO, lane_map
+
+import roneld_eval
+from roneld_eval import api, kernels
+from roneld_eval._numba_cache import cache_dir, in_cache
+from roneld_eval.config import BaselineParams, EvalConfig, PaperMetricParams, RoneldParams
+from roneld_eval.extract import RoneldTracker, baseline_lanes, curving_clip
+from roneld_eval.geometry import MapGeometry
+from roneld_eval.metrics.culane_official import evaluate_culane_frame, official_masks
+from roneld_eval.metrics.paper import ego_masks, side_ious
+from roneld_eval.model import FrameMaps, Lane
+
+PACKAGE = Path(roneld_eval.__file__).resolve().parent
+
+
+def compiled() -> dict[str, set]:
+    return {name: set(kernel.signatures) for name, kernel in kernels.dispatchers().items()}
+
+
+def added_since(before: dict[str, set]) -> dict[str, list[str]]:
+    """Signatures compiled since `before`, per kernel (empty when nothing compiled)."""
+    return {name: [str(s) for s in signatures - before.get(name, set())]
+            for name, signatures in compiled().items() if signatures - before.get(name, set())}
+
+
+@pytest.fixture
+def warm():
+    kernels.warm_up()
+    return compiled()
+
+
+# ---- nothing compiles after warm_up --------------------------------------------------------------
+
+
+def test_the_real_clip_compiles_nothing_after_warm_up(real_clip_tree, warm):
+    data, maps = real_clip_tree
+    config = EvalConfig.preset("scnn-culane").with_overrides(**{
+        "dataset.data_root": str(data), "maps.root": str(maps), "maps.format": "scnn-png", "pft_ablation": True,
+        "workers": 1})
+    roneld_eval.evaluate(config, progress=False)
+    assert added_since(warm) == {}
+
+
+@pytest.mark.parametrize("dataset", ["culane", "tusimple"])
+def test_the_bundled_fixtures_compile_nothing_after_warm_up(dataset, warm):
+    config = api.with_fixture(api.default_config(dataset).with_overrides(pft_ablation=True, workers=1))
+    roneld_eval.evaluate(config, progress=False)
+    assert added_since(warm) == {}
+
+
+def curving_frames(frames: int = 12, height: int = 288, width: int = 800) -> list[np.ndarray]:
+    """SCNN-sized maps of two ego lanes bending right near the horizon, and an outer lane."""
+    distance = (height - 1 - np.arange(height)).astype(np.float64)
+    clip = []
+    for frame in range(frames):
+        maps = np.zeros((4, height, width), np.uint8)
+        centre = width / 2 + 3 * frame
+        for channel, side in ((1, -1), (2, 1)):
+            xs = centre + side * (150 - distance) + 0.0035 * distance**2
+            xs[: height // 4] = np.nan
+            maps[channel] = lane_map(height, width, xs, value=200, sigma=3)
+        xs = centre - 420 + 0.6 * distance + 0.0035 * distance**2
+        xs[: height // 3] = np.nan
+        maps[0] = lane_map(height, width, xs, value=120, sigma=3)
+        clip.append(maps)
+    return clip
+
+
+def test_a_clip_in_curve_mode_compiles_nothing_after_warm_up(warm):
+    geometry = MapGeometry(1640, 590, 800, 288)
+    paper = PaperMetricParams()
+    truth = [Lane(np.array([[500.0, 589], [700, 300]])), Lane(np.array([[1200.0, 589], [900, 300]]))]
+    gt_masks = ego_masks(truth, geometry, paper, 0.5)
+    official_truth = official_masks(truth, 1640, 590, 30)
+    with_pft = RoneldTracker(RoneldParams(), geometry)
+    without_pft = RoneldTracker(RoneldParams(), geometry, pft=False)
+    modes = []
+    for maps in curving_frames():
+        for frame in (maps, read_only(maps)):
+            lanes = with_pft(frame)
+            modes.append(lanes.curve_mode)
+            predictions = [
+                [lanes.left, lanes.right],
+                [without_pft(frame).left, without_pft(frame).right],
+                baseline_lanes(FrameMaps(frame), BaselineParams(), geometry)[1:3],
+            ]
+            for active in predictions:
+                side_ious(gt_masks, active, geometry, paper, spline=True)
+                found = [lane for lane in active if lane is not None]
+                evaluate_culane_frame(truth, found, 1640, 590, 30, gt_masks=official_truth,
+                                      pred_masks=official_masks(found, 1640, 590, 30))
+    assert modes[-1] and not modes[0], "the clip must enter curve mode (its spline path) part-way"
+    assert added_since(warm) == {}
+
+
+def read_only(maps: np.ndarray) -> np.ndarray:
+    view = maps.view()
+    view.flags.writeable = False
+    return view
+
+
+def test_the_warm_up_clip_reaches_curve_mode():
+    tracker = RoneldTracker(RoneldParams())
+    lanes = [tracker(maps) for maps in curving_clip()]
+    assert lanes[-1].curve_mode and not lanes[0].curve_mode
+    assert len(lanes[-1].left.points) > 2 and len(lanes[-1].right.points) > 2  # spline samples, not a line
+
+
+def test_the_extractors_own_warm_up_stays_importable():
+    from roneld_eval.extract import warm_up
+
+    warm_up()
+    warm_up(("baseline",))
+
+
+# ---- kernels rewritten to compile faster give numpy's answers -------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_stable_argsort_is_numpys_stable_argsort(seed):
+    """The insertion sort that replaced np.argsort(kind="mergesort") (seconds of compiling):
+    ties keep their order, NaN sorts last, -0.0 equals 0.0."""
+    from roneld_eval.extract import _kernels
+
+    rng = np.random.default_rng(seed)
+    keys = rng.choice([-1.5, -0.0, 0.0, 2.0, np.nan, np.inf, -np.inf, 7.25], size=int(rng.integers(0, 40)))
+    keys = np.where(rng.random(keys.size) < 0.5, keys, rng.normal(size=keys.size))
+    for kernel in (_kernels.stable_argsort, _kernels.stable_argsort.py_func):
+        np.testing.assert_array_equal(kernel(keys), np.argsort(keys, kind="stable"))
+
+
+# ---- prepare: what a run needs, when it is said --------------------------------------------------
+
+
+def test_groups_follow_the_methods_and_the_dataset():
+    assert kernels.groups_for(["baseline", "roneld"], "culane") == ("roneld", "baseline", "official", "paper")
+    assert kernels.groups_for(["roneld-nopft"], "tusimple") == ("roneld", "paper")
+    with pytest.raises(ValueError, match="unknown kernel groups"):
+        kernels.warm_up(["roneld", "sideways"])
+
+
+def test_prepare_announces_compiling_only_when_something_is_missing(monkeypatch):
+    said, compiled_units = [], []
+    monkeypatch.setattr(kernels, "_compile_in_parallel", lambda bins: compiled_units.extend(bins))
+    monkeypatch.setattr(kernels, "missing_units", lambda needed: ["scoring", "roneld"])
+    kernels.prepare(announce=said.append, needed=("roneld", "paper"), processes=2)
+    assert len(said) == 1 and said[0].startswith("compiling kernels (first run only, about ")
+    assert said[0].endswith(" s)")
+    assert sorted(compiled_units) == [["roneld"], ["scoring"]]  # two processes, one unit each
+
+    said.clear()
+    monkeypatch.setattr(kernels, "missing_units", lambda needed: [])
+    kernels.prepare(announce=said.append)
+    assert said == []
+
+
+def test_what_this_process_holds_counts_as_cached(warm):
+    from roneld_eval.extract import _kernels
+
+    kernel, signature = _kernels.ENTRY_SIGNATURES["roneld"][0]
+    assert in_cache(kernel, signature) is True
+    assert kernels.missing_units() == []
+
+
+def test_units_are_balanced_over_processes():
+    assert kernels._schedule(["roneld", "baseline", "scoring"], 2) == [["scoring"], ["roneld", "baseline"]]
+    assert kernels._schedule(["roneld", "baseline", "scoring"], 1) == [["scoring", "roneld", "baseline"]]
+    assert kernels._schedule(["baseline"], 8) == [["baseline"]]
+
+
+def test_every_kernel_is_listed():
+    names = set(kernels.dispatchers())
+    for module in ("extract", "metrics"):
+        source = (PACKAGE / module / "_kernels.py").read_text()
+        assert source.count("@cached_njit(") == sum(name.startswith(f"roneld_eval.{module}.") for name in names)
+
+
+# ---- numba's cache lives outside the package ------------------------------------------------------
+
+_CACHE_PATHS = """
+import json, sys
+if sys.argv[1] == "numba-first":
+    import numba  # noqa: F401  (the user imported numba before us)
+from roneld_eval import kernels
+print(json.dumps({name: kernel._cache._cache_path for name, kernel in kernels.dispatchers().items()}))
+"""
+
+
+@pytest.mark.parametrize("order", ["numba-first", "roneld-first"])
+def test_numba_caches_in_the_users_cache_folder(order, tmp_path):
+    env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO)] + [p for p in [env.get("PYTHONPATH")] if p])
+    done = subprocess.run([sys.executable, "-c", _CACHE_PATHS, order], env=env, capture_output=True, text=True,
+                          check=True)
+    paths = json.loads(done.stdout)
+    assert len(paths) == len(kernels.dispatchers())
+    for name, path in paths.items():
+        assert Path(path).is_relative_to(tmp_path / "xdg" / "roneld-eval" / "numba"), (name, path)
+
+
+def test_a_numba_cache_dir_the_user_set_is_kept(tmp_path):
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "mine"))
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO)] + [p for p in [env.get("PYTHONPATH")] if p])
+    done = subprocess.run([sys.executable, "-c", _CACHE_PATHS, "roneld-first"], env=env, capture_output=True,
+                          text=True, check=True)
+    assert all(Path(p).is_relative_to(tmp_path / "mine") for p in json.loads(done.stdout).values())
+
+
+def test_this_process_caches_outside_the_package():
+    folder = cache_dir()
+    assert folder is not None and not folder.resolve().is_relative_to(PACKAGE)
+    for name, kernel in kernels.dispatchers().items():
+        assert not Path(kernel._cache._cache_path).resolve().is_relative_to(PACKAGE), name
