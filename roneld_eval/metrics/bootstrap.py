@@ -4,7 +4,9 @@ Frames of a clip are not independent (the same road, RONELD's state), so clips a
 resampled. Each resample draws as many clips as there are, with replacement, and recomputes
 both methods' accuracy on the same draw (paired): difference = (sum TP_a - sum TP_b) / sum N_gt
 over the drawn clips. The interval is the 2.5th..97.5th percentile of 2,000 resamples with a
-fixed seed, so the same inputs give the same interval.
+fixed seed, so the same inputs give the same interval. With fewer than MIN_CLIPS clips the
+resamples are too few to mean anything (one clip gives a zero-width "interval"), so the bounds
+are NaN and only the difference is reported.
 """
 
 from __future__ import annotations
@@ -19,14 +21,26 @@ from ..config import Thresholds
 RESAMPLES = 2000
 SEED = 20201  # fixed: intervals are reproducible
 LEVEL = 0.95
+# Fewer clips than this give NaN bounds: 4 clips have only 35 distinct resamples, and one clip
+# a single one, which would print as a zero-width interval around the difference.
+MIN_CLIPS = 5
+
+
+def clip_of(frames: pd.Series) -> pd.Series:
+    """The clip (video folder) of each frame path: the unit the bootstrap resamples."""
+    return frames.map(posixpath.dirname)
+
+
+def count_clips(per_frame: pd.DataFrame) -> int:
+    """How many clips the bootstrap resamples: distinct folders of the scored frames."""
+    return int(clip_of(per_frame["frame"]).nunique()) if len(per_frame) else 0
 
 
 def clip_counts(per_frame: pd.DataFrame, method: str, thresholds: Thresholds, clips: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """(tp, n_gt): (C, T) true positives and (C,) ground-truth lanes per clip of one method."""
     rows = per_frame[per_frame["method"] == method]
-    clip_of = rows["frame"].map(posixpath.dirname).to_numpy()
     index = {clip: k for k, clip in enumerate(clips)}
-    positions = np.array([index[c] for c in clip_of], np.int64)
+    positions = np.array([index[c] for c in clip_of(rows["frame"])], np.int64)
     above = rows["iou"].to_numpy(np.float64)[:, None] > np.asarray(thresholds.values)[None, :]
     tp = np.zeros((len(clips), len(thresholds)), np.int64)
     np.add.at(tp, positions, above.astype(np.int64))
@@ -36,14 +50,21 @@ def clip_counts(per_frame: pd.DataFrame, method: str, thresholds: Thresholds, cl
 
 def paired_bootstrap(per_frame: pd.DataFrame, thresholds: Thresholds, method: str, reference: str = "roneld",
                      resamples: int = RESAMPLES, seed: int = SEED, level: float = LEVEL) -> pd.DataFrame:
-    """threshold, difference (reference - method), ci_low, ci_high from a paired clip bootstrap."""
-    clips = sorted(set(per_frame["frame"].map(posixpath.dirname)))
+    """threshold, difference (reference - method), ci_low, ci_high from a paired clip bootstrap.
+
+    ci_low and ci_high are NaN with fewer than MIN_CLIPS clips; the difference is always given.
+    """
+    clips = sorted(set(clip_of(per_frame["frame"])))
     tp_ref, n_gt = clip_counts(per_frame, reference, thresholds, clips)
     tp_other, n_gt_other = clip_counts(per_frame, method, thresholds, clips)
     assert np.array_equal(n_gt, n_gt_other), "methods are scored on the same ground truth"
     delta = (tp_ref - tp_other).astype(np.float64)  # (C, T)
     total = n_gt.sum()
     difference = delta.sum(axis=0) / total if total else np.full(len(thresholds), np.nan)
+    if len(clips) < MIN_CLIPS:
+        nan = np.full(len(thresholds), np.nan)
+        return pd.DataFrame({"threshold": list(thresholds.labels), "difference": difference, "ci_low": nan,
+                             "ci_high": nan})
     rng = np.random.default_rng(seed)
     # How often each clip is drawn in each resample: equivalent to drawing indices.
     weights = rng.multinomial(len(clips), np.full(len(clips), 1 / len(clips)), size=resamples).astype(np.float64)

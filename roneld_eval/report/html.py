@@ -1,7 +1,9 @@
 """report.html: a run's tables and pictures on one self-contained page (images embedded).
 
 Built from the files of a run folder, so `roneld-eval show` can refresh it after adding
-pictures. It opens from disk with no server and no network.
+pictures. It opens from disk with no server and no network. Every note states the
+configuration behind its numbers: the tables' own notes (accuracy.md, ...), and the geometry in
+summary.json (the configuration's, marked so, when the run recorded none).
 """
 
 from __future__ import annotations
@@ -13,6 +15,9 @@ import re
 from pathlib import Path
 
 import pandas as pd
+
+from ..metrics.tusimple_official import PIXEL_THRESHOLD, POINT_THRESHOLD
+from .tables import Protocol, dataset_name, display_name
 
 STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1100px;
@@ -31,7 +36,7 @@ def _markdown_table(text: str) -> str:
     if len(rows) < 2:
         return ""
     def cells(line):
-        return [html.escape(c.strip()) for c in line.strip("|").split("|")]
+        return [html.escape(c.strip(), quote=False) for c in line.strip("|").split("|")]
     def bold(cell):
         return re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", cell)
     head = "".join(f"<th>{c}</th>" for c in cells(rows[0]))
@@ -39,8 +44,18 @@ def _markdown_table(text: str) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def _csv_table(path: Path) -> str:
+def _markdown_notes(text: str) -> str:
+    """The paragraphs of one of our Markdown files that are neither its title nor its table."""
+    paragraphs = [block.strip() for block in text.split("\n\n")]
+    notes = [block for block in paragraphs if block and not block.startswith(("#", "|"))]
+    return " ".join(html.escape(" ".join(block.split()), quote=False) for block in notes)
+
+
+def _csv_table(path: Path, model: str | None = None) -> str:
+    """A CSV of the run as HTML, methods under their display names when the model is known."""
     table = pd.read_csv(path)
+    if model and "method" in table.columns:
+        table["method"] = [display_name(method, model) for method in table["method"]]
     return table.to_html(index=False, float_format=lambda v: f"{v:.4f}", na_rep="n/a", border=0)
 
 
@@ -52,28 +67,42 @@ def _image(path: Path, alt: str) -> str:
 def build_html(folder: Path) -> str:
     """The page for the run in `folder`."""
     folder = Path(folder)
-    summary = json.loads((folder / "summary.json").read_text()) if (folder / "summary.json").exists() else {}
+    summary = json.loads((folder / "summary.json").read_text(encoding="utf-8")) if (folder / "summary.json").exists() else {}
     config = summary.get("config", {})
     counts = summary.get("counts", {})
-    dataset = {"culane": "CULane", "tusimple": "TuSimple"}.get(summary.get("dataset"), summary.get("dataset", "?"))
-    parts = [f"<h1>roneld-eval: {html.escape(str(config.get('model', '')))} on {html.escape(dataset)}</h1>",
+    protocol = Protocol.from_summary(summary)
+    fixture = str(summary.get("data_root", "")).startswith("bundled fixture")
+    dataset = dataset_name(summary.get("dataset", "?"))
+    title = f"roneld-eval: {config.get('model', '')} on {dataset}" + (" (bundled synthetic fixture)" if fixture else "")
+    parts = [f"<h1>{html.escape(title)}</h1>",
              '<p class="meta">' + html.escape(
                  f"{counts.get('clips', '?')} clips, {counts.get('frames', '?')} frames, "
                  f"{counts.get('labelled_frames', '?')} scored, {counts.get('ego_lanes', '?')} ego lanes; "
                  f"data: {summary.get('data_root', '?')}; roneld-eval {summary.get('versions', {}).get('roneld-eval', '?')}")
              + "</p>"]
+    if protocol is not None:
+        line = f"Paper's protocol: {protocol.paper()}."
+        if summary.get("dataset") != "tusimple":
+            line += f" Official CULane protocol: {protocol.official()}."
+        parts.append(f'<p class="meta">{html.escape(line, quote=False)}</p>')
+    if summary.get("dataset") == "tusimple":
+        official_note = (f"TuSimple's evaluate/lane.py: a point matches within {PIXEL_THRESHOLD} px (slope-corrected), "
+                         f"a lane when {POINT_THRESHOLD:.0%} of its points match.")
+    else:
+        official_note = ("SCNN's CULane evaluator per category, and 'ego': the two ego lanes only"
+                         + (f"; {protocol.official()}." if protocol is not None else "."))
+    colours = {"baseline": "baseline red (dashed)", "roneld": "RONELD green", "roneld-nopft": "RONELD w/o PFT cyan (dashed)"}
+    drawn = [colours[m] for m in config.get("methods", colours) if m in colours]
+    picture_note = (", ".join(["Ground truth blue", *drawn]) + "; numbers are each lane's IoU under the paper's protocol"
+                    + (f" ({protocol.paper()})." if protocol is not None else "."))
     sections = [
-        ("Accuracy (the RONELD paper's protocol)", "accuracy.md", None,
-         "True positive when IoU &gt; threshold; Acc. Inc. with its 95% interval (paired bootstrap over clips)."),
+        ("Accuracy (the RONELD paper's protocol)", "accuracy.md", None, None),
         ("Accuracy against IoU threshold", None, "accuracy_curve.png", None),
         ("Preceding-frame tracking ablation", "ablation.md", None, None),
-        ("Official scores", "official.csv", None,
-         "CULane: SCNN's evaluator (IoU &gt; 0.5, 30 px) per category, and 'ego': the two ego lanes only. "
-         "TuSimple: evaluate/lane.py."),
+        ("Official scores", "official.csv", None, official_note),
         ("By category", None, "categories.png", None),
-        ("Runtime per frame", "runtime.md", None, "Extraction alone, after numba warm-up; map loading apart."),
-        ("Where the methods differ most", None, "overlays.png", "Ground truth blue, baseline red (dashed), RONELD green; "
-         "numbers are each lane's IoU."),
+        ("Runtime per frame", "runtime.md", None, None),
+        ("Where the methods differ most", None, "overlays.png", picture_note),
     ]
     for title, table_file, image_file, note in sections:
         table_path = folder / table_file if table_file else None
@@ -81,10 +110,14 @@ def build_html(folder: Path) -> str:
         if (table_path is None or not table_path.exists()) and (image_path is None or not image_path.exists()):
             continue
         parts.append(f"<h2>{html.escape(title)}</h2>")
-        if note:
-            parts.append(f'<p class="meta">{note}</p>')
-        if table_path is not None and table_path.exists():
-            parts.append(_csv_table(table_path) if table_path.suffix == ".csv" else _markdown_table(table_path.read_text()))
+        has_table = table_path is not None and table_path.exists()
+        markdown = table_path.read_text(encoding="utf-8") if has_table and table_path.suffix == ".md" else None
+        # A table's own notes (what produced its numbers) go with it; else the section's.
+        text = html.escape(note, quote=False) if note else _markdown_notes(markdown) if markdown else ""
+        if text:
+            parts.append(f'<p class="meta">{text}</p>')
+        if has_table:
+            parts.append(_csv_table(table_path, config.get("model")) if markdown is None else _markdown_table(markdown))
         if image_path is not None and image_path.exists():
             parts.append(_image(image_path, title))
     body = "\n".join(parts)

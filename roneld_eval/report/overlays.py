@@ -99,8 +99,14 @@ def _point_at_height(points: np.ndarray, y: float) -> tuple[float, float]:
     return float(np.interp(y, ys, xs)), float(y)
 
 
-def draw_frame(picture: FramePicture, background: np.ndarray, model: str, caption: str = "") -> np.ndarray:
-    """One annotated picture (BGR), OUTPUT_WIDTH wide, with a legend and a caption bar."""
+def draw_frame(picture: FramePicture, background: np.ndarray, model: str, caption: str = "",
+               protocol: str = "") -> np.ndarray:
+    """One annotated picture (BGR), OUTPUT_WIDTH wide, with a legend and a caption bar.
+
+    The legend names each method from its method name and says what the numbers are: each
+    lane's IoU under the paper's protocol, `protocol` saying how it was drawn (e.g. "ground
+    truth 16 px, predictions 30 px on 800x288 maps").
+    """
     height, width = background.shape[:2]
     scale = OUTPUT_WIDTH / width
     image = cv2.resize(background, (OUTPUT_WIDTH, round(height * scale)), interpolation=cv2.INTER_AREA)
@@ -122,17 +128,23 @@ def draw_frame(picture: FramePicture, background: np.ndarray, model: str, captio
             if iou is not None:
                 anchor = _point_at_height(points, out_height * (0.62 + 0.12 * rank))
                 _label(image, f"{iou:.2f}", anchor, colour)
-    legend = [("ground truth", STYLES["ground truth"][0])] + [
-        (display_name(method, model), STYLES.get(method, (CYAN, 3, True))[0]) for method in picture.lanes]
-    for row, (text, colour) in enumerate(legend):
+    legend = [("ground truth", STYLES["ground truth"][0], False)] + [
+        (display_name(method, model), *STYLES.get(method, (CYAN, 3, True))[::2]) for method in picture.lanes]
+    legend.append((f"numbers: each lane's IoU ({protocol or 'the paper' + chr(39) + 's protocol'})", None, False))
+    for row, (text, colour, dashed) in enumerate(legend):
         y = 24 + 24 * row
+        x = 52 if colour is not None else 12
         overlay = image.copy()
-        cv2.rectangle(overlay, (6, y - 17), (250, y + 7), (0, 0, 0), -1)
+        cv2.rectangle(overlay, (6, y - 17), (max(250, x + cv2.getTextSize(text, FONT, 0.55, 1)[0][0] + 8), y + 7),
+                      (0, 0, 0), -1)
         cv2.addWeighted(overlay, 0.6, image, 0.4, 0, dst=image)
-        cv2.line(image, (12, y - 5), (44, y - 5), colour, 4, cv2.LINE_AA)
-        cv2.putText(image, text, (52, y), FONT, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
+        if colour is not None:  # a sample of the line, dashed as drawn
+            _polyline(image, np.array([[12.0, y - 5], [44.0, y - 5]]), colour, 4, dashed)
+        cv2.putText(image, text, (x, y), FONT, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
     bar = np.full((34, OUTPUT_WIDTH, 3), 255, np.uint8)
-    cv2.putText(bar, caption or picture.relpath, (8, 23), FONT, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
+    text = caption or picture.relpath
+    size = min(0.55, 0.55 * (OUTPUT_WIDTH - 16) / cv2.getTextSize(text, FONT, 0.55, 1)[0][0])  # never cut off
+    cv2.putText(bar, text, (8, 23), FONT, size, (0, 0, 0), 1, cv2.LINE_AA)
     return np.vstack([image, bar])
 
 

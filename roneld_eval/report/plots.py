@@ -1,11 +1,15 @@
 """Accuracy-against-threshold curves (the paper's Fig. 5) from the accuracy table.
 
 One line per method, told apart by marker and dash as well as colour so that greyscale
-prints stay readable. Output bytes are reproducible (no dates, fixed SVG ids).
+prints stay readable. Legends name methods by their method name alone, and a note under each
+figure states the configuration behind its numbers (map size, thicknesses, IoU threshold).
+Output bytes are reproducible (no dates, fixed SVG ids).
 """
 
 from __future__ import annotations
 
+import re
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -14,7 +18,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from .tables import display_name  # noqa: E402
+from ..errors import InputError
+from .tables import Protocol, clips_text, dataset_name, display_name  # noqa: E402
 
 STYLES = {
     "baseline": dict(color="#d62728", marker="o", linestyle="--"),
@@ -23,49 +28,78 @@ STYLES = {
 }
 
 
-def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, pft: bool = True):
-    """A matplotlib Figure of accuracy against IoU threshold."""
-    figure, axes = plt.subplots(figsize=(6.4, 4.0), dpi=150)
+def _note(figure, lines: list[str], width: int) -> float:
+    """Wrapped small text at the bottom of the figure; returns the height fraction it takes."""
+    keep = re.compile(r"(\d) (px|clips?)\b")  # '30 px' stays on one line
+    text = "\n".join(textwrap.fill(keep.sub("\\1\u00a0\\2", line), width) for line in lines if line)
+    if not text:
+        return 0.0
+    figure.text(0.01, 0.01, text, fontsize=7.5, color="#333333", ha="left", va="bottom")
+    inches = (text.count("\n") + 1) * 7.5 * 1.35 / 72 + 0.08
+    return inches / figure.get_figheight()
+
+
+def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: Protocol | None = None):
+    """A matplotlib Figure of accuracy against IoU threshold.
+
+    `dataset`: 'culane', 'tusimple' or any label ("the bundled CULane fixture (synthetic)");
+    `protocol`: the configuration stated under the plot.
+    """
+    figure, axes = plt.subplots(figsize=(6.4, 4.4), dpi=150)
     for method in dict.fromkeys(accuracy["method"]):
         rows = accuracy[accuracy["method"] == method]
         style = STYLES.get(method, dict(marker="x", linestyle="-."))
-        axes.plot(rows["threshold"].astype(float), rows["accuracy"], label=display_name(method, model, pft),
+        axes.plot(rows["threshold"].astype(float), rows["accuracy"], label=display_name(method, model),
                   markersize=4, linewidth=1.6, **style)
-    name = {"culane": "CULane", "tusimple": "TuSimple"}.get(dataset, dataset)
-    axes.set_title(f"Active-lane accuracy on {name}")
-    axes.set_xlabel("IoU threshold")
+    axes.set_title(f"Ego-lane accuracy on {dataset_name(dataset)}", fontsize=10)
+    axes.set_xlabel("IoU threshold (a true positive needs IoU > threshold)")
     axes.set_ylabel("Accuracy (N_TP / N_gt)")
     axes.grid(True, alpha=0.3)
     axes.legend(loc="lower left", frameon=True)
     low = max(0.0, float(accuracy["accuracy"].min()) - 0.05)
     axes.set_ylim(low, min(1.0, float(accuracy["accuracy"].max()) + 0.05) if len(accuracy) else 1.0)
-    figure.tight_layout()
+    note = []
+    if protocol is not None:
+        clips = "" if protocol.clips is None else f"; {clips_text(protocol.clips)}"
+        note.append(f"RONELD paper's protocol: {protocol.paper()}{clips}.")
+    figure.tight_layout(rect=(0, _note(figure, note, 100), 1, 1))
     return figure
 
 
 def save_figure(figure, png: Path, svg: Path | None = None) -> None:
     """PNG (and SVG) without timestamps, so the same numbers give the same bytes."""
-    with matplotlib.rc_context({"svg.hashsalt": "roneld-eval"}):
-        figure.savefig(png, metadata={"Software": None})
-        if svg is not None:
-            figure.savefig(svg, metadata={"Date": None, "Creator": None})
-    plt.close(figure)
+    try:
+        with matplotlib.rc_context({"svg.hashsalt": "roneld-eval"}):
+            for path, metadata in ((png, {"Software": None}), (svg, {"Date": None, "Creator": None})):
+                if path is None:
+                    continue
+                try:
+                    figure.savefig(path, metadata=metadata)
+                except OSError as error:  # disk full, quota: name the picture, not matplotlib's internals
+                    raise InputError(path, f"cannot write: {error.strerror or error}") from None
+    finally:
+        plt.close(figure)
 
 
 HATCHES = {"baseline": "//", "roneld": "", "roneld-nopft": ".."}
 
 
 def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, model: str, threshold_label: str,
-                    pft: bool = True):
-    """Grouped bars per CULane category: the paper's accuracy (left) and the official F1 (right)."""
+                    protocol: Protocol | None = None):
+    """Grouped bars per CULane category: the paper's accuracy (left) and the official F1 (right).
+
+    `threshold_label`: the IoU threshold of both panels (the official one); `protocol`: the
+    configuration stated under the bars.
+    """
     import numpy as np
 
     names = [c for c in dict.fromkeys(categories["category"])]
     methods = list(dict.fromkeys(categories["method"]))
-    panels = [("accuracy", categories, f"Active-lane accuracy (IoU > {threshold_label})")]
+    panels = [("accuracy", categories, f"Ego-lane accuracy, paper's protocol (IoU > {threshold_label})")]
     if official is not None and "f1" in official.columns:
-        panels.append(("f1", official[official["category"].isin(names)], "Official CULane F1 (all lanes)"))
-    figure, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.2), dpi=150, squeeze=False)
+        panels.append(("f1", official[official["category"].isin(names)],
+                       f"Official CULane F1, all lanes (IoU > {threshold_label})"))
+    figure, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.6), dpi=150, squeeze=False)
     width = 0.8 / max(len(methods), 1)
     positions = np.arange(len(names))
     for ax, (column, table, title) in zip(axes[0], panels):
@@ -73,7 +107,7 @@ def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, mod
             rows = table[table["method"] == method].set_index("category").reindex(names)
             style = STYLES.get(method, {})
             ax.bar(positions + (k - (len(methods) - 1) / 2) * width, rows[column].fillna(0), width,
-                   label=display_name(method, model, pft), color=style.get("color", "#777777"),
+                   label=display_name(method, model), color=style.get("color", "#777777"),
                    hatch=HATCHES.get(method, "xx"), edgecolor="black", linewidth=0.6)
         ax.set_xticks(positions, names, rotation=30, ha="right")
         ax.set_ylim(0, 1.05)
@@ -81,5 +115,11 @@ def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, mod
         ax.grid(True, axis="y", alpha=0.3)
     handles, labels = axes[0][0].get_legend_handles_labels()
     figure.legend(handles, labels, loc="upper center", ncol=len(methods), fontsize=9, frameon=False)
-    figure.tight_layout(rect=(0, 0, 1, 0.92))
+    note = []
+    if protocol is not None:
+        note.append(f"Accuracy: {protocol.paper()}.")
+        if len(panels) > 1:
+            note.append(f"F1: {protocol.official()}.")
+    bottom = _note(figure, note, 100 * len(panels))
+    figure.tight_layout(rect=(0, bottom, 1, 0.92))
     return figure

@@ -1,19 +1,143 @@
 """Result tables in the paper's layouts (Tables II-V), rendered as Markdown and LaTeX.
 
-Display names live here: 'baseline' is the model's own extraction ("SCNN"), 'roneld' is
-"SCNN + RONELD". Nothing here computes a metric; every number comes from the run's tables.
+Display names live here and come from the method name alone: 'baseline' is the model's own
+extraction ("SCNN"), 'roneld' RONELD with preceding-frame tracking ("SCNN + RONELD"),
+'roneld-nopft' RONELD without it ("SCNN + RONELD w/o PFT"). So is the wording of the
+configuration every label states (`Protocol`: map size, thicknesses, IoU threshold, clips).
+Nothing here computes a metric; every number comes from the run's tables.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, fields
 
 import pandas as pd
 
+from ..config import EvalConfig
+from ..errors import RoneldEvalError
+from ..geometry import EffectiveGeometry
+from ..metrics.bootstrap import LEVEL, MIN_CLIPS, count_clips
+
 PAPER_THRESHOLDS = ("0.30", "0.40", "0.50")
 ABLATION_THRESHOLDS = ("0.30", "0.50")
+DATASET_NAMES = {"culane": "CULane", "tusimple": "TuSimple"}
+PFT_LABELS = {"roneld": "w/ PFT", "roneld-nopft": "w/o PFT"}  # the method is the PFT switch
 
+
+# ---- names -------------------------------------------------------------------------------
+
+def name_parts(method: str, model: str) -> tuple[str, ...]:
+    """A method's display name in the pieces a stacked table header puts on separate lines."""
+    if method == "baseline":
+        return (model,)
+    if method == "roneld":
+        return (model, "+ RONELD")
+    if method == "roneld-nopft":
+        return (model, "+ RONELD", "w/o PFT")
+    return (method,)
+
+
+def display_name(method: str, model: str) -> str:
+    """How the paper names a method: 'SCNN', 'SCNN + RONELD', 'SCNN + RONELD w/o PFT'."""
+    return " ".join(name_parts(method, model))
+
+
+def dataset_name(name: str) -> str:
+    return DATASET_NAMES.get(name, name)
+
+
+# ---- the configuration behind the numbers ---------------------------------------------------
+
+def configured_geometry(config: EvalConfig) -> EffectiveGeometry:
+    """What `config` draws on maps of its own size: the stand-in when a run recorded nothing."""
+    paper, maps = config.paper, config.maps
+    crop_bottom = config.dataset.image_height if maps.crop_bottom_px is None else maps.crop_bottom_px
+    return EffectiveGeometry(
+        image_width=config.dataset.image_width, image_height=config.dataset.image_height,
+        map_width=maps.width, map_height=maps.height, crop_top_px=maps.crop_top_px, crop_bottom_px=crop_bottom,
+        rescaled=False,
+        gt_thickness_px=paper.thickness(paper.gt_thickness_px, maps.width, maps.height),
+        pred_thickness_px=paper.thickness(paper.pred_thickness_px, maps.width, maps.height),
+        official_lane_width_px=config.official.lane_width_px,
+        official_iou_threshold=config.official.iou_threshold,
+    )
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """The configuration that produced a run's numbers, in the words every label uses."""
+
+    geometry: EffectiveGeometry
+    clips: int | None = None  # clips scored: the unit of the bootstrap
+    recorded: bool = True  # False: `geometry` is the configuration's; the maps' size was not recorded
+
+    @classmethod
+    def of_run(cls, result) -> "Protocol":
+        """From a RunResult: its recorded geometry, else the configuration's."""
+        clips = count_clips(result.per_frame)
+        if result.geometry is not None:
+            return cls(result.geometry, clips)
+        return cls(configured_geometry(result.config), clips, recorded=False)
+
+    @classmethod
+    def from_summary(cls, summary: dict) -> "Protocol | None":
+        """From a run folder's summary.json ("geometry", else "config"); None when neither reads."""
+        clips = summary.get("counts", {}).get("clips")
+        data = summary.get("geometry")
+        names = [f.name for f in fields(EffectiveGeometry)]
+        if isinstance(data, dict) and all(name in data for name in names):
+            try:
+                return cls(EffectiveGeometry(**{name: data[name] for name in names}), clips)
+            except (TypeError, ValueError):
+                pass
+        try:
+            return cls(configured_geometry(EvalConfig.from_dict(summary["config"])), clips, recorded=False)
+        except (RoneldEvalError, KeyError, TypeError, AttributeError, ValueError):
+            return None  # an older or foreign summary: say nothing rather than guess
+
+    def map_size(self) -> str:
+        g = self.geometry
+        text = f"{g.map_width}x{g.map_height} maps"
+        if (g.crop_top_px, g.crop_bottom_px) != (0, g.image_height):
+            text += f" (image rows {g.crop_top_px}..{g.crop_bottom_px - 1} of {g.image_width}x{g.image_height})"
+        if g.rescaled:
+            text += ", rescaled from the preset's size"
+        if not self.recorded:
+            text += " (the configured size; the run did not record the maps' size)"
+        return text
+
+    def paper(self) -> str:
+        """The RONELD paper's protocol as this run drew it (section IV-B)."""
+        g = self.geometry
+        return (f"ego lanes drawn on the {self.map_size()}, ground truth {g.gt_thickness_px} px "
+                f"and predictions {g.pred_thickness_px} px wide")
+
+    def paper_short(self) -> str:
+        """The paper's protocol in a few words, for pictures."""
+        g = self.geometry
+        return (f"ground truth {g.gt_thickness_px} px, predictions {g.pred_thickness_px} px "
+                f"on {g.map_width}x{g.map_height} maps")
+
+    def official(self) -> str:
+        """The official CULane protocol as this run drew it."""
+        g = self.geometry
+        return (f"all lanes drawn {g.official_lane_width_px} px wide at {g.image_width}x{g.image_height}, "
+                f"a match counts when IoU > {g.official_iou_threshold:g}")
+
+    def interval(self) -> str:
+        """How the intervals of Acc. Inc. were made, and when they are absent."""
+        over = "clips" if self.clips is None else clips_text(self.clips)
+        return (f"{LEVEL:.0%} interval from a paired bootstrap over the {over} "
+                f"(n/a with fewer than {MIN_CLIPS})")
+
+
+def clips_text(clips: int) -> str:
+    return "1 clip" if clips == 1 else f"{clips} clips"
+
+
+# ---- tables --------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
 class Increase:
@@ -23,14 +147,29 @@ class Increase:
     relative: float  # NaN when the base accuracy is 0
     low: float = math.nan  # 95% interval of the absolute increase (paired bootstrap over clips)
     high: float = math.nan
+    clips: int | None = None  # clips behind the interval; shown when there is none ("n/a (4 clips)")
+
+    def interval_text(self) -> str:
+        """'[0.050, 0.100]', '[n/a (4 clips)]', '[n/a]', or '' when no interval was asked for."""
+        if not math.isnan(self.low) and not math.isnan(self.high):
+            return f"[{self.low:.3f}, {self.high:.3f}]"
+        if self.clips is not None and self.clips < MIN_CLIPS:
+            return f"[n/a ({clips_text(self.clips)})]"
+        return "" if self.clips is None else "[n/a]"
 
 
 @dataclass(frozen=True)
 class Table:
-    """Headers (repeats allowed, as in the paper) and rows of str, float or Increase cells."""
+    """Headers (repeats allowed, as in the paper) and rows of str, float or Increase cells.
+
+    `header_lines` gives each header as the lines LaTeX stacks (default: one line each), and
+    `group` an optional header row above them: (text, first column, end column) spans.
+    """
 
     headers: tuple[str, ...]
     rows: tuple[tuple, ...]
+    header_lines: tuple[tuple[str, ...], ...] = ()
+    group: tuple[tuple[str, int, int], ...] = ()
 
     def to_markdown(self) -> str:
         lines = ["| " + " | ".join(self.headers) + " |", "|" + "|".join("---" for _ in self.headers) + "|"]
@@ -38,48 +177,97 @@ class Table:
             lines.append("| " + " | ".join(_cell(value, latex=False) for value in row) + " |")
         return "\n".join(lines) + "\n"
 
-    def to_latex(self, caption: str, label: str) -> str:
-        lines = [
-            "\\begin{table}[t]",
+    def to_latex(self, caption: str, label: str, wide: bool = False) -> str:
+        """A booktabs table; `wide`: `table*` (both columns of a two-column paper).
+
+        Fits without scaling: footnote-size type, stacked headers, an increase on lines of its
+        own (absolute, relative, interval), and a wide table spread over the line with 4 pt gaps
+        at the least. The head comment says what it needs.
+        """
+        environment = "table*" if wide else "table"
+        where = ("a table* spanning both columns of a two-column paper (an ordinary table in one column)"
+                 if wide else "a table one column wide")
+        comment = (f"Written by roneld-eval: {where}.\n"
+                   "Needs \\usepackage{booktabs} (\\toprule, \\midrule, \\cmidrule, \\bottomrule); nothing else.\n"
+                   "Unscaled, it fits a two-column article and a one-column article with default margins.")
+        columns = len(self.headers)
+        stacked = self.header_lines or tuple((h,) for h in self.headers)
+        depth = max(len(lines) for lines in stacked)
+        lines = [f"% {line}" if line else "%" for line in comment.splitlines()]
+        lines += [
+            f"\\begin{{{environment}}}[t]",
             "  \\centering",
-            f"  \\caption{{{_latex_escape(caption)}}}",
+            "  \\footnotesize",
+            f"  \\setlength{{\\tabcolsep}}{{{'2pt' if wide else '4pt'}}}",
+            f"  \\caption{{{latex_text(caption)}}}",
             f"  \\label{{{label}}}",
-            "  \\begin{tabular}{c|" + "c" * (len(self.headers) - 1) + "}",
-            "    \\hline",
-            "    " + " & ".join(_latex_escape(h) for h in self.headers) + " \\\\",
-            "    \\hline",
+            "  \\smallskip",
+            (f"  \\begin{{tabular*}}{{\\linewidth}}{{@{{\\extracolsep{{\\fill}}}}l{'c' * (columns - 1)}@{{}}}}" if wide
+             else f"  \\begin{{tabular}}{{@{{}}l{'c' * (columns - 1)}@{{}}}}"),
+            "    \\toprule",
         ]
-        for row in self.rows:
-            lines.append("    " + " & ".join(_cell(value, latex=True) for value in row) + " \\\\")
-        lines += ["    \\hline", "  \\end{tabular}", "\\end{table}"]
+        if self.group:
+            cells, rules, at = [], [], 0
+            for text, first, end in self.group:
+                cells += [""] * (first - at) + [f"\\multicolumn{{{end - first}}}{{c}}{{{latex_text(text)}}}"]
+                rules.append(f"\\cmidrule(lr){{{first + 1}-{end}}}")
+                at = end
+            cells += [""] * (columns - at)
+            lines.append("    " + " & ".join(cells) + " \\\\")
+            lines.append("    " + " ".join(rules))
+        for level in range(depth):
+            cells = []
+            for header in stacked:
+                index = level - (depth - len(header))  # stacked headers sit on the bottom line
+                cells.append(latex_text(header[index]) if index >= 0 else "")
+            lines.append("    " + " & ".join(cells) + " \\\\")
+        lines.append("    \\midrule")
+        for number, row in enumerate(self.rows):
+            cells = [_latex_lines(value) for value in row]
+            if number and any(len(cell) > 1 for cell in cells):
+                lines.append("    \\addlinespace[3pt]")
+            for level in range(max(len(cell) for cell in cells)):
+                lines.append("    " + " & ".join(cell[level] if level < len(cell) else "" for cell in cells) + " \\\\")
+        lines += ["    \\bottomrule", f"  \\end{{{'tabular*' if wide else 'tabular'}}}", f"\\end{{{environment}}}"]
         return "\n".join(lines) + "\n"
 
 
-def _cell(value, latex: bool) -> str:
+def _percent(value: Increase) -> str:
+    return "n/a" if math.isnan(value.relative) else f"{value.relative * 100:.1f}%"
+
+
+def _latex_lines(value) -> list[str]:
+    """A cell as LaTeX, one entry per table line: an increase takes up to three."""
     if isinstance(value, Increase):
-        percent = "n/a" if math.isnan(value.relative) else f"{value.relative * 100:.1f}%"
-        interval = "" if math.isnan(value.low) else f" [{value.low:.3f}, {value.high:.3f}]"
-        if latex:
-            return f"{value.absolute:+.3f}{interval} \\textbf{{({percent.replace('%', chr(92) + '%')})}}"
-        return f"{value.absolute:+.3f}{interval} **({percent})**"
+        lines = [_latex_number(f"{value.absolute:+.3f}"), f"\\textbf{{({latex_text(_percent(value))})}}"]
+        interval = value.interval_text()
+        return lines + ([_latex_number(latex_text(interval))] if interval else [])
+    return [_cell(value, latex=True)]
+
+
+def _cell(value, latex: bool) -> str:
+    if isinstance(value, Increase):  # Markdown; LaTeX stacks it (_latex_lines)
+        interval = value.interval_text()
+        return f"{value.absolute:+.3f}{' ' + interval if interval else ''} **({_percent(value)})**"
     if isinstance(value, float):
-        return "n/a" if math.isnan(value) else f"{value:.3f}"
-    return _latex_escape(str(value)) if latex else str(value)
+        text = "n/a" if math.isnan(value) else f"{value:.3f}"
+        return _latex_number(text) if latex else text
+    return latex_text(str(value)) if latex else str(value)
 
 
-def _latex_escape(text: str) -> str:
-    return text.replace("\\", "\\textbackslash{}").replace("%", "\\%").replace("&", "\\&").replace("_", "\\_")
+def _latex_number(text: str) -> str:
+    """A typeset minus for negative numbers."""
+    return re.sub(r"(?<![\w.])-(?=\d)", "$-$", text)
 
 
-def display_name(method: str, model: str, pft: bool = True) -> str:
-    """How the paper names a method: 'SCNN', 'SCNN + RONELD', 'SCNN + RONELD w/o PFT'."""
-    if method == "baseline":
-        return model
-    if method == "roneld":
-        return f"{model} + RONELD" if pft else f"{model} + RONELD w/o PFT"
-    if method == "roneld-nopft":
-        return f"{model} + RONELD w/o PFT"
-    return method
+def latex_text(text: str) -> str:
+    """Plain text as LaTeX: specials escaped, '>' and '<' in math, '800x288' with a times sign."""
+    text = (text.replace("\\", "\x00").replace("{", "\\{").replace("}", "\\}").replace("\x00", "\\textbackslash{}")
+            .replace("%", "\\%").replace("&", "\\&").replace("_", "\\_").replace("#", "\\#")
+            .replace("$", "\\$").replace("~", "\\textasciitilde{}").replace("^", "\\textasciicircum{}"))
+    text = text.replace(" >", "~>").replace(">", "$>$").replace("<", "$<$")  # 'IoU > 0.5' on one line
+    text = re.sub(r"(\d) (px|clips?|frames?)\b", r"\1~\2", text)  # '30 px' on one line
+    return re.sub(r"(\d)x(\d)", r"\1$\\times$\2", text)
 
 
 def table_thresholds(labels: list[str], wanted=PAPER_THRESHOLDS) -> list[str]:
@@ -99,8 +287,12 @@ def short_threshold(label: str) -> str:
     return text + "0" if text.endswith(".") else text
 
 
-def comparison_table(accuracy: pd.DataFrame, model: str, pft: bool = True) -> Table:
-    """Tables II/III: at 0.3/0.4/0.5, each method, RONELD beside it, and the increase."""
+def comparison_table(accuracy: pd.DataFrame, model: str, clips: int | None = None) -> Table:
+    """Tables II/III: at 0.3/0.4/0.5, each method, RONELD beside it, and the increase.
+
+    `clips`: how many clips the intervals were drawn over; with too few for one (NaN bounds)
+    the increase says "n/a (k clips)" instead.
+    """
     labels = list(dict.fromkeys(accuracy["threshold"]))
     methods = list(dict.fromkeys(accuracy["method"]))
     value = {(r.method, r.threshold): float(r.accuracy) for r in accuracy.itertuples()}
@@ -109,46 +301,55 @@ def comparison_table(accuracy: pd.DataFrame, model: str, pft: bool = True) -> Ta
         interval = {(r.method, r.threshold): (float(r.roneld_gain_ci_low), float(r.roneld_gain_ci_high))
                     for r in accuracy.itertuples()}
     others = [m for m in methods if m != "roneld"]
-    headers = ["IoU threshold"]
-    if "roneld" in methods and others:
-        for method in others:
-            headers += [display_name(method, model, pft), display_name("roneld", model, pft), "Acc. Inc."]
-    else:
-        headers += [display_name(m, model, pft) for m in methods]
+    paired = "roneld" in methods and bool(others)
+    shown = [m for other in others for m in (other, "roneld")] if paired else methods
+    headers, header_lines = ["IoU threshold"], [("IoU", "threshold")]
+    for method in shown:
+        headers.append(display_name(method, model))
+        header_lines.append(name_parts(method, model))
+        if paired and method == "roneld":
+            headers.append("Acc. Inc.")
+            header_lines.append(("Acc. Inc.",))
     rows = []
     for label in table_thresholds(labels):
         row: list = [short_threshold(label)]
-        if "roneld" in methods and others:
+        if paired:
             ours = value[("roneld", label)]
             for method in others:
                 base = value[(method, label)]
                 relative = (ours - base) / base if base else math.nan
                 low, high = interval.get((method, label), (math.nan, math.nan))
-                row += [base, ours, Increase(ours - base, relative, low, high)]
+                row += [base, ours, Increase(ours - base, relative, low, high, clips if interval else None)]
         else:
             row += [value[(m, label)] for m in methods]
         rows.append(tuple(row))
-    return Table(tuple(headers), tuple(rows))
+    return Table(tuple(headers), tuple(rows), tuple(header_lines))
 
 
-def ablation_table(accuracy: pd.DataFrame, dataset: str) -> Table | None:
-    """Table IV: RONELD with and without PFT at 0.3 and 0.5 (None without both runs)."""
-    if not {"roneld", "roneld-nopft"} <= set(accuracy["method"]):
+def ablation_table(accuracy: pd.DataFrame, dataset: str, model: str | None = None) -> Table | None:
+    """Table IV: RONELD without ('roneld-nopft') and with ('roneld') PFT at 0.3 and 0.5.
+
+    None without both methods. Column labels come from the method names, never from a flag.
+    """
+    methods = ("roneld-nopft", "roneld")
+    if not set(methods) <= set(accuracy["method"]):
         return None
     labels = list(dict.fromkeys(accuracy["threshold"]))
     value = {(r.method, r.threshold): float(r.accuracy) for r in accuracy.itertuples()}
-    name = {"culane": "CULane", "tusimple": "TuSimple"}.get(dataset, dataset)
+    name = dataset_name(dataset)
     rows = tuple(
-        (short_threshold(label), value[("roneld-nopft", label)], value[("roneld", label)])
+        (short_threshold(label), *(value[(m, label)] for m in methods))
         for label in table_thresholds(labels, ABLATION_THRESHOLDS)
     )
-    return Table(("IoU threshold", f"{name} w/o PFT", f"{name} w/ PFT"), rows)
+    group_name = name if model is None else f"{name}, {display_name('roneld', model)}"
+    return Table(("IoU threshold", *(f"{name} {PFT_LABELS[m]}" for m in methods)), rows,
+                 (("IoU", "threshold"), *((PFT_LABELS[m],) for m in methods)), ((group_name, 1, 3),))
 
 
-def runtime_table(runtime: pd.DataFrame, model: str, pft: bool = True) -> Table:
+def runtime_table(runtime: pd.DataFrame, model: str) -> Table:
     """Table V: milliseconds per frame of extraction alone, map loading apart."""
     rows = []
     for row in runtime.itertuples(index=False):
-        name = "Map loading" if row.method == "map loading" else display_name(row.method, model, pft)
+        name = "Map loading" if row.method == "map loading" else display_name(row.method, model)
         rows.append((name, str(row.frames), float(row.mean_ms), float(row.median_ms), float(row.p95_ms)))
     return Table(("Method", "Frames", "Mean (ms)", "Median (ms)", "p95 (ms)"), tuple(rows))
