@@ -7,16 +7,13 @@ the official formats, `synthesize` writes a generated dataset. The bundled fixtu
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
-import pickle
-import shutil
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -24,8 +21,13 @@ import pandas as pd
 from . import __version__
 from .config import DEFAULT_PRESETS, IMAGE_SIZES, EvalConfig, parse_thresholds
 from .datasets import read_culane
+from .datasets.culane import labels_path
 from .errors import ConfigError, InputError, RunInterrupted
-from .evaluation import ClipResult, RunResult, default_workers, evaluate, process_pool
+from .cache import ResultCache
+from .evaluation import RunResult, evaluate
+from .output import OutputFolder, read_manifest
+from .signals import interruption_name, terminate_as_interrupt
+from .workers import default_workers, process_pool, stop_pool
 from .lanes_io import read_culane_lines
 from .metrics.culane_official import (
     CulaneFrameResult,
@@ -34,6 +36,7 @@ from .metrics.culane_official import (
 )
 from .metrics.tusimple_official import TusimpleScore, score_tusimple_files
 from .model import Frame
+from .report.tables import Protocol
 from .report.write import LaneWriter, Staging, stage_report
 from .synth import SynthResult, synthesize
 
@@ -65,73 +68,34 @@ def with_fixture(config: EvalConfig) -> EvalConfig:
                                     "maps.format": FIXTURE_MAPS_FORMAT})
 
 
-class ResultCache:
-    """Finished clips of a run, kept in `<out>/.roneld-cache/<key>/` until the run completes.
+def with_absolute_paths(config: EvalConfig) -> EvalConfig:
+    """The configuration with every path made absolute, so its config.toml works from anywhere."""
+    def absolute(value: str | None) -> str | None:
+        return None if value is None else os.path.abspath(os.path.expanduser(value))
 
-    The key hashes the configuration (all but the number of workers) and the tool's version,
-    so --resume only reuses clips evaluated exactly as the new run would.
-    """
-
-    def __init__(self, out: Path, config: EvalConfig, resume: bool):
-        settings = config.to_dict()
-        settings.pop("workers", None)
-        key = hashlib.sha256(json.dumps([settings, __version__], sort_keys=True).encode()).hexdigest()[:20]
-        self.folder = Path(out) / CACHE_FOLDER / key
-        if not resume:
-            shutil.rmtree(self.folder, ignore_errors=True)
-        try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-        except OSError as error:
-            raise InputError(self.folder, f"cannot write here: {error.strerror}") from None
-
-    def _path(self, clip_id: str) -> Path:
-        return self.folder / (hashlib.sha1(clip_id.encode()).hexdigest() + ".pkl")
-
-    def load(self, clip_id: str) -> ClipResult | None:
-        path = self._path(clip_id)
-        try:
-            with open(path, "rb") as handle:
-                result = pickle.load(handle)
-        except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ValueError):
-            return None
-        return result if isinstance(result, ClipResult) and result.clip_id == clip_id else None
-
-    def store(self, result: ClipResult) -> None:
-        path = self._path(result.clip_id)
-        temporary = path.with_suffix(".tmp")
-        try:
-            with open(temporary, "wb") as handle:
-                pickle.dump(result, handle, protocol=pickle.HIGHEST_PROTOCOL)
-            os.replace(temporary, path)
-        except OSError as error:
-            raise InputError(path, f"cannot keep this clip's results: {error.strerror}") from None
-
-    def count(self) -> int:
-        return sum(1 for _ in self.folder.glob("*.pkl"))
-
-    def discard(self) -> None:
-        shutil.rmtree(self.folder, ignore_errors=True)
-        try:
-            self.folder.parent.rmdir()
-        except OSError:
-            pass
-
-
-CACHE_FOLDER = ".roneld-cache"
+    return config.with_overrides(**{
+        "dataset.data_root": absolute(config.dataset.data_root),
+        "maps.root": absolute(config.maps.root),
+        "dataset.list_file": absolute(config.dataset.list_file),
+    })
 
 
 def run(config: EvalConfig | None = None, out: str | Path = "results", progress: bool = True,
-        resume: bool = False, overlays: int = 0) -> RunResult:
+        resume: bool = False, overlays: int = 0, announce: Callable[[str], None] | None = None) -> RunResult:
     """Evaluate every configured method and write the report to `out` (see the README).
 
     Finished clips are kept in `out` while the run goes on; after an interruption,
     `resume=True` evaluates only the clips not yet finished and gives the same numbers.
     `overlays=N` also draws the N frames where the baseline and RONELD differ most.
+    `announce` receives one-line notes (the geometry used, what resume reused).
+    The folder `out` is the run's own: see roneld_eval.output.
     """
-    requested = config or default_config()
+    requested = with_absolute_paths(config or default_config())
     config = with_fixture(requested)
-    with Staging(Path(out)) as staging:
-        cache = ResultCache(Path(out), config, resume)
+    say = announce or (lambda message: None)
+    with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
+        staging = Staging(folder)
+        cache = ResultCache(folder.path, config, __version__, resume, note=say)
         try:
             writer = LaneWriter(staging, config.dataset.name) if config.save_lanes else None
             dataset = None
@@ -142,11 +106,15 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
                                        config.dataset.limit)
                 writer.h_samples = {f.relpath: f.h_samples for c in dataset.clips for f in c.frames if f.labelled}
             try:
-                result = evaluate(config, progress=progress, lane_sink=writer, dataset=dataset, cache=cache)
-            except KeyboardInterrupt:
-                raise RunInterrupted(_unfinished("interrupted", cache), exit_code=130) from None
+                result = evaluate(config, progress=progress, lane_sink=writer, dataset=dataset, cache=cache,
+                                  announce=say)
+            except KeyboardInterrupt as error:
+                reason, code = interruption_name(error)
+                raise RunInterrupted(_unfinished(reason, cache), exit_code=code) from None
             except RunInterrupted as error:
-                raise RunInterrupted(_unfinished(str(error), cache)) from None
+                raise RunInterrupted(_unfinished(str(error), cache), exit_code=error.exit_code) from None
+            if resume:
+                say(f"resume: {cache.summary()}")
             if writer is not None:
                 writer.close()
             if config is not requested:
@@ -159,21 +127,32 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
                 from .report.write import write_pictures
 
                 chosen = worst_frames(result.per_frame, overlays)
-                write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods)))
+                protocol = Protocol.of_run(result).paper_short()
+                write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods), protocol))
             stage_report(result, staging)
+            try:
+                folder.commit()
+            except RunInterrupted:
+                cache.discard()  # a signal during the commit: the results are in place all the same
+                raise
+            cache.discard()
         except RunInterrupted:
             raise  # finished clips stay for --resume
+        except KeyboardInterrupt as error:
+            # After the evaluation (writing the report): the clips are all finished and kept.
+            reason, code = interruption_name(error)
+            raise RunInterrupted(_unfinished(reason, cache), exit_code=code) from None
         except BaseException:
             cache.discard()  # bad input or a bug: nothing to resume from
             raise
-    cache.discard()
     return result
 
 
 def _unfinished(reason: str, cache: ResultCache) -> str:
     done = cache.count()
-    return (f"{reason}: no result was written; {done} finished clip{'s' if done != 1 else ''} "
-            f"kept in {cache.folder}; run the same command with --resume to continue")
+    kept = (f"{done} finished clip{'s' if done != 1 else ''} kept in {cache.folder}; run the same command "
+            f"with --resume to continue") if done else "nothing to resume from"
+    return f"{reason}: no result was written; {kept}"
 
 
 # ---- scoring lane files ----------------------------------------------------------------------
@@ -192,15 +171,15 @@ def _score_frames(args) -> list[tuple[str, CulaneFrameResult]]:
     frames, pred_root, width, height, lane_width = args
     out = []
     for frame in frames:
-        stem = frame.relpath.rsplit(".", 1)[0]
-        predictions = read_culane_lines(Path(pred_root) / f"{stem}.lines.txt")
+        predictions = read_culane_lines(labels_path(Path(pred_root), frame.relpath))
         out.append((frame.relpath, evaluate_culane_frame(frame.lanes, predictions, width, height, lane_width)))
     return out
 
 
 def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | Path | None = None,
                  iou: str | float = 0.5, width: int = 30, out: str | Path | None = None,
-                 workers: int | None = None, progress: bool = False) -> CulaneScore:
+                 workers: int | None = None, progress: bool = False,
+                 announce: Callable[[str], None] | None = None) -> CulaneScore:
     """Score `.lines.txt` predictions (mirrored under pred_root) with the official CULane protocol.
 
     `iou` is one threshold or a sweep ('0.30:0.50:0.01'); every threshold costs one pass.
@@ -212,12 +191,15 @@ def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | 
     if width < 1:
         raise ConfigError(f"lane width must be positive, got {width}")
     thresholds = parse_thresholds(str(iou))
-    dataset = read_culane(data_root, list_file)
+    dataset = read_culane(data_root, list_file, require_labels=True)
     image_width, image_height = IMAGE_SIZES["culane"]
     frames: list[Frame] = [frame for clip in dataset.clips for frame in clip.frames]
     chunks = [frames[i:i + 200] for i in range(0, len(frames), 200)]
     tasks = [(chunk, pred_root, image_width, image_height, width) for chunk in chunks]
     workers = min(workers or default_workers(), max(len(chunks), 1))
+    from . import kernels
+
+    kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
     from tqdm import tqdm
 
     results: dict[str, CulaneFrameResult] = {}
@@ -231,9 +213,12 @@ def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | 
         except BrokenProcessPool:
             raise RunInterrupted("a worker process died (killed, or out of memory) while scoring: "
                                  "no result was written") from None
-        finally:
+        except BaseException:
             if pool is not None:
-                pool.shutdown(wait=False, cancel_futures=True)
+                stop_pool(pool)
+            raise
+        if pool is not None:
+            pool.shutdown(wait=True)
     sweep = []
     for label, value in zip(thresholds.labels, thresholds.values):
         table = category_table(results, dataset.categories, value)
@@ -243,11 +228,13 @@ def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | 
     first = sweep_table[sweep_table["iou_threshold"] == thresholds.labels[0]].drop(columns="iou_threshold")
     score = CulaneScore(first.reset_index(drop=True), sweep_table, len(frames))
     if out is not None:
-        with Staging(Path(out)) as staging:
+        with terminate_as_interrupt(), OutputFolder(out, "score culane") as folder:
+            staging = Staging(folder)
             staging.write_text("official.csv", score.table.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
             if len(thresholds) > 1:
                 staging.write_text("official_sweep.csv", sweep_table.to_csv(index=False, float_format="%.6f",
                                                                             lineterminator="\n"))
+            folder.commit()
     return score
 
 
@@ -255,9 +242,11 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
     """Score TuSimple JSON-lines predictions against a label file, as evaluate/lane.py does."""
     score = score_tusimple_files(labels, pred)
     if out is not None:
-        with Staging(Path(out)) as staging:
+        with terminate_as_interrupt(), OutputFolder(out, "score tusimple") as folder:
             table = pd.DataFrame([dict(accuracy=score.accuracy, fp=score.fp, fn=score.fn)])
-            staging.write_text("official.csv", table.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
+            Staging(folder).write_text("official.csv", table.to_csv(index=False, float_format="%.10g",
+                                                                    lineterminator="\n"))
+            folder.commit()
     return score
 
 
@@ -268,8 +257,10 @@ __all__ = ["run", "show", "score_culane", "score_tusimple", "synthesize", "fixtu
 # ---- pictures --------------------------------------------------------------------------------
 
 
-def frame_pictures(config: EvalConfig, dataset, frames: Sequence[str], methods: Sequence[str]):
-    """(relpath, picture) for each frame: its clip is evaluated again up to it (RONELD's state)."""
+def frame_pictures(config: EvalConfig, dataset, frames: Sequence[str], methods: Sequence[str], protocol: str = ""):
+    """(relpath, picture) for each frame: its clip is evaluated again up to it (RONELD's state).
+
+    `protocol` says in a few words how the IoUs written beside the lanes were measured."""
     from dataclasses import replace
 
     import cv2
@@ -279,6 +270,7 @@ def frame_pictures(config: EvalConfig, dataset, frames: Sequence[str], methods: 
     from .maps import load_maps
     from .metrics.paper import ego_lanes
     from .report.overlays import FramePicture, draw_frame, heat_map
+    from .report.tables import display_name
 
     wanted = list(dict.fromkeys(frames))
     clip_of = {f.relpath: clip for clip in dataset.clips for f in clip.frames}
@@ -320,9 +312,10 @@ def frame_pictures(config: EvalConfig, dataset, frames: Sequence[str], methods: 
             ious={m: outcomes[(relpath, m)].ious for m in methods if (relpath, m) in outcomes},
         )
         scores = "  ".join(
-            f"{m}: " + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in picture.ious[m].items())
+            f"{display_name(m, config.model)}: " + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in picture.ious[m].items())
             for m in picture.ious)
-        pictures.append((relpath, draw_frame(picture, background, config.model, f"{relpath}   {scores}")))
+        pictures.append((relpath, draw_frame(picture, background, config.model, f"{relpath}   {scores}",
+                                                      protocol=protocol)))
     return pictures
 
 
@@ -330,16 +323,19 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
          out: str | Path | None = None) -> list[Path]:
     """Draw frames of a finished run (given ones, or the `worst` N where methods differ most).
 
-    Pictures go to `out` (default: the run folder): overlays/<frame>.png and the contact sheet
-    overlays.png; written into the run folder, they also join its report.html.
+    Pictures go to `out` (default: `<run>/show/`), never over the run's own files:
+    overlays/<frame>.png and the contact sheet overlays.png.
     """
     run_dir = Path(run_dir)
-    for name in ("config.toml", "per_frame.csv"):
-        if not (run_dir / name).is_file():
-            raise InputError(run_dir / name, "not found: is this a roneld-eval run folder?")
+    check_finished_run(run_dir)
     requested = EvalConfig.from_toml(run_dir / "config.toml")
     config = with_fixture(requested)
-    per_frame = pd.read_csv(run_dir / "per_frame.csv")
+    try:
+        per_frame = pd.read_csv(run_dir / "per_frame.csv")
+    except (OSError, ValueError, pd.errors.ParserError) as error:
+        raise InputError(run_dir / "per_frame.csv", f"cannot read: {error}") from None
+    if list(per_frame.columns) != ["frame", "side", "method", "iou"]:
+        raise InputError(run_dir / "per_frame.csv", "not a per-frame table of this tool (columns frame, side, method, iou)")
     chosen = list(frames)
     if worst or not chosen:
         from .report.overlays import worst_frames
@@ -348,18 +344,31 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
     from .datasets import read_dataset
 
     dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file, config.dataset.limit)
-    pictures = frame_pictures(config, dataset, chosen, methods)
-    target = Path(out) if out is not None else run_dir
+    try:
+        recorded = Protocol.from_summary(json.loads((run_dir / "summary.json").read_text(encoding="utf-8")))
+    except (OSError, ValueError, AttributeError, TypeError):
+        recorded = None
+    pictures = frame_pictures(config, dataset, chosen, methods, recorded.paper_short() if recorded else "")
+    target = Path(out) if out is not None else run_dir / SHOW_FOLDER
+    if target.resolve() == run_dir.resolve():
+        raise InputError(target, "pictures go to their own folder, not over the run's files: choose another --out")
     from .report.write import write_pictures
 
-    with Staging(target) as staging:
-        write_pictures(staging, pictures)
-    written = staging.written
-    if target.resolve() == run_dir.resolve():
-        from .report.html import build_html
+    with terminate_as_interrupt(), OutputFolder(target, "show") as folder:
+        write_pictures(Staging(folder), pictures)
+        return folder.commit()
 
-        # Rebuilt from the run folder now that the new pictures are in place.
-        page = run_dir / "report.html.tmp"
-        page.write_text(build_html(run_dir))
-        os.replace(page, run_dir / "report.html")
-    return written
+
+SHOW_FOLDER = "show"
+
+
+def check_finished_run(run_dir: Path) -> None:
+    """Stop unless `run_dir` holds the complete results of `roneld-eval run`."""
+    if not run_dir.is_dir():
+        raise InputError(run_dir, "not found: give a folder written by `roneld-eval run`")
+    manifest = read_manifest(run_dir)
+    if manifest is None or manifest["command"] != "run":
+        raise InputError(run_dir, "not a folder written by `roneld-eval run` (it has no run manifest)")
+    for name in ("config.toml", "per_frame.csv"):
+        if name not in manifest["entries"] or not (run_dir / name).is_file():
+            raise InputError(run_dir / name, "missing from this run folder")

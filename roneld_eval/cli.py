@@ -12,7 +12,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .config import DEFAULT_PRESETS, MAP_FORMATS, METHODS, EvalConfig, preset_names
+from .config import DEFAULT_PRESETS, MAP_FORMATS, METHODS, EvalConfig, parse_setting, preset_names
 from .errors import ConfigError, RoneldEvalError
 
 
@@ -41,9 +41,12 @@ def _guard(function, debug: bool, *args, **kwargs):
         return function(*args, **kwargs)
     except RoneldEvalError as error:
         _fail(error, debug)
-    except KeyboardInterrupt:
-        click.echo("interrupted: no result was written", err=True)
-        sys.exit(130)
+    except KeyboardInterrupt as error:
+        from .signals import interruption_name
+
+        reason, code = interruption_name(error)
+        click.echo(f"{reason}: no result was written", err=True)
+        sys.exit(code)
     except MemoryError:
         _fail(RoneldEvalError("out of memory (try fewer --workers)"), debug)
     except OSError as error:
@@ -64,16 +67,6 @@ def main():
     paper's active-lane accuracy, the official CULane F1 and TuSimple scores, and runtime.
     With no arguments, `roneld-eval run` evaluates the bundled fixture.
     """
-
-
-def _toml_scalar(text: str):
-    """A --set value as TOML reads it (1, 0.5, true, "x", [..]); bare words stay strings."""
-    try:
-        from .config import tomllib
-
-        return tomllib.loads(f"v = {text}")["v"]
-    except Exception:
-        return text
 
 
 @main.command()
@@ -138,27 +131,33 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
             "maps.format": maps_format,
             "dataset.list_file": None if list_file is None else str(list_file),
             "dataset.limit": limit,
-            "methods": None if methods is None else tuple(m.strip() for m in methods.split(",") if m.strip()),
+            "methods": methods,  # comma-separated: the configuration splits and checks it
             "pft_ablation": pft_ablation,
             "paper.thresholds": thresholds,
             "workers": workers,
             "save_lanes": save_lanes,
             "on_error": on_error,
         }
-        if no_pft:
-            overrides["roneld.pft"] = False
+        if no_pft and pft_ablation:
+            raise ConfigError("--no-pft and --pft-ablation contradict each other: --no-pft runs RONELD only "
+                              "without PFT, --pft-ablation runs it with and without")
         for setting in settings:
-            key, equals, value = setting.partition("=")
-            if not equals or "." not in key and key not in ("model", "methods", "workers", "pft_ablation", "save_lanes", "on_error"):
-                raise ConfigError(f"--set needs SECTION.KEY=VALUE, got {setting!r}")
-            parsed = _toml_scalar(value)
-            overrides[key.strip()] = tuple(parsed) if isinstance(parsed, list) else parsed
+            key, value = parse_setting(setting)  # typed and checked as a TOML file's values
+            overrides[key] = value
         if (data_root is None) != (maps_root is None):
             raise ConfigError("give both --data-root and --maps-root, or neither for the bundled fixture")
-        return config.with_overrides(**overrides)
+        config = config.with_overrides(**overrides)
+        if no_pft:
+            try:
+                config = config.without_pft()  # 'roneld' becomes 'roneld-nopft'
+            except ConfigError as error:
+                raise ConfigError(f"--no-pft: {error}") from None
+        return config
 
     config = _guard(build, debug)
-    result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume, overlays=overlays)
+    announce = None if quiet else (lambda message: click.echo(message, err=True))
+    result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume, overlays=overlays,
+                    announce=announce)
     if not quiet:
         _print_summary(result, out)
     if result.skipped:  # never silently, --quiet or not
@@ -172,11 +171,12 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
 def _print_summary(result, out: Path) -> None:
     from .report import tables
 
-    config = result.config
     counts = result.counts
+    protocol = tables.Protocol.of_run(result)
     click.echo(f"\n{result.dataset.name}: {counts['clips']} clips, {counts['frames']} frames, "
                f"{counts['labelled_frames']} scored, {counts['ego_lanes']} ego lanes; {result.wall_time_s:.1f} s")
-    click.echo(tables.comparison_table(result.accuracy, config.model, config.roneld.pft).to_markdown())
+    click.echo(f"paper's protocol: {protocol.paper()}; Acc. Inc.: {protocol.interval()}")
+    click.echo(tables.comparison_table(result.accuracy, result.config.model, protocol.clips).to_markdown())
     click.echo(f"results in {out}/")
 
 
@@ -202,7 +202,9 @@ def score_culane_command(data_root, pred_root, list_file, iou, width, workers, o
     """Official CULane precision, recall and F1 per category, as SCNN's lane_evaluation computes them."""
     from . import api
 
-    score = _guard(api.score_culane, debug, data_root, pred_root, list_file, iou, width, out, workers, not quiet)
+    announce = None if quiet else (lambda message: click.echo(message, err=True))
+    score = _guard(api.score_culane, debug, data_root, pred_root, list_file, iou, width, out, workers, not quiet,
+                   announce)
     if not quiet:
         from .report.tables import Table
 
@@ -261,7 +263,8 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
               help="Draw the N frames where the baseline's and RONELD's IoUs differ most. Default: 6 without --frame.")
 @click.option("--method", "methods", multiple=True, type=click.Choice(METHODS),
               help="Methods to draw (repeatable). Default: those of the run.")
-@click.option("--out", type=click.Path(path_type=Path), help="Folder for the pictures. Default: the run folder.")
+@click.option("--out", type=click.Path(path_type=Path),
+              help="Folder for the pictures. Default: RUN/show (the run's own files are never touched).")
 @debug_option
 def show(run_dir, frames, worst, methods, out, debug):
     """Draw frames of a run: camera image (or the maps), ground truth blue, baseline red, RONELD green.

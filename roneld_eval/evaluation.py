@@ -9,13 +9,10 @@ so memory stays flat in the number of frames.
 
 from __future__ import annotations
 
-import multiprocessing
-import os
 import platform
-import sys
 import threading
 import time
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -27,12 +24,12 @@ import pandas as pd
 from . import __version__
 from .config import EvalConfig, parse_thresholds
 from .datasets import read_dataset
-from .datasets.culane import with_labels
+from .datasets.culane import labels_path, with_labels
 from .errors import ConfigError, InputError, RunInterrupted
-from .extract import warm_up
+from . import kernels
 from .extract.baseline import baseline_lanes, sample_rows
 from .extract.roneld import RoneldTracker
-from .geometry import MapGeometry
+from .geometry import EffectiveGeometry, MapGeometry, check_map_shape
 from .lanes_io import sample_lane_at_rows, tusimple_xs
 from .maps import load_maps, required_paths
 from .metrics.bootstrap import paired_bootstrap
@@ -45,6 +42,7 @@ from .metrics.paper import ego_lanes, ego_masks, side_ious
 from .metrics.sweep import sweep_accuracy
 from .metrics.tusimple_official import bench_frame, mean_scores
 from .model import Clip, Dataset, Frame, FrameMaps, Lane
+from .workers import default_workers, process_pool, stop_pool
 
 # Channels of the ego lanes in SCNN/ENet-SAD's CULane order (outer left, ego left, ego right,
 # outer right): the baseline's active lanes for the paper's protocol.
@@ -80,6 +78,7 @@ class ClipResult:
     n_scored: int = 0
     n_gt_lanes: int = 0
     skipped: list[str] = field(default_factory=list)
+    map_size: tuple[int, int] | None = None  # (width, height) of the clip's maps as found
 
 
 @dataclass(frozen=True)
@@ -92,6 +91,8 @@ class RunContext:
     image_height: int
     maps_root: Path
     labels_root: Path | None = None  # CULane root when clips come without their labels
+    data_root: Path | None = None  # where the labels lie (CULane: a .lines.txt per frame)
+    label_file: Path | None = None  # one file holding every label (TuSimple)
 
 
 @dataclass
@@ -109,16 +110,35 @@ class RunResult:
     skipped: list[str]
     versions: dict
     fixture: str | None = None  # the bundled fixture's dataset when that is what ran
+    # What was really drawn (map size as found, thicknesses); None when no clip was evaluated.
+    geometry: EffectiveGeometry | None = None
 
 
 # ---- one clip ------------------------------------------------------------------------------
 
 
-def _geometry_for(context: RunContext, maps: FrameMaps) -> MapGeometry:
+def _geometry_for(context: RunContext, maps: FrameMaps, where: Path) -> MapGeometry:
     geometry = context.config.geometry
+    check_map_shape(geometry, maps.width, maps.height, str(where))
     if (maps.width, maps.height) != (geometry.map_width, geometry.map_height):
         geometry = geometry.with_map_size(maps.width, maps.height)
     return geometry
+
+
+def effective_geometry(config: EvalConfig, map_width: int, map_height: int) -> EffectiveGeometry:
+    """The geometry and thicknesses a run really uses for maps of this size."""
+    geometry = config.geometry.with_map_size(map_width, map_height)
+    paper = config.paper
+    return EffectiveGeometry(
+        image_width=geometry.image_width, image_height=geometry.image_height,
+        map_width=map_width, map_height=map_height,
+        crop_top_px=geometry.crop_top_px, crop_bottom_px=int(geometry.crop_bottom_px),
+        rescaled=(map_width, map_height) != (config.maps.width, config.maps.height),
+        gt_thickness_px=paper.thickness(paper.gt_thickness_px, map_width, map_height),
+        pred_thickness_px=paper.thickness(paper.pred_thickness_px, map_width, map_height),
+        official_lane_width_px=config.official.lane_width_px,
+        official_iou_threshold=config.official.iou_threshold,
+    )
 
 
 def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
@@ -132,11 +152,9 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
         result.n_frames = len(clip.frames)
     methods = config.methods
     result.extract_ms = {method: [] for method in methods}
-    trackers = {}
-    if "roneld" in methods:
-        trackers["roneld"] = RoneldTracker(config.roneld)
-    if "roneld-nopft" in methods:
-        trackers["roneld-nopft"] = RoneldTracker(replace(config.roneld, pft=False))
+    # The method is the one PFT switch: 'roneld' tracks preceding frames, 'roneld-nopft' does not.
+    trackers = {method: RoneldTracker(config.roneld, pft=method == "roneld")
+                for method in methods if method in ("roneld", "roneld-nopft")}
     clip_size = None
     rows = None
     skip = config.on_error == "skip"
@@ -159,7 +177,8 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
         result.load_ms.append((time.perf_counter() - start) * 1e3)
         if clip_size is None:
             clip_size = maps.probabilities.shape
-            geometry = _geometry_for(context, maps)
+            geometry = _geometry_for(context, maps, frame_map_path(context, frame))
+            result.map_size = (maps.width, maps.height)
             for tracker in trackers.values():
                 tracker.geometry = geometry
             rows = sample_rows(config.baseline, geometry)
@@ -228,29 +247,39 @@ def _score_frame(frame: Frame, predictions, geometry: MapGeometry, context: RunC
 _WORKER_CONTEXT: RunContext | None = None
 
 
+def _kernel_groups(context: RunContext) -> tuple[str, ...]:
+    return kernels.groups_for(context.config.methods, context.dataset_name)
+
+
 def _init_worker(context: RunContext) -> None:
     global _WORKER_CONTEXT
     _WORKER_CONTEXT = context
-    warm_up()
+    kernels.warm_up(_kernel_groups(context))  # loaded already (prepared before the fork): runs each path once
 
 
 def _evaluate_in_worker(clip: Clip) -> ClipResult:
+    assert _WORKER_CONTEXT is not None
     return evaluate_clip(clip, _WORKER_CONTEXT)
 
 
 class ClipCache(Protocol):
-    """Where finished clips are kept so an interrupted run can resume (see api.ResultCache)."""
+    """Where finished clips are kept so an interrupted run can resume (see roneld_eval.cache)."""
 
-    def load(self, clip_id: str) -> ClipResult | None: ...
+    def load(self, clip: Clip, inputs: Sequence[Path]) -> ClipResult | None: ...
 
-    def store(self, result: ClipResult) -> None: ...
+    def store(self, clip: Clip, inputs: Sequence[Path], result: ClipResult) -> None: ...
 
 
-def process_pool(workers: int, **options) -> ProcessPoolExecutor:
-    """Worker processes (forked where the platform allows). Unlike multiprocessing.Pool, a
-    worker that dies makes its pending results raise BrokenProcessPool instead of hanging."""
-    method = "fork" if sys.platform == "linux" else "spawn"
-    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method), **options)
+def clip_inputs(clip: Clip, context: RunContext) -> list[Path]:
+    """Every file evaluating this clip reads: its maps and its labels (what resume must check)."""
+    paths = []
+    for frame in clip.frames:
+        paths += required_paths(context.maps_root, frame.relpath, context.config.maps)
+    if context.dataset_name == "culane" and context.data_root is not None:
+        paths += [labels_path(context.data_root, frame.relpath) for frame in clip.frames]
+    elif context.label_file is not None:
+        paths.append(context.label_file)
+    return paths
 
 
 def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
@@ -260,28 +289,32 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
     Each finished clip is stored in the cache before it is yielded. A worker that dies
     (killed, out of memory) ends the run with RunInterrupted instead of a hang.
     """
-    cached = {}
+    cached: dict[int, ClipResult] = {}
+    inputs: dict[int, list[Path]] = {}
     if cache is not None:
         for index, clip in enumerate(clips):
-            found = cache.load(clip.clip_id)
+            inputs[index] = clip_inputs(clip, context)
+            found = cache.load(clip, inputs[index])
             if found is not None:
                 cached[index] = found
     todo = [index for index in range(len(clips)) if index not in cached]
+
+    def keep(index: int, result: ClipResult) -> ClipResult:
+        if cache is not None:
+            cache.store(clips[index], inputs[index], result)
+        return result
+
     if workers <= 1 or len(todo) <= 1:
         if todo:
-            warm_up()
+            kernels.warm_up(_kernel_groups(context))
         for index, clip in enumerate(clips):
             result = cached.get(index)
-            if result is None:
-                result = evaluate_clip(clip, context)
-                if cache is not None:
-                    cache.store(result)
-            yield result
+            yield result if result is not None else keep(index, evaluate_clip(clip, context))
         return
     executor = process_pool(workers, initializer=_init_worker, initargs=(context,))
     futures: dict[int, Future] = {}
     queue = iter(todo)
-    plotting = False
+    plotting: threading.Thread | None = None
     try:
         for index, clip in enumerate(clips):
             if index in cached:
@@ -293,26 +326,24 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
                 if following is None:
                     break
                 futures[following] = executor.submit(_evaluate_in_worker, clips[following])
-            if not plotting:
+            if plotting is None:
                 # The workers exist now (none forks later); the idle main process meanwhile
                 # imports the plotting library the report needs.
-                threading.Thread(target=_import_plotting, daemon=True).start()
-                plotting = True
+                plotting = threading.Thread(target=_import_plotting, daemon=True)
+                plotting.start()
             try:
                 result = futures.pop(index).result()
             except BrokenProcessPool:
                 raise RunInterrupted(
                     f"a worker process died (killed, or out of memory) while evaluating clip {clip.clip_id}"
                 ) from None
-            if cache is not None:
-                cache.store(result)
-            yield result
+            yield keep(index, result)
     except BaseException:
-        for process in list(getattr(executor, "_processes", {}).values()):
-            process.terminate()
-        executor.shutdown(wait=False, cancel_futures=True)
+        stop_pool(executor)
         raise
     executor.shutdown(wait=True)
+    if plotting is not None:
+        plotting.join()  # the report must not use matplotlib while that thread is still importing it
 
 
 def _import_plotting() -> None:
@@ -322,29 +353,32 @@ def _import_plotting() -> None:
         pass
 
 
-def default_workers() -> int:
-    """All cores this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(1, os.cpu_count() or 1)
-
-
 def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tuple[str, Path]]:
-    """(clip id, missing file) for every frame whose maps are missing."""
+    """(clip id, missing file) for every frame whose maps are missing, or cannot even be looked
+    at (a folder without permission). A map that is there but unreadable is refused on loading."""
     missing = []
     for clip in dataset.clips:
         for frame in clip.frames:
             for path in required_paths(maps_root, frame.relpath, config.maps):
-                if not path.is_file():
+                try:
+                    path.stat()
+                except (OSError, ValueError):
                     missing.append((clip.clip_id, path))
     return missing
 
 
 def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
-    """'maps missing for N frames of K clips: ...' naming the first files (and TuSimple's 20 frames)."""
+    """'maps missing for N frames of K clips: ...' naming the first files, why where it is not
+    plain absence, maps found in another format (use --maps-format), and TuSimple's 20 frames."""
+    from .maps import found_in_other_format, missing_reason
+
     clips = {clip_id for clip_id, _ in missing}
-    listing = "; ".join(str(path) for _, path in missing[:3])
+    shown = []
+    for index, (_, path) in enumerate(missing[:3]):
+        notes = [missing_reason(path)] + ([found_in_other_format(path)] if index == 0 else [])
+        notes = [note for note in notes if note]
+        shown.append(f"{path} ({'; '.join(notes)})" if notes else str(path))
+    listing = "; ".join(shown)
     more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
     hint = " (each TuSimple clip needs maps for all its 20 frames)" if dataset.name == "tusimple" else ""
     return f"maps missing for {len(missing)} frames of {len(clips)} clips{hint}: {listing}{more}"
@@ -356,6 +390,7 @@ def evaluate(
     lane_sink: Callable[[FrameOutcome], None] | None = None,
     dataset: Dataset | None = None,
     cache: ClipCache | None = None,
+    announce: Callable[[str], None] | None = None,
 ) -> RunResult:
     """Evaluate every configured method on a dataset's stored maps (the library `run`).
 
@@ -394,16 +429,26 @@ def evaluate(
         clips = [clip for clip in clips if clip.clip_id not in by_clip]
 
     context = RunContext(config, dataset.name, dataset.image_width, dataset.image_height, maps_root,
-                         None if dataset.labels_loaded else dataset.root)
+                         None if dataset.labels_loaded else dataset.root, data_root=Path(dataset.root),
+                         label_file=None if dataset.source_file is None else Path(dataset.source_file))
+    say = announce or (lambda message: None)
+    geometry = _first_geometry(clips, context)
+    if geometry is not None:
+        say(f"geometry: {geometry.describe()}")
     workers = min(config.workers or default_workers(), max(len(clips), 1))
+    # Compiled once here, before the workers fork, instead of in every worker at once.
+    kernels.prepare(announce=say, needed=_kernel_groups(context))
     outcomes: list[FrameOutcome] = []
     extract_ms = {method: [] for method in config.methods}
     load_ms: list[float] = []
     totals = dict(clips=0, frames=0, labelled_frames=0, gt_lanes=0)
     sizes = {clip.clip_id: len(clip.frames) for clip in clips}
     bar = _progress_bar(sum(sizes.values()), progress)
+    map_sizes: dict[tuple[int, int], str] = {}
     try:
         for result in _clip_results(clips, context, workers, cache):
+            if result.map_size is not None:
+                map_sizes.setdefault(result.map_size, result.clip_id)
             totals["clips"] += 1
             totals["frames"] += result.n_frames
             totals["labelled_frames"] += result.n_scored
@@ -429,6 +474,12 @@ def evaluate(
     official = _official_table(outcomes, dataset, config)
     runtime = _runtime_table(extract_ms, load_ms)
     totals["ego_lanes"] = int(len(per_frame) // max(len(config.methods), 1))
+    if map_sizes:
+        first = next(iter(map_sizes))
+        geometry = effective_geometry(config, *first)
+        if len(map_sizes) > 1:
+            skipped.append("maps differ in size between clips (each clip is rescaled by its own): "
+                           + ", ".join(f"{w}x{h} from clip {clip_id}" for (w, h), clip_id in map_sizes.items()))
     return RunResult(
         config=config,
         dataset=dataset,
@@ -440,7 +491,21 @@ def evaluate(
         wall_time_s=time.perf_counter() - started,
         skipped=skipped,
         versions=versions(),
+        geometry=geometry,
     )
+
+
+def _first_geometry(clips: Sequence[Clip], context: RunContext) -> EffectiveGeometry | None:
+    """The geometry of the first clip's maps, checked before any work starts (None if unreadable)."""
+    for clip in clips[:1]:
+        for frame in clip.frames[:1]:
+            try:
+                maps = load_maps(context.maps_root, frame.relpath, context.config.maps)
+            except InputError:
+                return None  # reported, or skipped, where the clip is evaluated
+            check_map_shape(context.config.geometry, maps.width, maps.height, str(frame_map_path(context, frame)))
+            return effective_geometry(context.config, maps.width, maps.height)
+    return None
 
 
 def with_intervals(accuracy: pd.DataFrame, per_frame: pd.DataFrame, thresholds) -> pd.DataFrame:

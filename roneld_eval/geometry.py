@@ -70,3 +70,62 @@ class MapGeometry:
         return np.stack(
             [points[:, 0] / self.scale_x, (points[:, 1] - self.crop_top_px) / self.scale_y], axis=1
         )
+
+
+@dataclass(frozen=True)
+class EffectiveGeometry:
+    """What a run really drew: the maps' size as found and the thicknesses that follow from it.
+
+    The configuration names a reference map size (SCNN: 800x288); maps of another size are
+    rescaled, and the paper's thicknesses scale with them. Reports state these, not the preset's.
+    """
+
+    image_width: int
+    image_height: int
+    map_width: int  # as found in the first frame's maps
+    map_height: int
+    crop_top_px: int
+    crop_bottom_px: int
+    rescaled: bool  # the maps' size differs from the configuration's
+    gt_thickness_px: int  # paper protocol, in map pixels
+    pred_thickness_px: int
+    official_lane_width_px: int  # official CULane protocol, at image resolution
+    official_iou_threshold: float
+
+    def describe(self) -> str:
+        """One line for reports: map size, crop and every thickness really used."""
+        return (f"maps {self.map_width}x{self.map_height} over image rows {self.crop_top_px}..{self.crop_bottom_px - 1} "
+                f"of {self.image_width}x{self.image_height}{' (rescaled from the preset)' if self.rescaled else ''}; "
+                f"paper protocol: ground truth {self.gt_thickness_px} px, predictions {self.pred_thickness_px} px; "
+                f"official: IoU > {self.official_iou_threshold:g}, {self.official_lane_width_px} px at "
+                f"{self.image_width}x{self.image_height}")
+
+    def to_dict(self) -> dict:
+        return {name: getattr(self, name) for name in self.__dataclass_fields__}
+
+
+# Maps may be stored at another resolution than the configuration's (they are rescaled), but
+# not with another shape: that means they cover another part of the frame than configured.
+ASPECT_TOLERANCE = 0.10
+
+
+def check_map_shape(expected: MapGeometry, map_width: int, map_height: int, where: str) -> None:
+    """Stop (ConfigError naming `where`) when maps' aspect ratio is not the configured maps'."""
+    found = map_width / map_height
+    wanted = expected.map_width / expected.map_height
+    if abs(found / wanted - 1) <= ASPECT_TOLERANCE:
+        return
+    region = (f"image rows {expected.crop_top_px}..{expected.crop_bottom_px - 1} of the "
+              f"{expected.image_width}x{expected.image_height} frame")
+    whole = expected.image_width / expected.image_height
+    if expected.crop_height_px != expected.image_height and abs(found / whole - 1) <= ASPECT_TOLERANCE:
+        fix = ("they look like maps of the whole frame: use a preset for such maps (e.g. scnn-culane) or "
+               f"--set maps.crop_top_px=0 --set maps.crop_bottom_px={expected.image_height} "
+               f"--set maps.width={map_width} --set maps.height={map_height}")
+    else:
+        fix = ("use the preset of the model that wrote them, or say which image rows they cover with "
+               f"--set maps.crop_top_px=... --set maps.crop_bottom_px=... --set maps.width={map_width} "
+               f"--set maps.height={map_height}")
+    raise ConfigError(f"{where}: maps are {map_width}x{map_height} (aspect {found:.2f}), but the configuration "
+                      f"expects {expected.map_width}x{expected.map_height} maps (aspect {wanted:.2f}) over {region}; "
+                      f"{fix}")

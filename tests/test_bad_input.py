@@ -20,6 +20,15 @@ from roneld_eval.errors import InputError, RunInterrupted
 from roneld_eval.synth import synth_culane, synth_tusimple
 
 SENTINEL = "method,threshold,n_tp,n_gt,accuracy\nearlier,0.30,1,1,1\n"
+EARLIER = [".roneld-run.json", "accuracy.csv"]
+
+
+def earlier_result(out: Path) -> None:
+    """An output folder as an earlier run left it: its accuracy.csv and its manifest."""
+    out.mkdir(exist_ok=True)
+    (out / "accuracy.csv").write_text(SENTINEL)
+    (out / ".roneld-run.json").write_text(json.dumps(
+        {"format": "roneld-eval output folder", "command": "run", "entries": ["accuracy.csv"]}))
 
 
 @pytest.fixture(scope="session")
@@ -35,8 +44,7 @@ def base_sets(tmp_path_factory):
 def sets(base_sets, tmp_path):
     shutil.copytree(base_sets, tmp_path / "sets")
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "accuracy.csv").write_text(SENTINEL)
+    earlier_result(out)
     return tmp_path / "sets", out
 
 
@@ -140,7 +148,7 @@ def test_bad_input(sets, name, folder, extra, corrupt, expected, named):
     assert expected in lines[0] and named in lines[0], lines[0]
     assert "Traceback" not in result.output
     assert (out / "accuracy.csv").read_text() == SENTINEL
-    assert sorted(p.name for p in out.iterdir()) == ["accuracy.csv"]
+    assert sorted(p.name for p in out.iterdir()) == EARLIER
 
 
 def test_cases_cover_the_issue():
@@ -170,7 +178,7 @@ def test_disk_full_while_writing_leaves_earlier_results(sets, monkeypatch):
     result = CliRunner().invoke(main, ["run", "--out", str(out), "--quiet", "--workers", "1"])
     assert result.exit_code == 2 and "No space left on device" in result.output
     assert (out / "accuracy.csv").read_text() == SENTINEL
-    assert sorted(p.name for p in out.iterdir()) == ["accuracy.csv"]
+    assert sorted(p.name for p in out.iterdir()) == EARLIER
 
 
 # ---- skipping ------------------------------------------------------------------------------
@@ -236,7 +244,7 @@ def test_interrupted_run_writes_nothing_and_resume_gives_the_same_numbers(sets, 
         api.run(_config(root), out, progress=False)
     assert caught.value.exit_code == 130
     assert "2 finished clips kept" in str(caught.value) and "--resume" in str(caught.value)
-    assert sorted(p.name for p in out.iterdir()) == [".roneld-cache", "accuracy.csv"]
+    assert sorted(p.name for p in out.iterdir()) == sorted(EARLIER + [".roneld-cache"])
     assert (out / "accuracy.csv").read_text() == SENTINEL
 
     calls.clear()
@@ -275,7 +283,10 @@ def test_a_killed_worker_ends_the_run_clearly(sets, monkeypatch):
     monkeypatch.setattr(evaluation, "evaluate_clip", dying)
     with pytest.raises(RunInterrupted) as caught:
         api.run(_config(root, workers=2), out, progress=False)
-    assert "worker process died" in str(caught.value) and "--resume" in str(caught.value)
+    message = str(caught.value)
+    assert "worker process died" in message and "no result was written" in message
+    # Finished clips, if any finished before the pool broke, are offered to --resume.
+    assert ("--resume" in message) == ("finished clip" in message)
     assert (out / "accuracy.csv").read_text() == SENTINEL
 
 
@@ -304,8 +315,12 @@ def test_same_numbers_on_every_run(sets, tmp_path):
     root = root_all / "culane"
     api.run(_config(root, workers=2), tmp_path / "a", progress=False)
     api.run(_config(root, workers=1), tmp_path / "b", progress=False)
-    for name in ("accuracy.csv", "per_frame.csv", "official.csv", "config.toml"):
-        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes() or name == "config.toml"
+    for name in ("accuracy.csv", "per_frame.csv", "official.csv"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+    # The configurations differ only in the number of workers.
+    a, b = ((tmp_path / run / "config.toml").read_text().splitlines() for run in "ab")
+    assert [x for x in a if not x.startswith("workers")] == [x for x in b if not x.startswith("workers")]
+    assert "workers = 2" in a and "workers = 1" in b
 
 
 def test_a_killed_worker_ends_scoring_clearly(tmp_path, monkeypatch):

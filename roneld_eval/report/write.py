@@ -1,83 +1,49 @@
-"""Writing a run's results: every file to a staging folder first, then renamed into place.
+"""Writing a run's results into the staging area of its output folder (see roneld_eval.output).
 
 A run that fails or is interrupted before the end leaves no half-written result: files
-appear only once they are complete (os.replace is atomic on one filesystem).
+appear only when the output folder commits them, all together.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from ..evaluation import FrameOutcome, RunResult
+from ..model import image_stem
+from ..output import OutputFolder
 from ..lanes_io import format_culane_lines, format_tusimple_record, sample_lane_at_rows
 from . import tables
 
 
 class Staging:
-    """A private folder inside the output folder; `commit()` moves its files into place.
+    """Where one command writes its files: the staging area of an `OutputFolder` it holds.
 
-    As a context manager it commits when the block ends normally and discards everything when
-    it raises, so no reader ever sees a half-written set of results.
+    Nothing written here is visible in the output folder until `OutputFolder.commit()`.
     """
 
-    def __init__(self, out_dir: Path):
-        self.out_dir = Path(out_dir)
-        try:
-            self.out_dir.mkdir(parents=True, exist_ok=True)
-            self.path = Path(tempfile.mkdtemp(prefix=".staging-", dir=self.out_dir))
-        except OSError as error:
-            raise InputError(self.out_dir, f"cannot write results here: {error.strerror}") from None
-
-    def __enter__(self) -> "Staging":
-        return self
-
-    def __exit__(self, kind, error, trace) -> bool:
-        if kind is None:
-            self.written = self.commit()
-        else:
-            self.discard()
-        return False
+    def __init__(self, folder: OutputFolder):
+        self.folder = folder
+        self.out_dir = folder.path
+        self.path = folder.staging()
 
     def file(self, name: str) -> Path:
         path = self.path / name
-        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
         return path
 
     def write_text(self, name: str, text: str) -> None:
         try:
-            self.file(name).write_text(text)
+            self.file(name).write_text(text, encoding="utf-8")
         except OSError as error:
             raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
-
-    def commit(self) -> list[Path]:
-        """Move every staged entry into the output folder (replacing older results)."""
-        written = []
-        for entry in sorted(self.path.iterdir()):
-            target = self.out_dir / entry.name
-            if entry.is_dir():
-                if target.exists():
-                    old = self.out_dir / f".old-{entry.name}-{os.getpid()}"
-                    target.rename(old)
-                    entry.rename(target)
-                    shutil.rmtree(old, ignore_errors=True)
-                else:
-                    entry.rename(target)
-            else:
-                os.replace(entry, target)
-            written.append(target)
-        self.discard()
-        return written
-
-    def discard(self) -> None:
-        shutil.rmtree(self.path, ignore_errors=True)
 
 
 class LaneWriter:
@@ -91,12 +57,12 @@ class LaneWriter:
 
     def __call__(self, outcome: FrameOutcome) -> None:
         if self.dataset == "culane":
-            stem = outcome.relpath.rsplit(".", 1)[0]
+            stem = image_stem(outcome.relpath)
             self.staging.write_text(f"lanes/{outcome.method}/{stem}.lines.txt", format_culane_lines(outcome.lanes))
             return
         handle = self.handles.get(outcome.method)
         if handle is None:
-            handle = self.staging.file(f"lanes/{outcome.method}/predictions.json").open("w")
+            handle = self.staging.file(f"lanes/{outcome.method}/predictions.json").open("w", encoding="utf-8")
             self.handles[outcome.method] = handle
         rows = self.h_samples.get(outcome.relpath, ())
         lanes_xs = [sample_lane_at_rows(lane, rows) for lane in outcome.lanes]
@@ -125,12 +91,21 @@ def summary(result: RunResult) -> dict:
         "data_root": f"bundled fixture ({result.fixture})" if result.fixture else str(result.dataset.root),
         "source_file": None if result.fixture or not result.dataset.source_file else str(result.dataset.source_file),
         "config": result.config.to_dict(),
+        "geometry": None if result.geometry is None else result.geometry.to_dict(),
         "versions": result.versions,
         "counts": result.counts,
         "skipped": result.skipped,
         "wall_time_s": round(result.wall_time_s, 3),
         "rerun": "roneld-eval run --config config.toml",
     })
+
+
+def config_record(result: RunResult) -> str:
+    """config.toml: the effective configuration, headed by what it really meant for these maps."""
+    header = "# roneld-eval run --config config.toml reruns this evaluation.\n"
+    if result.geometry is not None:
+        header += f"# Effective geometry of this run: {result.geometry.describe()}.\n"
+    return header + "\n" + result.config.to_toml()
 
 
 def write_pictures(staging: Staging, pictures: list[tuple[str, np.ndarray]]) -> None:
@@ -140,7 +115,7 @@ def write_pictures(staging: Staging, pictures: list[tuple[str, np.ndarray]]) -> 
     from .overlays import contact_sheet
 
     for relpath, image in pictures:
-        name = relpath.rsplit(".", 1)[0].replace("/", "__") + ".png"
+        name = image_stem(relpath).replace("/", "__") + ".png"
         if not cv2.imwrite(str(staging.file(f"overlays/{name}")), image):
             raise InputError(staging.out_dir / "overlays" / name, "cannot write")
     if pictures and not cv2.imwrite(str(staging.file("overlays.png")), contact_sheet([image for _, image in pictures])):
@@ -149,38 +124,55 @@ def write_pictures(staging: Staging, pictures: list[tuple[str, np.ndarray]]) -> 
 
 def write_report(result: RunResult, out_dir: str | Path) -> list[Path]:
     """Write every output file of a run into `out_dir` (see README for what each holds)."""
-    with Staging(Path(out_dir)) as staging:
-        stage_report(result, staging)
-    return staging.written
+    with OutputFolder(out_dir, "run") as folder:
+        stage_report(result, Staging(folder))
+        return folder.commit()
 
 
 def stage_report(result: RunResult, staging: Staging) -> None:
-    """Write the report's files into a staging folder (they appear on its commit)."""
+    """Write the report's files into a staging folder (they appear on its commit).
+
+    Every label names the configuration behind its numbers: method names come from the method
+    alone, and each table and figure states the map size, thicknesses and IoU threshold the run
+    really used (`result.geometry`; the configuration's when the run recorded none).
+    """
     config = result.config
-    model, pft = config.model, config.roneld.pft
+    model = config.model
+    protocol = tables.Protocol.of_run(result)
+    name = tables.dataset_name(result.dataset.name)
+    source = (f"the bundled {name} fixture (synthetic {model}-like maps)" if result.fixture
+              else f"{name}, {model} probability maps")
+    paper_note = f"The RONELD paper's protocol: {protocol.paper()}; a true positive needs IoU > the row's threshold."
     staging.write_text("accuracy.csv", result.accuracy.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
-    comparison = tables.comparison_table(result.accuracy, model, pft)
-    name = {"culane": "CULane", "tusimple": "TuSimple"}.get(result.dataset.name, result.dataset.name)
-    staging.write_text("accuracy.md", f"# Accuracy on {name} ({model})\n\n" + comparison.to_markdown())
+    comparison = tables.comparison_table(result.accuracy, model, protocol.clips)
+    increase_note = (f"Acc. Inc.: RONELD's increase over the method two columns to its left, its {protocol.interval()}, "
+                     "in bold relative to that method.")
+    staging.write_text("accuracy.md", f"# Accuracy on {source}\n\n{paper_note} {increase_note}\n\n"
+                       + comparison.to_markdown())
     staging.write_text("accuracy.tex", comparison.to_latex(
-        f"Accuracy on {name} with {model} probability maps; Acc. Inc. is RONELD's increase, "
-        f"in bold relative to the method it improves on.", f"tab:accuracy-{result.dataset.name}"))
-    ablation = tables.ablation_table(result.accuracy, result.dataset.name)
+        f"Ego-lane accuracy on {source}. {paper_note} Acc. Inc. is RONELD's increase over the method two "
+        f"columns to its left, in bold relative to that method; beneath it, its {protocol.interval()}.",
+        f"tab:accuracy-{result.dataset.name}", wide=True))
+    ablation = tables.ablation_table(result.accuracy, result.dataset.name, model)
     if ablation is not None:
-        staging.write_text("ablation.md", f"# RONELD with and without PFT ({model})\n\n" + ablation.to_markdown())
+        pft_note = ("w/ PFT: the method 'roneld' (RONELD with preceding-frame tracking); w/o PFT: the method "
+                    f"'roneld-nopft'. {paper_note}")
+        staging.write_text("ablation.md", f"# {tables.display_name('roneld', model)} with and without PFT on "
+                           f"{source}\n\n{pft_note}\n\n" + ablation.to_markdown())
         staging.write_text("ablation.tex", ablation.to_latex(
-            f"Accuracy of {model} + RONELD with and without preceding frame tracking (PFT).",
-            f"tab:pft-{result.dataset.name}"))
+            f"Accuracy of {tables.display_name('roneld', model)} with and without preceding frame tracking (PFT) "
+            f"on {source}. {paper_note}", f"tab:pft-{result.dataset.name}"))
     staging.write_text("runtime.csv", result.runtime.to_csv(index=False, float_format="%.4f", lineterminator="\n"))
-    staging.write_text("runtime.md", f"# Runtime per frame ({model})\n\n" + tables.runtime_table(
-        result.runtime, model, pft).to_markdown())
+    staging.write_text("runtime.md", f"# Runtime per frame on {source}\n\n"
+                       f"Milliseconds per frame of extraction alone (after numba warm-up), map loading apart, "
+                       f"on {protocol.map_size()}.\n\n" + tables.runtime_table(result.runtime, model).to_markdown())
     staging.write_text("per_frame.csv", result.per_frame.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
     staging.write_text("official.csv", result.official.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
-    staging.write_text("config.toml", config.to_toml())
+    staging.write_text("config.toml", config_record(result))
     staging.write_text("summary.json", json.dumps(summary(result), indent=2) + "\n")
     from .plots import accuracy_figure, save_figure  # matplotlib: imported only to draw
 
-    figure = accuracy_figure(result.accuracy, model, result.dataset.name, pft)
+    figure = accuracy_figure(result.accuracy, model, source, protocol)
     save_figure(figure, staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg"))
     if result.dataset.categories:
         from ..metrics.sweep import category_accuracy
@@ -189,7 +181,7 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         threshold = config.official.iou_threshold
         by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
         staging.write_text("categories.csv", by_category.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
-        save_figure(category_figure(by_category, result.official, model, f"{threshold:g}", pft),
+        save_figure(category_figure(by_category, result.official, model, f"{threshold:g}", protocol),
                     staging.file("categories.png"))
     from .html import build_html
 

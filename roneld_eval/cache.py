@@ -1,0 +1,313 @@
+"""The resume cache: finished clips of an interrupted run, kept as plain JSON that cannot lie.
+
+Each finished clip is one file in `<out>/.roneld-cache/`. A cached clip is reused only when
+all of these match the new run: the configuration (all but the worker count and the clip
+limit), the tool's version, the clip's frame list, and a fingerprint (path, size, mtime) of
+every file the clip reads (maps and labels). The file holds no pickle, only data that is
+checked field by field on load, and a keyed checksum (HMAC-SHA256 with a per-user secret):
+an edited or truncated file, or one from elsewhere, is recomputed with a note, never trusted
+and never a traceback.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import math
+import os
+import secrets
+import shutil
+import stat
+from collections import Counter
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from .config import EvalConfig
+from .errors import InputError
+from .evaluation import ClipResult, FrameOutcome
+from .metrics.culane_official import CulaneFrameResult
+from .model import Clip, Lane
+from .output import CACHE
+
+FORMAT = "roneld-eval clip cache"
+FORMAT_VERSION = 1
+MAX_ENTRY_BYTES = 1 << 31
+
+
+class ResultCache:
+    """Finished clips of a run in `<out>/.roneld-cache/` (see the module docstring).
+
+    Without `resume` the folder starts empty. `summary()` says how many clips were reused and
+    why the others were computed.
+    """
+
+    def __init__(self, out: str | Path, config: EvalConfig, version: str, resume: bool,
+                 note: Callable[[str], None] | None = None):
+        settings = config.to_dict()
+        for transient in ("workers",):
+            settings.pop(transient, None)
+        settings["dataset"].pop("limit", None)
+        self.config_key = _digest(json.dumps([settings, version], sort_keys=True, default=str))
+        self.folder = Path(out) / CACHE
+        self.note = note or (lambda message: None)
+        self.reasons: Counter[str] = Counter()
+        self.reused = 0
+        self._secret = _secret_key()
+        if not resume:
+            self.discard()
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise InputError(self.folder, f"cannot write here: {error.strerror}") from None
+
+    def _path(self, clip_id: str) -> Path:
+        return self.folder / (hashlib.sha256(clip_id.encode("utf-8", "surrogateescape")).hexdigest()[:32] + ".json")
+
+    def load(self, clip: Clip, inputs: Sequence[Path]) -> ClipResult | None:
+        """The cached result of this clip if it is valid and made from the same inputs, else None."""
+        path = self._path(clip.clip_id)
+        try:
+            info = os.lstat(path)
+        except FileNotFoundError:
+            self.reasons["not finished"] += 1
+            return None
+        except OSError as error:
+            return self._invalid(path, error.strerror)
+        if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_ENTRY_BYTES:
+            return self._invalid(path, "not a regular file of sensible size")
+        try:
+            with open(path, "rb") as handle:
+                document = json.loads(handle.read())
+            if not isinstance(document, dict) or set(document) != {"body", "mac"}:
+                raise ValueError("not a cache entry")
+            body = document["body"]
+            expected = self._mac(body)
+            if not isinstance(document["mac"], str) or not hmac.compare_digest(document["mac"], expected):
+                raise ValueError("its checksum does not match (edited, or written elsewhere)")
+            entry = json.loads(body)
+            if entry.get("format") != FORMAT or entry.get("format_version") != FORMAT_VERSION:
+                raise ValueError("unknown format")
+            if entry.get("clip_id") != clip.clip_id:
+                raise ValueError("it holds another clip")
+            if entry.get("config") != self.config_key:
+                self.reasons["configuration or version changed"] += 1
+                return None
+            if entry.get("frames") != [frame.relpath for frame in clip.frames]:
+                self.reasons["frame list changed"] += 1
+                return None
+            if entry.get("inputs") != fingerprint(inputs):
+                self.reasons["maps or labels changed"] += 1
+                return None
+            result = decode_result(entry["result"])
+            if result.clip_id != clip.clip_id:
+                raise ValueError("it holds another clip")
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError, RecursionError,
+                UnicodeError) as error:
+            return self._invalid(path, str(error) or type(error).__name__)
+        self.reused += 1
+        return result
+
+    def store(self, clip: Clip, inputs: Sequence[Path], result: ClipResult) -> None:
+        """Keep a finished clip (atomically: a reader sees the whole entry or none)."""
+        body = json.dumps({
+            "format": FORMAT, "format_version": FORMAT_VERSION, "clip_id": clip.clip_id,
+            "config": self.config_key, "frames": [frame.relpath for frame in clip.frames],
+            "inputs": fingerprint(inputs), "result": encode_result(result),
+        }, allow_nan=False, separators=(",", ":"))
+        path = self._path(clip.clip_id)
+        temporary = path.with_name(path.name + ".tmp")
+        try:
+            with open(temporary, "w", encoding="utf-8") as handle:
+                json.dump({"body": body, "mac": self._mac(body)}, handle)
+            os.replace(temporary, path)
+        except OSError as error:
+            raise InputError(path, f"cannot keep this clip's results: {error.strerror}") from None
+
+    def _mac(self, body: str) -> str:
+        return hmac.new(self._secret, body.encode("utf-8", "surrogateescape"), hashlib.sha256).hexdigest()
+
+    def _invalid(self, path: Path, problem: str) -> None:
+        self.note(f"note: {path}: cache entry ignored ({problem}); recomputing that clip")
+        self.reasons["invalid cache entry"] += 1
+        return None
+
+    def summary(self) -> str:
+        """'reused 3 clips; computed 2 (1 not finished, 1 maps or labels changed)'."""
+        computed = sum(self.reasons.values())
+        why = ", ".join(f"{count} {reason}" for reason, count in sorted(self.reasons.items()))
+        return f"reused {self.reused} finished clip{'s' if self.reused != 1 else ''}; computing {computed}" + \
+            (f" ({why})" if why else "")
+
+    def count(self) -> int:
+        try:
+            return sum(1 for entry in self.folder.iterdir() if entry.suffix == ".json")
+        except OSError:
+            return 0
+
+    def discard(self) -> None:
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def fingerprint(paths: Sequence[Path]) -> str:
+    """A digest of each input file's path, size and modification time (missing files included)."""
+    hasher = hashlib.sha256()
+    for path in paths:
+        try:
+            info = os.stat(path)
+            record = f"{path}\0{info.st_size}\0{info.st_mtime_ns}\0{info.st_ino}\n"
+        except OSError as error:
+            record = f"{path}\0missing {error.errno}\n"
+        hasher.update(record.encode("utf-8", "surrogateescape"))
+    return hasher.hexdigest()
+
+
+def _digest(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8", "surrogateescape")).hexdigest()
+
+
+def _secret_key() -> bytes:
+    """This user's secret for the cache checksums (created once, readable by the user only)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    path = Path(base) / "roneld-eval" / "cache-key"
+    try:
+        return bytes.fromhex(path.read_text(encoding="ascii").strip())
+    except (OSError, ValueError):
+        pass
+    key = secrets.token_bytes(32)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_name(f"cache-key.{os.getpid()}.tmp")
+        descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(descriptor, "w") as handle:
+            handle.write(key.hex())
+        os.replace(temporary, path)
+        return bytes.fromhex(path.read_text(encoding="ascii").strip())
+    except (OSError, ValueError):
+        # No writable home: entries are still checked, against a key of this process only,
+        # so --resume recomputes everything rather than trust what it cannot check.
+        return key
+
+
+# ---- plain-data form of a clip's results ------------------------------------------------
+
+
+def _number(value: float) -> Any:
+    value = float(value)
+    return value if math.isfinite(value) else repr(value)  # 'inf', '-inf', 'nan'
+
+
+def _float(value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise TypeError(f"expected a number, got {type(value).__name__}")
+    if isinstance(value, str) and value not in ("inf", "-inf", "nan"):
+        raise ValueError(f"expected a number, got {value!r}")
+    return float(value)
+
+
+def _int(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise TypeError("expected a count")
+    return value
+
+
+def _string(value: Any) -> str:
+    if not isinstance(value, str):
+        raise TypeError("expected a string")
+    return value
+
+
+def _list(value: Any) -> list:
+    if not isinstance(value, list):
+        raise TypeError("expected a list")
+    return value
+
+
+def _encode_lane(lane: Lane | None) -> Any:
+    return None if lane is None else [[_number(x), _number(y)] for x, y in lane.points]
+
+
+def _decode_lane(value: Any) -> Lane | None:
+    if value is None:
+        return None
+    points = [(_float(x), _float(y)) for x, y in _list(value)]
+    return Lane(np.array(points, np.float64).reshape(-1, 2))
+
+
+def _encode_official(official: Any) -> Any:
+    if isinstance(official, tuple) and all(isinstance(part, CulaneFrameResult) for part in official):
+        return {"culane": [[part.n_gt, part.n_pred, [_number(v) for v in part.matched_iou]] for part in official]}
+    return {"scores": [_number(v) for v in official]}
+
+
+def _decode_official(value: Any) -> Any:
+    if not isinstance(value, dict) or len(value) != 1:
+        raise TypeError("bad official record")
+    if "culane" in value:
+        parts = []
+        for n_gt, n_pred, matched in _list(value["culane"]):
+            ious = np.array([_float(v) for v in _list(matched)], np.float64)
+            if ious.size != _int(n_gt):
+                raise ValueError("matched IoUs do not match the lane count")
+            parts.append(CulaneFrameResult(n_gt, _int(n_pred), ious))
+        return tuple(parts)
+    return tuple(_float(v) for v in _list(value["scores"]))
+
+
+def encode_result(result: ClipResult) -> dict:
+    """A clip's results as JSON-ready plain data (non-finite numbers as strings)."""
+    return {
+        "clip_id": result.clip_id,
+        "outcomes": [{
+            "relpath": o.relpath, "method": o.method,
+            "ious": {side: _number(iou) for side, iou in o.ious.items()},
+            "official": _encode_official(o.official),
+            "lanes": [_encode_lane(lane) for lane in o.lanes],
+            "active": [_encode_lane(lane) for lane in o.active],
+        } for o in result.outcomes],
+        "extract_ms": {method: [_number(v) for v in values] for method, values in result.extract_ms.items()},
+        "load_ms": [_number(v) for v in result.load_ms],
+        "n_frames": result.n_frames, "n_scored": result.n_scored, "n_gt_lanes": result.n_gt_lanes,
+        "skipped": list(result.skipped),
+        "map_size": None if result.map_size is None else list(result.map_size),
+    }
+
+
+def decode_result(data: Any) -> ClipResult:
+    """The inverse of encode_result, checking every field's type (TypeError/ValueError if wrong)."""
+    if not isinstance(data, dict):
+        raise TypeError("result is not a record")
+    outcomes = []
+    for item in _list(data["outcomes"]):
+        ious = item["ious"]
+        if not isinstance(ious, dict):
+            raise TypeError("ious is not a record")
+        active = tuple(_decode_lane(lane) for lane in _list(item["active"]))
+        if len(active) != 2:
+            raise ValueError("active lanes are not a pair")
+        outcomes.append(FrameOutcome(
+            relpath=_string(item["relpath"]), method=_string(item["method"]),
+            ious={_string(side): _float(iou) for side, iou in ious.items()},
+            official=_decode_official(item["official"]),
+            lanes=tuple(_decode_lane(lane) for lane in _list(item["lanes"])),
+            active=active,
+        ))
+    extract_ms = data["extract_ms"]
+    if not isinstance(extract_ms, dict):
+        raise TypeError("extract_ms is not a record")
+    map_size = data["map_size"]
+    if map_size is not None:
+        map_size = tuple(_int(v) for v in _list(map_size))
+        if len(map_size) != 2:
+            raise ValueError("map_size is not a pair")
+    return ClipResult(
+        clip_id=_string(data["clip_id"]),
+        outcomes=outcomes,
+        extract_ms={_string(m): [_float(v) for v in _list(values)] for m, values in extract_ms.items()},
+        load_ms=[_float(v) for v in _list(data["load_ms"])],
+        n_frames=_int(data["n_frames"]), n_scored=_int(data["n_scored"]), n_gt_lanes=_int(data["n_gt_lanes"]),
+        skipped=[_string(line) for line in _list(data["skipped"])],
+        map_size=map_size,
+    )

@@ -1,0 +1,311 @@
+"""Output folders the tool owns: one writer at a time, whole results or none, nothing foreign touched.
+
+A folder written by a command holds a manifest (`.roneld-run.json`) naming the command and
+every top-level entry it wrote. The next command into the same folder:
+- takes a lock (`.roneld-lock`, flock: a dead holder releases it), or stops naming the holder;
+- refuses a folder holding entries no roneld-eval command wrote, or written by another command;
+- finishes or clears what an earlier, killed process left (staging, trash, a half-done commit);
+- writes everything into a private staging folder, then commits it: old entries this command
+  does not write are removed, new ones renamed in, the manifest written last. Signals that
+  arrive during the commit are held until it is over, and a failing rename undoes the commit,
+  so readers see the complete old results or the complete new ones. A commit cut short by
+  SIGKILL or a power cut is recorded in a journal that the next command rolls forward.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from .errors import InputError
+from .signals import held_signals
+
+MANIFEST = ".roneld-run.json"
+LOCK = ".roneld-lock"
+JOURNAL = ".roneld-commit.json"
+CACHE = ".roneld-cache"
+STAGING_PREFIX = ".staging-"
+TRASH_PREFIX = ".trash-"
+MANIFEST_FORMAT = "roneld-eval output folder"
+
+# Entries of the tool's own bookkeeping: never results, never foreign.
+_OWN_NAMES = {MANIFEST, LOCK, JOURNAL, CACHE, MANIFEST + ".tmp", JOURNAL + ".tmp"}
+
+# Lock descriptors of this process: forked workers close them so that a worker outliving its
+# parent does not keep the folder locked.
+_HELD_LOCKS: set[int] = set()
+
+
+def _close_inherited_locks() -> None:
+    for descriptor in list(_HELD_LOCKS):
+        with contextlib.suppress(OSError):
+            os.close(descriptor)
+    _HELD_LOCKS.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_close_inherited_locks)
+
+
+def is_own_entry(name: str) -> bool:
+    """True for the tool's bookkeeping entries (lock, manifest, cache, staging, trash)."""
+    return name in _OWN_NAMES or name.startswith((STAGING_PREFIX, TRASH_PREFIX))
+
+
+def read_manifest(folder: Path) -> dict | None:
+    """The folder's manifest, or None when it has none; a manifest that is not ours is an error."""
+    path = Path(folder) / MANIFEST
+    if not path.exists():
+        return None
+    try:
+        if not path.is_file():
+            raise ValueError("not a regular file")
+        with open(path, encoding="utf-8") as handle:
+            data = json.loads(handle.read(1 << 20))
+        if data.get("format") != MANIFEST_FORMAT or not isinstance(data.get("command"), str):
+            raise ValueError("unknown format")
+        entries = data.get("entries")
+        if not isinstance(entries, list) or not all(isinstance(e, str) and _plain_name(e) for e in entries):
+            raise ValueError("bad entry list")
+    except (OSError, ValueError, AttributeError, UnicodeDecodeError) as error:
+        raise InputError(path, f"not a manifest this tool wrote ({error}); remove the folder or choose another --out") from None
+    return data
+
+
+def _plain_name(name: str) -> bool:
+    return bool(name) and name not in (".", "..") and "/" not in name and "\0" not in name and not is_own_entry(name)
+
+
+class OutputFolder:
+    """Exclusive use of an output folder by one command (see the module docstring).
+
+    Use as a context manager; `staging()` gives the folder to write into and `commit()`
+    puts its content in place.
+    """
+
+    def __init__(self, path: str | Path, command: str, nested: dict[str, str] | None = None):
+        """`nested` names sub-folders other commands may write inside this one (e.g. `show`
+        inside a run): they belong to these results, and are removed with them when replaced."""
+        self.path = Path(path)
+        self.command = command
+        self.nested = nested or {}
+        self.previous: dict | None = None
+        self._lock: int | None = None
+        self._staging: Path | None = None
+
+    # ---- opening ------------------------------------------------------------------------
+
+    def __enter__(self) -> "OutputFolder":
+        if self.path.exists() and not self.path.is_dir():
+            raise InputError(self.path, "exists and is not a folder")
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
+        self._take_lock()
+        try:
+            self._recover()
+            self._check_ownership()
+        except BaseException:
+            self._release_lock()
+            raise
+        return self
+
+    def __exit__(self, kind, error, trace) -> bool:
+        try:
+            if self._staging is not None:
+                shutil.rmtree(self._staging, ignore_errors=True)
+                self._staging = None
+        finally:
+            self._release_lock()
+            if kind is not None:
+                self._remove_if_empty()
+        return False
+
+    def _take_lock(self) -> None:
+        path = self.path / LOCK
+        while True:
+            try:
+                descriptor = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o644)
+            except OSError as error:
+                raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
+            try:
+                fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as error:
+                holder = _read_small(descriptor)
+                os.close(descriptor)
+                if error.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                    who = f" (pid {holder})" if holder.isdigit() else ""
+                    raise InputError(self.path, f"another roneld-eval command is writing here{who}; "
+                                                f"wait for it or choose another --out") from None
+                raise InputError(path, f"cannot lock: {error.strerror}") from None
+            # The previous holder may have removed the file between our open and flock: then
+            # the lock we hold is on a file nobody else will ever open; try again.
+            try:
+                same = os.path.samestat(os.fstat(descriptor), os.stat(path))
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(descriptor)
+        os.ftruncate(descriptor, 0)
+        os.write(descriptor, str(os.getpid()).encode())
+        self._lock = descriptor
+        _HELD_LOCKS.add(descriptor)
+
+    def _release_lock(self) -> None:
+        if self._lock is None:
+            return
+        with contextlib.suppress(OSError):
+            os.unlink(self.path / LOCK)
+        _HELD_LOCKS.discard(self._lock)
+        with contextlib.suppress(OSError):
+            os.close(self._lock)
+        self._lock = None
+
+    def _remove_if_empty(self) -> None:
+        with contextlib.suppress(OSError):
+            self.path.rmdir()  # only when nothing at all is left (a run into a new folder that failed)
+
+    def _recover(self) -> None:
+        """Finish a commit a killed process left half done; remove its staging and trash."""
+        journal = self.path / JOURNAL
+        if journal.is_file():
+            try:
+                plan = json.loads(journal.read_text(encoding="utf-8"))
+                self._apply(plan, undo_on_error=False)
+            except (OSError, ValueError, KeyError, TypeError) as error:
+                raise InputError(journal, f"an earlier commit into this folder was cut short and cannot be "
+                                          f"finished ({error}); remove the folder and run again") from None
+        for entry in self.path.iterdir():
+            if entry.name.startswith((STAGING_PREFIX, TRASH_PREFIX)):
+                _remove(entry)
+
+    def _check_ownership(self) -> None:
+        manifest = read_manifest(self.path)
+        foreign, nested = [], []
+        for entry in self.path.iterdir():
+            if is_own_entry(entry.name) or (manifest is not None and entry.name in manifest["entries"]):
+                continue
+            if self._is_nested(entry):
+                nested.append(entry.name)
+            else:
+                foreign.append(entry.name)
+        foreign.sort()
+        if foreign:
+            listing = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+            raise InputError(self.path, f"holds files roneld-eval did not write ({listing}): results go only into "
+                                        f"a new or empty folder, or one an earlier `roneld-eval {self.command}` wrote")
+        if manifest is not None and manifest["command"] != self.command:
+            raise InputError(self.path, f"holds the results of `roneld-eval {manifest['command']}`; write the "
+                                        f"results of `roneld-eval {self.command}` to another folder")
+        if manifest is not None or nested:
+            entries = (manifest["entries"] if manifest is not None else []) + sorted(nested)
+            self.previous = {"command": self.command, "entries": entries}
+
+    def _is_nested(self, entry: Path) -> bool:
+        command = self.nested.get(entry.name)
+        if command is None or not entry.is_dir() or entry.is_symlink():
+            return False
+        try:
+            manifest = read_manifest(entry)
+        except InputError:
+            return False
+        return manifest is not None and manifest["command"] == command
+
+    # ---- writing ------------------------------------------------------------------------
+
+    def staging(self) -> Path:
+        """The private folder to write this command's results into."""
+        if self._staging is None:
+            try:
+                self._staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=self.path))
+            except OSError as error:
+                raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
+        return self._staging
+
+    def commit(self) -> list[Path]:
+        """Put the staged entries in place of the previous command's; returns the paths written."""
+        staging = self.staging()
+        entries = sorted(entry.name for entry in staging.iterdir())
+        old = sorted(self.previous["entries"]) if self.previous else []
+        trash = Path(tempfile.mkdtemp(prefix=TRASH_PREFIX, dir=self.path))
+        plan = {"staging": staging.name, "trash": trash.name, "entries": entries, "old": old,
+                "command": self.command}
+        with held_signals():
+            _write_atomically(self.path / JOURNAL, json.dumps(plan))
+            self._apply(plan, undo_on_error=True)
+        self._staging = None
+        return [self.path / name for name in entries]
+
+    def _apply(self, plan: dict, undo_on_error: bool) -> None:
+        """Move old entries to the trash and staged ones in, write the manifest, drop the journal."""
+        staging, trash = self.path / plan["staging"], self.path / plan["trash"]
+        entries = [str(name) for name in plan["entries"]]
+        if not all(_plain_name(name) for name in entries + list(plan["old"])):
+            raise ValueError("a name in the journal is not a plain file name")
+        trash.mkdir(exist_ok=True)
+        renames: list[tuple[Path, Path]] = []  # done so far, to undo in reverse on failure
+
+        def move(source: Path, target: Path) -> None:
+            os.rename(source, target)
+            renames.append((source, target))
+
+        try:
+            for name in entries + [n for n in plan["old"] if n not in entries]:
+                target, new = self.path / name, staging / name
+                staged = name in entries and (new.exists() or new.is_symlink())
+                # An older entry goes to the trash, unless a killed commit already put it there
+                # or already put the new one in its place.
+                if (target.exists() or target.is_symlink()) and not (trash / name).exists() and \
+                        (staged or name not in entries):
+                    move(target, trash / name)
+                if staged:
+                    move(new, target)
+            _write_atomically(self.path / MANIFEST, json.dumps(
+                {"format": MANIFEST_FORMAT, "command": plan["command"], "entries": entries}, indent=1) + "\n")
+        except OSError as error:
+            if not undo_on_error:
+                raise
+            for source, target in reversed(renames):
+                with contextlib.suppress(OSError):
+                    os.rename(target, source)
+            with contextlib.suppress(OSError):
+                os.unlink(self.path / JOURNAL)
+            _remove(trash)
+            where = getattr(error, "filename", None) or self.path
+            raise InputError(where, f"cannot put the results in place ({error.strerror}); "
+                                    f"the earlier results are unchanged") from None
+        os.unlink(self.path / JOURNAL)
+        _remove(trash)
+        _remove(staging)
+
+
+def _read_small(descriptor: int) -> str:
+    try:
+        return os.pread(descriptor, 32, 0).decode("ascii", "replace").strip()
+    except OSError:
+        return ""
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(OSError):
+            path.unlink()
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    temporary = path.with_name(path.name + ".tmp")
+    with open(temporary, "w", encoding="utf-8") as handle:
+        handle.write(text)
+        handle.flush()
+        os.fsync(handle.fileno())
+    os.replace(temporary, path)

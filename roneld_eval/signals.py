@@ -1,0 +1,83 @@
+"""Signals in the main process: SIGTERM and SIGHUP end a run as Ctrl-C does, cleanly.
+
+Without this, `kill` or a closed terminal ends the process at once: no message, staging
+folders with half-written files left behind, workers orphaned. With it, every signal goes
+through the same path as Ctrl-C (KeyboardInterrupt), so cleanup runs and one line is printed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+
+from .errors import RunInterrupted
+
+_ENDING = (signal.SIGTERM, signal.SIGHUP)
+_HELD = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP received: handled wherever Ctrl-C is."""
+
+    def __init__(self, number: int):
+        super().__init__(signal.Signals(number).name)
+        self.number = number
+        self.exit_code = 128 + number
+
+
+def _raise_terminated(number, frame):
+    raise Terminated(number)
+
+
+def _in_main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextlib.contextmanager
+def terminate_as_interrupt():
+    """Within the block, SIGTERM and SIGHUP raise `Terminated` (a KeyboardInterrupt)."""
+    if not _in_main_thread():
+        yield
+        return
+    previous = {number: signal.getsignal(number) for number in _ENDING}
+    for number in _ENDING:
+        signal.signal(number, _raise_terminated)
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def interruption_name(error: BaseException) -> tuple[str, int]:
+    """('interrupted', 130) for Ctrl-C, ('terminated (SIGTERM)', 143) for a signal."""
+    if isinstance(error, Terminated):
+        return f"terminated ({signal.Signals(error.number).name})", error.exit_code
+    return "interrupted", 130
+
+
+@contextlib.contextmanager
+def held_signals():
+    """Hold Ctrl-C, SIGTERM and SIGHUP during the block, then act on the first one received.
+
+    Used while results are put in place: once the block is over they are complete, so the
+    interruption is reported as such (RunInterrupted, exit 128 + signal), not as a run that
+    wrote nothing.
+    """
+    if not _in_main_thread():
+        yield
+        return
+    received: list[int] = []
+    previous = {number: signal.getsignal(number) for number in _HELD}
+    for number in _HELD:
+        signal.signal(number, lambda number, frame: received.append(number))
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    if received:
+        name = signal.Signals(received[0]).name
+        raise RunInterrupted(f"{name} received while the results were being put in place; they are complete",
+                             exit_code=128 + received[0])

@@ -1,0 +1,70 @@
+"""Worker processes that never outlive the run nor hang it, used by `run` and `score` alike.
+
+A worker ignores Ctrl-C (the main process decides what happens), dies with its parent (Linux
+parent-death signal, and a check of the parent's pid as it starts), and is killed after a
+short grace when the pool is stopped, so a stopped (SIGSTOP) or stuck worker cannot keep the
+main process from exiting.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import multiprocessing
+import os
+import signal
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any, Callable
+
+_PR_SET_PDEATHSIG = 1
+GRACE_S = 2.0
+
+
+def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for number in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(number, signal.SIG_DFL)
+    if sys.platform == "linux":
+        with contextlib.suppress(OSError, AttributeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent_pid:  # the parent died before the signal was armed
+        os._exit(1)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+def process_pool(workers: int, initializer: Callable[..., Any] | None = None, initargs: tuple = ()) -> ProcessPoolExecutor:
+    """Worker processes (forked where the platform allows). Unlike multiprocessing.Pool, a
+    worker that dies makes its pending results raise BrokenProcessPool instead of hanging."""
+    method = "fork" if sys.platform == "linux" else "spawn"
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method),
+                               initializer=_start_worker, initargs=(os.getpid(), initializer, initargs))
+
+
+def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S) -> None:
+    """End every worker now: SIGTERM, then SIGKILL for any still there after `grace_s`."""
+    processes = list((getattr(executor, "_processes", None) or {}).values())
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.terminate()
+    deadline = time.monotonic() + grace_s
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.join(max(0.0, deadline - time.monotonic()))
+    for process in processes:
+        with contextlib.suppress(Exception):
+            if process.is_alive():
+                process.kill()
+                process.join(1.0)
+    executor.shutdown(wait=False, cancel_futures=True)
+
+
+def default_workers() -> int:
+    """All cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)

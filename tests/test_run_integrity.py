@@ -1,0 +1,526 @@
+"""Results that cannot lie: a run owns its output folder, commits whole, and resumes only from
+clips whose inputs are unchanged.
+
+Each test drives the CLI (or the library where a fault must be injected) on a small generated
+dataset and checks what is on disk afterwards, byte for byte.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import shutil
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval import api, evaluation, output
+from roneld_eval.cli import main
+from roneld_eval.errors import InputError, RunInterrupted
+from roneld_eval.synth import synth_culane
+
+
+@pytest.fixture(scope="module")
+def base(tmp_path_factory):
+    root = tmp_path_factory.mktemp("integrity")
+    synth_culane(root / "set", clips=5, frames=3, seed=11)
+    return root / "set"
+
+
+@pytest.fixture
+def dataset(base, tmp_path):
+    shutil.copytree(base, tmp_path / "set")
+    return tmp_path / "set"
+
+
+def run_args(root: Path, out: Path, *extra: str) -> list[str]:
+    return ["run", "--data-root", str(root / "data"), "--maps-root", str(root / "maps"), "--workers", "1",
+            "--quiet", "--out", str(out), *extra]
+
+
+def invoke(args):
+    result = CliRunner().invoke(main, args)
+    assert "Traceback" not in result.output, result.output
+    return result
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def config_for(root: Path, **overrides):
+    values = {"dataset.data_root": str(root / "data"), "maps.root": str(root / "maps"), "workers": 1}
+    values.update(overrides)
+    return api.default_config("culane").with_overrides(**values)
+
+
+# ---- the output folder belongs to the run ---------------------------------------------------
+
+
+def test_files_of_an_earlier_run_that_this_run_does_not_write_are_removed(dataset, tmp_path):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out, "--pft-ablation", "--save-lanes", "--overlays", "1")).exit_code == 0
+    assert {"ablation.md", "lanes", "overlays", "overlays.png"} <= {p.name for p in out.iterdir()}
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    names = {p.name for p in out.iterdir()}
+    assert not names & {"ablation.md", "ablation.tex", "lanes", "overlays", "overlays.png"}
+    manifest = json.loads((out / output.MANIFEST).read_text())
+    assert sorted(manifest["entries"]) == sorted(names - {output.MANIFEST})
+    assert not [n for n in names if n.startswith((".staging", ".trash", ".roneld-cache", ".roneld-lock"))]
+
+
+def test_a_folder_with_foreign_files_is_refused_and_left_alone(dataset, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "thesis.tex").write_text("my thesis")
+    result = invoke(run_args(dataset, out))
+    assert result.exit_code == 2
+    assert result.output.count("\n") == 1 and "thesis.tex" in result.output and "did not write" in result.output
+    assert snapshot(out) == {"thesis.tex": b"my thesis"}
+
+
+def test_a_run_folder_is_refused_to_another_command(dataset, tmp_path):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    before = snapshot(out)
+    result = invoke(["score", "culane", "--data-root", str(dataset / "data"), "--pred-root", str(dataset / "data"),
+                     "--out", str(out), "--quiet", "--workers", "1"])
+    assert result.exit_code == 2 and "holds the results of `roneld-eval run`" in result.output
+    assert snapshot(out) == before
+
+
+def test_show_writes_into_its_own_folder_and_a_new_run_replaces_it(dataset, tmp_path):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out, "--overlays", "1")).exit_code == 0
+    before = snapshot(out)
+    result = invoke(["show", "--run", str(out), "--worst", "2"])
+    assert result.exit_code == 0, result.output
+    assert (out / "show" / "overlays.png").is_file() and len(list((out / "show" / "overlays").iterdir())) == 2
+    after = {k: v for k, v in snapshot(out).items() if not k.startswith("show/")}
+    assert after == before  # the run's own pictures and report untouched
+    result = invoke(["show", "--run", str(out), "--worst", "1", "--out", str(out)])
+    assert result.exit_code == 2 and "own folder" in result.output
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    assert not (out / "show").exists()  # pictures of the earlier results went with them
+
+
+def test_a_second_command_into_a_locked_folder_is_refused(dataset, tmp_path):
+    out = tmp_path / "out"
+    with output.OutputFolder(out, "run"):
+        result = invoke(run_args(dataset, out))
+        assert result.exit_code == 2 and f"pid {os.getpid()}" in result.output and "another" in result.output
+    assert invoke(run_args(dataset, out)).exit_code == 0  # released
+
+
+def test_a_lock_left_by_a_dead_process_is_taken_over(dataset, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / output.LOCK).write_text("999999")  # no process holds it
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    assert not (out / output.LOCK).exists()
+
+
+def test_leftovers_of_a_killed_run_are_removed(dataset, tmp_path):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    (out / ".staging-x1y2" / "lanes").mkdir(parents=True)
+    (out / ".staging-x1y2" / "lanes" / "half.lines.txt").write_text("1 2")
+    (out / ".trash-abc").mkdir()
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    assert not [p for p in out.iterdir() if p.name.startswith((".staging", ".trash"))]
+
+
+def test_a_failing_move_during_the_commit_leaves_the_old_results(dataset, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out, "--pft-ablation")).exit_code == 0
+    before = snapshot(out)
+    original, calls = os.rename, []
+
+    def failing(source, target):
+        calls.append(source)
+        if len(calls) == 7:
+            raise OSError(28, "No space left on device", str(target))
+        return original(source, target)
+
+    monkeypatch.setattr(output.os, "rename", failing)
+    result = invoke(run_args(dataset, out, "--thresholds", "0.30:0.40:0.05"))
+    assert result.exit_code == 2 and "earlier results are unchanged" in result.output
+    assert len(calls) > 7  # the undo ran
+    monkeypatch.setattr(output.os, "rename", original)
+    assert snapshot(out) == before
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == [output.MANIFEST]
+
+
+@pytest.mark.parametrize("number", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+def test_a_signal_during_the_commit_is_held_until_it_is_complete(dataset, tmp_path, monkeypatch, number):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out, "--pft-ablation")).exit_code == 0
+    original, calls = os.rename, []
+
+    def interrupted(source, target):
+        calls.append(source)
+        if len(calls) == 3:
+            os.kill(os.getpid(), number)
+        return original(source, target)
+
+    monkeypatch.setattr(output.os, "rename", interrupted)
+    with pytest.raises(RunInterrupted) as caught:
+        api.run(config_for(dataset, **{"paper.thresholds": "0.30:0.40:0.05"}), out, progress=False)
+    assert caught.value.exit_code == 128 + number and "complete" in str(caught.value)
+    accuracy = (out / "accuracy.csv").read_text()
+    assert "0.35" in accuracy and "ablation.md" not in os.listdir(out)  # the new results, whole
+    assert not (out / output.CACHE).exists()
+
+
+def test_a_commit_cut_short_by_a_kill_is_finished_by_the_next_command(dataset, tmp_path):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out, "--pft-ablation")).exit_code == 0
+    child = os.fork()
+    if child == 0:  # pragma: no cover - runs in the child
+        original, calls = os.rename, []
+
+        def killed(source, target):
+            calls.append(source)
+            if len(calls) == 4:
+                os._exit(9)  # as SIGKILL: no cleanup at all
+            return original(source, target)
+
+        output.os.rename = killed
+        try:
+            api.run(config_for(dataset, **{"paper.thresholds": "0.30:0.40:0.05"}), out, progress=False)
+        finally:
+            os._exit(1)
+    _, status = os.waitpid(child, 0)
+    assert os.waitstatus_to_exitcode(status) == 9
+    assert (out / output.JOURNAL).exists()
+    with output.OutputFolder(out, "run"):
+        pass  # opening the folder finishes the commit
+    names = set(os.listdir(out))
+    assert output.JOURNAL not in names and not [n for n in names if n.startswith((".staging", ".trash"))]
+    assert "0.35" in (out / "accuracy.csv").read_text() and "ablation.md" not in names
+    manifest = json.loads((out / output.MANIFEST).read_text())
+    assert sorted(manifest["entries"]) == sorted(names - {output.MANIFEST, output.CACHE})
+
+
+# ---- resume: only what is still true is reused ----------------------------------------------
+
+
+def interrupt_after(monkeypatch, finished: int):
+    """Make the next run stop (as Ctrl-C) when it starts clip number `finished` + 1."""
+    original, calls = evaluation.evaluate_clip, []
+
+    def interrupting(clip, context):
+        calls.append(clip.clip_id)
+        if len(calls) == finished + 1:
+            raise KeyboardInterrupt
+        return original(clip, context)
+
+    monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
+    return lambda: monkeypatch.setattr(evaluation, "evaluate_clip", original)
+
+
+def clean_numbers(root: Path, tmp_path: Path) -> dict[str, bytes]:
+    clean = tmp_path / "clean"
+    shutil.rmtree(clean, ignore_errors=True)
+    api.run(config_for(root), clean, progress=False)
+    return {name: (clean / name).read_bytes() for name in ("accuracy.csv", "per_frame.csv", "official.csv")}
+
+
+def resumed(root: Path, out: Path, notes: list[str]) -> dict[str, bytes]:
+    api.run(config_for(root), out, progress=False, resume=True, announce=notes.append)
+    return {name: (out / name).read_bytes() for name in ("accuracy.csv", "per_frame.csv", "official.csv")}
+
+
+def first_clip_files(root: Path, pattern: str) -> list[Path]:
+    return sorted(sorted(root.rglob("*.MP4"))[0].glob(pattern))
+
+
+def changed_maps(root: Path) -> None:
+    for path in first_clip_files(root / "maps", "*.npy"):
+        maps = np.load(path)
+        np.save(path, np.ascontiguousarray(maps[[1, 0, 3, 2]]))  # lanes swapped: other numbers
+
+
+def changed_labels(root: Path) -> None:
+    for path in first_clip_files(root / "data", "*.lines.txt"):
+        lines = path.read_text().splitlines()
+        path.write_text("\n".join(lines[:1]) + "\n")
+
+
+def dropped_frames(root: Path) -> None:
+    listing = root / "data" / "list" / "test.txt"
+    lines = listing.read_text().splitlines()
+    listing.write_text("\n".join(lines[1:]) + "\n")
+
+
+@pytest.mark.parametrize("change, reason", [
+    (changed_maps, "maps or labels changed"),
+    (changed_labels, "maps or labels changed"),
+    (dropped_frames, "frame list changed"),
+])
+def test_resume_recomputes_clips_whose_inputs_changed(dataset, tmp_path, monkeypatch, change, reason):
+    out = tmp_path / "out"
+    restore = interrupt_after(monkeypatch, 3)
+    with pytest.raises(RunInterrupted, match="3 finished clips kept"):
+        api.run(config_for(dataset), out, progress=False)
+    restore()
+    change(dataset)
+    notes: list[str] = []
+    assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
+    summary = [n for n in notes if n.startswith("resume:")][0]
+    assert "reused 2 finished clips" in summary and f"1 {reason}" in summary and "2 not finished" in summary
+
+
+def test_resume_after_a_configuration_change_recomputes_everything(dataset, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    restore = interrupt_after(monkeypatch, 2)
+    with pytest.raises(RunInterrupted):
+        api.run(config_for(dataset, **{"paper.gt_thickness_px": 12}), out, progress=False)
+    restore()
+    notes: list[str] = []
+    assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
+    assert "reused 0 finished clips" in notes[-1] and "2 configuration or version changed" in notes[-1]
+    assert not (out / output.CACHE).exists()
+
+
+def cache_entries(out: Path) -> list[Path]:
+    return sorted((out / output.CACHE).glob("*.json"))
+
+
+@pytest.mark.parametrize("tamper", [
+    pytest.param(lambda p: p.write_text(p.read_text().replace('\\"n_scored\\":3', '\\"n_scored\\":30')), id="edited"),
+    pytest.param(lambda p: p.write_text(p.read_text()[:-40]), id="truncated"),
+    pytest.param(lambda p: p.write_text("[]"), id="not-an-entry"),
+    pytest.param(lambda p: p.write_bytes(b"\xff\xfe garbage"), id="binary"),
+    pytest.param(lambda p: (p.unlink(), os.mkfifo(p)), id="fifo"),
+])
+def test_an_invalid_cache_entry_is_recomputed_with_a_note(dataset, tmp_path, monkeypatch, tamper):
+    out = tmp_path / "out"
+    restore = interrupt_after(monkeypatch, 2)
+    with pytest.raises(RunInterrupted):
+        api.run(config_for(dataset), out, progress=False)
+    restore()
+    tamper(cache_entries(out)[0])
+    notes: list[str] = []
+    assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
+    assert any("cache entry ignored" in n for n in notes) and "1 invalid cache entry" in notes[-1]
+
+
+def test_a_crafted_pickle_in_the_cache_runs_no_code(dataset, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    restore = interrupt_after(monkeypatch, 2)
+    with pytest.raises(RunInterrupted):
+        api.run(config_for(dataset), out, progress=False)
+    restore()
+    witness = tmp_path / "pwned"
+
+    class Payload:
+        def __reduce__(self):
+            return (os.system, (f"touch {witness}",))
+
+    for entry in cache_entries(out):
+        entry.write_bytes(pickle.dumps(Payload()))
+        entry.with_suffix(".pkl").write_bytes(pickle.dumps(Payload()))
+    notes: list[str] = []
+    assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
+    assert not witness.exists()
+
+
+def test_the_cache_holds_plain_json(dataset, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    restore = interrupt_after(monkeypatch, 2)
+    with pytest.raises(RunInterrupted):
+        api.run(config_for(dataset, save_lanes=True), out, progress=False)
+    restore()
+    for entry in cache_entries(out):
+        document = json.loads(entry.read_text())
+        assert set(document) == {"body", "mac"}
+        assert json.loads(document["body"])["format"] == "roneld-eval clip cache"
+
+
+# ---- signals and worker processes -----------------------------------------------------------
+
+SLOW_RUN = """
+import sys, time
+from roneld_eval import evaluation
+original = evaluation.evaluate_clip
+def slow(clip, context):
+    time.sleep(0.6)
+    return original(clip, context)
+evaluation.evaluate_clip = slow
+from roneld_eval.cli import main
+sys.argv = ["roneld-eval"] + sys.argv[1:]
+main()
+"""
+
+
+def start_slow_run(root: Path, out: Path, workers: int):
+    import subprocess
+    import sys
+
+    args = [sys.executable, "-c", SLOW_RUN, "run", "--data-root", str(root / "data"), "--maps-root",
+            str(root / "maps"), "--workers", str(workers), "--quiet", "--out", str(out)]
+    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def children_of(pid: int) -> list[int]:
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        text = (task / "children").read_text() if (task / "children").exists() else ""
+        found += [int(x) for x in text.split()]
+    return found
+
+
+def alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def wait_for(condition, timeout: float = 60.0) -> bool:
+    import time
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.05)
+    return False
+
+
+needs_proc = pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc")
+
+
+@needs_proc
+@pytest.mark.parametrize("number", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
+def test_a_signal_to_the_main_process_ends_the_run_cleanly(dataset, tmp_path, number):
+    out = tmp_path / "out"
+    process = start_slow_run(dataset, out, workers=2)
+    assert wait_for(lambda: len(cache_entries(out)) >= 1 and len(children_of(process.pid)) >= 2)
+    workers = children_of(process.pid)
+    process.send_signal(number)
+    _, errors = process.communicate(timeout=60)
+    assert process.returncode == 128 + number, errors
+    lines = errors.strip().splitlines()
+    assert len(lines) == 1 and "no result was written" in lines[0] and "--resume" in lines[0], errors
+    assert wait_for(lambda: not any(alive(pid) for pid in workers), 10)
+    assert not [p for p in out.iterdir() if p.name.startswith((".staging", ".trash", ".roneld-lock"))]
+    result = invoke(run_args(dataset, out, "--resume"))
+    assert result.exit_code == 0, result.output
+    assert (out / "accuracy.csv").read_bytes() == clean_numbers(dataset, tmp_path)["accuracy.csv"]
+
+
+@needs_proc
+def test_workers_end_when_the_main_process_is_killed(dataset, tmp_path):
+    process = start_slow_run(dataset, tmp_path / "out", workers=2)
+    assert wait_for(lambda: len(children_of(process.pid)) >= 2)
+    workers = children_of(process.pid)
+    process.kill()
+    process.communicate(timeout=30)
+    assert wait_for(lambda: not any(alive(pid) for pid in workers), 10)
+
+
+@needs_proc
+def test_ctrl_c_with_a_stopped_worker_still_ends_the_run(dataset, tmp_path):
+    out = tmp_path / "out"
+    process = start_slow_run(dataset, out, workers=2)
+    assert wait_for(lambda: len(children_of(process.pid)) >= 2)
+    workers = children_of(process.pid)
+    os.kill(workers[0], signal.SIGSTOP)
+    process.send_signal(signal.SIGINT)
+    _, errors = process.communicate(timeout=30)
+    assert process.returncode == 130 and "interrupted" in errors
+    assert wait_for(lambda: not any(alive(pid) for pid in workers), 10)
+
+
+# ---- geometry and paths ------------------------------------------------------------------------
+
+
+def resized_maps(root: Path, width: int, height: int) -> None:
+    import cv2
+
+    for path in (root / "maps").rglob("*.npy"):
+        maps = np.load(path)
+        np.save(path, np.stack([cv2.resize(c, (width, height), interpolation=cv2.INTER_LINEAR) for c in maps]))
+
+
+def test_the_geometry_really_used_is_printed_and_recorded(dataset, tmp_path):
+    resized_maps(dataset, 976, 351)
+    out = tmp_path / "out"
+    args = run_args(dataset, out)
+    args.remove("--quiet")
+    result = invoke(args)
+    assert result.exit_code == 0, result.output
+    assert "maps 976x351" in result.output and "ground truth 20 px, predictions 37 px" in result.output
+    geometry = json.loads((out / "summary.json").read_text())["geometry"]
+    assert (geometry["map_width"], geometry["map_height"], geometry["rescaled"]) == (976, 351, True)
+    assert (geometry["gt_thickness_px"], geometry["pred_thickness_px"]) == (20, 37)
+    config = (out / "config.toml").read_text()
+    assert "976x351" in config and "20 px" in config  # recorded as a comment
+
+
+def test_maps_of_another_shape_than_the_preset_says_stop_the_run(dataset, tmp_path):
+    resized_maps(dataset, 976, 351)  # whole-frame maps, as SCNN writes them
+    out = tmp_path / "out"
+    result = invoke(run_args(dataset, out, "--config", "enet-sad-culane"))
+    assert result.exit_code == 2, result.output
+    line = result.output.strip()
+    assert line.count("\n") == 0 and "00000.npy" in line and "976x351" in line and "976x208" in line
+    assert "rows 240..589" in line and "crop_top_px=0" in line
+    assert not out.exists()
+
+
+def test_a_run_folder_works_from_any_directory(dataset, tmp_path, monkeypatch):
+    monkeypatch.chdir(dataset)
+    assert invoke(["run", "--data-root", "data", "--maps-root", "maps", "--workers", "1", "--quiet",
+                   "--out", "here"]).exit_code == 0
+    config = (dataset / "here" / "config.toml").read_text()
+    assert f'data_root = "{dataset / "data"}"' in config
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    result = invoke(["run", "--config", str(dataset / "here" / "config.toml"), "--out", "again", "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert (elsewhere / "again" / "accuracy.csv").read_bytes() == (dataset / "here" / "accuracy.csv").read_bytes()
+    assert invoke(["show", "--run", str(dataset / "here"), "--worst", "1"]).exit_code == 0
+
+
+def test_a_folder_that_is_not_a_finished_run_is_refused_by_show(dataset, tmp_path):
+    folder = tmp_path / "notarun"
+    folder.mkdir()
+    (folder / "config.toml").write_text("")
+    result = invoke(["show", "--run", str(folder)])
+    assert result.exit_code == 2 and "not a folder written by `roneld-eval run`" in result.output
+
+
+def test_open_output_folder_errors_are_one_line(tmp_path):
+    target = tmp_path / "file"
+    target.write_text("")
+    with pytest.raises(InputError, match="not a folder"):
+        with output.OutputFolder(target, "run"):
+            pass
+
+
+def test_disk_full_while_plotting_names_the_picture(dataset, tmp_path, monkeypatch):
+    import errno
+
+    from matplotlib.figure import Figure
+
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    before = snapshot(out)
+
+    def full(self, path, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Figure, "savefig", full)
+    result = invoke(run_args(dataset, out, "--thresholds", "0.30:0.40:0.05"))
+    assert result.exit_code == 2 and result.output.count("\n") == 1
+    assert "accuracy_curve.png: cannot write: No space left on device" in result.output
+    assert snapshot(out) == before
