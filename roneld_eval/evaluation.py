@@ -31,7 +31,7 @@ from .extract.baseline import baseline_lanes, sample_rows
 from .extract.roneld import RoneldTracker
 from .geometry import EffectiveGeometry, MapGeometry, check_map_shape
 from .lanes_io import sample_lane_at_rows, tusimple_xs
-from .maps import load_maps, required_paths
+from .maps import load_maps, map_stem, required_paths
 from .metrics.bootstrap import paired_bootstrap
 from .metrics.culane_official import (
     category_table,
@@ -208,7 +208,13 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
 
 
 def frame_map_path(context: RunContext, frame: Frame) -> Path:
-    return required_paths(context.maps_root, frame.relpath, context.config.maps)[0]
+    """The file to name when a frame's maps are wrong: the first map image where there are several."""
+    path = required_paths(context.maps_root, frame.relpath, context.config.maps)[0]
+    if context.config.maps.format == "scnn-png":  # path is the .exist.txt beside the PNGs
+        stem = map_stem(context.maps_root, frame.relpath)
+        images = [stem.with_name(f"{stem.name}_{k}_avg.png") for k in range(1, context.config.maps.lane_channels + 1)]
+        path = next((image for image in images if image.is_file()), path)
+    return path
 
 
 def _score_frame(frame: Frame, predictions, geometry: MapGeometry, context: RunContext) -> list[FrameOutcome]:

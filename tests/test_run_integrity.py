@@ -524,3 +524,11 @@ def test_disk_full_while_plotting_names_the_picture(dataset, tmp_path, monkeypat
     assert result.exit_code == 2 and result.output.count("\n") == 1
     assert "accuracy_curve.png: cannot write: No space left on device" in result.output
     assert snapshot(out) == before
+
+
+def test_real_png_maps_under_the_wrong_preset_name_a_map_image(real_clip_tree, tmp_path):
+    data, maps = real_clip_tree  # the authors' clip: 976x351 maps of the whole frame
+    result = invoke(["run", "--config", "enet-sad-culane", "--data-root", str(data), "--maps-root", str(maps),
+                     "--maps-format", "scnn-png", "--quiet", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert "00000_1_avg.png: maps are 976x351" in result.output and "scnn-culane" in result.output
