@@ -114,7 +114,11 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
     in OUT: accuracy.csv/.md/.tex, accuracy_curve.png/.svg, ablation.md/.tex (with
-    --pft-ablation), runtime.csv/.md, per_frame.csv, official.csv, summary.json, config.toml.
+    --pft-ablation), runtime.csv/.md, per_frame.csv, official.csv, categories.csv/.png (CULane
+    with category lists), overlays/ and overlays.png (with --overlays), lanes/ (with
+    --save-lanes), report.html, summary.json, config.toml. OUT belongs to the run: files an
+    earlier run wrote there and this one does not are removed; a folder holding other files is
+    refused.
     """
     from . import api
 
@@ -269,8 +273,8 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
 def show(run_dir, frames, worst, methods, out, debug):
     """Draw frames of a run: camera image (or the maps), ground truth blue, baseline red, RONELD green.
 
-    Each lane's IoU is written beside it; overlays.png gathers the pictures, and the run's
-    report.html shows them.
+    Each lane's IoU is written beside it; overlays.png gathers the pictures. They go to
+    RUN/show (or --out), never over the run's own files.
     """
     from . import api
 

@@ -316,6 +316,9 @@ class EvalConfig:
     def __post_init__(self):
         _check_fields(self, "")
         methods = self.methods
+        if self.pft_ablation and "roneld" not in methods:
+            raise ConfigError("the PFT ablation compares roneld with roneld-nopft: add roneld to the methods "
+                              "(or drop --pft-ablation)")
         if self.pft_ablation and "roneld-nopft" not in methods:
             methods = methods + ("roneld-nopft",)
         object.__setattr__(self, "methods", methods)

@@ -565,7 +565,8 @@ def _runtime_table(extract_ms: dict[str, list[float]], load_ms: list[float]) -> 
 def _progress_bar(total: int, enabled: bool):
     from tqdm import tqdm
 
-    return tqdm(total=total, unit="frame", desc="evaluating", disable=not enabled, dynamic_ncols=True)
+    # None: no bar where stderr is not a terminal (CI logs), as tqdm documents.
+    return tqdm(total=total, unit="frame", desc="evaluating", disable=None if enabled else True, dynamic_ncols=True)
 
 
 def versions() -> dict:

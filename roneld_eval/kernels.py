@@ -124,7 +124,7 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
 
     Call once in the main process before worker processes start. When the cache lacks some
     (the first run after an install or an upgrade), `announce` (if given) receives one line,
-    "compiling kernels (first run only, about N s)", and they are compiled in up to
+    "compiling kernels for this installation (once; about N s)", and they are compiled in up to
     `processes` (default: the usable cores) processes at once. Nothing else happens when the
     cache is warm. Each evaluating process then calls `warm_up`.
     """
@@ -137,7 +137,7 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
         bins = _schedule(units, parallel)
         if announce is not None:
             seconds = max(sum(_UNIT_COMPILE_S[unit] for unit in b) for b in bins)
-            announce(f"compiling kernels (first run only, about {5 * math.ceil(seconds / 5):.0f} s)")
+            announce(f"compiling kernels for this installation (once; about {5 * math.ceil(seconds / 5):.0f} s)")
         _compile_in_parallel(bins)
 
 

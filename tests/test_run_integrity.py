@@ -532,3 +532,22 @@ def test_real_png_maps_under_the_wrong_preset_name_a_map_image(real_clip_tree, t
                      "--maps-format", "scnn-png", "--quiet", "--out", str(tmp_path / "out")])
     assert result.exit_code == 2
     assert "00000_1_avg.png: maps are 976x351" in result.output and "scnn-culane" in result.output
+
+
+def test_without_pft_the_pictures_are_the_frames_that_differ_most():
+    import pandas as pd
+
+    from roneld_eval.report.overlays import worst_frames
+
+    rows = [("a.jpg", "left", "baseline", 0.9), ("a.jpg", "left", "roneld-nopft", 0.9),
+            ("b.jpg", "left", "baseline", 0.1), ("b.jpg", "left", "roneld-nopft", 0.8),
+            ("c.jpg", "left", "baseline", 0.5), ("c.jpg", "left", "roneld-nopft", 0.6)]
+    per_frame = pd.DataFrame(rows, columns=["frame", "side", "method", "iou"])
+    assert worst_frames(per_frame, 2) == ["b.jpg", "c.jpg"]
+    baseline_only = per_frame[per_frame["method"] == "baseline"]
+    assert worst_frames(baseline_only, 2) == ["b.jpg", "c.jpg"]  # one method: its lowest IoUs
+
+
+def test_a_pft_ablation_without_roneld_is_refused(tmp_path):
+    result = invoke(["run", "--methods", "baseline", "--pft-ablation", "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "add roneld to the methods" in result.output

@@ -163,7 +163,7 @@ def test_prepare_announces_compiling_only_when_something_is_missing(monkeypatch)
     monkeypatch.setattr(kernels, "_compile_in_parallel", lambda bins: compiled_units.extend(bins))
     monkeypatch.setattr(kernels, "missing_units", lambda needed: ["scoring", "roneld"])
     kernels.prepare(announce=said.append, needed=("roneld", "paper"), processes=2)
-    assert len(said) == 1 and said[0].startswith("compiling kernels (first run only, about ")
+    assert len(said) == 1 and said[0].startswith("compiling kernels for this installation (once; about ")
     assert said[0].endswith(" s)")
     assert sorted(compiled_units) == [["roneld"], ["scoring"]]  # two processes, one unit each
 

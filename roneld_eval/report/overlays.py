@@ -41,12 +41,23 @@ class FramePicture:
     other_ground_truth: tuple[Lane, ...] = ()
 
 
-def worst_frames(per_frame: pd.DataFrame, count: int, first: str = "baseline", second: str = "roneld") -> list[str]:
-    """The `count` frames where two methods' IoUs differ most (summed over sides), largest first."""
+def worst_frames(per_frame: pd.DataFrame, count: int, first: str = "baseline", second: str | None = None) -> list[str]:
+    """The `count` frames where two methods' IoUs differ most (summed over sides), largest first.
+
+    `second` defaults to the RONELD the run has (with PFT, else without); with one method
+    alone, its lowest-IoU frames come first.
+    """
+    present = set(per_frame["method"])
+    if second is None:
+        second = next((m for m in ("roneld", "roneld-nopft") if m in present), None)
+    if first not in present or second not in present:
+        alone = next(iter(sorted(present & {first, second or ""}) or sorted(present)), None)
+        if alone is None:
+            return []
+        scores = per_frame[per_frame["method"] == alone].groupby("frame")["iou"].sum()
+        return [frame for frame, _ in sorted(scores.items(), key=lambda item: (item[1], item[0]))[:count]]
     table = per_frame[per_frame["method"].isin([first, second])].pivot_table(
         index=["frame", "side"], columns="method", values="iou", aggfunc="first")
-    if first not in table.columns or second not in table.columns:
-        return list(dict.fromkeys(per_frame["frame"]))[:count]
     difference = (table[first] - table[second]).abs().groupby(level="frame").sum()
     ranked = sorted(difference.items(), key=lambda item: (-item[1], item[0]))
     return [frame for frame, _ in ranked[:count]]
