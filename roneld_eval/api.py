@@ -25,7 +25,7 @@ from .datasets.culane import labels_path
 from .errors import ConfigError, InputError, RunInterrupted
 from .cache import ResultCache
 from .evaluation import RunResult, evaluate
-from .output import OutputFolder, read_manifest
+from .output import JOURNAL, OutputFolder, read_manifest
 from .signals import interruption_name, terminate_as_interrupt
 from .workers import default_workers, process_pool, stop_pool
 from .lanes_io import read_culane_lines
@@ -130,12 +130,7 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
                 protocol = Protocol.of_run(result).paper_short()
                 write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods), protocol))
             stage_report(result, staging)
-            try:
-                folder.commit()
-            except RunInterrupted:
-                cache.discard()  # a signal during the commit: the results are in place all the same
-                raise
-            cache.discard()
+            folder.commit(then=cache.discard)  # a signal meanwhile waits, then says the results are complete
         except RunInterrupted:
             raise  # finished clips stay for --resume
         except KeyboardInterrupt as error:
@@ -150,6 +145,8 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
 
 def _unfinished(reason: str, cache: ResultCache) -> str:
     done = cache.count()
+    if not done:
+        cache.discard()  # an empty cache folder would only be clutter
     kept = (f"{done} finished clip{'s' if done != 1 else ''} kept in {cache.folder}; run the same command "
             f"with --resume to continue") if done else "nothing to resume from"
     return f"{reason}: no result was written; {kept}"
@@ -218,7 +215,7 @@ def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | 
                 stop_pool(pool)
             raise
         if pool is not None:
-            pool.shutdown(wait=True)
+            stop_pool(pool, finished=True)
     sweep = []
     for label, value in zip(thresholds.labels, thresholds.values):
         table = category_table(results, dataset.categories, value)
@@ -367,8 +364,14 @@ def check_finished_run(run_dir: Path) -> None:
     if not run_dir.is_dir():
         raise InputError(run_dir, "not found: give a folder written by `roneld-eval run`")
     manifest = read_manifest(run_dir)
-    if manifest is None or manifest["command"] != "run":
+    if manifest is None:
         raise InputError(run_dir, "not a folder written by `roneld-eval run` (it has no run manifest)")
+    if manifest["command"] != "run":
+        raise InputError(run_dir, f"not a folder written by `roneld-eval run` (`roneld-eval {manifest['command']}` "
+                                  f"wrote it)")
+    if (run_dir / JOURNAL).exists():
+        raise InputError(run_dir, "its results are incomplete (a run was killed while putting them in place); "
+                                  "run it again into this folder")
     for name in ("config.toml", "per_frame.csv"):
         if name not in manifest["entries"] or not (run_dir / name).is_file():
             raise InputError(run_dir / name, "missing from this run folder")

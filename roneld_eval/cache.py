@@ -56,6 +56,8 @@ class ResultCache:
         self.reasons: Counter[str] = Counter()
         self.reused = 0
         self._secret = _secret_key()
+        if self.folder.is_symlink():
+            self.folder.unlink()  # never write through a link to somewhere else
         if not resume:
             self.discard()
         try:
@@ -148,16 +150,21 @@ class ResultCache:
             return 0
 
     def discard(self) -> None:
-        shutil.rmtree(self.folder, ignore_errors=True)
+        if self.folder.is_symlink():
+            self.folder.unlink()
+        else:
+            shutil.rmtree(self.folder, ignore_errors=True)
 
 
 def fingerprint(paths: Sequence[Path]) -> str:
-    """A digest of each input file's path, size and modification time (missing files included)."""
+    """A digest of each input file's path, size, modification and change times and inode (missing
+    files included)."""
     hasher = hashlib.sha256()
     for path in paths:
         try:
             info = os.stat(path)
-            record = f"{path}\0{info.st_size}\0{info.st_mtime_ns}\0{info.st_ino}\n"
+            # ctime as well: `touch -r` or os.utime can restore a file's mtime after an edit, not its ctime.
+            record = f"{path}\0{info.st_size}\0{info.st_mtime_ns}\0{info.st_ctime_ns}\0{info.st_ino}\n"
         except OSError as error:
             record = f"{path}\0missing {error.errno}\n"
         hasher.update(record.encode("utf-8", "surrogateescape"))

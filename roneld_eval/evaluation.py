@@ -321,11 +321,13 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
     futures: dict[int, Future] = {}
     queue = iter(todo)
     plotting: threading.Thread | None = None
+    current = clips[todo[0]].clip_id
     try:
         for index, clip in enumerate(clips):
             if index in cached:
                 yield cached[index]
                 continue
+            current = clip.clip_id
             # Keep a few clips in flight, in order: results wait in memory only briefly.
             while len(futures) < 2 * workers:
                 following = next(queue, None)
@@ -337,17 +339,16 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
                 # imports the plotting library the report needs.
                 plotting = threading.Thread(target=_import_plotting, daemon=True)
                 plotting.start()
-            try:
-                result = futures.pop(index).result()
-            except BrokenProcessPool:
-                raise RunInterrupted(
-                    f"a worker process died (killed, or out of memory) while evaluating clip {clip.clip_id}"
-                ) from None
-            yield keep(index, result)
+            yield keep(index, futures.pop(index).result())
+        # Idle workers are asked to exit; one that is stopped or stuck is killed after a grace.
+        stop_pool(executor, finished=True)
+    except BrokenProcessPool:
+        stop_pool(executor)
+        raise RunInterrupted(
+            f"a worker process died (killed, or out of memory) while evaluating clip {current}") from None
     except BaseException:
         stop_pool(executor)
         raise
-    executor.shutdown(wait=True)
     if plotting is not None:
         plotting.join()  # the report must not use matplotlib while that thread is still importing it
 

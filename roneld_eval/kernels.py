@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import signal
 import sys
 from typing import Callable, Iterable
 
@@ -141,22 +142,38 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
         _compile_in_parallel(bins)
 
 
+def _compile_in_child(units: tuple[str, ...]) -> None:
+    """A compiling process: the parent alone decides about Ctrl-C and termination."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for number in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(number, signal.SIG_DFL)
+    _compile_units(units)
+
+
 def _compile_in_parallel(bins: list[list[str]]) -> None:
-    """The first bin here, each other in a process of its own. Theirs reach other processes
-    through numba's cache (`warm_up` loads them, and compiles whatever a failed one left)."""
+    """Each bin in a process of its own; the results reach this process and the workers through
+    numba's cache (`warm_up` loads them, and compiles whatever a failed one left).
+
+    This process only waits, so Ctrl-C or SIGTERM ends the wait at once and cleanly: an
+    interrupted compile inside numba itself would surface as numba's own RuntimeError.
+    Without a cache folder the single bin is compiled here, as nothing could hand it over.
+    """
+    if cache_dir() is None:
+        for units in bins:
+            _compile_units(tuple(units))
+        return
     method = "fork" if sys.platform == "linux" else "spawn"
     context = multiprocessing.get_context(method)
-    helpers = [context.Process(target=_compile_units, args=(tuple(b),), daemon=True) for b in bins[1:]]
+    helpers = [context.Process(target=_compile_in_child, args=(tuple(b),), daemon=True) for b in bins]
     try:
         for helper in helpers:
             helper.start()
-        _compile_units(tuple(bins[0]))
         for helper in helpers:
             helper.join()
     finally:
         for helper in helpers:
             if helper.is_alive():
-                helper.terminate()
+                helper.kill()
                 helper.join()
 
 

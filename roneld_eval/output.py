@@ -20,8 +20,10 @@ import fcntl
 import json
 import os
 import shutil
+import stat
 import tempfile
 from pathlib import Path
+from typing import Callable
 
 from .errors import InputError
 from .signals import held_signals
@@ -66,20 +68,37 @@ def read_manifest(folder: Path) -> dict | None:
     try:
         if not path.is_file():
             raise ValueError("not a regular file")
-        with open(path, encoding="utf-8") as handle:
-            data = json.loads(handle.read(1 << 20))
+        data = _read_json(path)
         if data.get("format") != MANIFEST_FORMAT or not isinstance(data.get("command"), str):
             raise ValueError("unknown format")
         entries = data.get("entries")
         if not isinstance(entries, list) or not all(isinstance(e, str) and _plain_name(e) for e in entries):
             raise ValueError("bad entry list")
-    except (OSError, ValueError, AttributeError, UnicodeDecodeError) as error:
+    except (OSError, ValueError, AttributeError, UnicodeError, RecursionError) as error:
         raise InputError(path, f"not a manifest this tool wrote ({error}); remove the folder or choose another --out") from None
     return data
 
 
+def _plain_file_name(name: str) -> bool:
+    return bool(name) and name not in (".", "..") and "/" not in name and "\0" not in name
+
+
 def _plain_name(name: str) -> bool:
-    return bool(name) and name not in (".", "..") and "/" not in name and "\0" not in name and not is_own_entry(name)
+    return _plain_file_name(name) and not is_own_entry(name)
+
+
+MAX_RECORD_BYTES = 1 << 20
+
+
+def _read_json(path: Path):
+    """A small JSON file of the tool's own (manifest, journal): a regular file under 1 MiB."""
+    info = os.lstat(path)
+    if not stat.S_ISREG(info.st_mode):
+        raise ValueError("not a regular file")
+    if info.st_size > MAX_RECORD_BYTES:
+        raise ValueError("too large")
+    with open(path, "rb") as handle:
+        return json.loads(handle.read(MAX_RECORD_BYTES).decode("utf-8"))
 
 
 class OutputFolder:
@@ -96,6 +115,7 @@ class OutputFolder:
         self.command = command
         self.nested = nested or {}
         self.previous: dict | None = None
+        self.committed = False
         self._lock: int | None = None
         self._staging: Path | None = None
 
@@ -110,14 +130,22 @@ class OutputFolder:
             raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
         self._take_lock()
         try:
-            self._recover()
-            self._check_ownership()
+            plan = self._read_journal()
+            self._check_ownership(plan)
+            if plan is not None:
+                self._finish(plan)
+                self._check_ownership(None)
+            self._remove_leftovers()
         except BaseException:
             self._release_lock()
             raise
         return self
 
     def __exit__(self, kind, error, trace) -> bool:
+        if self.committed:
+            with held_signals():  # the results are complete: a signal now must not say otherwise
+                self._release_lock()
+            return False
         try:
             if self._staging is not None:
                 shutil.rmtree(self._staging, ignore_errors=True)
@@ -173,25 +201,56 @@ class OutputFolder:
         with contextlib.suppress(OSError):
             self.path.rmdir()  # only when nothing at all is left (a run into a new folder that failed)
 
-    def _recover(self) -> None:
-        """Finish a commit a killed process left half done; remove its staging and trash."""
+    def _read_journal(self) -> dict | None:
+        """The plan of a commit a killed process left half done, checked name by name (or None).
+
+        Every name must be a plain entry of this folder (staging and trash with their prefixes),
+        so a forged journal cannot make the tool touch anything outside it.
+        """
         journal = self.path / JOURNAL
-        if journal.is_file():
-            try:
-                plan = json.loads(journal.read_text(encoding="utf-8"))
-                self._apply(plan, undo_on_error=False)
-            except (OSError, ValueError, KeyError, TypeError) as error:
-                raise InputError(journal, f"an earlier commit into this folder was cut short and cannot be "
-                                          f"finished ({error}); remove the folder and run again") from None
+        if not (journal.exists() or journal.is_symlink()):
+            return None
+        try:
+            plan = _read_json(journal)
+            if not isinstance(plan, dict) or not isinstance(plan.get("command"), str):
+                raise ValueError("not a commit plan")
+            staging, trash = plan.get("staging"), plan.get("trash")
+            if not (isinstance(staging, str) and staging.startswith(STAGING_PREFIX) and _plain_file_name(staging)):
+                raise ValueError("bad staging folder name")
+            if not (isinstance(trash, str) and trash.startswith(TRASH_PREFIX) and _plain_file_name(trash)):
+                raise ValueError("bad trash folder name")
+            for key in ("entries", "old"):
+                names = plan.get(key)
+                if not isinstance(names, list) or not all(isinstance(n, str) and _plain_name(n) for n in names):
+                    raise ValueError(f"bad {key} list")
+        except (OSError, ValueError, UnicodeError, RecursionError) as error:
+            raise InputError(journal, f"an earlier commit into this folder was cut short and its journal cannot "
+                                      f"be trusted ({error}); remove the folder and run again") from None
+        return plan
+
+    def _finish(self, plan: dict) -> None:
+        """Roll a cut-short commit forward: its staging folder held the complete results."""
+        try:
+            self._apply(plan, undo_on_error=False)
+        except OSError as error:
+            raise InputError(self.path / JOURNAL, f"an earlier commit into this folder was cut short and cannot "
+                                                  f"be finished ({error.strerror}); remove the folder and run "
+                                                  f"again") from None
+
+    def _remove_leftovers(self) -> None:
+        """Staging and trash folders of earlier killed commands (only in a folder that is ours)."""
         for entry in self.path.iterdir():
             if entry.name.startswith((STAGING_PREFIX, TRASH_PREFIX)):
                 _remove(entry)
 
-    def _check_ownership(self) -> None:
+    def _check_ownership(self, plan: dict | None) -> None:
         manifest = read_manifest(self.path)
+        listed = set(manifest["entries"]) if manifest is not None else set()
+        if plan is not None:  # a cut-short commit: its entries are the tool's too
+            listed |= set(plan["entries"]) | set(plan["old"])
         foreign, nested = [], []
         for entry in self.path.iterdir():
-            if is_own_entry(entry.name) or (manifest is not None and entry.name in manifest["entries"]):
+            if is_own_entry(entry.name) or entry.name in listed:
                 continue
             if self._is_nested(entry):
                 nested.append(entry.name)
@@ -202,8 +261,9 @@ class OutputFolder:
             listing = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
             raise InputError(self.path, f"holds files roneld-eval did not write ({listing}): results go only into "
                                         f"a new or empty folder, or one an earlier `roneld-eval {self.command}` wrote")
-        if manifest is not None and manifest["command"] != self.command:
-            raise InputError(self.path, f"holds the results of `roneld-eval {manifest['command']}`; write the "
+        command = plan["command"] if plan is not None else manifest["command"] if manifest is not None else None
+        if command is not None and command != self.command:
+            raise InputError(self.path, f"holds the results of `roneld-eval {command}`; write the "
                                         f"results of `roneld-eval {self.command}` to another folder")
         if manifest is not None or nested:
             entries = (manifest["entries"] if manifest is not None else []) + sorted(nested)
@@ -230,8 +290,10 @@ class OutputFolder:
                 raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
         return self._staging
 
-    def commit(self) -> list[Path]:
-        """Put the staged entries in place of the previous command's; returns the paths written."""
+    def commit(self, then: Callable[[], None] | None = None) -> list[Path]:
+        """Put the staged entries in place of the previous command's; returns the paths written.
+
+        `then` runs once they are in place, still with signals held (e.g. dropping the cache)."""
         staging = self.staging()
         entries = sorted(entry.name for entry in staging.iterdir())
         old = sorted(self.previous["entries"]) if self.previous else []
@@ -241,7 +303,10 @@ class OutputFolder:
         with held_signals():
             _write_atomically(self.path / JOURNAL, json.dumps(plan))
             self._apply(plan, undo_on_error=True)
-        self._staging = None
+            self._staging = None
+            self.committed = True
+            if then is not None:
+                then()
         return [self.path / name for name in entries]
 
     def _apply(self, plan: dict, undo_on_error: bool) -> None:

@@ -44,10 +44,13 @@ def process_pool(workers: int, initializer: Callable[..., Any] | None = None, in
                                initializer=_start_worker, initargs=(os.getpid(), initializer, initargs))
 
 
-def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S) -> None:
-    """End every worker now: SIGTERM, then SIGKILL for any still there after `grace_s`."""
+def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished: bool = False) -> None:
+    """End every worker: SIGTERM (or, when `finished`, a polite request to exit), then SIGKILL
+    for any still there after `grace_s`, so a stopped or stuck worker cannot hold us up."""
     processes = list((getattr(executor, "_processes", None) or {}).values())
-    for process in processes:
+    if finished:
+        executor.shutdown(wait=False)
+    for process in processes if not finished else ():
         with contextlib.suppress(Exception):
             process.terminate()
     deadline = time.monotonic() + grace_s

@@ -427,16 +427,31 @@ def test_workers_end_when_the_main_process_is_killed(dataset, tmp_path):
 
 
 @needs_proc
-def test_ctrl_c_with_a_stopped_worker_still_ends_the_run(dataset, tmp_path):
+@pytest.mark.parametrize("number", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_with_a_stopped_worker_still_ends_the_run(dataset, tmp_path, number):
     out = tmp_path / "out"
     process = start_slow_run(dataset, out, workers=2)
     assert wait_for(lambda: len(children_of(process.pid)) >= 2)
     workers = children_of(process.pid)
     os.kill(workers[0], signal.SIGSTOP)
-    process.send_signal(signal.SIGINT)
+    process.send_signal(number)
     _, errors = process.communicate(timeout=30)
-    assert process.returncode == 130 and "interrupted" in errors
+    assert process.returncode == 128 + number and "no result was written" in errors
     assert wait_for(lambda: not any(alive(pid) for pid in workers), 10)
+
+
+@needs_proc
+def test_a_worker_killed_mid_run_ends_it_with_one_line_and_keeps_finished_clips(dataset, tmp_path):
+    out = tmp_path / "out"
+    process = start_slow_run(dataset, out, workers=2)
+    assert wait_for(lambda: len(cache_entries(out)) >= 1 and len(children_of(process.pid)) >= 2)
+    os.kill(children_of(process.pid)[0], signal.SIGKILL)
+    _, errors = process.communicate(timeout=60)
+    lines = errors.strip().splitlines()
+    assert process.returncode == 1 and len(lines) == 1 and "worker process died" in lines[0], errors
+    assert "--resume" in lines[0] and cache_entries(out)
+    assert invoke(run_args(dataset, out, "--resume")).exit_code == 0
+    assert (out / "accuracy.csv").read_bytes() == clean_numbers(dataset, tmp_path)["accuracy.csv"]
 
 
 # ---- geometry and paths ------------------------------------------------------------------------
@@ -551,3 +566,113 @@ def test_without_pft_the_pictures_are_the_frames_that_differ_most():
 def test_a_pft_ablation_without_roneld_is_refused(tmp_path):
     result = invoke(["run", "--methods", "baseline", "--pft-ablation", "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and "add roneld to the methods" in result.output
+
+
+# ---- found by an attacker's pass -----------------------------------------------------------
+
+
+@pytest.mark.parametrize("plan", [
+    {"staging": "../victim", "trash": ".trash-x", "entries": [], "old": [], "command": "run"},
+    {"staging": ".staging-x", "trash": "/tmp", "entries": [], "old": [], "command": "run"},
+    {"staging": ".", "trash": ".trash-x", "entries": [], "old": [], "command": "run"},
+    {"staging": ".staging-x", "trash": ".trash-x", "entries": ["../victim"], "old": [], "command": "run"},
+], ids=["staging-outside", "trash-absolute", "staging-dot", "entry-outside"])
+def test_a_forged_journal_touches_nothing(dataset, tmp_path, plan):
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "thesis.tex").write_text("mine")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / output.JOURNAL).write_text(json.dumps(plan))
+    result = invoke(run_args(dataset, out))
+    assert result.exit_code == 2 and "cannot be trusted" in result.output
+    assert (victim / "thesis.tex").read_text() == "mine" and (out / output.JOURNAL).exists()
+
+
+def test_a_journal_in_a_folder_with_foreign_files_is_not_acted_on(dataset, tmp_path):
+    out = tmp_path / "out"
+    (out / ".staging-drafts").mkdir(parents=True)
+    (out / ".staging-drafts" / "ch1.tex").write_text("draft")
+    (out / "thesis.tex").write_text("mine")
+    (out / output.JOURNAL).write_text(json.dumps(
+        {"staging": ".staging-drafts", "trash": ".trash-x", "entries": ["ch1.tex"], "old": [], "command": "run"}))
+    result = invoke(run_args(dataset, out))
+    assert result.exit_code == 2 and "thesis.tex" in result.output
+    assert (out / ".staging-drafts" / "ch1.tex").read_text() == "draft" and not (out / "ch1.tex").exists()
+
+
+def test_staging_named_folders_in_a_foreign_folder_are_left_alone(dataset, tmp_path):
+    out = tmp_path / "out"
+    (out / ".staging-drafts").mkdir(parents=True)
+    (out / ".staging-drafts" / "ch1.tex").write_text("draft")
+    (out / "thesis.tex").write_text("mine")
+    assert invoke(run_args(dataset, out)).exit_code == 2
+    assert (out / ".staging-drafts" / "ch1.tex").read_text() == "draft"
+
+
+@pytest.mark.parametrize("name", [output.MANIFEST, output.JOURNAL])
+def test_a_deeply_nested_record_is_one_line(dataset, tmp_path, name):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / name).write_text("[" * 100000)
+    result = invoke(run_args(dataset, out))
+    assert result.exit_code == 2 and result.output.count("\n") == 1 and name in result.output
+
+
+def test_show_refuses_a_run_whose_commit_was_cut_short(dataset, tmp_path):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    (out / output.JOURNAL).write_text("{}")
+    result = invoke(["show", "--run", str(out), "--worst", "1"])
+    assert result.exit_code == 2 and "incomplete" in result.output
+
+
+def test_a_label_edited_with_its_old_mtime_is_still_seen(dataset, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    restore = interrupt_after(monkeypatch, 3)
+    with pytest.raises(RunInterrupted):
+        api.run(config_for(dataset), out, progress=False)
+    restore()
+    for path in first_clip_files(dataset / "data", "*.lines.txt"):
+        info = path.stat()
+        text = path.read_text()
+        path.write_text("".join(reversed(text.splitlines(keepends=True))))  # same size, other bytes
+        os.utime(path, ns=(info.st_atime_ns, info.st_mtime_ns))
+    notes: list[str] = []
+    assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
+    assert "1 maps or labels changed" in notes[-1]
+
+
+def test_a_signal_just_after_the_commit_says_the_results_are_complete(dataset, tmp_path, monkeypatch):
+    from roneld_eval import cache
+
+    out = tmp_path / "out"
+    original = cache.ResultCache.discard
+    calls = []
+
+    def interrupted(self):
+        calls.append(1)
+        if len(calls) == 2:  # the first discard starts the run afresh; the second follows the commit
+            os.kill(os.getpid(), signal.SIGTERM)
+        return original(self)
+
+    monkeypatch.setattr(cache.ResultCache, "discard", interrupted)
+    with pytest.raises(RunInterrupted) as caught:
+        api.run(config_for(dataset), out, progress=False)
+    assert caught.value.exit_code == 128 + signal.SIGTERM and "complete" in str(caught.value)
+    assert (out / "accuracy.csv").is_file() and not (out / output.CACHE).exists()
+
+
+def test_a_symlinked_cache_folder_is_not_written_through(dataset, tmp_path, monkeypatch):
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "keep.txt").write_text("keep")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / output.CACHE).symlink_to(elsewhere)
+    restore = interrupt_after(monkeypatch, 2)
+    with pytest.raises(RunInterrupted):
+        api.run(config_for(dataset), out, progress=False)
+    restore()
+    assert sorted(p.name for p in elsewhere.iterdir()) == ["keep.txt"]
+    assert not (out / output.CACHE).is_symlink() and cache_entries(out)
