@@ -223,6 +223,14 @@ def interrupt_after(monkeypatch, finished: int):
     return lambda: monkeypatch.setattr(evaluation, "evaluate_clip", original)
 
 
+def interrupted_run(monkeypatch, root: Path, out: Path, finished: int, **overrides) -> None:
+    """A run into `out` stopped (as Ctrl-C) after `finished` clips, leaving them in the cache."""
+    restore = interrupt_after(monkeypatch, finished)
+    with pytest.raises(RunInterrupted):
+        api.run(config_for(root, **overrides), out, progress=False)
+    restore()
+
+
 def clean_numbers(root: Path, tmp_path: Path) -> dict[str, bytes]:
     clean = tmp_path / "clean"
     shutil.rmtree(clean, ignore_errors=True)
@@ -277,10 +285,7 @@ def test_resume_recomputes_clips_whose_inputs_changed(dataset, tmp_path, monkeyp
 
 def test_resume_after_a_configuration_change_recomputes_everything(dataset, tmp_path, monkeypatch):
     out = tmp_path / "out"
-    restore = interrupt_after(monkeypatch, 2)
-    with pytest.raises(RunInterrupted):
-        api.run(config_for(dataset, **{"paper.gt_thickness_px": 12}), out, progress=False)
-    restore()
+    interrupted_run(monkeypatch, dataset, out, 2, **{"paper.gt_thickness_px": 12})
     notes: list[str] = []
     assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
     assert "reused 0 finished clips" in notes[-1] and "2 configuration or version changed" in notes[-1]
@@ -300,10 +305,7 @@ def cache_entries(out: Path) -> list[Path]:
 ])
 def test_an_invalid_cache_entry_is_recomputed_with_a_note(dataset, tmp_path, monkeypatch, tamper):
     out = tmp_path / "out"
-    restore = interrupt_after(monkeypatch, 2)
-    with pytest.raises(RunInterrupted):
-        api.run(config_for(dataset), out, progress=False)
-    restore()
+    interrupted_run(monkeypatch, dataset, out, 2)
     tamper(cache_entries(out)[0])
     notes: list[str] = []
     assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
@@ -312,10 +314,7 @@ def test_an_invalid_cache_entry_is_recomputed_with_a_note(dataset, tmp_path, mon
 
 def test_a_crafted_pickle_in_the_cache_runs_no_code(dataset, tmp_path, monkeypatch):
     out = tmp_path / "out"
-    restore = interrupt_after(monkeypatch, 2)
-    with pytest.raises(RunInterrupted):
-        api.run(config_for(dataset), out, progress=False)
-    restore()
+    interrupted_run(monkeypatch, dataset, out, 2)
     witness = tmp_path / "pwned"
 
     class Payload:
@@ -332,10 +331,7 @@ def test_a_crafted_pickle_in_the_cache_runs_no_code(dataset, tmp_path, monkeypat
 
 def test_the_cache_holds_plain_json(dataset, tmp_path, monkeypatch):
     out = tmp_path / "out"
-    restore = interrupt_after(monkeypatch, 2)
-    with pytest.raises(RunInterrupted):
-        api.run(config_for(dataset, save_lanes=True), out, progress=False)
-    restore()
+    interrupted_run(monkeypatch, dataset, out, 2, save_lanes=True)
     for entry in cache_entries(out):
         document = json.loads(entry.read_text())
         assert set(document) == {"body", "mac"}
@@ -436,7 +432,11 @@ def test_a_signal_with_a_stopped_worker_still_ends_the_run(dataset, tmp_path, nu
     os.kill(workers[0], signal.SIGSTOP)
     process.send_signal(number)
     _, errors = process.communicate(timeout=30)
-    assert process.returncode == 128 + number and "no result was written" in errors
+    # The other worker may have finished every clip already: then the signal can land while
+    # the results are put in place, and the line says they are complete.
+    lines = errors.strip().splitlines()
+    assert process.returncode == 128 + number and len(lines) == 1, errors
+    assert "no result was written" in lines[0] or "they are complete" in lines[0], errors
     assert wait_for(lambda: not any(alive(pid) for pid in workers), 10)
 
 
@@ -629,10 +629,7 @@ def test_show_refuses_a_run_whose_commit_was_cut_short(dataset, tmp_path):
 
 def test_a_label_edited_with_its_old_mtime_is_still_seen(dataset, tmp_path, monkeypatch):
     out = tmp_path / "out"
-    restore = interrupt_after(monkeypatch, 3)
-    with pytest.raises(RunInterrupted):
-        api.run(config_for(dataset), out, progress=False)
-    restore()
+    interrupted_run(monkeypatch, dataset, out, 3)
     for path in first_clip_files(dataset / "data", "*.lines.txt"):
         info = path.stat()
         text = path.read_text()
@@ -670,9 +667,6 @@ def test_a_symlinked_cache_folder_is_not_written_through(dataset, tmp_path, monk
     out = tmp_path / "out"
     out.mkdir()
     (out / output.CACHE).symlink_to(elsewhere)
-    restore = interrupt_after(monkeypatch, 2)
-    with pytest.raises(RunInterrupted):
-        api.run(config_for(dataset), out, progress=False)
-    restore()
+    interrupted_run(monkeypatch, dataset, out, 2)
     assert sorted(p.name for p in elsewhere.iterdir()) == ["keep.txt"]
     assert not (out / output.CACHE).is_symlink() and cache_entries(out)
