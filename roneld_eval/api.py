@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import os
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -27,7 +26,7 @@ from .cache import ResultCache
 from .evaluation import RunResult, evaluate
 from .output import JOURNAL, OutputFolder, read_manifest
 from .signals import interruption_name, terminate_as_interrupt
-from .workers import default_workers, process_pool, stop_pool
+from .workers import default_workers, process_pool, stopping
 from .lanes_io import read_culane_lines
 from .metrics.culane_official import (
     CulaneFrameResult,
@@ -108,10 +107,7 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
             try:
                 result = evaluate(config, progress=progress, lane_sink=writer, dataset=dataset, cache=cache,
                                   announce=say)
-            except KeyboardInterrupt as error:
-                reason, code = interruption_name(error)
-                raise RunInterrupted(_unfinished(reason, cache), exit_code=code) from None
-            except RunInterrupted as error:
+            except RunInterrupted as error:  # a worker died: say what is kept for --resume
                 raise RunInterrupted(_unfinished(str(error), cache), exit_code=error.exit_code) from None
             if resume:
                 say(f"resume: {cache.summary()}")
@@ -133,8 +129,7 @@ def run(config: EvalConfig | None = None, out: str | Path = "results", progress:
             folder.commit(then=cache.discard)  # a signal meanwhile waits, then says the results are complete
         except RunInterrupted:
             raise  # finished clips stay for --resume
-        except KeyboardInterrupt as error:
-            # After the evaluation (writing the report): the clips are all finished and kept.
+        except KeyboardInterrupt as error:  # Ctrl-C, SIGTERM or SIGHUP, evaluating or writing the report
             reason, code = interruption_name(error)
             raise RunInterrupted(_unfinished(reason, cache), exit_code=code) from None
         except BaseException:
@@ -201,21 +196,16 @@ def score_culane(data_root: str | Path, pred_root: str | Path, list_file: str | 
 
     results: dict[str, CulaneFrameResult] = {}
     with tqdm(total=len(frames), unit="frame", desc="scoring", disable=not progress) as bar:
-        pool = process_pool(workers) if workers > 1 else None
-        pieces = pool.map(_score_frames, tasks) if pool is not None else map(_score_frames, tasks)
-        try:
-            for piece in pieces:
+        if workers > 1:
+            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
+            with stopping(process_pool(workers), lambda: died) as pool:
+                for piece in pool.map(_score_frames, tasks):
+                    results.update(piece)
+                    bar.update(len(piece))
+        else:
+            for piece in map(_score_frames, tasks):
                 results.update(piece)
                 bar.update(len(piece))
-        except BrokenProcessPool:
-            raise RunInterrupted("a worker process died (killed, or out of memory) while scoring: "
-                                 "no result was written") from None
-        except BaseException:
-            if pool is not None:
-                stop_pool(pool)
-            raise
-        if pool is not None:
-            stop_pool(pool, finished=True)
     sweep = []
     for label, value in zip(thresholds.labels, thresholds.values):
         table = category_table(results, dataset.categories, value)

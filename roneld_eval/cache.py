@@ -47,8 +47,8 @@ class ResultCache:
     def __init__(self, out: str | Path, config: EvalConfig, version: str, resume: bool,
                  note: Callable[[str], None] | None = None):
         settings = config.to_dict()
-        for transient in ("workers",):
-            settings.pop(transient, None)
+        # Neither changes a clip's results: a resumed run may use other values.
+        settings.pop("workers", None)
         settings["dataset"].pop("limit", None)
         self.config_key = _digest(json.dumps([settings, version], sort_keys=True, default=str))
         self.folder = Path(out) / CACHE

@@ -55,6 +55,11 @@ def _guard(function, debug: bool, *args, **kwargs):
         _fail(RoneldEvalError(message), debug)
 
 
+def _announcer(quiet: bool):
+    """Where the library's one-line notes go: stderr, unless --quiet."""
+    return None if quiet else (lambda message: click.echo(message, err=True))
+
+
 debug_option = click.option("--debug", is_flag=True, help="Show the full traceback of an error.")
 
 
@@ -159,9 +164,8 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         return config
 
     config = _guard(build, debug)
-    announce = None if quiet else (lambda message: click.echo(message, err=True))
     result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume, overlays=overlays,
-                    announce=announce)
+                    announce=_announcer(quiet))
     if not quiet:
         _print_summary(result, out)
     if result.skipped:  # never silently, --quiet or not
@@ -206,9 +210,8 @@ def score_culane_command(data_root, pred_root, list_file, iou, width, workers, o
     """Official CULane precision, recall and F1 per category, as SCNN's lane_evaluation computes them."""
     from . import api
 
-    announce = None if quiet else (lambda message: click.echo(message, err=True))
     score = _guard(api.score_culane, debug, data_root, pred_root, list_file, iou, width, out, workers, not quiet,
-                   announce)
+                   _announcer(quiet))
     if not quiet:
         from .report.tables import Table
 

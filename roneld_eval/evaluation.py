@@ -13,7 +13,6 @@ import platform
 import threading
 import time
 from concurrent.futures import Future
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator, Protocol, Sequence
@@ -25,13 +24,14 @@ from . import __version__
 from .config import EvalConfig, parse_thresholds
 from .datasets import read_dataset
 from .datasets.culane import labels_path, with_labels
-from .errors import ConfigError, InputError, RunInterrupted
+from .errors import ConfigError, InputError
 from . import kernels
 from .extract.baseline import baseline_lanes, sample_rows
 from .extract.roneld import RoneldTracker
 from .geometry import EffectiveGeometry, MapGeometry, check_map_shape
 from .lanes_io import sample_lane_at_rows, tusimple_xs
 from .maps import load_maps, map_stem, required_paths
+from .maps.scnn_png import scnn_png_paths
 from .metrics.bootstrap import paired_bootstrap
 from .metrics.culane_official import (
     category_table,
@@ -42,7 +42,7 @@ from .metrics.paper import ego_lanes, ego_masks, side_ious
 from .metrics.sweep import sweep_accuracy
 from .metrics.tusimple_official import bench_frame, mean_scores
 from .model import Clip, Dataset, Frame, FrameMaps, Lane
-from .workers import default_workers, process_pool, stop_pool
+from .workers import default_workers, process_pool, stopping
 
 # Channels of the ego lanes in SCNN/ENet-SAD's CULane order (outer left, ego left, ego right,
 # outer right): the baseline's active lanes for the paper's protocol.
@@ -211,8 +211,7 @@ def frame_map_path(context: RunContext, frame: Frame) -> Path:
     """The file to name when a frame's maps are wrong: the first map image where there are several."""
     path = required_paths(context.maps_root, frame.relpath, context.config.maps)[0]
     if context.config.maps.format == "scnn-png":  # path is the .exist.txt beside the PNGs
-        stem = map_stem(context.maps_root, frame.relpath)
-        images = [stem.with_name(f"{stem.name}_{k}_avg.png") for k in range(1, context.config.maps.lane_channels + 1)]
+        images, _ = scnn_png_paths(map_stem(context.maps_root, frame.relpath), context.config.maps.lane_channels)
         path = next((image for image in images if image.is_file()), path)
     return path
 
@@ -317,12 +316,16 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
             result = cached.get(index)
             yield result if result is not None else keep(index, evaluate_clip(clip, context))
         return
-    executor = process_pool(workers, initializer=_init_worker, initargs=(context,))
     futures: dict[int, Future] = {}
     queue = iter(todo)
     plotting: threading.Thread | None = None
     current = clips[todo[0]].clip_id
-    try:
+    executor = process_pool(workers, initializer=_init_worker, initargs=(context,))
+
+    def died() -> str:
+        return f"a worker process died (killed, or out of memory) while evaluating clip {current}"
+
+    with stopping(executor, died):
         for index, clip in enumerate(clips):
             if index in cached:
                 yield cached[index]
@@ -340,15 +343,6 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
                 plotting = threading.Thread(target=_import_plotting, daemon=True)
                 plotting.start()
             yield keep(index, futures.pop(index).result())
-        # Idle workers are asked to exit; one that is stopped or stuck is killed after a grace.
-        stop_pool(executor, finished=True)
-    except BrokenProcessPool:
-        stop_pool(executor)
-        raise RunInterrupted(
-            f"a worker process died (killed, or out of memory) while evaluating clip {current}") from None
-    except BaseException:
-        stop_pool(executor)
-        raise
     if plotting is not None:
         plotting.join()  # the report must not use matplotlib while that thread is still importing it
 

@@ -9,7 +9,7 @@ scaling the models' own tools (prob2lines) and RONELD's reference use.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -101,7 +101,7 @@ class EffectiveGeometry:
                 f"{self.image_width}x{self.image_height}")
 
     def to_dict(self) -> dict:
-        return {name: getattr(self, name) for name in self.__dataclass_fields__}
+        return asdict(self)
 
 
 # Maps may be stored at another resolution than the configuration's (they are rescaled), but

@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-import os
-import signal
 import sys
 from typing import Callable, Iterable
 
@@ -33,6 +31,7 @@ from .extract import _kernels as extract_kernels
 from .extract import warm_up as warm_up_extraction
 from .metrics import _kernels as metric_kernels
 from .metrics.raster import warm_up as warm_up_scoring
+from .workers import default_workers, leave_signals_to_parent
 
 GROUPS = ("roneld", "baseline", "official", "paper")
 EXTRACTION = ("roneld", "baseline")
@@ -87,13 +86,6 @@ def _compile_units(units: tuple[str, ...]) -> None:
             compile_now(kernel, signature)
 
 
-def _cores() -> int:
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not on Linux
-        return max(1, os.cpu_count() or 1)
-
-
 def _schedule(units: list[str], processes: int) -> list[list[str]]:
     """Units in at most `processes` bins of about equal compile time, heaviest bin first."""
     bins: list[list[str]] = [[] for _ in range(max(1, min(processes, len(units))))]
@@ -132,7 +124,7 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
     groups = _groups(needed)
     units = missing_units(groups)
     if units:
-        parallel = _cores() if processes is None else max(1, processes)
+        parallel = default_workers() if processes is None else max(1, processes)
         if cache_dir() is None:
             parallel = 1  # without a cache other processes cannot hand their work over
         bins = _schedule(units, parallel)
@@ -144,9 +136,7 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
 
 def _compile_in_child(units: tuple[str, ...]) -> None:
     """A compiling process: the parent alone decides about Ctrl-C and termination."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    for number in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(number, signal.SIG_DFL)
+    leave_signals_to_parent()
     _compile_units(units)
 
 

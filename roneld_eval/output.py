@@ -63,11 +63,9 @@ def is_own_entry(name: str) -> bool:
 def read_manifest(folder: Path) -> dict | None:
     """The folder's manifest, or None when it has none; a manifest that is not ours is an error."""
     path = Path(folder) / MANIFEST
-    if not path.exists():
+    if not os.path.lexists(path):
         return None
     try:
-        if not path.is_file():
-            raise ValueError("not a regular file")
         data = _read_json(path)
         if data.get("format") != MANIFEST_FORMAT or not isinstance(data.get("command"), str):
             raise ValueError("unknown format")

@@ -35,19 +35,24 @@ def _in_main_thread() -> bool:
 
 
 @contextlib.contextmanager
-def terminate_as_interrupt():
-    """Within the block, SIGTERM and SIGHUP raise `Terminated` (a KeyboardInterrupt)."""
+def _handling(numbers, handler):
+    """`handler` for these signals within the block (main thread only; elsewhere a no-op)."""
     if not _in_main_thread():
         yield
         return
-    previous = {number: signal.getsignal(number) for number in _ENDING}
-    for number in _ENDING:
-        signal.signal(number, _raise_terminated)
+    previous = {number: signal.getsignal(number) for number in numbers}
+    for number in numbers:
+        signal.signal(number, handler)
     try:
         yield
     finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+        for number, old in previous.items():
+            signal.signal(number, old)
+
+
+def terminate_as_interrupt():
+    """Within the block, SIGTERM and SIGHUP raise `Terminated` (a KeyboardInterrupt)."""
+    return _handling(_ENDING, _raise_terminated)
 
 
 def interruption_name(error: BaseException) -> tuple[str, int]:
@@ -65,18 +70,9 @@ def held_signals():
     interruption is reported as such (RunInterrupted, exit 128 + signal), not as a run that
     wrote nothing.
     """
-    if not _in_main_thread():
-        yield
-        return
     received: list[int] = []
-    previous = {number: signal.getsignal(number) for number in _HELD}
-    for number in _HELD:
-        signal.signal(number, lambda number, frame: received.append(number))
-    try:
+    with _handling(_HELD, lambda number, frame: received.append(number)):
         yield
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
     if received:
         name = signal.Signals(received[0]).name
         raise RunInterrupted(f"{name} received while the results were being put in place; they are complete",

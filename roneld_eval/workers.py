@@ -16,16 +16,25 @@ import signal
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from typing import Any, Callable
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any, Callable, Iterator
+
+from .errors import RunInterrupted
 
 _PR_SET_PDEATHSIG = 1
 GRACE_S = 2.0
 
 
-def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple) -> None:
+def leave_signals_to_parent() -> None:
+    """In a child process: ignore Ctrl-C and let SIGTERM/SIGHUP end it plainly (the parent
+    decides what an interruption means, and says so once)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     for number in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(number, signal.SIG_DFL)
+
+
+def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple) -> None:
+    leave_signals_to_parent()
     if sys.platform == "linux":
         with contextlib.suppress(OSError, AttributeError):
             libc = ctypes.CDLL(None, use_errno=True)
@@ -50,9 +59,10 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
     processes = list((getattr(executor, "_processes", None) or {}).values())
     if finished:
         executor.shutdown(wait=False)
-    for process in processes if not finished else ():
-        with contextlib.suppress(Exception):
-            process.terminate()
+    else:
+        for process in processes:
+            with contextlib.suppress(Exception):
+                process.terminate()
     deadline = time.monotonic() + grace_s
     for process in processes:
         with contextlib.suppress(Exception):
@@ -63,6 +73,21 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
                 process.kill()
                 process.join(1.0)
     executor.shutdown(wait=False, cancel_futures=True)
+
+
+@contextlib.contextmanager
+def stopping(executor: ProcessPoolExecutor, died: Callable[[], str]) -> Iterator[ProcessPoolExecutor]:
+    """Use a pool and always end its workers: politely when the block finishes, at once when it
+    fails. A worker that died makes the block end in RunInterrupted(`died()`), not a traceback."""
+    try:
+        yield executor
+    except BrokenProcessPool:
+        stop_pool(executor)
+        raise RunInterrupted(died()) from None
+    except BaseException:
+        stop_pool(executor)
+        raise
+    stop_pool(executor, finished=True)
 
 
 def default_workers() -> int:
