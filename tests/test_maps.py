@@ -53,7 +53,8 @@ def test_background_channel_is_dropped(tmp_path):
 
 @pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])
 def test_float_maps_round_to_the_uint8_scale(tmp_path, dtype):
-    probabilities = np.array([0.0, 0.5, 1.0, 0.3, 0.002, 0.998, 0.25, 0.75], dtype)[None, None, :].repeat(4, 0).repeat(2, 1)
+    levels = np.array([0.0, 0.5, 1.0, 0.3, 0.002, 0.998, 0.25, 0.75], dtype)
+    probabilities = levels[None, None, :].repeat(4, 0).repeat(2, 1)
     np.save(tmp_path / "f.npy", probabilities)
     loaded = load_maps(tmp_path, "f.jpg", MapsConfig())
     expected = np.rint(probabilities.astype(np.float32) * 255).astype(np.uint8)

@@ -12,6 +12,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+try:  # libdeflate: zlib's output about 4x faster; decoding a map PNG is mostly inflating
+    import deflate as _libdeflate
+except ImportError:  # pragma: no cover - without it every PNG goes to OpenCV, as before
+    _libdeflate = None  # type: ignore[assignment]
+
 from ..config import MapsConfig
 from ..errors import InputError
 from ..lanes_io import decode_text, parse_number, read_bytes
@@ -58,8 +63,81 @@ def check_png(data: bytes, path: Path) -> None:
         offset = end
 
 
+# Chunks the usual map PNG holds (OpenCV writes IHDR, IDAT, IEND): others (palette,
+# transparency, gamma, ...) may change what a decoder returns, so they go to OpenCV.
+_PLAIN_CHUNKS = frozenset({b"IHDR", b"IDAT", b"IEND", b"tEXt", b"zTXt", b"iTXt", b"tIME", b"pHYs"})
+_SAMPLES = {0: 1, 2: 3, 6: 4}  # colour type -> bytes per pixel at 8 bits: grey, RGB, RGBA
+_PLAIN_MAX_PIXELS = 1 << 26
+
+
+def _inflate(compressed: bytes, size: int) -> bytearray | None:
+    """The zlib stream's `size` bytes (its Adler-32 checked), or None if it does not hold
+    exactly that many or is corrupt (OpenCV then reports it)."""
+    try:
+        raw = _libdeflate.zlib_decompress(compressed, size + 1)
+    except Exception:
+        return None
+    return raw if len(raw) == size else None
+
+
+def _decode_plain_png(data: bytes) -> np.ndarray | None:
+    """The (H, W) map of an 8-bit grey, or grey-in-RGB(A), non-interlaced PNG whose rows are
+    filtered with None or Sub (as OpenCV writes them), as OpenCV decodes it; None for any
+    other PNG (or RGB whose channels differ), which goes to OpenCV instead.
+
+    A PNG row is deflated after a filter byte; Sub stores each byte minus the byte one pixel
+    to its left, so a row is the running sum (mod 256) of its bytes, channel by channel.
+    Channels equal before the filter are equal after it and back, so grey-in-RGB is checked
+    on the filtered bytes and only one channel is summed. check_png has checked the chunks.
+    """
+    offset, header, parts = 8, None, []
+    while offset + 8 <= len(data):
+        length = int.from_bytes(data[offset:offset + 4], "big")
+        kind = data[offset + 4:offset + 8]
+        if kind not in _PLAIN_CHUNKS:
+            return None
+        body = data[offset + 8:offset + 8 + length]
+        if kind == b"IHDR":
+            header = body
+        elif kind == b"IDAT":
+            parts.append(body)
+        elif kind == b"IEND":
+            break
+        offset += 12 + length
+    if header is None or len(header) != 13 or not parts:
+        return None
+    width, height = int.from_bytes(header[0:4], "big"), int.from_bytes(header[4:8], "big")
+    depth, colour, compression, filtering, interlace = header[8:13]
+    samples = _SAMPLES.get(colour)
+    if (depth != 8 or samples is None or compression or filtering or interlace or not 0 < width * height
+            or width * height > _PLAIN_MAX_PIXELS):
+        return None
+    raw = _inflate(b"".join(parts), height * (1 + width * samples))
+    if raw is None:
+        return None
+    rows = np.frombuffer(raw, np.uint8).reshape(height, 1 + width * samples)
+    filters = rows[:, 0]
+    if int(filters.max()) > 1:  # Up, Average, Paeth: left to OpenCV
+        return None
+    pixels = rows[:, 1:].reshape(height, width, samples)
+    first = pixels[:, :, 0]
+    if samples > 1 and not ((first == pixels[:, :, 1]).all() and (first == pixels[:, :, 2]).all()):
+        return None
+    sub = filters == 1
+    if sub.all():
+        return np.cumsum(first, axis=1, dtype=np.uint8)
+    image = np.ascontiguousarray(first)
+    if sub.any():
+        image[sub] = np.cumsum(first[sub], axis=1, dtype=np.uint8)
+    return image
+
+
 def _read_png(path: Path, data: bytes) -> np.ndarray:
     check_png(data, path)
+    # Without libdeflate, zlib would inflate no faster than OpenCV decodes the whole PNG.
+    plain = _decode_plain_png(data) if _libdeflate is not None else None
+    if plain is not None:
+        return plain
     image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None:
         raise InputError(path, "not a readable image (truncated or not a PNG?)")
@@ -86,7 +164,8 @@ def load_scnn_png(stem: Path, config: MapsConfig) -> FrameMaps:
         elif existence is not None and existence[channel] <= 0:
             maps.append(None)
         else:
-            reason = "missing" if existence is None else f"missing although {exist_path.name} says lane {channel + 1} exists"
+            reason = ("missing" if existence is None
+                      else f"missing although {exist_path.name} says lane {channel + 1} exists")
             raise InputError(path, f"probability map {reason}")
     shapes = {m.shape for m in maps if m is not None}
     if len(shapes) > 1:

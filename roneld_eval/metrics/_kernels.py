@@ -12,6 +12,7 @@ code, verified against masks the official tool's spline and OpenCV 4.6 drew
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import types
@@ -45,14 +46,8 @@ def to_int32(value):
 
 
 @cached_njit(nogil=True, error_model="numpy")
-def official_spline(xs, ys, times):
-    """SCNN lane_evaluation's Spline::splineInterpTimes for 3+ points, bit for bit.
-
-    A natural cubic spline of x and y over chord length, `times` samples per segment, then
-    the last input point. Inputs are the float32 values as doubles; operations keep the C++
-    order (pow(t, 2) and pow(t, 3) included) so that the doubles match exactly. Repeated
-    points divide by a zero chord: IEEE NaNs follow, as in C++ (error_model="numpy").
-    """
+def _spline_moments(xs, ys):
+    """(h, mx, my): official_spline's chord lengths and second derivatives at the points."""
     n = xs.size
     h = np.empty(n - 1)
     for i in range(n - 1):
@@ -87,20 +82,35 @@ def official_spline(xs, ys, times):
     mx[n - 1] = 0.0
     my[0] = 0.0
     my[n - 1] = 0.0
+    return h, mx, my
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def _cubic(values, h, m, i):
+    """(a, b, c, d) of segment i of a coordinate: a + b t + c t^2 + d t^3 for t in [0, h[i])."""
+    hi = h[i]
+    return (values[i], (values[i + 1] - values[i]) / hi - (2 * hi * m[i] + hi * m[i + 1]) / 6, m[i] / 2,
+            (m[i + 1] - m[i]) / (6 * hi))
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def official_spline(xs, ys, times):
+    """SCNN lane_evaluation's Spline::splineInterpTimes for 3+ points, bit for bit.
+
+    A natural cubic spline of x and y over chord length, `times` samples per segment, then
+    the last input point. Inputs are the float32 values as doubles; operations keep the C++
+    order (pow(t, 2) and pow(t, 3) included) so that the doubles match exactly. Repeated
+    points divide by a zero chord: IEEE NaNs follow, as in C++ (error_model="numpy").
+    """
+    n = xs.size
+    h, mx, my = _spline_moments(xs, ys)
     out_x = np.empty((n - 1) * times + 1)
     out_y = np.empty((n - 1) * times + 1)
     k_out = 0
     for i in range(n - 1):
-        hi = h[i]
-        ax = xs[i]
-        bx = (xs[i + 1] - xs[i]) / hi - (2 * hi * mx[i] + hi * mx[i + 1]) / 6
-        cx = mx[i] / 2
-        ddx = (mx[i + 1] - mx[i]) / (6 * hi)
-        ay = ys[i]
-        by = (ys[i + 1] - ys[i]) / hi - (2 * hi * my[i] + hi * my[i + 1]) / 6
-        cy = my[i] / 2
-        ddy = (my[i + 1] - my[i]) / (6 * hi)
-        delta = hi / times
+        ax, bx, cx, ddx = _cubic(xs, h, mx, i)
+        ay, by, cy, ddy = _cubic(ys, h, my, i)
+        delta = h[i] / times
         for k in range(times):
             t = delta * k
             out_x[k_out] = ax + bx * t + cx * math.pow(t, 2.0) + ddx * math.pow(t, 3.0)
@@ -109,6 +119,78 @@ def official_spline(xs, ys, times):
     out_x[k_out] = xs[n - 1]
     out_y[k_out] = ys[n - 1]
     return out_x, out_y
+
+
+# 2^-48: well above what t * t * t instead of pow(t, 3) (and t * t instead of pow(t, 2)) can
+# change in a + b t + c t^2 + d t^3, relative to the sizes of its terms and result (about
+# 8 units of 2^-53 with pow within one unit in the last place, as any libm's is).
+_SPLINE_SLACK = 2.0**-48
+
+
+@cached_njit(nogil=True)
+def _float32_settled(value, size):
+    """Whether everything within size * _SPLINE_SLACK of `value` becomes the same float32."""
+    slack = size * _SPLINE_SLACK
+    return np.float32(value - slack) == np.float32(value + slack)
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def official_spline_pixels(xs, ys, times):
+    """(px, py): cvRound of float32 of each official_spline sample, as official_pixels needs
+    them, computed with t * t * t where that cannot change the float32.
+
+    pow(t, 3) is most of official_spline's time. t * t * t can differ from it in the last bit
+    or two, which moves the sample by far less than _SPLINE_SLACK of its terms; a sample that
+    far from where float32 rounds the other way lands on the same float32, hence the same
+    pixel, either way. The others (one in millions, and NaN) are computed again with pow,
+    afterwards: a pow call inside the first loop, even one never taken, slows it to pow's pace.
+    """
+    n = xs.size
+    h, mx, my = _spline_moments(xs, ys)
+    m = (n - 1) * times + 1
+    px = np.empty(m, np.int64)
+    py = np.empty(m, np.int64)
+    again = np.empty(m, np.int64)  # samples to compute with pow
+    n_again = 0
+    k_out = 0
+    for i in range(n - 1):
+        ax, bx, cx, ddx = _cubic(xs, h, mx, i)
+        ay, by, cy, ddy = _cubic(ys, h, my, i)
+        delta = h[i] / times
+        for k in range(times):
+            t = delta * k
+            t2 = t * t
+            t3 = t2 * t
+            x = ax + bx * t + cx * t2 + ddx * t3
+            y = ay + by * t + cy * t2 + ddy * t3
+            if not (_float32_settled(x, abs(ax) + abs(bx * t) + abs(cx * t2) + abs(ddx * t3) + abs(x))
+                    and _float32_settled(y, abs(ay) + abs(by * t) + abs(cy * t2) + abs(ddy * t3) + abs(y))):
+                again[n_again] = k_out
+                n_again += 1
+            px[k_out] = _round_float32(np.float64(np.float32(x)))
+            py[k_out] = _round_float32(np.float64(np.float32(y)))
+            k_out += 1
+    for j in range(n_again):
+        k_out = again[j]
+        i = k_out // times
+        ax, bx, cx, ddx = _cubic(xs, h, mx, i)
+        ay, by, cy, ddy = _cubic(ys, h, my, i)
+        t = (h[i] / times) * (k_out - i * times)  # official_spline's delta * k
+        x = ax + bx * t + cx * math.pow(t, 2.0) + ddx * math.pow(t, 3.0)
+        y = ay + by * t + cy * math.pow(t, 2.0) + ddy * math.pow(t, 3.0)
+        px[k_out] = _round_float32(np.float64(np.float32(x)))
+        py[k_out] = _round_float32(np.float64(np.float32(y)))
+    px[m - 1] = _round_float32(np.float64(np.float32(xs[n - 1])))
+    py[m - 1] = _round_float32(np.float64(np.float32(ys[n - 1])))
+    return px, py
+
+
+@cached_njit(nogil=True)
+def _round_float32(value):
+    """cvRound of a float32 (given as a float64 holding it): half to even, INT_MIN when out of range."""
+    if not np.isfinite(value) or value >= 2.0**31 or value < -(2.0**31):
+        return INT_MIN
+    return np.int64(np.rint(value))
 
 
 # ---- rasterisation (OpenCV 4.6 drawing.cpp, LINE_8, integer input points) -------------------
@@ -534,7 +616,8 @@ def rasterise(xs, ys, thickness, width, height, extras, extra_counts, crescents,
         x0, y0, x1, y1 = polyline_box(xs, ys, thickness, width, height)
     canvas = np.zeros((y1 - y0, x1 - x0), np.uint8)
     if canvas.size:
-        draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness, extras, extra_counts, crescents, crescent_counts)
+        draw_polyline(canvas, x0, y0, width, height, xs, ys, thickness, extras, extra_counts, crescents,
+                      crescent_counts)
     return x0, y0, canvas
 
 
@@ -557,7 +640,7 @@ def overlap(ax0, ay0, a, bx0, by0, b):
         count = np.uint64(0)
         for k in range(span):
             count += row_a[offset_a + k] & row_b[offset_b + k]
-        total += count
+        total += int(count)
     return total
 
 
@@ -572,21 +655,647 @@ def rasterise_with_area(xs, ys, thickness, width, height, extras, extra_counts, 
     return x0, y0, canvas, area
 
 
+# ---- per-row runs: the same pixels without a canvas ----------------------------------------
+# A lane's mask is, row by row, one run of pixels (a few at most), so a mask can be held as
+# each row's runs: IoU then costs a step per row instead of one per pixel, and the hundreds of
+# discs along a sampled lane cost an interval per disc row instead of their pixels. The runs
+# are rasterise()'s pixels exactly: every piece below is the canvas code's own arithmetic, with
+# "set pixels left..right of row y" adding an interval instead.
+#
+# Runs are added into (rows, _RUN_SLOTS) arrays lo, hi and counts (rows,): the runs of a row
+# are disjoint and do not touch; a piece joins every run it overlaps or touches. Callers test
+# the usual case (a row with one run that the piece overlaps or touches) inline: a call that
+# passes arrays costs more than the work itself.
+
+_RUN_SLOTS = 8  # runs a row may hold while pieces are added; more sends the lane to the canvas
+_EMPTY_LO = 1  # an unused run slot in a finished mask is (1, 0): it overlaps nothing
+_EMPTY_HI = 0
+
+
 @cached_njit(nogil=True)
-def _round_float32(value):
-    """cvRound of a float32 (given as a float64 holding it): half to even, INT_MIN when out of range."""
-    if not np.isfinite(value) or value >= 2.0**31 or value < -(2.0**31):
-        return INT_MIN
-    return np.int64(np.rint(value))
+def _merge_run(lo, hi, counts, row, left, right):
+    """Add pixels left..right to row `row` (an index into the arrays, which it must be);
+    False when the row would need more than _RUN_SLOTS runs."""
+    kept = 0
+    for i in range(counts[row]):
+        if lo[row, i] > right + 1 or hi[row, i] < left - 1:
+            lo[row, kept] = lo[row, i]
+            hi[row, kept] = hi[row, i]
+            kept += 1
+        else:
+            left = min(left, lo[row, i])
+            right = max(right, hi[row, i])
+    if kept == lo.shape[1]:
+        return False
+    lo[row, kept] = left
+    hi[row, kept] = right
+    counts[row] = kept + 1
+    return True
+
+
+@cached_njit(nogil=True)
+def _add_span(lo, hi, counts, x0, y0, x1, y1, width, height, y, left, right):
+    """_span for runs: pixels left..right of image row y, clipped to the image and to the box
+    (x0, y0)..(x1, y1) the arrays' rows cover. False when the row has no slot left."""
+    if y < 0 or y >= height or y < y0 or y >= y1:
+        return True
+    left = max(left, 0, x0)
+    right = min(right, width - 1, x1 - 1)
+    if right < left:
+        return True
+    row = y - y0
+    if counts[row] == 1 and left <= hi[row, 0] + 1 and right >= lo[row, 0] - 1:
+        lo[row, 0] = min(lo[row, 0], left)
+        hi[row, 0] = max(hi[row, 0], right)
+        return True
+    return _merge_run(lo, hi, counts, row, left, right)
+
+
+@cached_njit(nogil=True)
+def _add_fixed_line(lo, hi, counts, x0, y0, x1, y1, width, height, ax, ay, bx, by):
+    """_fixed_line for runs (the same pixels: OpenCV's Line2 between 16-bit fixed-point ends)."""
+    inside, ax, ay, bx, by = _clip_line(np.int64(width) << XY_SHIFT, np.int64(height) << XY_SHIFT, ax, ay, bx, by)
+    if not inside:
+        return True
+    dx = bx - ax
+    dy = by - ay
+    steep = abs(dx) <= abs(dy)
+    if not steep:
+        if dx < 0:
+            dy = -dy
+            ax, bx = bx, ax
+            ay, by = by, ay
+        step = c_div(dy * XY_ONE, abs(dx) | 1)
+        count = (bx - ax) >> XY_SHIFT
+    else:
+        if dy < 0:
+            dx = -dx
+            ax, bx = bx, ax
+            ay, by = by, ay
+        step = c_div(dx * XY_ONE, abs(dy) | 1)
+        count = (by - ay) >> XY_SHIFT
+    # The far end first, as Line2 draws it (the order changes nothing in a union).
+    end_x = (bx + HALF) >> XY_SHIFT
+    end_y = (by + HALF) >> XY_SHIFT
+    if not _add_span(lo, hi, counts, x0, y0, x1, y1, width, height, end_y, end_x, end_x):
+        return False
+    if not steep:
+        x = (ax + HALF) >> XY_SHIFT
+        y = ay + HALF
+    else:
+        x = ax + HALF
+        y = (ay + HALF) >> XY_SHIFT
+    while count >= 0:
+        if not steep:
+            px = x
+            py = y >> XY_SHIFT
+        else:
+            px = x >> XY_SHIFT
+            py = y
+        if 0 <= px < width and 0 <= py < height and x0 <= px < x1 and y0 <= py < y1:
+            row = py - y0
+            if counts[row] == 1 and lo[row, 0] - 1 <= px <= hi[row, 0] + 1:
+                lo[row, 0] = min(lo[row, 0], px)
+                hi[row, 0] = max(hi[row, 0], px)
+            elif not _merge_run(lo, hi, counts, row, px, px):
+                return False
+        if not steep:
+            x += 1
+            y += step
+        else:
+            x += step
+            y += 1
+        count -= 1
+    return True
+
+
+@cached_njit(nogil=True)
+def _add_quad(lo, hi, counts, x0, y0, x1, y1, width, height, ax, ay, bx, by, thickness):
+    """_segment_quad for runs: the filled quad ThickLine draws between two integer points
+    (_fill_quad's scanlines, then its outline: the same pixels in another order)."""
+    p0x = np.int64(ax) << XY_SHIFT
+    p0y = np.int64(ay) << XY_SHIFT
+    p1x = np.int64(bx) << XY_SHIFT
+    p1y = np.int64(by) << XY_SHIFT
+    ddx = (p0x - p1x) / XY_ONE
+    ddy = (p1y - p0y) / XY_ONE
+    r = ddx * ddx + ddy * ddy
+    if not abs(r) > DBL_EPSILON:
+        return True
+    odd = thickness & 1
+    half_thickness = np.int64(thickness) << (XY_SHIFT - 1)
+    r = (half_thickness + odd * XY_ONE * 0.5) / math.sqrt(r)
+    dpx = np.int64(np.rint(ddy * r))
+    dpy = np.int64(np.rint(ddx * r))
+    qx = (p0x + dpx, p0x - dpx, p1x - dpx, p1x + dpx)
+    qy = (p0y + dpy, p0y - dpy, p1y - dpy, p1y + dpy)
+    npts = 4
+    imin = 0
+    xmin = qx[0]
+    xmax = qx[0]
+    ymin = qy[0]
+    ymax = qy[0]
+    for i in range(npts):
+        if qy[i] < ymin:
+            ymin = qy[i]
+            imin = i
+        ymax = max(ymax, qy[i])
+        xmax = max(xmax, qx[i])
+        xmin = min(xmin, qx[i])
+    xmin = (xmin + HALF) >> XY_SHIFT
+    xmax = (xmax + HALF) >> XY_SHIFT
+    ymin = (ymin + HALF) >> XY_SHIFT
+    ymax = (ymax + HALF) >> XY_SHIFT
+    filled = not (to_int32(xmax) < 0 or to_int32(ymax) < 0 or to_int32(xmin) >= width or to_int32(ymin) >= height)
+    if filled:
+        top = max(y0, 0)
+        bottom = min(y1, height)
+        leftmost = max(x0, 0)
+        rightmost = min(x1, width) - 1
+        ymax = min(ymax, height - 1)
+        y = to_int32(ymin)
+        last = to_int32(ymax)
+        index0 = imin
+        index1 = imin
+        edge_x0 = np.int64(-XY_ONE)
+        edge_x1 = np.int64(-XY_ONE)
+        step0 = np.int64(0)
+        step1 = np.int64(0)
+        end0 = y
+        end1 = y
+        edges = npts
+        while True:
+            for e in range(2):
+                if y >= (end0 if e == 0 else end1):
+                    idx0 = index0 if e == 0 else index1
+                    di = 1 if e == 0 else npts - 1
+                    idx = idx0 + di
+                    if idx >= npts:
+                        idx -= npts
+                    while True:
+                        more = edges > 0
+                        edges -= 1
+                        if not more:
+                            break
+                        ty = to_int32((qy[idx] + HALF) >> XY_SHIFT)
+                        if ty > y:
+                            xs = qx[idx0]
+                            xe = qx[idx]
+                            step = c_div((xe - xs) * 2 + (ty - y), 2 * (ty - y))
+                            if e == 0:
+                                end0 = ty
+                                step0 = step
+                                edge_x0 = xs
+                                index0 = idx
+                            else:
+                                end1 = ty
+                                step1 = step
+                                edge_x1 = xs
+                                index1 = idx
+                            break
+                        idx0 = idx
+                        idx += di
+                        if idx >= npts:
+                            idx -= npts
+            if edges < 0:
+                break
+            if y >= 0:
+                if edge_x0 > edge_x1:
+                    left = (edge_x1 + HALF) >> XY_SHIFT
+                    right = (edge_x0 + HALF) >> XY_SHIFT
+                else:
+                    left = (edge_x0 + HALF) >> XY_SHIFT
+                    right = (edge_x1 + HALF) >> XY_SHIFT
+                # _add_span, its usual case inline
+                left = max(left, leftmost)
+                right = min(right, rightmost)
+                if top <= y < bottom and left <= right:
+                    row = y - y0
+                    if counts[row] == 1 and left <= hi[row, 0] + 1 and right >= lo[row, 0] - 1:
+                        lo[row, 0] = min(lo[row, 0], left)
+                        hi[row, 0] = max(hi[row, 0], right)
+                    elif counts[row] == 0:
+                        lo[row, 0] = left
+                        hi[row, 0] = right
+                        counts[row] = 1
+                    elif not _merge_run(lo, hi, counts, row, left, right):
+                        return False
+                edge_x0 += step0
+                edge_x1 += step1
+                y += 1
+            else:
+                jump = min(end0, end1, 0, last + 1) - y
+                if jump <= 0:
+                    jump = 1
+                edge_x0 += step0 * jump
+                edge_x1 += step1 * jump
+                y += jump
+            if y > last:
+                break
+    px = qx[npts - 1]
+    py = qy[npts - 1]
+    for i in range(npts):
+        if not _add_fixed_line(lo, hi, counts, x0, y0, x1, y1, width, height, px, py, qx[i], qy[i]):
+            return False
+        px = qx[i]
+        py = qy[i]
+    return True
+
+
+STEP_REACH = 8  # steps up to this many pixels (in x and in y) have their quads in step_extras' table
+
+
+@cached_njit(nogil=True)
+def step_extras(thickness, reach):
+    """For each step (dx, dy) of at most `reach` pixels each way, the pixels its quad holds
+    outside the discs at both ends, as runs, and facts about the quad: (runs, counts, info),
+    runs[d, k] = (y, left, right) offsets from the step's first point, d = (dx + reach) *
+    (2 * reach + 1) + (dy + reach); info[d] = (bridged, |dpx|, |dpy|): bridged is 1 when on
+    every row both discs reach, discs and quad together are one run; (dpx, dpy) is how far
+    the quad's corners lie from the step's ends (16-bit fixed point, as _segment_quad).
+
+    short_quad_extras' pixels for longer steps, grouped in runs: drawn once each, away from
+    any border. Where nothing of it is clipped (_quad_unclipped), a quad is the same shape
+    wherever it lies (its arithmetic only ever adds whole pixels to the ends), so the step
+    adds just these to its discs.
+    """
+    radius = ((np.int64(thickness) << (XY_SHIFT - 1)) + HALF) >> XY_SHIFT
+    size = 2 * radius + 2 * reach + 16
+    centre = size // 2
+    zero = np.int64(0)  # a literal 0 would compile the drawing kernels a second time
+    half = disc_half_widths(radius)
+    side = 2 * reach + 1
+    limit = 4 * size
+    runs = np.zeros((side * side, limit, 3), np.int64)
+    counts = np.zeros(side * side, np.int64)
+    info = np.zeros((side * side, 3), np.int64)
+    for dx in range(-reach, reach + 1):
+        for dy in range(-reach, reach + 1):
+            if dx == 0 and dy == 0:
+                continue
+            direction = (dx + reach) * side + (dy + reach)
+            quad = np.zeros((size, size), np.uint8)
+            _segment_quad(quad, zero, zero, size, size, centre, centre, centre + dx, centre + dy, thickness)
+            length = math.sqrt(float(dx * dx + dy * dy))  # as _segment_quad computes its corners
+            r = ((np.int64(thickness) << (XY_SHIFT - 1)) + (thickness & 1) * XY_ONE * 0.5) / length
+            info[direction, 1] = abs(np.int64(np.rint(dy * r)))
+            info[direction, 2] = abs(np.int64(np.rint(-dx * r)))
+            # Bridged: on the rows both discs reach, disc, quad and disc leave no gap.
+            info[direction, 0] = 1
+            for y in range(max(centre, centre + dy) - radius, min(centre, centre + dy) + radius + 1):
+                k_first = y - (centre - radius)
+                k_second = y - (centre + dy - radius)
+                left = min(centre - half[k_first], centre + dx - half[k_second])
+                right = max(centre + half[k_first], centre + dx + half[k_second])
+                for x in range(left, right + 1):
+                    in_first = abs(x - centre) <= half[k_first]
+                    in_second = abs(x - centre - dx) <= half[k_second]
+                    if not (in_first or in_second or quad[y, x]):
+                        info[direction, 0] = 0
+            for cx, cy in ((centre, centre), (centre + dx, centre + dy)):
+                for k in range(2 * radius + 1):
+                    line = quad[cy - radius + k]
+                    for x in range(cx - half[k], cx + half[k] + 1):
+                        line[x] = 0
+            for y in range(size):
+                x = 0
+                while x < size:
+                    if quad[y, x] == 0:
+                        x += 1
+                        continue
+                    start = x
+                    while x < size and quad[y, x] != 0:
+                        x += 1
+                    runs[direction, counts[direction], 0] = y - centre
+                    runs[direction, counts[direction], 1] = start - centre
+                    runs[direction, counts[direction], 2] = x - 1 - centre
+                    counts[direction] += 1
+    most = 1
+    for direction in range(side * side):
+        most = max(most, counts[direction])
+    return runs[:, :most].copy(), counts, info
+
+
+@cached_njit(nogil=True)
+def _quad_unclipped(ax, ay, bx, by, dpx, dpy, width, height):
+    """Whether the quad of a step with corner offsets (dpx, dpy) lies inside the image whole:
+    its corners (16-bit fixed point) round to pixels of the image and are not negative, so
+    that no line of it is clipped and no pixel of it falls outside."""
+    last_x = (np.int64(width) << XY_SHIFT) - HALF - 1
+    last_y = (np.int64(height) << XY_SHIFT) - HALF - 1
+    return ((min(ax, bx) << XY_SHIFT) - dpx >= 0 and (max(ax, bx) << XY_SHIFT) + dpx <= last_x
+            and (min(ay, by) << XY_SHIFT) - dpy >= 0 and (max(ay, by) << XY_SHIFT) + dpy <= last_y)
+
+
+_NO_PIXEL = np.int64(1 << 40)  # chain_lo of a row no disc has reached; chain_hi is -_NO_PIXEL
+
+
+@cached_njit(nogil=True)
+def _add_chain(lo, hi, counts, x0, y0, x1, y1, width, height, chain_lo, chain_hi, pad, first_row, last_row):
+    """Add a chain's rows (chain_lo/chain_hi, index = image row - y0 + pad) as _add_span would,
+    and empty them again."""
+    top = max(y0, 0)
+    bottom = min(y1, height)
+    leftmost = max(x0, 0)
+    rightmost = min(x1, width) - 1
+    for y in range(first_row, last_row + 1):
+        i = y - y0 + pad
+        left = max(chain_lo[i], leftmost)
+        right = min(chain_hi[i], rightmost)
+        chain_lo[i] = _NO_PIXEL
+        chain_hi[i] = -_NO_PIXEL
+        if y < top or y >= bottom or right < left:
+            continue
+        row = y - y0
+        if counts[row] == 1 and left <= hi[row, 0] + 1 and right >= lo[row, 0] - 1:
+            lo[row, 0] = min(lo[row, 0], left)
+            hi[row, 0] = max(hi[row, 0], right)
+        elif counts[row] == 0:
+            lo[row, 0] = left
+            hi[row, 0] = right
+            counts[row] = 1
+        elif not _merge_run(lo, hi, counts, row, left, right):
+            return False
+    return True
+
+
+@cached_njit(nogil=True)
+def polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts, step_info):
+    """(ok, x0, y0, x1, lo, hi, area): rasterise()'s pixels as runs per row, without a canvas.
+
+    (x0, y0, x1) and the rows are rasterise()'s canvas box; lo[r, k]..hi[r, k] (image x) are
+    the runs of image row y0 + r, unused slots (1, 0). ok is False (the rest meaningless) for
+    fewer than 2 points, far points, an empty box, or a row of more than _RUN_SLOTS runs.
+    `step_runs` .. `step_info`: step_extras(thickness, STEP_REACH).
+
+    The pixels are draw_polyline's: a disc at each vertex and a quad per segment. A quad that
+    step_extras lists and that lies whole inside the image (_quad_unclipped) adds the pixels
+    listed; any other is drawn whole (_add_quad). Discs go by chains: consecutive vertices
+    with y never turning back, each step either to an 8-neighbour (the two discs overlap or
+    touch on every row both reach) or a listed, whole and `bridged` one (its quad fills any
+    gap there). The discs of a chain that reach an image row belong to consecutive vertices,
+    so on that row the chain's discs and quads are one interval, from the leftmost disc end to
+    the rightmost (min and max), plus its quads' pixels outside the discs. Clipping the discs
+    to the image keeps that true.
+    """
+    n = xs.size
+    none = np.empty((0, 1), np.int64)
+    if n < 2:
+        return False, 0, 0, 0, none, none, 0
+    x_low, x_high = _low_high(xs)
+    y_low, y_high = _low_high(ys)
+    if (x_low < -(1 << 20)) or (y_low < -(1 << 20)) or (x_high > (1 << 20)) or (y_high > (1 << 20)):
+        return False, 0, 0, 0, none, none, 0
+    x0, y0, x1, y1 = polyline_box(xs, ys, thickness, width, height)
+    if x1 <= x0 or y1 <= y0:
+        return False, 0, 0, 0, none, none, 0
+    rows = y1 - y0
+    radius = ((np.int64(thickness) << (XY_SHIFT - 1)) + HALF) >> XY_SHIFT
+    half = disc_half_widths(radius)
+    lo = np.empty((rows, _RUN_SLOTS), np.int64)
+    hi = np.empty((rows, _RUN_SLOTS), np.int64)
+    counts = np.zeros(rows, np.int64)
+    # A chain's rows, padded so that the disc of any vertex drawn (up to `radius` outside the
+    # image) fits, whatever the box.
+    pad = 2 * radius + 1
+    chain_lo = np.full(rows + 2 * pad, _NO_PIXEL)
+    chain_hi = np.full(rows + 2 * pad, -_NO_PIXEL)
+    span = np.uint64(2 * radius + 1)
+    side = 2 * STEP_REACH + 1
+    # 1. Discs, chain by chain; within a chain, a run of vertices on one row at a time (as the
+    # chain's steps leave no gap, the run's discs make one interval per row from its leftmost
+    # to its rightmost vertex). i == n ends the last chain. Quads that are not in step_extras'
+    # table are added whole as their step comes, after the chain they end: each piece then
+    # meets those before it, and rows keep few runs while they grow.
+    chain_open = False
+    chain_dy = 0  # the chain's direction in y once it has one
+    first_row = np.int64(0)
+    last_row = np.int64(-1)
+    run_y = np.int64(0)
+    run_left = np.int64(0)
+    run_right = np.int64(-1)  # no run while right < left
+    previous = False  # whether a vertex came before (prev_x, prev_y)
+    prev_x = np.int64(0)
+    prev_y = np.int64(0)
+    for i in range(n + 1):
+        cx = np.int64(0)
+        cy = np.int64(0)
+        drawn = False
+        if i < n:
+            if i > 0 and xs[i] == xs[i - 1] and ys[i] == ys[i - 1]:
+                continue
+            cx = xs[i]
+            cy = ys[i]
+            drawn = not (cx < -radius or cx >= width + radius or cy < -radius or cy >= height + radius)
+        dx = cx - prev_x
+        dy = cy - prev_y
+        tabled = False  # the step's quad is step_extras' pixels (and discs): short and whole
+        if abs(dx) <= STEP_REACH and abs(dy) <= STEP_REACH:
+            step = (dx + STEP_REACH) * side + (dy + STEP_REACH)
+            tabled = _quad_unclipped(prev_x, prev_y, cx, cy, step_info[step, 1], step_info[step, 2], width, height)
+        joins = False
+        if drawn and chain_open:  # the previous vertex is the chain's last
+            if abs(dx) <= 1 and abs(dy) <= 1:
+                joins = True
+            elif tabled:
+                joins = step_info[(dx + STEP_REACH) * side + (dy + STEP_REACH), 0] != 0
+            direction = 1 if dy > 0 else (-1 if dy < 0 else 0)
+            joins = joins and (direction == 0 or chain_dy == 0 or direction == chain_dy)
+            if joins and direction != 0:
+                chain_dy = direction
+        if joins and cy == run_y:
+            run_left = min(run_left, cx)
+            run_right = max(run_right, cx)
+        else:
+            if run_right >= run_left:  # the run ends: its discs join the chain
+                disc_top = np.uint64(run_y - radius - y0 + pad)
+                for k in range(span):
+                    chain_lo[disc_top + k] = min(chain_lo[disc_top + k], run_left - half[k])
+                    chain_hi[disc_top + k] = max(chain_hi[disc_top + k], run_right + half[k])
+                first_row = min(first_row, run_y - radius)
+                last_row = max(last_row, run_y + radius)
+                run_right = run_left - 1
+            if not joins and chain_open:  # the chain ends: its rows join the mask
+                if not _add_chain(lo, hi, counts, x0, y0, x1, y1, width, height, chain_lo, chain_hi, pad,
+                                  first_row, last_row):
+                    return False, 0, 0, 0, none, none, 0
+                chain_open = False
+            if drawn:
+                if not chain_open:
+                    chain_open = True
+                    chain_dy = 0
+                    first_row = cy - radius
+                    last_row = cy + radius
+                run_y = cy
+                run_left = cx
+                run_right = cx
+        if i < n:
+            if previous and not tabled:
+                if not _add_quad(lo, hi, counts, x0, y0, x1, y1, width, height, prev_x, prev_y, cx, cy, thickness):
+                    return False, 0, 0, 0, none, none, 0
+            previous = True
+            prev_x = cx
+            prev_y = cy
+    # 2. The quads of steps in step_extras' table: the pixels it lists, kept to the image and
+    # the box as _pixel keeps them.
+    leftmost = max(x0, 0)
+    rightmost = min(x1, width) - 1
+    top = max(y0, 0)
+    bottom = min(y1, height)
+    for i in range(n - 1):
+        ax, ay, bx, by = xs[i], ys[i], xs[i + 1], ys[i + 1]
+        if ax == bx and ay == by:
+            continue
+        dx = bx - ax
+        dy = by - ay
+        if abs(dx) > STEP_REACH or abs(dy) > STEP_REACH:
+            continue  # drawn whole above
+        direction = (dx + STEP_REACH) * side + (dy + STEP_REACH)
+        if not _quad_unclipped(ax, ay, bx, by, step_info[direction, 1], step_info[direction, 2], width, height):
+            continue  # drawn whole above
+        for k in range(step_counts[direction]):
+            y = ay + step_runs[direction, k, 0]
+            left = max(ax + step_runs[direction, k, 1], leftmost)
+            right = min(ax + step_runs[direction, k, 2], rightmost)
+            if y < top or y >= bottom or right < left:
+                continue
+            row = y - y0
+            if counts[row] == 1 and left <= hi[row, 0] + 1 and right >= lo[row, 0] - 1:
+                lo[row, 0] = min(lo[row, 0], left)
+                hi[row, 0] = max(hi[row, 0], right)
+            elif counts[row] == 0:
+                lo[row, 0] = left
+                hi[row, 0] = right
+                counts[row] = 1
+            elif not _merge_run(lo, hi, counts, row, left, right):
+                return False, 0, 0, 0, none, none, 0
+    first, last, area = _finish_runs(lo, hi, counts)
+    return True, x0, y0, x1, first, last, area
+
+
+@cached_njit(nogil=True)
+def _finish_runs(lo, hi, counts):
+    """(lo, hi, area): the used slots only (as many columns as the fullest row needs, unused
+    ones (1, 0)), and the number of pixels."""
+    most = 1
+    for r in range(counts.size):
+        most = max(most, counts[r])
+    first = np.full((counts.size, most), _EMPTY_LO, np.int64)
+    last = np.full((counts.size, most), _EMPTY_HI, np.int64)
+    area = np.int64(0)
+    for r in range(counts.size):
+        for k in range(counts[r]):
+            first[r, k] = lo[r, k]
+            last[r, k] = hi[r, k]
+            area += hi[r, k] - lo[r, k] + 1
+    return first, last, area
+
+
+@cached_njit(nogil=True)
+def canvas_runs(canvas):
+    """(lo, hi, area) of a canvas's pixels, runs per row as polyline_runs gives them (columns
+    from 0: add the canvas's x0)."""
+    rows, columns = canvas.shape
+    most = 1
+    for r in range(rows):
+        found = 0
+        previous = 0
+        for c in range(columns):
+            if canvas[r, c] and not previous:
+                found += 1
+            previous = canvas[r, c]
+        most = max(most, found)
+    lo = np.full((rows, most), _EMPTY_LO, np.int64)
+    hi = np.full((rows, most), _EMPTY_HI, np.int64)
+    area = np.int64(0)
+    for r in range(rows):
+        k = 0
+        c = 0
+        while c < columns:
+            if canvas[r, c] == 0:
+                c += 1
+                continue
+            start = c
+            while c < columns and canvas[r, c] != 0:
+                c += 1
+            lo[r, k] = start
+            hi[r, k] = c - 1
+            area += c - start
+            k += 1
+    return lo, hi, area
+
+
+@cached_njit(nogil=True)
+def rasterise_runs(xs, ys, thickness, width, height, extras, extra_counts, crescents, crescent_counts, step_runs,
+                   step_counts, step_info):
+    """rasterise_with_area()'s mask as runs, (x0, y0, x1, lo, hi, area): polyline_runs where it
+    can, else the canvas read row by row (far points, or a row of too many runs).
+
+    `extras` .. `crescent_counts`: short_quad_extras(thickness); `step_runs` .. `step_info`:
+    step_extras(thickness, STEP_REACH).
+    """
+    ok, x0, y0, x1, lo, hi, area = polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts,
+                                                 step_info)
+    if ok:
+        return x0, y0, x1, lo, hi, area
+    x0, y0, canvas, area = rasterise_with_area(xs, ys, thickness, width, height, extras, extra_counts, crescents,
+                                               crescent_counts)
+    lo, hi, area = canvas_runs(canvas)
+    for r in range(lo.shape[0]):
+        for k in range(lo.shape[1]):
+            if hi[r, k] >= lo[r, k]:
+                lo[r, k] += x0
+                hi[r, k] += x0
+    return x0, y0, x0 + canvas.shape[1], lo, hi, area
+
+
+@cached_njit(nogil=True)
+def run_overlap(ay0, a_lo, a_hi, by0, b_lo, b_hi):
+    """Pixels set in both of two masks held as runs per row (rows from ay0 and by0)."""
+    top = max(ay0, by0)
+    bottom = min(ay0 + a_lo.shape[0], by0 + b_lo.shape[0])
+    total = np.int64(0)
+    if a_lo.shape[1] == 1 and b_lo.shape[1] == 1:
+        for y in range(top, bottom):
+            count = min(a_hi[y - ay0, 0], b_hi[y - by0, 0]) - max(a_lo[y - ay0, 0], b_lo[y - by0, 0]) + 1
+            total += max(count, 0)
+        return total
+    for y in range(top, bottom):
+        i = y - ay0
+        j = y - by0
+        for p in range(a_lo.shape[1]):
+            for q in range(b_lo.shape[1]):
+                count = min(a_hi[i, p], b_hi[j, q]) - max(a_lo[i, p], b_lo[j, q]) + 1
+                total += max(count, 0)
+    return total
 
 
 @cached_njit(nogil=True, error_model="numpy")
-def official_lane(points, width, height, thickness, extras, extra_counts, crescents, crescent_counts):
-    """(x0, y0, canvas, area) of a lane as the official CULane evaluator draws it.
+def official_pixels(points):
+    """(px, py): the integer vertices the official CULane evaluator draws a lane through.
 
     `points` (N, 2) float64, N >= 2. Points become float32 (cv::Point2f), 3+ points go through
-    the official spline, samples become float32 again, then cv::Point (cvRound), then pixels.
+    the official spline, samples become float32 again, then cv::Point (cvRound).
     """
+    n = points.shape[0]
+    xs = np.empty(n)
+    ys = np.empty(n)
+    for i in range(n):
+        xs[i] = np.float32(points[i, 0])
+        ys[i] = np.float32(points[i, 1])
+    if n >= 3:
+        return official_spline_pixels(xs, ys, 50)
+    px = np.empty(n, np.int64)
+    py = np.empty(n, np.int64)
+    for i in range(n):
+        px[i] = _round_float32(xs[i])
+        py[i] = _round_float32(ys[i])
+    return px, py
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def official_pixels_by_pow(points):
+    """official_pixels from official_spline's samples (pow throughout): its reference."""
     n = points.shape[0]
     xs = np.empty(n)
     ys = np.empty(n)
@@ -601,13 +1310,30 @@ def official_lane(points, width, height, thickness, extras, extra_counts, cresce
     for i in range(m):
         px[i] = _round_float32(np.float64(np.float32(xs[i])))
         py[i] = _round_float32(np.float64(np.float32(ys[i])))
+    return px, py
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def official_lane(points, width, height, thickness, extras, extra_counts, crescents, crescent_counts):
+    """(x0, y0, canvas, area) of a lane as the official CULane evaluator draws it
+    (official_pixels_by_pow, then rasterise): every pixel drawn, pow in every spline sample,
+    as before runs per row; the reference for `official_lane_runs`."""
+    px, py = official_pixels_by_pow(points)
     return rasterise_with_area(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts)
 
 
 @cached_njit(nogil=True, error_model="numpy")
-def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height, extras, extra_counts,
-             crescents, crescent_counts):
-    """(x0, y0, canvas, area) of a lane drawn at map resolution (the paper's protocol).
+def official_lane_runs(points, width, height, thickness, extras, extra_counts, crescents, crescent_counts, step_runs,
+                       step_counts, step_info):
+    """official_lane's mask as runs per row: (x0, y0, x1, lo, hi, area) (rasterise_runs)."""
+    px, py = official_pixels(points)
+    return rasterise_runs(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts,
+                          step_runs, step_counts, step_info)
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def map_pixels(points, spline, scale_x, scale_y, offset_y, truncate):
+    """(px, py): the map pixels a lane is drawn through at map resolution (the paper's protocol).
 
     Image points (optionally through the official spline, non-finite samples dropped) map to
     x / scale_x, (y - offset_y) / scale_y, then snap to pixels: half to even, or C's int()
@@ -633,8 +1359,25 @@ def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, wi
         px[count] = np.int64(min(max(x, -limit), limit))
         py[count] = np.int64(min(max(y, -limit), limit))
         count += 1
-    return rasterise_with_area(px[:count], py[:count], thickness, width, height, extras, extra_counts, crescents,
-                               crescent_counts)
+    return px[:count].copy(), py[:count].copy()
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height, extras, extra_counts,
+             crescents, crescent_counts):
+    """(x0, y0, canvas, area) of a lane drawn at map resolution (map_pixels, then rasterise).
+    Drawing every pixel: the reference for `map_lane_runs`."""
+    px, py = map_pixels(points, spline, scale_x, scale_y, offset_y, truncate)
+    return rasterise_with_area(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts)
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def map_lane_runs(points, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height, extras,
+                  extra_counts, crescents, crescent_counts, step_runs, step_counts, step_info):
+    """map_lane's mask as runs per row: (x0, y0, x1, lo, hi, area) (rasterise_runs)."""
+    px, py = map_pixels(points, spline, scale_x, scale_y, offset_y, truncate)
+    return rasterise_runs(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts,
+                          step_runs, step_counts, step_info)
 
 
 # ---- the argument types raster.py calls the kernels above with ------------------------------
@@ -644,14 +1387,19 @@ _POINTS = types.Array(types.float64, 2, "C", readonly=True)
 _TABLE = types.Array(types.int64, 3, "C")
 _COUNTS = types.Array(types.int64, 1, "C")
 _MASK = types.Array(types.uint8, 2, "C")
+_RUNS = types.Array(types.int64, 2, "C")  # LaneMask.lo, .hi
 _I, _F, _B = types.int64, types.float64, types.boolean
 _TABLES = (_TABLE, _COUNTS, _TABLE, _COUNTS)  # short_quad_extras(thickness)
+_STEPS = (_TABLE, _COUNTS, types.Array(types.int64, 2, "C"))  # step_extras(thickness, STEP_REACH)
 
-ENTRY_SIGNATURES = {
-    # raster._quad_extras, LaneMask.intersection: every protocol needs them
-    "tables": [(short_quad_extras, (_I,)), (overlap, (_I, _I, _MASK, _I, _I, _MASK))],
-    # raster.official_mask
-    "official": [(official_lane, (_POINTS, _I, _I, _I) + _TABLES)],
-    # raster.map_mask
-    "paper": [(map_lane, (_POINTS, _B, _F, _F, _F, _B, _I, _I, _I) + _TABLES)],
+ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
+    # raster's tables (_quad_extras, _step_extras) and LaneMask.intersection: every protocol needs them
+    "tables": [(short_quad_extras, (_I,)), (step_extras, (_I, _I)), (overlap, (_I, _I, _MASK, _I, _I, _MASK)),
+               (run_overlap, (_I, _RUNS, _RUNS, _I, _RUNS, _RUNS))],
+    # raster.official_mask (and official_lane, the reference it is benchmarked against)
+    "official": [(official_lane_runs, (_POINTS, _I, _I, _I) + _TABLES + _STEPS),
+                 (official_lane, (_POINTS, _I, _I, _I) + _TABLES)],
+    # raster.map_mask (and map_lane, its reference)
+    "paper": [(map_lane_runs, (_POINTS, _B, _F, _F, _F, _B, _I, _I, _I) + _TABLES + _STEPS),
+              (map_lane, (_POINTS, _B, _F, _F, _F, _B, _I, _I, _I) + _TABLES)],
 }

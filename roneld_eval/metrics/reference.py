@@ -1,0 +1,27 @@
+"""Scoring as it was before masks became runs per row, for benchmarks and tests only.
+
+`drawn_masks()` makes the official and the paper's protocol draw every lane pixel by pixel
+into a canvas again (raster.official_mask_by_canvas, raster.map_mask_by_canvas) and count
+overlaps pixel by pixel, in this process and in worker processes forked while it is active.
+Results are the same bytes either way (tests/test_runs.py checks it on whole runs);
+scripts/bench_run.py --compare-scoring times one against the other.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from typing import Iterator
+
+from . import culane_official, paper, raster
+
+
+@contextmanager
+def drawn_masks() -> Iterator[None]:
+    """Within the block, official and paper masks are drawn on canvases (the old path)."""
+    saved = culane_official.official_mask, paper.map_mask
+    culane_official.official_mask = raster.official_mask_by_canvas
+    paper.map_mask = raster.map_mask_by_canvas
+    try:
+        yield
+    finally:
+        culane_official.official_mask, paper.map_mask = saved
