@@ -6,11 +6,14 @@ tool's Kuhn-Munkres matching; a matched pair is a TP when IoU > threshold (stric
 FP = predictions - TP, FN = ground truth - TP. A lane of fewer than 2 points counts with
 IoU 0. Matching does not depend on the threshold, so storing each ground-truth lane's
 matched IoU scores a whole sweep in one pass (the C++ tool needs one run per threshold).
+`sweep_rows` turns those IoUs into one row per method, category and threshold, counts summed
+before any ratio; `f1_summary` picks F1@50/F1@75 and the mean over the grid (CLRNet's mF1).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from decimal import Decimal
 from typing import Iterable, Mapping, Sequence
 
 import numpy as np
@@ -105,18 +108,96 @@ def f_measure(tp: int, fp: int, fn: int) -> tuple[float, float, float]:
     return precision, recall, f1
 
 
+@dataclass(frozen=True, eq=False)
+class ScoredFrames:
+    """Frame results of one or more methods on the same frames, as columns (what a sweep reads).
+
+    Ground-truth lanes are shared by every method, so each lane's matched IoU is one column
+    of `matched_iou`, one row per method.
+    """
+
+    frames: tuple[str, ...]  # frame relpaths, in scoring order
+    n_gt: np.ndarray  # (frames,) ground-truth lanes of each frame
+    n_pred: np.ndarray  # (methods, frames) predicted lanes of each frame
+    matched_iou: np.ndarray  # (methods, ground-truth lanes) matched IoU, -inf when unmatched
+
+    @property
+    def lane_frame(self) -> np.ndarray:
+        """Index into `frames` of each ground-truth lane."""
+        return np.repeat(np.arange(len(self.frames)), self.n_gt)
+
+    @classmethod
+    def from_results(cls, per_method: Sequence[Mapping[str, CulaneFrameResult]]) -> "ScoredFrames":
+        """Columns from per-method {relpath: result} of the same frames (the first's order)."""
+        frames = tuple(per_method[0])
+        n_gt = np.array([per_method[0][f].n_gt for f in frames], np.int64)
+        n_pred = np.array([[results[f].n_pred for f in frames] for results in per_method], np.int64)
+        n_pred = n_pred.reshape(len(per_method), len(frames))
+        ious = [np.concatenate([np.asarray(results[f].matched_iou, np.float64) for f in frames] or [np.zeros(0)])
+                for results in per_method]
+        return cls(frames, n_gt, n_pred, np.array(ious, np.float64).reshape(len(per_method), int(n_gt.sum())))
+
+
+def category_groups(frames: Sequence[str], categories: Mapping[str, frozenset[str]]) -> list[tuple[str, np.ndarray]]:
+    """(name, frame mask) per category list in its order, then ("all", every frame)."""
+    groups = [(name, np.fromiter((f in members for f in frames), bool, len(frames)))
+              for name, members in categories.items()]
+    groups.append(("all", np.ones(len(frames), bool)))
+    return groups
+
+
+def sweep_rows(scored: ScoredFrames, methods: Sequence[str], categories: Mapping[str, frozenset[str]],
+               thresholds: Sequence[float], labels: Sequence[str] | None = None) -> pd.DataFrame:
+    """method, category, threshold, tp, fp, fn, precision, recall, f1: one row per method,
+    category (its lists, then `all`) and threshold, counts summed before any ratio."""
+    limits = np.asarray(thresholds, np.float64)
+    shown: list[str] | list[float] = list(labels) if labels is not None else [float(t) for t in thresholds]
+    lane_frame = scored.lane_frame
+    rows = []
+    for m, method in enumerate(methods):
+        for name, inside in category_groups(scored.frames, categories):
+            n_gt = int(scored.n_gt[inside].sum())
+            n_pred = int(scored.n_pred[m, inside].sum())
+            # IoUs strictly above t: those sorted after t (side="right" puts equal ones before);
+            # a NaN is above nothing, as `NaN > t` is false.
+            ious = scored.matched_iou[m, inside[lane_frame]]
+            ious = np.sort(np.where(np.isnan(ious), -np.inf, ious))
+            above = len(ious) - np.searchsorted(ious, limits, side="right")
+            for label, tp in zip(shown, above.tolist()):
+                precision, recall, f1 = f_measure(tp, n_pred - tp, n_gt - tp)
+                rows.append(dict(method=method, category=name, threshold=label, tp=tp, fp=n_pred - tp,
+                                 fn=n_gt - tp, precision=precision, recall=recall, f1=f1))
+    return pd.DataFrame(rows, columns=["method", "category", "threshold", "tp", "fp", "fn", "precision", "recall",
+                                       "f1"])
+
+
 def category_table(
     frame_results: Mapping[str, CulaneFrameResult],
     categories: Mapping[str, frozenset[str]],
     threshold: float,
 ) -> pd.DataFrame:
     """Rows per category present, then `all`: category, tp, fp, fn, precision, recall, f1."""
+    table = sweep_rows(ScoredFrames.from_results([frame_results]), ["-"], categories, [threshold])
+    return table.drop(columns=["method", "threshold"]).reset_index(drop=True)
+
+
+def highlight_name(label: str) -> str:
+    """'0.50' -> 'F1@50', '0.75' -> 'F1@75', '0.525' -> 'F1@52.5' (the papers' column names)."""
+    percent = (Decimal(label) * 100).normalize()
+    return f"F1@{percent:f}"
+
+
+def f1_summary(official: pd.DataFrame, highlighted: Sequence[str], labels: Sequence[str]) -> pd.DataFrame:
+    """method, category, F1@<t> for each highlighted threshold, and mF1 (the mean F1 over
+    every threshold in `labels`) when there is more than one: from sweep_rows' table."""
     rows = []
-    groups = [(name, [frame_results[f] for f in frame_results if f in members]) for name, members in categories.items()]
-    groups.append(("all", list(frame_results.values())))
-    for name, results in groups:
-        counts = sum_counts(results, [threshold])
-        tp, fp, fn = int(counts.tp[0]), int(counts.fp[0]), int(counts.fn[0])
-        precision, recall, f1 = f_measure(tp, fp, fn)
-        rows.append(dict(category=name, tp=tp, fp=fp, fn=fn, precision=precision, recall=recall, f1=f1))
-    return pd.DataFrame(rows, columns=["category", "tp", "fp", "fn", "precision", "recall", "f1"])
+    for (method, category), group in official.groupby(["method", "category"], sort=False):
+        f1 = dict(zip(group["threshold"], group["f1"].to_numpy(np.float64)))
+        row = dict(method=method, category=category)
+        for label in highlighted:
+            row[highlight_name(label)] = float(f1[label])
+        if len(labels) > 1:
+            row["mF1"] = float(np.mean([f1[label] for label in labels]))
+        rows.append(row)
+    columns = ["method", "category"] + [highlight_name(t) for t in highlighted] + (["mF1"] if len(labels) > 1 else [])
+    return pd.DataFrame(rows, columns=columns)

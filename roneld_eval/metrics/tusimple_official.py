@@ -7,6 +7,10 @@ ground-truth lane is found when its best prediction reaches 0.85. A frame over 2
 with more than ground truth + 2 predictions scores (0, 0, 1); frames with more than 4
 ground-truth lanes forgive one FN and their worst lane. Figures are means of per-frame
 ratios over all labelled frames (FP can be negative, as the official number is).
+
+Papers also print an F1 made from the mean FP and FN, under two different formulas, each
+reproduced here operation for operation: `f1_ufld` (UFLD-v2 evaluation/tusimple/lane2.py)
+and `f1_clrnet` (CLRNet clrnet/utils/tusimple_metric.py).
 """
 
 from __future__ import annotations
@@ -82,12 +86,53 @@ def bench_frame(pred: Sequence[Sequence[float]], gt: Sequence[Sequence[float]], 
     )
 
 
+def f1_ufld(fp: float, fn: float) -> float:
+    """F1 as UFLD-v2's evaluation/tusimple/lane2.py computes it from the mean FP and FN rates:
+    precision 1 - FP, recall 1 - FN, and 0 when both are 0."""
+    # lane2.py: pr = 1 - fp / num; re = 1 - fn / num; fp / num is our mean FP, the same double.
+    pr = 1 - float(fp)
+    re = 1 - float(fn)
+    if (pr + re) == 0:
+        return 0.0
+    return 2 * pr * re / (pr + re)
+
+
+def f1_clrnet(fp: float, fn: float) -> float:
+    """F1 as CLRNet's clrnet/utils/tusimple_metric.py computes it from the mean FP and FN rates:
+    tp = 1 - FP, precision tp / (tp + FP), recall tp / (tp + FN). NaN where that script
+    divides by zero (it stops there with ZeroDivisionError: FP = 1 with FN = 0, or tp = 0)."""
+    fp, fn = float(fp), float(fn)  # Python floats, as the script's sums: x / 0 raises, never inf
+    tp = 1 - fp
+    try:
+        precision = tp / (tp + fp)
+        recall = tp / (tp + fn)
+        return 2 * precision * recall / (precision + recall)
+    except ZeroDivisionError:
+        return float("nan")
+
+
 @dataclass(frozen=True)
 class TusimpleScore:
+    """Official TuSimple means over the labelled frames, and the two F1s papers print."""
+
     accuracy: float
     fp: float
     fn: float
     n_frames: int
+
+    @property
+    def f1_ufld(self) -> float:
+        """F1 as UFLD-v2's lane2.py (precision 1 - FP, recall 1 - FN)."""
+        return f1_ufld(self.fp, self.fn)
+
+    @property
+    def f1_clrnet(self) -> float:
+        """F1 as CLRNet's tusimple_metric.py (tp = 1 - FP, recall tp / (tp + FN))."""
+        return f1_clrnet(self.fp, self.fn)
+
+    def as_row(self) -> dict[str, float]:
+        """accuracy, fp, fn, f1_ufld, f1_clrnet: one row of official.csv."""
+        return dict(accuracy=self.accuracy, fp=self.fp, fn=self.fn, f1_ufld=self.f1_ufld, f1_clrnet=self.f1_clrnet)
 
 
 def mean_scores(frame_scores: Sequence[tuple[float, float, float]], n_frames: int) -> TusimpleScore:

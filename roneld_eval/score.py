@@ -1,0 +1,386 @@
+"""Scoring lane files in the official formats: `score culane` and `score tusimple`.
+
+CULane: every prediction tree (one method each) is scored in one pass over the ground truth:
+each frame's labels are read and drawn once, then matched against every method's lanes. The
+matched IoUs are kept, so a whole threshold grid (CLRNet's mF1: 0.50..0.95) costs no second
+pass. Prediction roots are checked before any work: a root where no file of the list is
+stops with the path looked for and the folder that would match. TuSimple: Acc/FP/FN as
+evaluate/lane.py, with the two F1 formulas papers print. Writes nothing but `out`.
+"""
+
+from __future__ import annotations
+
+import os
+import posixpath
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Union
+
+import numpy as np
+import pandas as pd
+
+from .config import IMAGE_SIZES, Thresholds, parse_thresholds
+from .datasets import read_culane
+from .datasets._paths import under_root
+from .datasets.culane import labels_path, read_frame_labels
+from .errors import ConfigError, InputError
+from .lanes_io import read_culane_lines
+from .metrics.culane_official import (
+    ScoredFrames,
+    evaluate_culane_frame,
+    f1_summary,
+    highlight_name,
+    official_masks,
+    sweep_rows,
+)
+from .metrics.tusimple_official import TusimpleScore, score_tusimple_files
+from .model import image_stem
+from .output import OutputFolder
+from .report.tables import Table
+from .output import Staging
+from .signals import terminate_as_interrupt
+from .workers import default_workers, process_pool, stopping
+
+
+@dataclass(frozen=True)
+class ScorePreset:
+    """A threshold grid as a paper family reports it, and the thresholds its tables single out."""
+
+    iou: str
+    highlighted: tuple[str, ...]
+    source: str
+
+
+SCORE_PRESETS = {
+    # CLRNet README (mF1, F1@50, F1@75) and clrnet/datasets/culane.py: np.linspace(0.5, 0.95, 10).
+    "clrnet": ScorePreset("0.50:0.95:0.05", ("0.50", "0.75"), "CLRNet: mF1 over IoU 0.50:0.95:0.05, F1@50, F1@75"),
+}
+# The thresholds papers single out, shown whenever the grid holds them.
+HIGHLIGHTS = ("0.50", "0.75")
+CHUNK_FRAMES = 200
+
+PredictionRoots = Union[str, Path, Sequence[Union[str, Path]], Mapping[str, Union[str, Path]]]
+
+
+@dataclass(frozen=True)
+class PredictionTree:
+    """One method's `.lines.txt` tree and how many of the listed frames have a file in it."""
+
+    method: str
+    root: Path
+    found: int
+    listed: int
+
+
+@dataclass(frozen=True)
+class CulaneScore:
+    """Official CULane scores of one or more prediction trees (methods) over a threshold grid."""
+
+    official: pd.DataFrame  # method, category, threshold, tp, fp, fn, precision, recall, f1
+    summary: pd.DataFrame  # method, category, F1@50 / F1@75 (those in the grid), mF1 (grids of 2+)
+    thresholds: Thresholds
+    highlighted: tuple[str, ...]  # threshold labels the summary shows one by one
+    trees: tuple[PredictionTree, ...]
+    n_frames: int
+    warnings: tuple[str, ...] = ()  # e.g. a root where fewer than half the listed frames have a file
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        return tuple(tree.method for tree in self.trees)
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """The rows at the first threshold: method, category, tp, fp, fn, precision, recall, f1."""
+        first = self.official[self.official["threshold"] == self.thresholds.labels[0]]
+        return first.drop(columns="threshold").reset_index(drop=True)
+
+
+# ---- finding the prediction trees ------------------------------------------------------------
+
+
+class _ListedFiles:
+    """The `.lines.txt` names the list asks for, grouped by folder, to count them under any root
+    with one directory listing per folder (34,680 frames: 419 listings, not 34,680 stats)."""
+
+    def __init__(self, relpaths: Sequence[str]):
+        self.relpaths = relpaths
+        self.by_folder: dict[str, list[str]] = {}
+        for relpath in relpaths:
+            label = f"{image_stem(relpath)}.lines.txt"
+            # The name as the disk spells it, as under_root spells paths (UTF-8 whatever the locale).
+            name = os.fsdecode(posixpath.basename(label).encode("utf-8", "surrogateescape"))
+            self.by_folder.setdefault(posixpath.dirname(label), []).append(name)
+
+    def count(self, root: Path) -> int:
+        found = 0
+        for folder, names in self.by_folder.items():
+            try:
+                present = set(os.listdir(under_root(root, folder) if folder else root))
+            except (FileNotFoundError, NotADirectoryError):
+                continue
+            except OSError:
+                found += len(names)  # there but unreadable: reading the files names the problem
+                continue
+            found += sum(name in present for name in names)
+        return found
+
+    def first_missing(self, root: Path) -> Path:
+        for relpath in self.relpaths:
+            path = labels_path(root, relpath)
+            if not path.exists():
+                return path
+        return labels_path(root, self.relpaths[0])
+
+
+def _subfolders(root: Path) -> list[Path]:
+    try:
+        return sorted((Path(entry.path) for entry in os.scandir(root)
+                       if entry.is_dir() and not entry.name.startswith(".")), key=lambda p: p.name)
+    except OSError:
+        return []
+
+
+def _root_specs(pred_root: PredictionRoots) -> list[tuple[str | None, Path]]:
+    """(name or None, folder) of each root given: a path, 'NAME=DIR', a list of them, or a mapping."""
+    if isinstance(pred_root, Mapping):
+        return [(str(name), Path(path)) for name, path in pred_root.items()]
+    if isinstance(pred_root, (str, Path)):
+        pred_root = [pred_root]
+    specs: list[tuple[str | None, Path]] = []
+    for item in pred_root:
+        text = str(item)
+        name, sep, folder = text.partition("=")
+        # NAME=DIR, unless the whole text is itself an existing folder (a path may hold '=').
+        if isinstance(item, str) and sep and name and "/" not in name and folder and not Path(text).exists():
+            specs.append((name, Path(folder)))
+        else:
+            specs.append((None, Path(item)))
+    if not specs:
+        raise ConfigError("give at least one prediction root")
+    return specs
+
+
+def _no_match(root: Path, listed: _ListedFiles) -> InputError:
+    """The one-line error for a root without any file of the list, with the folder that has them."""
+    first = labels_path(root, listed.relpaths[0])
+    hint = ""
+    parent = root.parent if len(root.parts) > 1 else root.resolve().parent  # as the user wrote it, if possible
+    if parent.resolve() != root.resolve() and listed.count(parent):
+        hint = f"; did you mean --pred-root {parent} (it holds them)?"
+    else:
+        for child in _subfolders(root):
+            methods = [grandchild.name for grandchild in _subfolders(child) if listed.count(grandchild)]
+            if methods:
+                hint = (f"; did you mean --pred-root {child} (its subfolders {', '.join(methods[:4])}"
+                        f"{', ...' if len(methods) > 4 else ''} each hold them)?")
+                break
+    return InputError(root, f"no prediction file of the list is here (first looked for: {first}){hint}")
+
+
+def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], strict: bool = False,
+                          announce: Callable[[str], None] | None = None) -> tuple[list[PredictionTree], list[str]]:
+    """The methods to score and warnings about them, checked before any work.
+
+    A root that mirrors the list is one method (named by its folder, or NAME=DIR); otherwise
+    each of its subfolders that does is one (as `run --save-lanes` writes OUT/lanes/<method>/).
+    A root with no file of the list at all is an error naming the path looked for and the
+    folder that has them (one level up, or a folder of methods one level down). Fewer than
+    half the listed files is a warning; with `strict`, any missing file is an error.
+    """
+    say = announce or (lambda message: None)
+    listed = _ListedFiles(relpaths)
+    trees: list[PredictionTree] = []
+    for name, root in _root_specs(pred_root):
+        if not root.is_dir():
+            raise InputError(root, "prediction root not found")
+        found = listed.count(root)
+        if found:
+            trees.append(PredictionTree(name or root.resolve().name, root, found, len(relpaths)))
+            continue
+        children, others = [], []
+        for child in _subfolders(root):
+            count = listed.count(child)
+            if count:
+                children.append(PredictionTree(f"{name}/{child.name}" if name else child.name, child, count,
+                                               len(relpaths)))
+            else:
+                others.append(child)
+        if not children:
+            raise _no_match(root, listed)
+        for child in others:
+            say(f"{child}: not a prediction tree (no file of the list), left out")
+        trees += children
+    seen: dict[str, Path] = {}
+    for tree in trees:
+        if tree.method in seen:
+            raise ConfigError(f"two prediction trees are named {tree.method!r} ({seen[tree.method]} and {tree.root}): "
+                              "name them with --pred-root NAME=DIR")
+        seen[tree.method] = tree.root
+    warnings = []
+    for tree in trees:
+        missing = tree.listed - tree.found
+        if strict and missing:
+            raise InputError(tree.root, f"{missing:,} of {tree.listed:,} listed frames have no prediction file "
+                                        f"(first: {listed.first_missing(tree.root)}); --strict needs every one")
+        if tree.found * 2 < tree.listed:
+            warnings.append(f"warning: {tree.root}: only {tree.found:,} of {tree.listed:,} listed frames have a "
+                            f"prediction file; the other {missing:,} count as frames without lanes")
+    return trees, warnings
+
+
+# ---- scoring lane files ----------------------------------------------------------------------
+
+
+def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One chunk of frames against every method: (n_gt, n_pred per method, matched IoUs per method)."""
+    relpaths, data_root, pred_roots, width, height, lane_width = args
+    n_gt = np.zeros(len(relpaths), np.int64)
+    n_pred = np.zeros((len(pred_roots), len(relpaths)), np.int64)
+    ious: list[list[np.ndarray]] = [[] for _ in pred_roots]
+    for k, relpath in enumerate(relpaths):
+        truth = read_frame_labels(data_root, relpath)
+        n_gt[k] = len(truth)
+        gt_masks = official_masks(truth, width, height, lane_width) if truth else None  # drawn once, for all
+        for m, pred_root in enumerate(pred_roots):
+            predictions = read_culane_lines(labels_path(pred_root, relpath))
+            result = evaluate_culane_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
+            n_pred[m, k] = result.n_pred
+            ious[m].append(result.matched_iou)
+    matched = np.array([np.concatenate(parts) if parts else np.zeros(0) for parts in ious], np.float64)
+    return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum()))
+
+
+def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds, tuple[str, ...]]:
+    """The grid and the thresholds the summary singles out (0.50 and 0.75 when in the grid)."""
+    if preset is not None:
+        if preset not in SCORE_PRESETS:
+            raise ConfigError(f"unknown preset {preset!r}; choose from {', '.join(SCORE_PRESETS)}")
+        if iou is not None and parse_thresholds(str(iou)) != parse_thresholds(SCORE_PRESETS[preset].iou):
+            raise ConfigError(f"--preset {preset} is IoU {SCORE_PRESETS[preset].iou}; it contradicts --iou {iou}")
+        thresholds = parse_thresholds(SCORE_PRESETS[preset].iou)
+        return thresholds, SCORE_PRESETS[preset].highlighted
+    thresholds = parse_thresholds(str(0.5 if iou is None else iou))
+    highlighted = tuple(label for label in thresholds.labels if label in HIGHLIGHTS)
+    return thresholds, highlighted or thresholds.labels[:1]
+
+
+def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
+                 iou: str | float | None = None, width: int = 30, out: str | Path | None = None,
+                 workers: int | None = None, progress: bool = False,
+                 announce: Callable[[str], None] | None = None, preset: str | None = None,
+                 strict: bool = False) -> CulaneScore:
+    """Score `.lines.txt` predictions with the official CULane protocol, every method in one pass.
+
+    `pred_root`: a folder mirroring the list, a folder of such folders (one per method), or
+    several ('NAME=DIR' names one). `iou`: one threshold (default 0.5) or a grid scored in
+    one pass ('0.50:0.95:0.05'); `preset='clrnet'` is that grid with F1@50/F1@75/mF1.
+    A missing prediction file means no lanes (`strict`: an error). `out` gets official.csv,
+    summary.csv and summary.md.
+    """
+    thresholds, highlighted = _thresholds(iou, preset)
+    if width < 1:
+        raise ConfigError(f"lane width must be positive, got {width}")
+    dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
+    relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
+    trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
+    image_width, image_height = IMAGE_SIZES["culane"]
+    roots = tuple(tree.root for tree in trees)
+    chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
+    tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]
+    workers = min(workers or default_workers(), max(len(chunks), 1))
+    from . import kernels
+
+    kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
+    from tqdm import tqdm
+
+    pieces = []
+    with tqdm(total=len(relpaths), unit="frame", desc="scoring", disable=not progress) as bar:
+        if workers > 1:
+            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
+            with stopping(process_pool(workers), lambda: died) as pool:
+                for piece in pool.map(_score_frames, tasks):
+                    pieces.append(piece)
+                    bar.update(len(piece[0]))
+        else:
+            for piece in map(_score_frames, tasks):
+                pieces.append(piece)
+                bar.update(len(piece[0]))
+    n_methods = len(trees)
+    scored = ScoredFrames(
+        tuple(relpaths),
+        np.concatenate([p[0] for p in pieces]) if pieces else np.zeros(0, np.int64),
+        np.concatenate([p[1] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0), np.int64),
+        np.concatenate([p[2] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
+    )
+    methods = [tree.method for tree in trees]
+    official = sweep_rows(scored, methods, dataset.categories, thresholds.values, thresholds.labels)
+    summary = f1_summary(official, highlighted, thresholds.labels)
+    score = CulaneScore(official, summary, thresholds, highlighted, tuple(trees), len(relpaths), tuple(warnings))
+    if out is not None:
+        with terminate_as_interrupt(), OutputFolder(out, "score culane") as folder:
+            staging = Staging(folder)
+            staging.write_text("official.csv", _csv(official))
+            staging.write_text("summary.csv", _csv(summary))
+            staging.write_text("summary.md", summary_markdown(score, width))
+            folder.commit()
+    return score
+
+
+def _csv(table: pd.DataFrame) -> str:
+    return table.to_csv(index=False, float_format="%.6f", lineterminator="\n")
+
+
+def _percent(value: float) -> str:
+    return "n/a" if np.isnan(value) else f"{100 * value:.2f}"
+
+
+def grid_text(thresholds: Thresholds) -> str:
+    """'0.50, 0.55, ..., 0.95 (10 thresholds)' or '0.5' for one."""
+    labels = thresholds.labels
+    if len(labels) == 1:
+        return labels[0]
+    shown = ", ".join(labels) if len(labels) <= 4 else f"{labels[0]}, {labels[1]}, ..., {labels[-1]}"
+    return f"{shown} ({len(labels)} thresholds)"
+
+
+def summary_table(score: CulaneScore) -> Table:
+    """The summary as papers print it: F1 in percent, two decimals."""
+    headers = tuple(score.summary.columns)
+    rows = tuple(tuple(str(v) if k < 2 else _percent(float(v)) for k, v in enumerate(row))
+                 for row in score.summary.itertuples(index=False))
+    return Table(headers, rows)
+
+
+def summary_markdown(score: CulaneScore, width: int) -> str:
+    """summary.md: what was measured, then F1@50, F1@75 and mF1 per method and category."""
+    lines = [
+        "# CULane, official protocol",
+        "",
+        f"SCNN tools/lane_evaluation: lanes drawn {width} px wide at 1640x590, one-to-one matching, a true "
+        f"positive when IoU > threshold. {score.n_frames:,} frames; IoU {grid_text(score.thresholds)}.",
+    ]
+    if len(score.thresholds) > 1:
+        lines.append("mF1 is the mean F1 over those thresholds (CLRNet's mF1 is the grid 0.50:0.95:0.05).")
+    lines += ["F1 in percent. Every count is in official.csv (one row per method, category and threshold).", ""]
+    for tree in score.trees:
+        lines.append(f"- `{tree.method}`: {tree.root} ({tree.found:,} of {tree.listed:,} frames have a file)")
+    lines += ["", summary_table(score).to_markdown()]
+    return "\n".join(lines)
+
+
+def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None = None) -> TusimpleScore:
+    """Score TuSimple JSON-lines predictions against a label file, as evaluate/lane.py does,
+    with F1 under UFLD-v2's and CLRNet's formulas (f1_ufld, f1_clrnet)."""
+    score = score_tusimple_files(labels, pred)
+    if out is not None:
+        with terminate_as_interrupt(), OutputFolder(out, "score tusimple") as folder:
+            table = pd.DataFrame([score.as_row()])
+            Staging(folder).write_text("official.csv", table.to_csv(index=False, float_format="%.10g",
+                                                                    lineterminator="\n"))
+            folder.commit()
+    return score
+
+
+__all__ = ["score_culane", "score_tusimple", "CulaneScore", "PredictionTree", "find_prediction_trees",
+           "SCORE_PRESETS", "highlight_name"]

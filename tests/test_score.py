@@ -1,0 +1,288 @@
+"""`score culane` and `score tusimple`: grids and mF1, several methods in one pass, wrong
+prediction roots, and the two TuSimple F1 formulas against the tools that define them."""
+
+import gzip
+import json
+import math
+import shutil
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from conftest import GOLDEN
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from tusimple_perturbation import digest, perturbed_predictions
+
+from roneld_eval.cli import main
+from roneld_eval.errors import ConfigError, InputError
+from roneld_eval.metrics.culane_official import CulaneFrameResult, ScoredFrames, highlight_name, sum_counts, sweep_rows
+from roneld_eval.metrics.tusimple_official import TusimpleScore, f1_clrnet, f1_ufld
+from roneld_eval.score import SCORE_PRESETS, score_culane, score_tusimple
+from roneld_eval.synth import synth_lane_files
+
+GRID = "0.50:0.95:0.05"
+LABELS = ["0.50", "0.55", "0.60", "0.65", "0.70", "0.75", "0.80", "0.85", "0.90", "0.95"]
+
+
+@pytest.fixture(scope="module")
+def lanes(tmp_path_factory):
+    """Ground truth and noisy predictions of 120 frames, with two category lists."""
+    gt, pred = synth_lane_files(tmp_path_factory.mktemp("lanes"), frames=120, seed=3)
+    listed = [line.lstrip("/") for line in (gt / "list" / "test.txt").read_text().split()]
+    (gt / "list" / "test_split").mkdir()
+    (gt / "list" / "test_split" / "test0_normal.txt").write_text("".join(f"{r} \n" for r in listed[:70]))
+    (gt / "list" / "test_split" / "test1_curve.txt").write_text("".join(f"{r} \n" for r in listed[70:]))
+    return gt, pred
+
+
+def invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+# ---- grids, mF1 ------------------------------------------------------------------------------
+
+
+def test_each_threshold_equals_its_own_run_and_mf1_is_their_mean(lanes):
+    gt, pred = lanes
+    grid = score_culane(gt, pred, iou=GRID, workers=1)
+    assert grid.official["threshold"].unique().tolist() == LABELS
+    assert grid.official["category"].unique().tolist() == ["normal", "curve", "all"]
+    for label in LABELS:
+        alone = score_culane(gt, pred, iou=label, workers=1).official
+        rows = grid.official[grid.official["threshold"] == label].reset_index(drop=True)
+        pd.testing.assert_frame_equal(rows, alone)
+    for category in ("normal", "curve", "all"):
+        f1 = grid.official[grid.official["category"] == category]["f1"].to_numpy()
+        row = grid.summary[grid.summary["category"] == category].iloc[0]
+        assert row["mF1"] == np.mean(f1)
+        assert row["F1@50"] == f1[0] and row["F1@75"] == f1[5]
+    assert 0 < grid.summary["mF1"].min() < grid.summary["F1@50"].min()  # the grid is harder than 0.5
+
+
+def test_preset_clrnet_is_that_grid_with_50_and_75_highlighted(lanes):
+    gt, pred = lanes
+    preset = score_culane(gt, pred, preset="clrnet", workers=1)
+    grid = score_culane(gt, pred, iou=GRID, workers=1)
+    pd.testing.assert_frame_equal(preset.official, grid.official)
+    pd.testing.assert_frame_equal(preset.summary, grid.summary)
+    assert preset.highlighted == ("0.50", "0.75")
+    assert list(preset.summary.columns) == ["method", "category", "F1@50", "F1@75", "mF1"]
+    with pytest.raises(ConfigError, match="contradicts --iou 0.3"):
+        score_culane(gt, pred, preset="clrnet", iou="0.3", workers=1)
+    assert score_culane(gt, pred, preset="clrnet", iou="0.5:0.95:0.05", workers=1).highlighted == ("0.50", "0.75")
+
+
+def test_a_single_threshold_or_another_grid_highlights_what_it_has(lanes):
+    gt, pred = lanes
+    single = score_culane(gt, pred, workers=1)  # default 0.5
+    assert list(single.summary.columns) == ["method", "category", "F1@50"]  # no mean of one value
+    sweep = score_culane(gt, pred, iou="0.30:0.45:0.05", workers=1)
+    assert list(sweep.summary.columns) == ["method", "category", "F1@30", "mF1"]  # the first, when neither
+
+
+def test_highlight_names():
+    assert [highlight_name(t) for t in ("0.50", "0.75", "0.5", "0.525", "0.10")] == \
+        ["F1@50", "F1@75", "F1@50", "F1@52.5", "F1@10"]
+
+
+# ---- several methods in one pass ---------------------------------------------------------------
+
+
+def test_a_folder_of_method_folders_scores_each_in_one_pass(lanes, tmp_path):
+    gt, pred = lanes
+    shutil.copytree(pred, tmp_path / "lanes" / "noisy")
+    shutil.copytree(gt, tmp_path / "lanes" / "perfect", ignore=shutil.ignore_patterns("list"))
+    (tmp_path / "lanes" / "notes").mkdir()  # not a prediction tree: left out, said so
+    notes = []
+    both = score_culane(gt, tmp_path / "lanes", iou=GRID, workers=2, announce=notes.append)
+    assert both.methods == ("noisy", "perfect")
+    assert any("notes: not a prediction tree" in note for note in notes)
+    alone = score_culane(gt, pred, iou=GRID, workers=1).official
+    noisy = both.official[both.official["method"] == "noisy"].reset_index(drop=True)
+    pd.testing.assert_frame_equal(noisy.drop(columns="method"), alone.drop(columns="method"))
+    perfect = both.official[both.official["method"] == "perfect"]
+    assert (perfect["fp"] == 0).all() and (perfect["fn"] == 0).all()
+    assert set(both.official["method"]) == {"noisy", "perfect"} and len(both.official) == 2 * 3 * 10
+
+
+def test_several_roots_named_by_folder_or_name(lanes, tmp_path):
+    gt, pred = lanes
+    score = score_culane(gt, [pred, f"truth={gt}"], workers=1)
+    assert score.methods == ("pred", "truth")
+    assert score.summary.set_index("method").loc["truth", "F1@50"].tolist() == [1.0, 1.0, 1.0]
+    with pytest.raises(ConfigError, match="two prediction trees are named 'pred'.*NAME=DIR"):
+        score_culane(gt, [pred, pred], workers=1)
+    assert score_culane(gt, {"a": pred, "b": pred}, workers=1).methods == ("a", "b")
+
+
+def test_the_same_numbers_with_any_number_of_workers(lanes, tmp_path):
+    gt, pred = lanes
+    for workers in (1, 2):
+        result = invoke("score", "culane", "--data-root", gt, "--pred-root", pred, "--pred-root", f"again={pred}",
+                        "--preset", "clrnet", "--workers", workers, "--out", tmp_path / f"w{workers}", "--quiet")
+        assert result.exit_code == 0, result.output
+    for name in ("official.csv", "summary.csv", "summary.md"):
+        assert (tmp_path / "w1" / name).read_bytes() == (tmp_path / "w2" / name).read_bytes()
+
+
+# ---- wrong prediction roots --------------------------------------------------------------------
+
+
+def test_a_root_one_level_too_low_names_the_path_and_the_folder_that_matches(lanes):
+    gt, pred = lanes
+    low = pred / "driver_x_30frame"
+    with pytest.raises(InputError) as error:
+        score_culane(gt, low, workers=1)
+    message = str(error.value)
+    assert "\n" not in message and message.startswith(f"{low}: no prediction file of the list is here")
+    assert f"first looked for: {low}/driver_x_30frame/00000.MP4/00000.lines.txt" in message
+    assert message.endswith(f"did you mean --pred-root {pred} (it holds them)?")
+
+
+def test_a_run_folder_suggests_its_folder_of_methods(lanes, tmp_path):
+    gt, pred = lanes
+    shutil.copytree(pred, tmp_path / "run" / "lanes" / "roneld")
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", tmp_path / "run", "--quiet")
+    assert result.exit_code == 2 and result.output.count("\n") == 1
+    lanes_folder = tmp_path / "run" / "lanes"
+    assert f"did you mean --pred-root {lanes_folder} (its subfolders roneld each hold them)?" in result.output
+
+
+def test_a_root_without_any_match_says_what_it_looked_for(lanes, tmp_path):
+    gt, _ = lanes
+    (tmp_path / "empty" / "sub").mkdir(parents=True)
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", tmp_path / "empty")
+    assert result.exit_code == 2 and result.output.count("\n") == 1
+    assert "no prediction file of the list is here (first looked for:" in result.output
+    assert "did you mean" not in result.output
+
+
+def test_fewer_than_half_is_a_warning_and_strict_an_error(lanes, tmp_path):
+    gt, pred = lanes
+    sparse = tmp_path / "sparse"
+    shutil.copytree(pred, sparse)
+    files = sorted(sparse.rglob("*.lines.txt"))
+    for path in files[: len(files) - 40]:
+        path.unlink()
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", sparse, "--quiet", "--workers", 1)
+    assert result.exit_code == 0
+    assert f"warning: {sparse}: only 40 of 120 listed frames have a prediction file" in result.output
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", sparse, "--strict", "--workers", 1)
+    assert result.exit_code == 2 and result.output.count("\n") == 1
+    assert "80 of 120 listed frames have no prediction file (first: " in result.output and "--strict" in result.output
+    # synth_lane_files leaves out 4% of the prediction files: no warning, but not --strict.
+    assert score_culane(gt, pred, workers=1).warnings == ()
+    with pytest.raises(InputError, match="--strict needs every one"):
+        score_culane(gt, pred, workers=1, strict=True)
+
+
+# ---- the command line ------------------------------------------------------------------------
+
+
+def test_the_console_shows_the_summary_and_the_files_hold_everything(lanes, tmp_path):
+    gt, pred = lanes
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", pred, "--preset", "clrnet",
+                    "--workers", 1, "--out", tmp_path / "o")
+    assert result.exit_code == 0, result.output
+    assert "120 frames, 1 method, IoU thresholds 0.50, 0.55, ..., 0.95 (10 thresholds), width 30" in result.output
+    assert "| method | category | F1@50 | F1@75 | mF1 |" in result.output
+    official = pd.read_csv(tmp_path / "o" / "official.csv", dtype={"threshold": str})
+    assert list(official.columns) == ["method", "category", "threshold", "tp", "fp", "fn", "precision", "recall", "f1"]
+    assert len(official) == 3 * 10 and official["threshold"].unique().tolist() == LABELS
+    summary = pd.read_csv(tmp_path / "o" / "summary.csv")
+    all_row = summary[summary["category"] == "all"].iloc[0]
+    assert f"| pred | all | {100 * all_row['F1@50']:.2f} | {100 * all_row['F1@75']:.2f} | " in result.output
+    text = (tmp_path / "o" / "summary.md").read_text()
+    assert "mF1 is the mean F1 over those thresholds" in text and "| pred | curve |" in text
+    assert sorted(p.name for p in (tmp_path / "o").iterdir() if not p.name.startswith(".")) == \
+        ["official.csv", "summary.csv", "summary.md"]
+
+
+def test_the_cli_presets_are_the_librarys():
+    command = main.commands["score"].commands["culane"]
+    preset = next(p for p in command.params if p.name == "preset")
+    assert sorted(preset.type.choices) == sorted(SCORE_PRESETS)
+
+
+# ---- the table arithmetic, as a property -------------------------------------------------------
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.lists(st.sampled_from([-math.inf, 0.0, 0.3, 0.5, 0.55, 0.75, 0.9, 1.0]), max_size=5),
+                          st.integers(0, 6), st.booleans()), max_size=12),
+       st.lists(st.sampled_from([0.0, 0.3, 0.5, 0.55, 0.75, 0.95]), min_size=1, max_size=4, unique=True))
+def test_sweep_rows_count_like_one_pass_per_threshold(frames, thresholds):
+    """The sorted, vectorised counts equal summing every frame at each threshold on its own."""
+    results = {f"f{k}.jpg": CulaneFrameResult(len(ious), n_pred, np.array(ious, np.float64))
+               for k, (ious, n_pred, _) in enumerate(frames)}
+    category = {"odd": frozenset(f"f{k}.jpg" for k, (_, _, odd) in enumerate(frames) if odd)}
+    table = sweep_rows(ScoredFrames.from_results([results]), ["m"], category, thresholds)
+    for name, members in (("odd", category["odd"]), ("all", frozenset(results))):
+        chosen = [r for f, r in results.items() if f in members]
+        counts = sum_counts(chosen, thresholds)
+        rows = table[table["category"] == name]
+        assert rows["tp"].tolist() == counts.tp.tolist()
+        assert rows["fp"].tolist() == counts.fp.tolist() and rows["fn"].tolist() == counts.fn.tolist()
+
+
+# ---- TuSimple F1: UFLD-v2's lane2.py and CLRNet's tusimple_metric.py ---------------------------
+
+
+def test_the_two_f1_formulas_by_hand():
+    assert f1_ufld(0.0, 0.0) == 1.0 and f1_clrnet(0.0, 0.0) == 1.0
+    # UFLD-v2: precision 1 - FP = 0.9, recall 1 - FN = 0.8.
+    assert f1_ufld(0.1, 0.2) == 2 * 0.9 * 0.8 / (0.9 + 0.8)
+    # CLRNet: tp = 1 - FP = 0.9, precision 0.9 / (0.9 + 0.1), recall 0.9 / (0.9 + 0.2).
+    precision, recall = 0.9 / (0.9 + 0.1), 0.9 / (0.9 + 0.2)
+    assert f1_clrnet(0.1, 0.2) == 2 * precision * recall / (precision + recall)
+    assert f1_ufld(0.1, 0.2) < f1_clrnet(0.1, 0.2)  # why papers' TuSimple F1s differ
+    # Where lane2.py guards (precision + recall = 0) it gives 0; where tusimple_metric.py
+    # divides by zero (tp = 0) it stops, and we say NaN.
+    assert f1_ufld(1.0, 1.0) == 0.0 and math.isnan(f1_clrnet(1.0, 1.0)) and math.isnan(f1_clrnet(1.0, 0.0))
+    score = TusimpleScore(0.95, 0.1, 0.2, 10)
+    assert score.as_row() == dict(accuracy=0.95, fp=0.1, fn=0.2,
+                                  f1_ufld=f1_ufld(0.1, 0.2), f1_clrnet=f1_clrnet(0.1, 0.2))
+
+
+def test_tusimple_f1_equals_both_tools_on_the_full_test_labels(shared_data, tmp_path):
+    labels_gz = shared_data / "tusimple" / "test_label.json.gz"
+    if not labels_gz.is_file():
+        pytest.skip("tusimple/test_label.json.gz is not available")
+    golden = json.loads((GOLDEN / "tusimple_f1.json").read_text())
+    labels = tmp_path / "test_label.json"
+    labels.write_bytes(gzip.decompress(labels_gz.read_bytes()))
+    lines = labels.read_text().splitlines(keepends=True)
+    for case in golden["cases"]:
+        text = perturbed_predictions(lines, case["seed"], case["severity"])
+        assert digest(text) == case["predictions_sha256"], "the perturbation changed: these are not the golden's inputs"
+        pred = tmp_path / f"{case['severity']}.json"
+        pred.write_text(text)
+        score = score_tusimple(labels, pred)
+        ufld, clrnet = case["lane2"], case["tusimple_metric"]
+        ours = dict(accuracy=score.accuracy, fp=score.fp, fn=score.fn, f1_ufld=score.f1_ufld, f1_clrnet=score.f1_clrnet)
+        theirs = dict(accuracy=ufld["Accuracy"], fp=ufld["FP"], fn=ufld["FN"], f1_ufld=ufld["F1"],
+                      f1_clrnet=clrnet["F1_score"])
+        assert (clrnet["Accuracy"], clrnet["FP"], clrnet["FN"]) == (ufld["Accuracy"], ufld["FP"], ufld["FN"])
+        if ours != theirs:  # a table that explains itself
+            pytest.fail(f"{case['severity']}:\n" + "\n".join(f"  {k:10s} ours {ours[k]!r:22} theirs {theirs[k]!r}"
+                                                             for k in ours if ours[k] != theirs[k]))
+        assert score.n_frames == 2782
+
+
+def test_score_tusimple_writes_and_prints_both_f1s(tmp_path):
+    rows = list(range(160, 720, 10))
+    labels = [{"lanes": [[500] * 56, [800] * 56], "h_samples": rows, "raw_file": f"clips/{k}/20.jpg"} for k in "ab"]
+    preds = [{"raw_file": "clips/a/20.jpg", "lanes": [[505] * 56, [800] * 56]},
+             {"raw_file": "clips/b/20.jpg", "lanes": [[505] * 56, [100] * 56]}]
+    (tmp_path / "labels.json").write_text("".join(json.dumps(x) + "\n" for x in labels))
+    (tmp_path / "pred.json").write_text("".join(json.dumps(x) + "\n" for x in preds))
+    result = invoke("score", "tusimple", "--labels", tmp_path / "labels.json", "--pred", tmp_path / "pred.json",
+                    "--out", tmp_path / "o")
+    assert result.exit_code == 0, result.output
+    # Frame b: one of two lanes found, one of two predictions false: FP = FN = 0.5 / 2 frames.
+    assert ("Accuracy 0.75  FP 0.25  FN 0.25  F1 0.75 (UFLD-v2 lane2.py)  0.75 (CLRNet tusimple_metric.py)"
+            in result.output)
+    table = (tmp_path / "o" / "official.csv").read_text().splitlines()
+    assert table == ["accuracy,fp,fn,f1_ufld,f1_clrnet", "0.75,0.25,0.25,0.75,0.75"]
