@@ -1,0 +1,132 @@
+"""Fig. 5 of the RONELD paper for many runs: accuracy against IoU threshold, one panel per dataset.
+
+Colour tells the model (run label) and line style and marker the method, the same in every
+panel, so one legend serves all. Several runs of one model (seeds) draw their mean with a band
+of ± one standard deviation. The axes say what is plotted; there is no title (a paper's caption
+says what the figure is), and each panel names its dataset in a corner. Computes nothing but
+means and deviations of the curves it is given; bytes are reproducible (no dates, fixed ids).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+
+from ..errors import InputError  # noqa: E402
+
+# Colour-blind-safe (Okabe-Ito), then matplotlib's tab10 for more models.
+COLOURS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442",
+           "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f")
+METHOD_STYLES = {
+    "baseline": dict(linestyle="--", marker="o"),
+    "roneld": dict(linestyle="-", marker="s"),
+    "roneld-nopft": dict(linestyle=":", marker="^"),
+}
+OTHER_STYLES = (dict(linestyle="-.", marker="D"), dict(linestyle=(0, (5, 1, 1, 1, 1, 1)), marker="v"),
+                dict(linestyle=(0, (1, 1)), marker="P"), dict(linestyle=(0, (8, 2)), marker="X"))
+
+
+@dataclass(frozen=True)
+class Curve:
+    """One model's one method on one dataset: accuracy per threshold of each run behind it."""
+
+    dataset: str  # display name, e.g. "CULane"
+    model: str  # the run label
+    method: str
+    name: str  # legend text, e.g. "SCNN + RONELD"
+    thresholds: tuple[float, ...]
+    runs: tuple[tuple[float, ...], ...]  # one accuracy sequence per run
+
+
+def method_style(method: str, others: list[str]) -> dict:
+    if method in METHOD_STYLES:
+        return METHOD_STYLES[method]
+    return OTHER_STYLES[others.index(method) % len(OTHER_STYLES)]
+
+
+def curves_figure(curves: list[Curve]):
+    """The figure: a panel per dataset (in order of first appearance), a shared legend below."""
+    datasets = list(dict.fromkeys(c.dataset for c in curves))
+    models = list(dict.fromkeys(c.model for c in curves))
+    others = list(dict.fromkeys(c.method for c in curves if c.method not in METHOD_STYLES))
+    colour = {model: COLOURS[k % len(COLOURS)] for k, model in enumerate(models)}
+    # Earlier models draw wider lines, so a curve another model's covers exactly still shows at its edges.
+    width = {model: 1.4 + 0.7 * (len(models) - 1 - k) / max(1, len(models) - 1) for k, model in enumerate(models)}
+    panels = len(datasets)
+    figure, axes = plt.subplots(1, panels, figsize=(3.6 * panels + 0.4, 3.5), dpi=150, squeeze=False,
+                                sharey=True)
+    low, high = 1.0, 0.0
+    for ax, dataset in zip(axes[0], datasets):
+        for curve in (c for c in curves if c.dataset == dataset):
+            values = np.array(curve.runs, np.float64)
+            mean = values.mean(axis=0)
+            x = np.array(curve.thresholds)
+            style = method_style(curve.method, others)
+            ax.plot(x, mean, color=colour[curve.model], linewidth=width[curve.model], markersize=3.5,
+                    markevery=max(1, len(x) // 10), **style)
+            if len(values) > 1:
+                sd = values.std(axis=0, ddof=1)
+                ax.fill_between(x, mean - sd, mean + sd, color=colour[curve.model], alpha=0.15, linewidth=0)
+                low, high = min(low, float((mean - sd).min())), max(high, float((mean + sd).max()))
+            else:
+                low, high = min(low, float(mean.min())), max(high, float(mean.max()))
+        ax.text(0.97, 0.96, dataset, transform=ax.transAxes, ha="right", va="top", fontsize=9,
+                bbox=dict(boxstyle="round,pad=0.25", facecolor="white", edgecolor="#999999", linewidth=0.6))
+        ax.set_xlabel("IoU threshold")
+        ax.grid(True, alpha=0.3)
+    axes[0][0].set_ylabel("accuracy (N_TP / N_gt)")
+    if high >= low:  # a curve at 1.0 stays visible above the axis' top
+        axes[0][0].set_ylim(max(0.0, low - 0.05), min(1.02, high + 0.05))
+    # The legend: a row per model, a column per method (matplotlib fills legends column by column).
+    methods = list(dict.fromkeys(c.method for c in curves))
+    drawn = {(c.model, c.method): c for c in curves}
+    counts: dict[tuple[str, str], dict[str, int]] = {}  # runs behind each curve, per panel
+    for c in curves:
+        counts.setdefault((c.model, c.method), {})[c.dataset] = len(c.runs)
+    handles, labels = [], []
+    for method in methods:
+        for model in models:
+            shown = drawn.get((model, method))
+            if shown is None:
+                handles.append(Line2D([], [], linestyle="none"))
+                labels.append("")
+                continue
+            handles.append(Line2D([], [], color=colour[model], linewidth=width[model], markersize=3.5,
+                                  **method_style(method, others)))
+            labels.append(shown.name + _runs_text(counts[(model, method)]))
+    figure.legend(handles, labels, loc="lower center", ncol=len(methods), fontsize=7.5, frameon=False,
+                  columnspacing=1.2, handlelength=2.6)
+    legend_in = len(models) * 0.17 + 0.12
+    figure.tight_layout(rect=(0, min(0.6, legend_in / figure.get_figheight()), 1, 1))
+    return figure
+
+
+def _runs_text(counts: dict[str, int]) -> str:
+    """'' for single runs; ' (mean ± sd, n = 3)', or with n per panel where it differs."""
+    if max(counts.values()) == 1:
+        return ""
+    if len(set(counts.values())) == 1:
+        return f" (mean ± sd, n = {next(iter(counts.values()))})"
+    return " (mean ± sd, n = " + ", ".join(f"{n} {dataset}" for dataset, n in counts.items()) + ")"
+
+
+def save(figure, paths: list[Path]) -> None:
+    """PNG, SVG and PDF without dates, so the same numbers give the same bytes."""
+    metadata = {".png": {"Software": None}, ".svg": {"Date": None, "Creator": None},
+                ".pdf": {"CreationDate": None, "Creator": None, "Producer": None}}
+    try:
+        with matplotlib.rc_context({"svg.hashsalt": "roneld-eval", "pdf.fonttype": 42}):
+            for path in paths:
+                try:
+                    figure.savefig(path, metadata=metadata[path.suffix])
+                except OSError as error:
+                    raise InputError(path, f"cannot write: {error.strerror or error}") from None
+    finally:
+        plt.close(figure)
