@@ -1,39 +1,56 @@
-"""roneld-eval: evaluate lane extractors (the SCNN/ENet-SAD baseline and RONELD) on CULane and
-TuSimple from stored CNN probability maps, with the RONELD paper's protocol and the official
-CULane and TuSimple scores.
+"""roneld-eval: evaluate lane extractors (the SCNN/ENet-SAD baseline, RONELD, and any plug-in)
+on CULane and TuSimple from stored CNN probability maps, with the RONELD paper's protocol and
+the official CULane and TuSimple scores.
 
 The CLI is a thin layer over these functions: `run`, `score_culane`, `score_tusimple`,
-`show`, `synthesize` do what `roneld-eval run`, `score culane`, `score tusimple`, `show` and
-`synth` do.
+`show`, `synthesize`, `compare` do what `roneld-eval run`, `score culane`, `score tusimple`,
+`show`, `synth` and `compare` do. Names are imported when first used, so `roneld-eval --help`
+stays quick.
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
 
-from .api import run, score_culane, score_tusimple, show, synthesize  # noqa: E402
-from .config import EvalConfig  # noqa: E402
-from .datasets import read_dataset  # noqa: E402
-from .errors import ConfigError, InputError, RoneldEvalError  # noqa: E402
-from .evaluation import evaluate  # noqa: E402
-from .maps import load_maps  # noqa: E402
-from .model import Clip, Dataset, Frame, FrameMaps, Lane  # noqa: E402
+import importlib
+from typing import TYPE_CHECKING, Any
 
-__all__ = [
-    "run",
-    "show",
-    "evaluate",
-    "score_culane",
-    "score_tusimple",
-    "synthesize",
-    "EvalConfig",
-    "read_dataset",
-    "load_maps",
-    "Lane",
-    "Frame",
-    "Clip",
-    "Dataset",
-    "FrameMaps",
-    "RoneldEvalError",
-    "InputError",
-    "ConfigError",
-    "__version__",
-]
+from .version import __version__
+
+# public name -> module that defines it
+_EXPORTS = {
+    "run": "api", "show": "api", "score_culane": "api", "score_tusimple": "api", "synthesize": "api",
+    "compare": "comparison",
+    "evaluate": "evaluation",
+    "EvalConfig": "config",
+    "read_dataset": "datasets",
+    "load_maps": "maps",
+    "Lane": "model", "Frame": "model", "Clip": "model", "Dataset": "model", "FrameMaps": "model",
+    "Prediction": "extract.protocol", "Extractor": "extract.protocol",
+    "RoneldEvalError": "errors", "InputError": "errors", "ConfigError": "errors",
+}
+
+__all__ = list(_EXPORTS) + ["__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'roneld_eval' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+if TYPE_CHECKING:  # what static checkers and editors see
+    from .api import run, score_culane, score_tusimple, show, synthesize  # noqa: F401
+    from .comparison import compare  # noqa: F401
+    from .config import EvalConfig  # noqa: F401
+    from .datasets import read_dataset  # noqa: F401
+    from .errors import ConfigError, InputError, RoneldEvalError  # noqa: F401
+    from .evaluation import evaluate  # noqa: F401
+    from .extract.protocol import Extractor, Prediction  # noqa: F401
+    from .maps import load_maps  # noqa: F401
+    from .model import Clip, Dataset, Frame, FrameMaps, Lane  # noqa: F401

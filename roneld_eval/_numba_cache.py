@@ -27,9 +27,14 @@ import os
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numba
-from numba.core import config as numba_config
+from numba.core import config as _numba_config
+
+# numba.core.config defines its settings (CACHE_DIR among them) at run time, from the
+# environment, so a type checker sees none of them.
+numba_config: Any = _numba_config
 
 
 def _writable(folder: Path) -> bool:

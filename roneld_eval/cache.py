@@ -14,7 +14,6 @@ from __future__ import annotations
 import hashlib
 import hmac
 import json
-import math
 import os
 import secrets
 import shutil
@@ -25,10 +24,11 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from .benchmarks import Benchmark, benchmark_for
 from .config import EvalConfig
 from .errors import InputError
 from .evaluation import ClipResult, FrameOutcome
-from .metrics.culane_official import CulaneFrameResult
+from .json_fields import json_number, read_count, read_float, read_list, read_string
 from .model import Clip, Lane
 from .output import CACHE
 
@@ -50,7 +50,12 @@ class ResultCache:
         # Neither changes a clip's results: a resumed run may use other values.
         settings.pop("workers", None)
         settings["dataset"].pop("limit", None)
-        self.config_key = _digest(json.dumps([settings, version], sort_keys=True, default=str))
+        # A plug-in's results change with its code, which the configuration does not hold.
+        from .extract.registry import methods_of, source_fingerprint
+
+        code = {method.name: source_fingerprint(method) for method in methods_of(config) if not method.built_in}
+        self.config_key = _digest(json.dumps([settings, version, code], sort_keys=True, default=str))
+        self.benchmark = benchmark_for(config.dataset.name)
         self.folder = Path(out) / CACHE
         self.note = note or (lambda message: None)
         self.reasons: Counter[str] = Counter()
@@ -77,9 +82,11 @@ class ResultCache:
             self.reasons["not finished"] += 1
             return None
         except OSError as error:
-            return self._invalid(path, error.strerror)
+            self._invalid(path, error.strerror or str(error))
+            return None
         if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_ENTRY_BYTES:
-            return self._invalid(path, "not a regular file of sensible size")
+            self._invalid(path, "not a regular file of sensible size")
+            return None
         try:
             with open(path, "rb") as handle:
                 document = json.loads(handle.read())
@@ -103,12 +110,13 @@ class ResultCache:
             if entry.get("inputs") != fingerprint(inputs):
                 self.reasons["maps or labels changed"] += 1
                 return None
-            result = decode_result(entry["result"])
+            result = decode_result(entry["result"], self.benchmark)
             if result.clip_id != clip.clip_id:
                 raise ValueError("it holds another clip")
         except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError, RecursionError,
                 UnicodeError) as error:
-            return self._invalid(path, str(error) or type(error).__name__)
+            self._invalid(path, str(error) or type(error).__name__)
+            return None
         self.reused += 1
         return result
 
@@ -132,9 +140,9 @@ class ResultCache:
         return hmac.new(self._secret, body.encode("utf-8", "surrogateescape"), hashlib.sha256).hexdigest()
 
     def _invalid(self, path: Path, problem: str) -> None:
+        """Say why an entry is not used, and count it."""
         self.note(f"note: {path}: cache entry ignored ({problem}); recomputing that clip")
         self.reasons["invalid cache entry"] += 1
-        return None
 
     def summary(self) -> str:
         """'reused 3 clips; computed 2 (1 not finished, 1 maps or labels changed)'."""
@@ -201,35 +209,7 @@ def _secret_key() -> bytes:
 # ---- plain-data form of a clip's results ------------------------------------------------
 
 
-def _number(value: float) -> Any:
-    value = float(value)
-    return value if math.isfinite(value) else repr(value)  # 'inf', '-inf', 'nan'
-
-
-def _float(value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise TypeError(f"expected a number, got {type(value).__name__}")
-    if isinstance(value, str) and value not in ("inf", "-inf", "nan"):
-        raise ValueError(f"expected a number, got {value!r}")
-    return float(value)
-
-
-def _int(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise TypeError("expected a count")
-    return value
-
-
-def _string(value: Any) -> str:
-    if not isinstance(value, str):
-        raise TypeError("expected a string")
-    return value
-
-
-def _list(value: Any) -> list:
-    if not isinstance(value, list):
-        raise TypeError("expected a list")
-    return value
+_number, _float, _int, _string, _list = json_number, read_float, read_count, read_string, read_list
 
 
 def _encode_lane(lane: Lane | None) -> Any:
@@ -243,24 +223,12 @@ def _decode_lane(value: Any) -> Lane | None:
     return Lane(np.array(points, np.float64).reshape(-1, 2))
 
 
-def _encode_official(official: Any) -> Any:
-    if isinstance(official, tuple) and all(isinstance(part, CulaneFrameResult) for part in official):
-        return {"culane": [[part.n_gt, part.n_pred, [_number(v) for v in part.matched_iou]] for part in official]}
-    return {"scores": [_number(v) for v in official]}
-
-
-def _decode_official(value: Any) -> Any:
-    if not isinstance(value, dict) or len(value) != 1:
-        raise TypeError("bad official record")
-    if "culane" in value:
-        parts = []
-        for n_gt, n_pred, matched in _list(value["culane"]):
-            ious = np.array([_float(v) for v in _list(matched)], np.float64)
-            if ious.size != _int(n_gt):
-                raise ValueError("matched IoUs do not match the lane count")
-            parts.append(CulaneFrameResult(n_gt, _int(n_pred), ious))
-        return tuple(parts)
-    return tuple(_float(v) for v in _list(value["scores"]))
+def _decode_found_lane(value: Any) -> Lane:
+    """A lane of a frame's lane list, where every entry is a lane (only active lanes may be missing)."""
+    lane = _decode_lane(value)
+    if lane is None:
+        raise TypeError("a lane of the lane list is null")
+    return lane
 
 
 def encode_result(result: ClipResult) -> dict:
@@ -270,7 +238,7 @@ def encode_result(result: ClipResult) -> dict:
         "outcomes": [{
             "relpath": o.relpath, "method": o.method,
             "ious": {side: _number(iou) for side, iou in o.ious.items()},
-            "official": _encode_official(o.official),
+            "official": o.official.to_json(),
             "lanes": [_encode_lane(lane) for lane in o.lanes],
             "active": [_encode_lane(lane) for lane in o.active],
         } for o in result.outcomes],
@@ -282,7 +250,7 @@ def encode_result(result: ClipResult) -> dict:
     }
 
 
-def decode_result(data: Any) -> ClipResult:
+def decode_result(data: Any, benchmark: Benchmark) -> ClipResult:
     """The inverse of encode_result, checking every field's type (TypeError/ValueError if wrong)."""
     if not isinstance(data, dict):
         raise TypeError("result is not a record")
@@ -297,8 +265,8 @@ def decode_result(data: Any) -> ClipResult:
         outcomes.append(FrameOutcome(
             relpath=_string(item["relpath"]), method=_string(item["method"]),
             ious={_string(side): _float(iou) for side, iou in ious.items()},
-            official=_decode_official(item["official"]),
-            lanes=tuple(_decode_lane(lane) for lane in _list(item["lanes"])),
+            official=benchmark.decode(item["official"]),
+            lanes=tuple(_decode_found_lane(lane) for lane in _list(item["lanes"])),
             active=active,
         ))
     extract_ms = data["extract_ms"]

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import click
 
-from . import __version__
+from .version import __version__
 from .config import DEFAULT_PRESETS, MAP_FORMATS, METHODS, EvalConfig, parse_setting, preset_names
 from .errors import ConfigError, RoneldEvalError
 
@@ -23,7 +23,8 @@ class UsageProblem(click.ClickException):
 
     def __init__(self, message: str, exit_code: int = 2):
         super().__init__(message)
-        self.exit_code = exit_code
+        # click reads e.exit_code from the instance; its annotation (ClassVar) allows only a class value
+        self.exit_code = exit_code  # type: ignore[misc]
 
     def show(self, file=None):
         click.echo(f"error: {self.message}", err=True)
@@ -86,17 +87,24 @@ def main():
 @click.option("--maps-root", type=click.Path(path_type=Path),
               help="Folder of stored maps mirroring the dataset tree (<rel>/00000.npy for <rel>/00000.jpg).")
 @click.option("--maps-format", type=click.Choice(MAP_FORMATS),
-              help="How maps are stored: .npy, .npz, or SCNN's <frame>_<k>_avg.png + .exist.txt.")
+              help="How maps are stored: .npy, .npz, or SCNN's <frame>_<k>_avg.png + .exist.txt; or 'lanes': "
+                   "another detector's lane files (CULane .lines.txt mirrored under --maps-root, or TuSimple "
+                   "predictions.json in it), drawn into maps for RONELD; 'baseline' is then the detector's own lanes.")
 @click.option("--list", "list_file", type=click.Path(path_type=Path),
               help="CULane list file (default <data-root>/list/test.txt) or TuSimple label file "
                    "(default <data-root>/test_label.json).")
-@click.option("--methods", help=f"Comma-separated methods among {', '.join(METHODS)}. Default: baseline,roneld.")
+@click.option("--methods", help=f"Comma-separated methods among {', '.join(METHODS)} and plug-ins. "
+                                "Default: baseline,roneld.")
+@click.option("--method", "plugins", multiple=True, metavar="NAME=MODULE:CALLABLE",
+              help="Also run your own extractor as method NAME: a factory in an importable module (or "
+                   "path/to/file.py:callable), see README 'Your own extractor' (repeatable).")
 @click.option("--pft-ablation", is_flag=True, default=None,
               help="Also run RONELD without preceding-frame tracking and write the ablation table.")
 @click.option("--no-pft", is_flag=True, help="Run RONELD itself without preceding-frame tracking.")
 @click.option("--thresholds", metavar="START:STOP:STEP",
               help="IoU thresholds of the accuracy sweep, inclusive. Default: 0.30:0.50:0.01.")
-@click.option("--workers", type=click.IntRange(min=1), help="Worker processes (clips run in parallel). Default: all cores.")
+@click.option("--workers", type=click.IntRange(min=1),
+              help="Worker processes (clips run in parallel). Default: all cores.")
 @click.option("--limit", type=click.IntRange(min=1), help="Evaluate only the first N clips.")
 @click.option("--save-lanes", is_flag=True, default=None,
               help="Also write every method's lanes in the official formats under OUT/lanes/.")
@@ -113,9 +121,9 @@ def main():
               help="Folder for the results.")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
-def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, pft_ablation, no_pft,
+def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, plugins, pft_ablation, no_pft,
         thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, out, quiet, debug):
-    """Evaluate the baseline and RONELD on a dataset's stored maps and write tables and curves.
+    """Evaluate the baseline, RONELD and any plug-in on a dataset's stored maps; write tables and curves.
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
     in OUT: accuracy.csv/.md/.tex, accuracy_curve.png/.svg, ablation.md/.tex (with
@@ -155,7 +163,18 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
             overrides[key] = value
         if (data_root is None) != (maps_root is None):
             raise ConfigError("give both --data-root and --maps-root, or neither for the bundled fixture")
+        chosen = overrides.pop("methods")
         config = config.with_overrides(**overrides)
+        added = []
+        for plugin in plugins:
+            name, equals, entry = plugin.partition("=")
+            if not equals or not name.strip() or not entry.strip():
+                raise ConfigError(f"--method needs NAME=MODULE:CALLABLE, got {plugin!r}")
+            config = config.with_plugin(name.strip(), entry.strip())
+            added.append(name.strip())
+        if chosen is not None:  # --methods may name the plug-ins; those it leaves out still run
+            names = [part.strip() for part in chosen.split(",")] if isinstance(chosen, str) else list(chosen)
+            config = config.with_overrides(methods=names + [name for name in added if name not in names])
         if no_pft:
             try:
                 config = config.without_pft()  # 'roneld' becomes 'roneld-nopft'
@@ -196,45 +215,72 @@ def score():
 @score.command("culane")
 @click.option("--data-root", required=True, type=click.Path(path_type=Path),
               help="CULane root with the ground-truth .lines.txt files and list/test.txt.")
-@click.option("--pred-root", required=True, type=click.Path(path_type=Path),
-              help="Predicted .lines.txt files mirrored under this folder; a missing file means no lanes.")
-@click.option("--list", "list_file", type=click.Path(path_type=Path), help="List file (default <data-root>/list/test.txt).")
-@click.option("--iou", default="0.5", show_default=True, metavar="T|START:STOP:STEP",
-              help="IoU threshold, or a sweep scored in one pass (e.g. 0.30:0.50:0.01).")
-@click.option("--width", default=30, show_default=True, type=click.IntRange(min=1), help="Lane width in pixels at 1640x590.")
+@click.option("--pred-root", "pred_roots", required=True, multiple=True, metavar="DIR|NAME=DIR",
+              help="Predicted .lines.txt files mirrored under DIR (one method, named by the folder or NAME), or "
+                   "a folder whose subfolders each mirror the list (one method each, as run --save-lanes writes "
+                   "OUT/lanes/). Repeatable; all are scored in one pass. A missing file means no lanes.")
+@click.option("--list", "list_file", type=click.Path(path_type=Path),
+              help="List file (default <data-root>/list/test.txt).")
+@click.option("--iou", metavar="T|START:STOP:STEP",
+              help="IoU threshold, or a grid scored in one pass (e.g. 0.50:0.95:0.05 for mF1). Default: 0.5.")
+@click.option("--preset", type=click.Choice(["clrnet"]),  # score.SCORE_PRESETS (a test keeps them equal)
+              help="A paper family's grid: clrnet is --iou 0.50:0.95:0.05 with F1@50, F1@75 and mF1.")
+@click.option("--width", default=30, show_default=True, type=click.IntRange(min=1),
+              help="Lane width in pixels at 1640x590.")
+@click.option("--strict", is_flag=True, help="Stop when any listed frame has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
-@click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv (and official_sweep.csv).")
-@click.option("--quiet", is_flag=True, help="No progress bar or table.")
+@click.option("--out", type=click.Path(path_type=Path),
+              help="Folder for official.csv (every method, category and threshold), summary.csv and summary.md.")
+@click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
-def score_culane_command(data_root, pred_root, list_file, iou, width, workers, out, quiet, debug):
-    """Official CULane precision, recall and F1 per category, as SCNN's lane_evaluation computes them."""
-    from . import api
+def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, strict, workers, out, quiet, debug):
+    """Official CULane precision, recall and F1 per method and category, as SCNN's lane_evaluation
+    computes them; with a grid, F1@50, F1@75 and mF1 as CLRNet reports them."""
+    from . import score as scoring  # not api: scoring needs none of the evaluation's imports
 
-    score = _guard(api.score_culane, debug, data_root, pred_root, list_file, iou, width, out, workers, not quiet,
-                   _announcer(quiet))
+    score = _guard(scoring.score_culane, debug, data_root, list(pred_roots), list_file=list_file, iou=iou, width=width,
+                   out=out, workers=workers, progress=not quiet, announce=_announcer(quiet), preset=preset,
+                   strict=strict)
+    for warning in score.warnings:  # never silently, --quiet or not
+        click.echo(warning, err=True)
     if not quiet:
-        from .report.tables import Table
+        _print_culane_score(score, width)
 
+
+def _print_culane_score(score, width: int) -> None:
+    from .report.tables import Table
+    from .score import grid_text, summary_table
+
+    grid = grid_text(score.thresholds)
+    click.echo(f"{score.n_frames:,} frames, {len(score.trees)} method{'s' if len(score.trees) > 1 else ''}, "
+               f"{f'IoU > {grid}' if len(score.thresholds) == 1 else f'IoU thresholds {grid}'}, width {width}")
+    if len(score.thresholds) > 1:
+        click.echo("F1 in percent; mF1 = mean F1 over the thresholds")
+        click.echo(summary_table(score).to_markdown())
+    else:
+        table = score.table
         rows = tuple(tuple(float(v) if isinstance(v, float) else str(v) for v in row)
-                     for row in score.table.itertuples(index=False))
-        click.echo(f"{score.n_frames} frames, IoU > {iou.split(':')[0]}, width {width}")
-        click.echo(Table(tuple(score.table.columns), rows).to_markdown())
+                     for row in table.itertuples(index=False))
+        click.echo(Table(tuple(table.columns), rows).to_markdown())
 
 
 @score.command("tusimple")
 @click.option("--labels", required=True, type=click.Path(path_type=Path), help="TuSimple label file (test_label.json).")
 @click.option("--pred", required=True, type=click.Path(path_type=Path),
               help="Predictions, one JSON object per line: raw_file, lanes, h_samples, optional run_time (ms).")
-@click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv.")
+@click.option("--out", type=click.Path(path_type=Path),
+              help="Folder for official.csv: accuracy, fp, fn, f1_ufld, f1_clrnet.")
 @click.option("--quiet", is_flag=True, help="Print nothing.")
 @debug_option
 def score_tusimple_command(labels, pred, out, quiet, debug):
-    """Official TuSimple accuracy, FP and FN, as tusimple-benchmark's evaluate/lane.py computes them."""
-    from . import api
+    """Official TuSimple accuracy, FP and FN, as tusimple-benchmark's evaluate/lane.py computes them, and F1
+    as UFLD-v2's lane2.py (f1_ufld) and CLRNet's tusimple_metric.py (f1_clrnet) compute it."""
+    from . import score as scoring
 
-    score = _guard(api.score_tusimple, debug, labels, pred, out)
+    score = _guard(scoring.score_tusimple, debug, labels, pred, out)
     if not quiet:
-        click.echo(f"{score.n_frames} frames: Accuracy {score.accuracy:.10g}  FP {score.fp:.10g}  FN {score.fn:.10g}")
+        click.echo(f"{score.n_frames} frames: Accuracy {score.accuracy:.10g}  FP {score.fp:.10g}  FN {score.fn:.10g}  "
+                   f"F1 {score.f1_ufld:.10g} (UFLD-v2 lane2.py)  {score.f1_clrnet:.10g} (CLRNet tusimple_metric.py)")
 
 
 @main.command()
@@ -244,7 +290,8 @@ def score_tusimple_command(labels, pred, out, quiet, debug):
 @click.option("--clips", default=3, show_default=True, type=click.IntRange(min=1), help="Number of clips.")
 @click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: 12 (CULane), 20 (TuSimple).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed; the same seed gives the same bytes.")
-@click.option("--maps-format", default="npy", show_default=True, type=click.Choice(MAP_FORMATS), help="How to store maps.")
+@click.option("--maps-format", default="npy", show_default=True, type=click.Choice(MAP_FORMATS),
+              help="How to store maps; lanes: a lane detector's output files instead of maps.")
 @debug_option
 def synth(dataset, out, clips, frames, seed, maps_format, debug):
     """Generate a small realistic dataset with SCNN-like maps (4 channels, 288x800)."""
@@ -268,7 +315,7 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
               help="A frame to draw, as its image path relative to the dataset root (repeatable).")
 @click.option("--worst", type=click.IntRange(min=1),
               help="Draw the N frames where the baseline's and RONELD's IoUs differ most. Default: 6 without --frame.")
-@click.option("--method", "methods", multiple=True, type=click.Choice(METHODS),
+@click.option("--method", "methods", multiple=True, metavar="NAME",
               help="Methods to draw (repeatable). Default: those of the run.")
 @click.option("--out", type=click.Path(path_type=Path),
               help="Folder for the pictures. Default: RUN/show (the run's own files are never touched).")
@@ -284,3 +331,37 @@ def show(run_dir, frames, worst, methods, out, debug):
     written = _guard(api.show, debug, run_dir, frames, worst, methods, out)
     for path in written:
         click.echo(str(path))
+
+
+@main.command()
+@click.argument("runs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--out", type=click.Path(path_type=Path), default=Path("comparison"), show_default=True,
+              help="Folder for the comparison (a new or empty folder, or one an earlier compare wrote).")
+@click.option("--label", "labels", multiple=True, metavar="RUN=LABEL",
+              help="Name a run's model in tables and legends (default: `model` of its config.toml); runs with "
+                   "one label on one dataset are averaged as seeds (repeatable).")
+@click.option("--thresholds", metavar="T,T,...",
+              help="IoU thresholds of the table rows, each among the runs' thresholds. Default: 0.3,0.4,0.5 "
+                   "(Table IV: 0.3,0.5).")
+@click.option("--pair", "pairs", multiple=True, metavar="A,B",
+              help="Also give B - A with a paired bootstrap interval over clips for two runs on the same frames, "
+                   "each named by its folder or its label (repeatable).")
+@click.option("--allow-mixed", is_flag=True,
+              help="Compare runs measured with different paper-protocol settings; every table says so in a note.")
+@click.option("--quiet", is_flag=True, help="Print nothing but errors.")
+@debug_option
+def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
+    """Put finished runs side by side: the paper's Tables II-V and Fig. 5 across models, datasets, seeds.
+
+    Reads folders written by `roneld-eval run` and writes comparison.csv, table_accuracy,
+    table_ablation (when runs hold the PFT ablation), table_runtime and table_official (.md and
+    .tex), curves.png/.svg/.pdf, with --pair pairs.csv and table_pairs, and summary.json. Runs
+    of one dataset must share frames, ground truth and thresholds.
+    """
+    from .comparison import compare as compare_runs, parse_label_options
+
+    chosen = _guard(parse_label_options, debug, labels, runs)
+    result = _guard(compare_runs, debug, runs, out, chosen, thresholds, pairs, allow_mixed)
+    if not quiet:
+        click.echo((Path(out) / "table_accuracy.md").read_text(encoding="utf-8"))
+        click.echo(f"{len(result.runs)} runs compared; results in {out}/")

@@ -15,6 +15,7 @@ import difflib
 import math
 import numbers
 import os
+import re
 import stat
 import sys
 from dataclasses import dataclass, field, fields, replace
@@ -32,8 +33,16 @@ from .errors import ConfigError
 from .geometry import MapGeometry
 
 DATASETS = ("culane", "tusimple")
-MAP_FORMATS = ("npy", "npz", "scnn-png")
+# "lanes": another detector's lane files, rendered into maps (roneld_eval.maps.lanes).
+MAP_FORMATS = ("npy", "npz", "scnn-png", "lanes")
+# The built-in extractors (roneld_eval.extract.registry); plug-ins add their own names.
 METHODS = ("baseline", "roneld", "roneld-nopft")
+# A plug-in's name becomes a folder (lanes/NAME/) and a column value: letters, digits, - _ . +
+METHOD_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}")
+# Python's entry-point group where installed packages register extractors by name.
+ENTRY_POINT_GROUP = "roneld_eval.extractors"
+# Seconds a plug-in may take on one frame before the run stops (or skips the frame).
+PLUGIN_TIME_LIMIT_S = 60.0
 ON_ERROR = ("fail", "skip")
 
 # Image sizes of the benchmarks (CULane: Pan et al. 2018; TuSimple: tusimple-benchmark).
@@ -169,6 +178,8 @@ def _checked_text(qualified: str, text: str) -> str:
 def _check_fields(record, section: str) -> None:
     """Type- and range-check every field of a config dataclass in place (normalised: 1 -> 1.0)."""
     for item in fields(record):
+        if not section and item.name == "plugins":
+            continue  # checked by EvalConfig itself (each PluginMethod checks its fields)
         section_type = _SECTION_TYPES.get(item.name) if not section else None
         value = getattr(record, item.name)
         if section_type is not None:
@@ -185,8 +196,8 @@ class DatasetConfig:
     """Which benchmark, where it lies, and how much of it to read."""
 
     name: str = "culane"
-    image_width: int = 1640
-    image_height: int = 590
+    image_width: int = IMAGE_SIZES["culane"][0]
+    image_height: int = IMAGE_SIZES["culane"][1]
     data_root: str | None = None
     # CULane: a list file of image paths (default <root>/list/test.txt);
     # TuSimple: the label file (default <root>/test_label.json).
@@ -294,6 +305,100 @@ class OfficialParams:
     def __post_init__(self):
         _check_fields(self, "official")
 
+@dataclass(frozen=True)
+class PluginMethod:
+    """An extractor outside the package: its method name, its factory as "module:callable"
+    (or "path/to/file.py:callable"), the seconds it may take per frame, and its parameters."""
+
+    name: str
+    entry: str
+    params: tuple[tuple[str, Any], ...] = ()
+    time_limit_s: float = PLUGIN_TIME_LIMIT_S
+
+    def __post_init__(self):
+        check_method_name(self.name)
+        if self.name in METHODS:
+            raise ConfigError(f"method {self.name!r} is built in; give the plug-in another name")
+        if not isinstance(self.entry, str) or not _ENTRY.fullmatch(self.entry.strip()):
+            raise ConfigError(f"method {self.name!r}: entry must be 'module:callable' or 'file.py:callable', "
+                              f"got {self.entry!r}")
+        object.__setattr__(self, "entry", _checked_text(f"methods.{self.name}.entry", self.entry.strip()))
+        limit = self.time_limit_s
+        if isinstance(limit, bool) or not isinstance(limit, numbers.Real) or not 0 < limit <= 86_400:
+            raise ConfigError(f"methods.{self.name}.time_limit_s must be a number of seconds in (0, 86400], "
+                              f"got {limit!r}")
+        object.__setattr__(self, "time_limit_s", float(limit))
+        params = dict(self.params)
+        for key, value in params.items():
+            if not isinstance(key, str) or key in ("entry", "time_limit_s"):
+                raise ConfigError(f"methods.{self.name}: bad parameter name {key!r}")
+            _check_param(f"methods.{self.name}.{key}", value)
+        object.__setattr__(self, "params", tuple(params.items()))
+
+    def to_table(self) -> dict[str, Any]:
+        """The method's [methods.NAME] table as written to config.toml."""
+        table: dict[str, Any] = {"entry": self.entry}
+        if self.time_limit_s != PLUGIN_TIME_LIMIT_S:
+            table["time_limit_s"] = self.time_limit_s
+        table.update(self.params)
+        return table
+
+
+# module.sub:callable.attr, or a .py file path then :callable
+_ENTRY = re.compile(r"(?:[A-Za-z_][\w]*(?:\.[A-Za-z_][\w]*)*|[^:\0]+\.py):[A-Za-z_][\w]*(?:\.[A-Za-z_][\w]*)*")
+
+
+def check_method_name(name: Any) -> str:
+    """A method name that can be a folder and a table cell, or ConfigError."""
+    if not isinstance(name, str) or not METHOD_NAME.fullmatch(name):
+        raise ConfigError(f"bad method name {name!r}: use letters, digits and - _ . + (at most 64, starting "
+                          f"with a letter or digit)")
+    return name
+
+
+def _check_param(qualified: str, value: Any) -> None:
+    """Plug-in parameters are TOML scalars or lists of them (what config.toml can write back)."""
+    if isinstance(value, (list, tuple)):
+        for item in value:
+            _check_param(qualified, item)
+        return
+    if isinstance(value, str):
+        _checked_text(qualified, value)
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{qualified} must be a finite number, got {value}")
+    elif not isinstance(value, (bool, int, float)):
+        raise ConfigError(f"{qualified} must be a number, text, true/false or a list of them, got {_shown(value)}")
+
+
+def _methods_from_table(table: dict[str, Any]) -> tuple[tuple[str, ...], tuple[PluginMethod, ...]]:
+    """[methods.NAME] tables -> (method names in order, plug-ins among them)."""
+    names, plugins = [], []
+    for name, settings in table.items():
+        check_method_name(name)
+        if not isinstance(settings, dict):
+            raise ConfigError(f"[methods.{name}] must be a table (entry = \"module:callable\", parameters)")
+        names.append(name)
+        if name in METHODS:
+            if settings:
+                raise ConfigError(f"[methods.{name}] is built in and takes no settings here (its parameters are "
+                                  f"in [{'baseline' if name == 'baseline' else 'roneld'}])")
+            continue
+        if "entry" not in settings:
+            raise ConfigError(f"[methods.{name}] needs entry = \"module:callable\"")
+        settings = dict(settings)
+        entry = settings.pop("entry")
+        limit = settings.pop("time_limit_s", PLUGIN_TIME_LIMIT_S)
+        plugins.append(PluginMethod(name, entry, tuple(settings.items()), limit))
+    return tuple(names), tuple(plugins)
+
+
+def installed_extractors() -> dict[str, str]:
+    """Extractors installed packages register under the entry-point group: name -> entry."""
+    from importlib.metadata import entry_points
+
+    return {point.name: point.value for point in entry_points(group=ENTRY_POINT_GROUP)}
+
+
 
 @dataclass(frozen=True)
 class EvalConfig:
@@ -312,6 +417,8 @@ class EvalConfig:
     workers: int | None = None  # None: all cores
     save_lanes: bool = False
     on_error: str = "fail"
+    # Extractors outside the package that `methods` names ([methods.NAME] tables, --method).
+    plugins: tuple[PluginMethod, ...] = ()
 
     def __post_init__(self):
         _check_fields(self, "")
@@ -324,11 +431,9 @@ class EvalConfig:
         object.__setattr__(self, "methods", methods)
         if not methods:
             raise ConfigError("at least one method is needed")
-        for method in methods:
-            if method not in METHODS:
-                raise ConfigError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
         if len(set(methods)) != len(methods):
             raise ConfigError(f"a method is listed twice: {', '.join(methods)}")
+        object.__setattr__(self, "plugins", self._plugins_used(methods))
         if self.on_error not in ON_ERROR:
             raise ConfigError(f"on_error must be one of {', '.join(ON_ERROR)}, got {self.on_error!r}")
         crop_bottom = self.maps.crop_bottom_px
@@ -342,7 +447,38 @@ class EvalConfig:
                 f"baseline.rows {self.baseline.rows!r} must lie inside the {self.dataset.image_height}-row "
                 f"image (stop <= {self.dataset.image_height})"
             )
-        self.geometry  # validates the crop against the image
+        _ = self.geometry  # building it validates the crop against the image
+
+    def _plugins_used(self, methods: tuple[str, ...]) -> tuple[PluginMethod, ...]:
+        """The plug-ins `methods` names, in its order; a name nobody defines is looked up among
+        the installed packages' extractors (and recorded with its entry, so config.toml reruns)."""
+        if not isinstance(self.plugins, (tuple, list)) or not all(isinstance(p, PluginMethod) for p in self.plugins):
+            raise ConfigError(f"plugins must be PluginMethod records, got {self.plugins!r}")
+        defined = {plugin.name: plugin for plugin in self.plugins}
+        if len(defined) != len(self.plugins):
+            raise ConfigError("a plug-in method is defined twice")
+        used = []
+        installed: dict[str, str] | None = None
+        for method in methods:
+            check_method_name(method)
+            if method in METHODS:
+                continue
+            if method not in defined:
+                installed = installed_extractors() if installed is None else installed
+                if method not in installed:
+                    choices = ", ".join(list(METHODS) + sorted(set(defined) | set(installed)))
+                    raise ConfigError(f"unknown method {method!r}; choose from {choices}, or add your own with "
+                                      f"--method {method}=module:callable")
+                defined[method] = PluginMethod(method, installed[method])
+            used.append(defined[method])
+        return tuple(used)
+
+    def with_plugin(self, name: str, entry: str) -> "EvalConfig":
+        """A copy that also runs the extractor `entry` ("module:callable") as method `name`."""
+        plugin = PluginMethod(name, entry)
+        plugins = tuple(p for p in self.plugins if p.name != name) + (plugin,)
+        methods = self.methods if name in self.methods else self.methods + (name,)
+        return replace(self, methods=methods, plugins=plugins)
 
     @property
     def geometry(self) -> MapGeometry:
@@ -368,11 +504,14 @@ class EvalConfig:
         if not isinstance(data, dict):
             raise ConfigError(f"{source}: a configuration must be a table of settings")
         kwargs: dict[str, Any] = {}
-        known = {f.name for f in fields(cls)}
+        known = {f.name for f in fields(cls)} - {"plugins"}  # plug-ins are [methods.NAME] tables
         try:
             for key, value in data.items():
                 if key not in known:
                     raise ConfigError(f"unknown key {key!r}")
+                if key == "methods" and isinstance(value, dict):
+                    kwargs["methods"], kwargs["plugins"] = _methods_from_table(value)
+                    continue
                 section_type = _SECTION_TYPES.get(key)
                 if section_type is None:
                     kwargs[key] = value
@@ -449,14 +588,24 @@ class EvalConfig:
     def to_dict(self) -> dict[str, Any]:
         """Nested plain data (JSON- and TOML-friendly; None values kept)."""
         data = dataclasses.asdict(self)
-        data["methods"] = list(self.methods)
+        del data["plugins"]
+        if self.plugins:  # then methods are [methods.NAME] tables, as config files write them
+            tables = {plugin.name: plugin.to_table() for plugin in self.plugins}
+            data["methods"] = {name: tables.get(name, {}) for name in self.methods}
+        else:
+            data["methods"] = list(self.methods)
         return data
 
     def to_toml(self) -> str:
         """TOML text that `from_toml` reads back to an equal configuration."""
         top, tables = [], []
         for key, value in self.to_dict().items():
-            if isinstance(value, dict):
+            if key == "methods" and isinstance(value, dict):
+                for name, table in value.items():
+                    lines = [f"[methods.{_toml_key(name)}]"]
+                    lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items()]
+                    tables.append("\n".join(lines))
+            elif isinstance(value, dict):
                 lines = [f"[{key}]"]
                 lines += [f"{k} = {_toml_value(v)}" for k, v in value.items() if v is not None]
                 tables.append("\n".join(lines))
@@ -485,9 +634,9 @@ def _setting_field(dotted: str) -> tuple[str, str, str]:
     else:
         owner = EvalConfig
     types = {} if owner is None else {f.name: str(f.type) for f in fields(owner)}
-    if name not in types or (not section and name in _SECTION_TYPES):
+    if name not in types or (not section and (name in _SECTION_TYPES or name == "plugins")):
         every = [_qualified(s, f.name) for s, t in _SECTION_TYPES.items() for f in fields(t)]
-        every += [f.name for f in fields(EvalConfig) if f.name not in _SECTION_TYPES]
+        every += [f.name for f in fields(EvalConfig) if f.name not in _SECTION_TYPES and f.name != "plugins"]
         close = difflib.get_close_matches(dotted, every, n=1)
         hint = f" (did you mean {close[0]}?)" if close else ""
         raise ConfigError(f"unknown setting {dotted!r}{hint}")
@@ -545,6 +694,10 @@ _TOML_ESCAPES = {ord('"'): '\\"', ord("\\"): "\\\\", ord("\b"): "\\b", ord("\t")
 _TOML_ESCAPES.update({code: f"\\u{code:04X}" for code in [*range(0x20), 0x7F] if code not in _TOML_ESCAPES})
 
 
+def _toml_key(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_value(key)
+
+
 def _toml_value(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -599,7 +752,9 @@ def parse_rows(spec: str) -> range:
         raise ConfigError(f"rows must look like 'start:stop:step' with integers, got {spec!r}") from None
     if step <= 0 or start < 0 or stop <= start:
         raise ConfigError(f"rows {spec!r} must have 0 <= start < stop and a positive step")
-    if stop > RANGES["dataset.image_height"].high:
+    tallest = RANGES["dataset.image_height"].high
+    assert tallest is not None  # image heights have a documented upper bound
+    if stop > tallest:
         raise ConfigError(f"rows {spec!r} go below any image (stop must be at most the image height)")
     return range(start, stop, step)
 
@@ -618,6 +773,13 @@ class Thresholds:
 _THRESHOLD_FORMS = "START:STOP:STEP (e.g. 0.30:0.50:0.01), one number (0.5), or numbers separated by commas"
 
 
+def _decimal_places(value: Decimal) -> int:
+    """Digits after the point of a finite Decimal (negative for 1E+2)."""
+    exponent = value.as_tuple().exponent
+    assert isinstance(exponent, int), value  # only NaN and infinities have a letter here
+    return -exponent
+
+
 def _threshold_decimal(part: str, spec: str) -> Decimal:
     """One number of a threshold spec: finite, in [0, 1), at most MAX_THRESHOLD_DECIMALS places."""
     try:
@@ -626,7 +788,7 @@ def _threshold_decimal(part: str, spec: str) -> Decimal:
         raise ConfigError(f"thresholds {spec!r}: {part.strip()!r} is not a number; write {_THRESHOLD_FORMS}") from None
     if not value.is_finite():
         raise ConfigError(f"thresholds {spec!r}: {part.strip()!r} is not a finite number")
-    if -value.as_tuple().exponent > MAX_THRESHOLD_DECIMALS:
+    if _decimal_places(value) > MAX_THRESHOLD_DECIMALS:
         raise ConfigError(f"thresholds {spec!r}: {part.strip()} has more than {MAX_THRESHOLD_DECIMALS} decimals")
     return value
 
@@ -651,7 +813,9 @@ def parse_thresholds(spec: str) -> Thresholds:
             raise ConfigError(f"thresholds {text!r} need start <= stop and a positive step")
         count = (stop - start) / step
         if count + 1 > MAX_THRESHOLDS:
-            raise ConfigError(f"thresholds {text!r} give {int(count) + 1:,} values; at most {MAX_THRESHOLDS:,} are allowed")
+            raise ConfigError(
+                f"thresholds {text!r} give {int(count) + 1:,} values; at most {MAX_THRESHOLDS:,} are allowed"
+            )
         if count != count.to_integral_value():
             raise ConfigError(f"thresholds {text!r}: the step does not divide stop - start")
         decimals = [start + step * i for i in range(int(count) + 1)]
@@ -665,7 +829,7 @@ def parse_thresholds(spec: str) -> Thresholds:
     for value in decimals:
         if not 0 <= value < 1:
             raise ConfigError(f"IoU thresholds must lie in [0, 1), got {value}")
-    places = max(max(-d.as_tuple().exponent, 0) for d in decimals)
+    places = max(max(_decimal_places(d), 0) for d in decimals)
     places = max(places, 2)
     labels = tuple(f"{value:.{places}f}" for value in decimals)
     # Exact: a Decimal with few digits converts to the nearest double.

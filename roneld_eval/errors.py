@@ -38,6 +38,17 @@ class ConfigError(RoneldEvalError):
     """A configuration value is invalid or inconsistent."""
 
 
+class ExtractorError(RoneldEvalError):
+    """A plug-in extractor failed on a frame (raised, was too slow, or returned bad lanes)."""
+
+    def __init__(self, method: str, frame: str, problem: str):
+        self.method, self.frame, self.problem = method, frame, problem
+        super().__init__(f"method {method!r}, frame {frame}: {problem}")
+
+    def __reduce__(self):
+        return (type(self), (self.method, self.frame, self.problem))
+
+
 class RunInterrupted(RoneldEvalError):
     """A run stopped before its end (Ctrl-C, a worker killed); finished clips may be cached."""
 

@@ -9,44 +9,37 @@ so memory stays flat in the number of frames.
 
 from __future__ import annotations
 
+import itertools
 import platform
 import threading
 import time
-from concurrent.futures import Future
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Callable, Iterator, Protocol, Sequence
 
 import numpy as np
 import pandas as pd
 
-from . import __version__
-from .config import EvalConfig, parse_thresholds
-from .datasets import read_dataset
-from .datasets.culane import labels_path, with_labels
-from .errors import ConfigError, InputError
+from .version import __version__
 from . import kernels
-from .extract.baseline import baseline_lanes, sample_rows
-from .extract.roneld import RoneldTracker
+from .benchmarks import Benchmark, OfficialRecord, benchmark_for
+from .config import EvalConfig, parse_thresholds
+from .datasets import read_dataset, with_labels
+from .errors import ConfigError, ExtractorError, InputError
+from .extract.protocol import Extractor, Prediction, is_stateless, prediction_problem
+from .extract.registry import Method, methods_of
 from .geometry import EffectiveGeometry, MapGeometry, check_map_shape
-from .lanes_io import sample_lane_at_rows, tusimple_xs
 from .maps import load_maps, map_stem, required_paths
 from .maps.scnn_png import scnn_png_paths
 from .metrics.bootstrap import paired_bootstrap
-from .metrics.culane_official import (
-    category_table,
-    evaluate_culane_frame,
-    official_masks,
-)
-from .metrics.paper import ego_lanes, ego_masks, side_ious
+from .metrics.paper import ego_masks, side_ious
 from .metrics.sweep import sweep_accuracy
-from .metrics.tusimple_official import bench_frame, mean_scores
 from .model import Clip, Dataset, Frame, FrameMaps, Lane
+from .signals import TimeLimitExceeded, time_limit
 from .workers import default_workers, process_pool, stopping
-
-# Channels of the ego lanes in SCNN/ENet-SAD's CULane order (outer left, ego left, ego right,
-# outer right): the baseline's active lanes for the paper's protocol.
-EGO_CHANNELS = (1, 2)
 
 
 @dataclass(frozen=True)
@@ -56,8 +49,7 @@ class FrameOutcome:
     relpath: str
     method: str
     ious: dict[str, float]
-    # CULane: (CulaneFrameResult of all lanes, of the two ego lanes); TuSimple: (accuracy, fp, fn)
-    official: object
+    official: OfficialRecord  # as the dataset's benchmark scores a frame
     lanes: tuple[Lane, ...]
     active: tuple[Lane | None, Lane | None] = (None, None)  # the scored left and right lanes
 
@@ -86,13 +78,27 @@ class RunContext:
     """Everything a worker needs besides the clip."""
 
     config: EvalConfig
-    dataset_name: str
-    image_width: int
-    image_height: int
     maps_root: Path
-    labels_root: Path | None = None  # CULane root when clips come without their labels
+    labels_root: Path | None = None  # dataset root when clips come without their labels
     data_root: Path | None = None  # where the labels lie (CULane: a .lines.txt per frame)
     label_file: Path | None = None  # one file holding every label (TuSimple)
+
+    @cached_property
+    def methods(self) -> tuple[Method, ...]:
+        return methods_of(self.config)
+
+    @cached_property
+    def benchmark(self) -> Benchmark:
+        return benchmark_for(self.config.dataset.name)
+
+    def load(self, frame: Frame) -> FrameMaps:
+        """One frame's maps (lane files are drawn into maps with the configured geometry)."""
+        config = self.config
+        return load_maps(self.maps_root, frame.relpath, config.maps, config.geometry, config.roneld.center_ratio)
+
+    def kernel_groups(self) -> tuple[str, ...]:
+        """The numba kernel groups this run executes (see roneld_eval.kernels)."""
+        return kernels.groups_for(self.methods, self.benchmark)
 
 
 @dataclass
@@ -112,6 +118,8 @@ class RunResult:
     fixture: str | None = None  # the bundled fixture's dataset when that is what ran
     # What was really drawn (map size as found, thicknesses); None when no clip was evaluated.
     geometry: EffectiveGeometry | None = None
+    # Each method's accuracy gain over RONELD and over the baseline, with bootstrap intervals.
+    gains: pd.DataFrame | None = None
 
 
 # ---- one clip ------------------------------------------------------------------------------
@@ -120,9 +128,7 @@ class RunResult:
 def _geometry_for(context: RunContext, maps: FrameMaps, where: Path) -> MapGeometry:
     geometry = context.config.geometry
     check_map_shape(geometry, maps.width, maps.height, str(where))
-    if (maps.width, maps.height) != (geometry.map_width, geometry.map_height):
-        geometry = geometry.with_map_size(maps.width, maps.height)
-    return geometry
+    return geometry.with_map_size(maps.width, maps.height)
 
 
 def effective_geometry(config: EvalConfig, map_width: int, map_height: int) -> EffectiveGeometry:
@@ -132,7 +138,7 @@ def effective_geometry(config: EvalConfig, map_width: int, map_height: int) -> E
     return EffectiveGeometry(
         image_width=geometry.image_width, image_height=geometry.image_height,
         map_width=map_width, map_height=map_height,
-        crop_top_px=geometry.crop_top_px, crop_bottom_px=int(geometry.crop_bottom_px),
+        crop_top_px=geometry.crop_top_px, crop_bottom_px=geometry.crop_top_px + geometry.crop_height_px,
         rescaled=(map_width, map_height) != (config.maps.width, config.maps.height),
         gt_thickness_px=paper.thickness(paper.gt_thickness_px, map_width, map_height),
         pred_thickness_px=paper.thickness(paper.pred_thickness_px, map_width, map_height),
@@ -147,21 +153,18 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
     result = ClipResult(clip_id=clip.clip_id, n_frames=len(clip.frames))
     if context.labels_root is not None:
         errors: list[InputError] | None = [] if config.on_error == "skip" else None
-        clip = with_labels(clip, context.labels_root, errors)
+        clip = with_labels(config.dataset.name, clip, context.labels_root, errors)
         result.skipped += [f"{error} (labels skipped)" for error in errors or ()]
         result.n_frames = len(clip.frames)
-    methods = config.methods
-    result.extract_ms = {method: [] for method in methods}
-    # The method is the one PFT switch: 'roneld' tracks preceding frames, 'roneld-nopft' does not.
-    trackers = {method: RoneldTracker(config.roneld, pft=method == "roneld")
-                for method in methods if method in ("roneld", "roneld-nopft")}
+    result.extract_ms = {method.name: [] for method in context.methods}
+    extractors: list[tuple[Method, Extractor, bool]] | None = None
     clip_size = None
-    rows = None
     skip = config.on_error == "skip"
-    for frame in clip.frames:
-        start = time.perf_counter()
+    for frame, loaded, load_ms in _prefetched(clip.frames, context):
         try:
-            maps = load_maps(context.maps_root, frame.relpath, config.maps)
+            if isinstance(loaded, InputError):
+                raise loaded
+            maps = loaded
             if clip_size is not None and maps.probabilities.shape != clip_size:
                 raise InputError(
                     frame_map_path(context, frame),
@@ -174,29 +177,21 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
             result.skipped.append(f"{error} (frame skipped)")
             result.n_frames -= 1
             continue
-        result.load_ms.append((time.perf_counter() - start) * 1e3)
-        if clip_size is None:
+        result.load_ms.append(load_ms)
+        if extractors is None:
             clip_size = maps.probabilities.shape
             geometry = _geometry_for(context, maps, frame_map_path(context, frame))
             result.map_size = (maps.width, maps.height)
-            for tracker in trackers.values():
-                tracker.geometry = geometry
-            rows = sample_rows(config.baseline, geometry)
-        predictions: dict[str, tuple[list[Lane | None], list[Lane], bool]] = {}
-        for method in methods:
-            if method == "baseline":
-                if not frame.labelled:
-                    continue  # stateless: only scored frames need it
-                start = time.perf_counter()
-                per_channel = baseline_lanes(maps, config.baseline, geometry, rows)
-                result.extract_ms[method].append((time.perf_counter() - start) * 1e3)
-                active = [per_channel[c] if c < len(per_channel) else None for c in EGO_CHANNELS]
-                predictions[method] = (active, [lane for lane in per_channel if lane is not None], True)
-            else:
-                start = time.perf_counter()
-                lanes = trackers[method](maps)
-                result.extract_ms[method].append((time.perf_counter() - start) * 1e3)
-                predictions[method] = ([lanes.left, lanes.right], lanes.as_list(), False)
+            extractors = [_built(method, geometry, frame) for method in context.methods]
+        try:
+            predictions = _predictions(extractors, maps, frame, result.extract_ms, config)
+        except ExtractorError as error:
+            if not skip:
+                raise
+            # Left out for every method, so that all methods are scored on the same frames.
+            result.skipped.append(f"{error} (frame skipped)")
+            result.n_frames -= 1
+            continue
         if frame.labelled:
             result.n_scored += 1
             result.n_gt_lanes += len(frame.lanes)
@@ -205,6 +200,102 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
         # Lanes only travel back to the main process when they are to be written.
         result.outcomes = [outcome.without_lanes() for outcome in result.outcomes]
     return result
+
+
+# Frames whose maps are read ahead of the one being extracted and scored, in a thread of the
+# same process: decoders (OpenCV, zlib) release the GIL, so reading overlaps the work.
+PREFETCH_FRAMES = 3
+
+
+def _prefetched(frames: Sequence[Frame], context: RunContext) -> Iterator[tuple[Frame, FrameMaps | InputError, float]]:
+    """(frame, its maps or the InputError loading raised, ms spent loading) in frame order."""
+
+    def load(frame: Frame) -> tuple[Frame, FrameMaps | InputError, float]:
+        start = time.perf_counter()
+        try:
+            maps: FrameMaps | InputError = context.load(frame)
+        except InputError as error:
+            maps = error
+        return frame, maps, (time.perf_counter() - start) * 1e3
+
+    if len(frames) <= 1:
+        yield from map(load, frames)
+        return
+    with ThreadPoolExecutor(1, thread_name_prefix="roneld-eval-load") as reader:
+        pending: deque[Future] = deque()
+        upcoming = iter(frames)
+        try:
+            for frame in itertools.islice(upcoming, PREFETCH_FRAMES):
+                pending.append(reader.submit(load, frame))
+            while pending:
+                done = pending.popleft().result()
+                following = next(upcoming, None)
+                if following is not None:
+                    pending.append(reader.submit(load, following))
+                yield done
+        finally:
+            for future in pending:
+                future.cancel()
+
+
+def _built(method: Method, geometry: MapGeometry, frame: Frame) -> tuple[Method, Extractor, bool]:
+    """(method, its extractor for this clip, whether it is stateless)."""
+    if method.built_in:
+        extractor = method.build(geometry)
+    else:
+        try:
+            extractor = method.build(geometry)
+        except Exception as error:  # a plug-in's own bug: name it, not the runner's frames
+            problem = f"building the extractor raised {_raised(error)}"
+            raise ExtractorError(method.name, frame.relpath, problem) from None
+        if not callable(extractor):
+            raise ExtractorError(method.name, frame.relpath,
+                                 f"the factory returned {type(extractor).__name__}, not a callable extractor")
+    return method, extractor, is_stateless(extractor)
+
+
+def _predictions(extractors: list[tuple[Method, Extractor, bool]], maps: FrameMaps, frame: Frame,
+                 extract_ms: dict[str, list[float]], config: EvalConfig) -> dict[str, Prediction]:
+    """Every method's prediction for one frame (stateless methods only where it is scored)."""
+    predictions = {}
+    for method, extractor, stateless in extractors:
+        if stateless and not frame.labelled:
+            continue
+        if method.built_in:
+            start = time.perf_counter()
+            prediction = extractor(maps)
+            extract_ms[method.name].append((time.perf_counter() - start) * 1e3)
+        else:
+            prediction = _plugin_prediction(method, extractor, maps, frame, extract_ms, config)
+        predictions[method.name] = prediction
+    return predictions
+
+
+def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, frame: Frame,
+                       extract_ms: dict[str, list[float]], config: EvalConfig) -> Prediction:
+    """A plug-in's prediction, checked: whatever goes wrong is one ExtractorError naming the
+    method, the frame and the problem, never a traceback from deep inside the runner."""
+    problem = None
+    try:
+        with time_limit(method.time_limit_s):
+            start = time.perf_counter()
+            prediction = extractor(maps)
+            elapsed = time.perf_counter() - start
+    except TimeLimitExceeded:
+        problem = f"took longer than {method.time_limit_s:g} s (time_limit_s in [methods.{method.name}])"
+    except Exception as error:
+        problem = f"raised {_raised(error)}"
+    else:
+        problem = prediction_problem(prediction, config.dataset.image_width, config.dataset.image_height)
+    if problem is not None:
+        raise ExtractorError(method.name, frame.relpath, problem)
+    extract_ms[method.name].append(elapsed * 1e3)
+    return prediction
+
+
+def _raised(error: BaseException) -> str:
+    text = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {text[0]}" if text else type(error).__name__
 
 
 def frame_map_path(context: RunContext, frame: Frame) -> Path:
@@ -216,34 +307,17 @@ def frame_map_path(context: RunContext, frame: Frame) -> Path:
     return path
 
 
-def _score_frame(frame: Frame, predictions, geometry: MapGeometry, context: RunContext) -> list[FrameOutcome]:
+def _score_frame(frame: Frame, predictions: dict[str, Prediction], geometry: MapGeometry,
+                 context: RunContext) -> list[FrameOutcome]:
+    """Every method's paper-protocol IoUs and official record for one labelled frame."""
     config = context.config
     gt_masks = ego_masks(frame.lanes, geometry, config.paper, config.roneld.center_ratio)
-    if context.dataset_name == "culane":
-        size = (context.image_width, context.image_height, config.official.lane_width_px)
-        official_gt = official_masks(frame.lanes, *size)
-        ego_gt = ego_lanes(frame.lanes, context.image_width, context.image_height, config.roneld.center_ratio)
-        ego_rows = [i for lane in ego_gt if lane is not None for i, other in enumerate(frame.lanes) if other is lane]
+    truth = context.benchmark.prepare(frame, config)
     outcomes = []
-    for method, (active, all_lanes, spline) in predictions.items():
-        ious = side_ious(gt_masks, active, geometry, config.paper, spline=spline)
-        if context.dataset_name == "culane":
-            pred_masks = official_masks(all_lanes, *size)
-            official = evaluate_culane_frame(frame.lanes, all_lanes, *size, gt_masks=official_gt, pred_masks=pred_masks)
-            # The same protocol restricted to the two ego lanes: its recall is the paper's
-            # accuracy measured the official way (full resolution, 30 px, one-to-one matching).
-            active_rows = [i for lane in active if lane is not None for i, other in enumerate(all_lanes) if other is lane]
-            ego_official = evaluate_culane_frame(
-                [frame.lanes[i] for i in ego_rows], [all_lanes[i] for i in active_rows], *size,
-                gt_masks=[official_gt[i] for i in ego_rows], pred_masks=[pred_masks[i] for i in active_rows],
-            )
-            official = (official, ego_official)
-        else:
-            rows = frame.h_samples or ()
-            pred_xs = [sample_lane_at_rows(lane, rows) for lane in all_lanes]
-            gt_xs = [tusimple_xs(lane, rows) for lane in frame.lanes]
-            official = bench_frame(pred_xs, gt_xs, rows, 0.0)
-        outcomes.append(FrameOutcome(frame.relpath, method, ious, official, tuple(all_lanes), tuple(active)))
+    for method, prediction in predictions.items():
+        ious = side_ious(gt_masks, prediction.active, geometry, config.paper, spline=prediction.spline)
+        official = context.benchmark.score(truth, prediction, config)
+        outcomes.append(FrameOutcome(frame.relpath, method, ious, official, prediction.lanes, prediction.active))
     return outcomes
 
 
@@ -252,14 +326,10 @@ def _score_frame(frame: Frame, predictions, geometry: MapGeometry, context: RunC
 _WORKER_CONTEXT: RunContext | None = None
 
 
-def _kernel_groups(context: RunContext) -> tuple[str, ...]:
-    return kernels.groups_for(context.config.methods, context.dataset_name)
-
-
 def _init_worker(context: RunContext) -> None:
     global _WORKER_CONTEXT
     _WORKER_CONTEXT = context
-    kernels.warm_up(_kernel_groups(context))  # loaded already (prepared before the fork): runs each path once
+    kernels.warm_up(context.kernel_groups())  # loaded already (prepared before the fork): runs each path once
 
 
 def _evaluate_in_worker(clip: Clip) -> ClipResult:
@@ -280,11 +350,7 @@ def clip_inputs(clip: Clip, context: RunContext) -> list[Path]:
     paths = []
     for frame in clip.frames:
         paths += required_paths(context.maps_root, frame.relpath, context.config.maps)
-    if context.dataset_name == "culane" and context.data_root is not None:
-        paths += [labels_path(context.data_root, frame.relpath) for frame in clip.frames]
-    elif context.label_file is not None:
-        paths.append(context.label_file)
-    return paths
+    return paths + context.benchmark.label_paths(clip, context.data_root, context.label_file)
 
 
 def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
@@ -311,7 +377,7 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
 
     if workers <= 1 or len(todo) <= 1:
         if todo:
-            kernels.warm_up(_kernel_groups(context))
+            kernels.warm_up(context.kernel_groups())
         for index, clip in enumerate(clips):
             result = cached.get(index)
             yield result if result is not None else keep(index, evaluate_clip(clip, context))
@@ -376,19 +442,19 @@ def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
     clips = {clip_id for clip_id, _ in missing}
     shown = []
     for index, (_, path) in enumerate(missing[:3]):
-        notes = [missing_reason(path)] + ([found_in_other_format(path)] if index == 0 else [])
-        notes = [note for note in notes if note]
+        found = [missing_reason(path)] + ([found_in_other_format(path)] if index == 0 else [])
+        notes = [note for note in found if note]
         shown.append(f"{path} ({'; '.join(notes)})" if notes else str(path))
     listing = "; ".join(shown)
     more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
-    hint = " (each TuSimple clip needs maps for all its 20 frames)" if dataset.name == "tusimple" else ""
+    hint = benchmark_for(dataset.name).missing_maps_hint
     return f"maps missing for {len(missing)} frames of {len(clips)} clips{hint}: {listing}{more}"
 
 
 def evaluate(
     config: EvalConfig,
     progress: bool = True,
-    lane_sink: Callable[[FrameOutcome], None] | None = None,
+    lane_sink: Callable[[FrameOutcome, Frame], None] | None = None,
     dataset: Dataset | None = None,
     cache: ClipCache | None = None,
     announce: Callable[[str], None] | None = None,
@@ -429,8 +495,8 @@ def evaluate(
             skipped.append(f"{clip_id}: maps missing for {len(paths)} frames, first {paths[0]} (clip skipped)")
         clips = [clip for clip in clips if clip.clip_id not in by_clip]
 
-    context = RunContext(config, dataset.name, dataset.image_width, dataset.image_height, maps_root,
-                         None if dataset.labels_loaded else dataset.root, data_root=Path(dataset.root),
+    context = RunContext(config, maps_root, None if dataset.labels_loaded else dataset.root,
+                         data_root=Path(dataset.root),
                          label_file=None if dataset.source_file is None else Path(dataset.source_file))
     say = announce or (lambda message: None)
     geometry = _first_geometry(clips, context)
@@ -438,12 +504,14 @@ def evaluate(
         say(f"geometry: {geometry.describe()}")
     workers = min(config.workers or default_workers(), max(len(clips), 1))
     # Compiled once here, before the workers fork, instead of in every worker at once.
-    kernels.prepare(announce=say, needed=_kernel_groups(context))
+    kernels.prepare(announce=say, needed=context.kernel_groups())
     outcomes: list[FrameOutcome] = []
-    extract_ms = {method: [] for method in config.methods}
+    extract_ms: dict[str, list[float]] = {method: [] for method in config.methods}
     load_ms: list[float] = []
     totals = dict(clips=0, frames=0, labelled_frames=0, gt_lanes=0)
     sizes = {clip.clip_id: len(clip.frames) for clip in clips}
+    # The frames as read here: what a lane file needs of its frame (TuSimple's h_samples).
+    frames = {frame.relpath: frame for clip in clips for frame in clip.frames} if lane_sink is not None else {}
     bar = _progress_bar(sum(sizes.values()), progress)
     map_sizes: dict[tuple[int, int], str] = {}
     try:
@@ -460,7 +528,7 @@ def evaluate(
             skipped.extend(result.skipped)
             for outcome in result.outcomes:
                 if lane_sink is not None:
-                    lane_sink(outcome)
+                    lane_sink(outcome, frames[outcome.relpath])
                 outcomes.append(outcome.without_lanes())
             bar.update(sizes[result.clip_id])
     finally:
@@ -472,7 +540,10 @@ def evaluate(
     )
     thresholds = parse_thresholds(config.paper.thresholds)
     accuracy = with_intervals(sweep_accuracy(per_frame, thresholds, methods=config.methods), per_frame, thresholds)
-    official = _official_table(outcomes, dataset, config)
+    gains = pairwise_gains(per_frame, thresholds, config.methods)
+    records = {method: [(o.relpath, o.official) for o in outcomes if o.method == method]
+               for method in config.methods}
+    official = context.benchmark.table(records, dataset, config)
     runtime = _runtime_table(extract_ms, load_ms)
     totals["ego_lanes"] = int(len(per_frame) // max(len(config.methods), 1))
     if map_sizes:
@@ -493,6 +564,7 @@ def evaluate(
         skipped=skipped,
         versions=versions(),
         geometry=geometry,
+        gains=gains,
     )
 
 
@@ -501,7 +573,7 @@ def _first_geometry(clips: Sequence[Clip], context: RunContext) -> EffectiveGeom
     for clip in clips[:1]:
         for frame in clip.frames[:1]:
             try:
-                maps = load_maps(context.maps_root, frame.relpath, context.config.maps)
+                maps = context.load(frame)
             except InputError:
                 return None  # reported, or skipped, where the clip is evaluated
             check_map_shape(context.config.geometry, maps.width, maps.height, str(frame_map_path(context, frame)))
@@ -526,28 +598,33 @@ def with_intervals(accuracy: pd.DataFrame, per_frame: pd.DataFrame, thresholds) 
     return accuracy
 
 
-def _official_table(outcomes: list[FrameOutcome], dataset: Dataset, config: EvalConfig) -> pd.DataFrame:
+# The methods every other one is compared with, when the run has them.
+GAIN_REFERENCES = ("baseline", "roneld")
+
+
+def pairwise_gains(per_frame: pd.DataFrame, thresholds, methods: Sequence[str]) -> pd.DataFrame:
+    """method, reference, threshold, gain (method - reference accuracy), ci_low, ci_high: every
+    method against the baseline and against RONELD, 95% paired bootstrap over clips."""
     tables = []
-    for method in config.methods:
-        records = [o for o in outcomes if o.method == method]
-        if dataset.name == "culane":
-            frames = {o.relpath: o.official[0] for o in records}
-            table = category_table(frames, dataset.categories, config.official.iou_threshold)
-            ego = category_table({o.relpath: o.official[1] for o in records}, {}, config.official.iou_threshold)
-            ego["category"] = "ego"
-            table = pd.concat([table, ego], ignore_index=True)
-        else:
-            score = mean_scores([o.official for o in records], len(records))
-            table = pd.DataFrame([dict(accuracy=score.accuracy, fp=score.fp, fn=score.fn)])
-        table.insert(0, "method", method)
-        tables.append(table)
-    return pd.concat(tables, ignore_index=True)
+    for reference in GAIN_REFERENCES:
+        if reference not in methods or per_frame.empty:
+            continue
+        for method in methods:
+            if method == reference:
+                continue
+            table = paired_bootstrap(per_frame, thresholds, reference, reference=method)
+            table = table.rename(columns={"difference": "gain"})
+            table.insert(0, "reference", reference)
+            table.insert(0, "method", method)
+            tables.append(table)
+    columns = ["method", "reference", "threshold", "gain", "ci_low", "ci_high"]
+    return pd.concat(tables, ignore_index=True)[columns] if tables else pd.DataFrame(columns=columns)
 
 
 def _runtime_table(extract_ms: dict[str, list[float]], load_ms: list[float]) -> pd.DataFrame:
     rows = []
-    for name, values in list(extract_ms.items()) + [("map loading", load_ms)]:
-        values = np.asarray(values, np.float64)
+    for name, times in list(extract_ms.items()) + [("map loading", load_ms)]:
+        values = np.asarray(times, np.float64)
         if values.size == 0:
             continue
         rows.append(dict(
@@ -568,8 +645,11 @@ def versions() -> dict:
     """Versions of the tool, Python and the libraries that shape the numbers."""
     import importlib.metadata as metadata
 
-    out = {"roneld-eval": __version__, "python": platform.python_version(), "platform": platform.platform()}
-    for package in ("numpy", "numba", "llvmlite", "scipy", "opencv-python-headless", "pandas", "matplotlib", "click", "tqdm"):
+    out: dict[str, str | None] = {"roneld-eval": __version__, "python": platform.python_version(),
+                                  "platform": platform.platform()}
+    packages = ("numpy", "numba", "llvmlite", "scipy", "opencv-python-headless", "pandas", "matplotlib", "click",
+                "tqdm")
+    for package in packages:
         try:
             out[package] = metadata.version(package)
         except metadata.PackageNotFoundError:

@@ -28,12 +28,12 @@ class MapGeometry:
     crop_bottom_px: int | None = None
 
     def __post_init__(self):
-        if self.crop_bottom_px is None:
-            object.__setattr__(self, "crop_bottom_px", self.image_height)
+        bottom = self.image_height if self.crop_bottom_px is None else self.crop_bottom_px
+        object.__setattr__(self, "crop_bottom_px", bottom)
         for name in ("image_width", "image_height", "map_width", "map_height"):
             if int(getattr(self, name)) <= 0:
                 raise ConfigError(f"{name} must be positive, got {getattr(self, name)}")
-        if not 0 <= self.crop_top_px < self.crop_bottom_px <= self.image_height:
+        if not 0 <= self.crop_top_px < bottom <= self.image_height:
             raise ConfigError(
                 f"map crop rows [{self.crop_top_px}, {self.crop_bottom_px}) must lie inside the "
                 f"{self.image_height}-row image"
@@ -41,6 +41,7 @@ class MapGeometry:
 
     @property
     def crop_height_px(self) -> int:
+        assert self.crop_bottom_px is not None  # __post_init__ fills it in
         return self.crop_bottom_px - self.crop_top_px
 
     @property
@@ -54,7 +55,10 @@ class MapGeometry:
         return self.crop_height_px / self.map_height
 
     def with_map_size(self, map_width: int, map_height: int) -> "MapGeometry":
-        """The same frame and crop, for maps of another size."""
+        """The same frame and crop, for maps of another size (itself for maps of its size):
+        the one rule by which maps of any size are placed in the image."""
+        if (map_width, map_height) == (self.map_width, self.map_height):
+            return self
         return replace(self, map_width=int(map_width), map_height=int(map_height))
 
     def map_to_image(self, points: np.ndarray) -> np.ndarray:
@@ -94,7 +98,8 @@ class EffectiveGeometry:
 
     def describe(self) -> str:
         """One line for reports: map size, crop and every thickness really used."""
-        return (f"maps {self.map_width}x{self.map_height} over image rows {self.crop_top_px}..{self.crop_bottom_px - 1} "
+        return (f"maps {self.map_width}x{self.map_height} "
+                f"over image rows {self.crop_top_px}..{self.crop_bottom_px - 1} "
                 f"of {self.image_width}x{self.image_height}{' (rescaled from the preset)' if self.rescaled else ''}; "
                 f"paper protocol: ground truth {self.gt_thickness_px} px, predictions {self.pred_thickness_px} px; "
                 f"official: IoU > {self.official_iou_threshold:g}, {self.official_lane_width_px} px at "
@@ -115,7 +120,8 @@ def check_map_shape(expected: MapGeometry, map_width: int, map_height: int, wher
     wanted = expected.map_width / expected.map_height
     if abs(found / wanted - 1) <= ASPECT_TOLERANCE:
         return
-    region = (f"image rows {expected.crop_top_px}..{expected.crop_bottom_px - 1} of the "
+    last_row = expected.crop_top_px + expected.crop_height_px - 1
+    region = (f"image rows {expected.crop_top_px}..{last_row} of the "
               f"{expected.image_width}x{expected.image_height} frame")
     whole = expected.image_width / expected.image_height
     if expected.crop_height_px != expected.image_height and abs(found / whole - 1) <= ASPECT_TOLERANCE:

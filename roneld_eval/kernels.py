@@ -44,18 +44,12 @@ _UNITS = {"roneld": ("roneld",), "baseline": ("baseline",), "scoring": ("tables"
 _UNIT_COMPILE_S = {"roneld": 9.0, "baseline": 1.0, "scoring": 12.0}
 
 
-def groups_for(methods: Iterable[str], dataset: str) -> tuple[str, ...]:
-    """The kernel groups a run of these methods on this dataset ("culane", "tusimple") needs."""
-    methods = set(methods)
-    needed = []
-    if methods & {"roneld", "roneld-nopft"}:
-        needed.append("roneld")
-    if "baseline" in methods:
-        needed.append("baseline")
-    if dataset == "culane":
-        needed.append("official")
-    needed.append("paper")  # every run scores with the paper's protocol
-    return tuple(needed)
+def groups_for(methods, benchmark) -> tuple[str, ...]:
+    """The kernel groups a run needs: its methods' (extract.registry.Method.kernel_groups), its
+    benchmark's official scoring, and the paper's protocol, which every run scores with."""
+    needed = [group for method in methods for group in method.kernel_groups]
+    needed += list(benchmark.kernel_groups) + ["paper"]
+    return tuple(dict.fromkeys(needed))
 
 
 def _groups(needed: Iterable[str] | None) -> tuple[str, ...]:
@@ -71,7 +65,7 @@ def _entries(groups: Iterable[str]) -> list[tuple[object, tuple]]:
     groups = set(groups)
     if groups & set(SCORING):
         groups.add("tables")
-    entries = []
+    entries: list[tuple[object, tuple]] = []
     for table in (extract_kernels.ENTRY_SIGNATURES, metric_kernels.ENTRY_SIGNATURES):
         for group, listed in table.items():
             if group in groups:
@@ -152,8 +146,10 @@ def _compile_in_parallel(bins: list[list[str]]) -> None:
         for units in bins:
             _compile_units(tuple(units))
         return
-    method = "fork" if sys.platform == "linux" else "spawn"
-    context = multiprocessing.get_context(method)
+    if sys.platform == "linux":
+        context = multiprocessing.get_context("fork")
+    else:
+        context = multiprocessing.get_context("spawn")
     helpers = [context.Process(target=_compile_in_child, args=(tuple(b),), daemon=True) for b in bins]
     try:
         for helper in helpers:

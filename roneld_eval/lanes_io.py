@@ -16,7 +16,7 @@ import os
 import re
 import stat
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Literal, overload
 
 import numpy as np
 
@@ -72,6 +72,14 @@ def check_regular_file(path: Path, missing: str = "file not found") -> None:
     problem = _not_regular(info.st_mode)
     if problem is not None:
         raise InputError(path, problem)
+
+
+@overload
+def read_bytes(path: Path, missing_ok: Literal[False] = False) -> bytes: ...
+
+
+@overload
+def read_bytes(path: Path, missing_ok: bool) -> bytes | None: ...
 
 
 def read_bytes(path: Path, missing_ok: bool = False) -> bytes | None:

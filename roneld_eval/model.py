@@ -57,6 +57,15 @@ class Lane:
     def __len__(self) -> int:
         return len(self.points)
 
+    def bottom_x(self, bottom_row: float) -> float:
+        """x where the line through the lane's two lowest points meets `bottom_row` (2+ points):
+        where a lane meets the image bottom, which says on which side of the car it lies."""
+        order = self.points[:, 1].argsort(kind="stable")
+        (x1, y1), (x2, y2) = self.points[order[-2]], self.points[order[-1]]
+        if y2 == y1:
+            return float(x2)
+        return float(x2 + (bottom_row - y2) * (x2 - x1) / (y2 - y1))
+
     def top_to_bottom(self) -> "Lane":
         """The same lane with its points sorted by increasing y (stable)."""
         order = np.argsort(self.points[:, 1], kind="stable")
@@ -137,6 +146,11 @@ class Dataset:
         return sum(len(clip.labelled_frames) for clip in self.clips)
 
 
+# Channels of the two ego lanes in SCNN/ENet-SAD's lane order (outer left, ego left, ego right,
+# outer right): the models' own active lanes, and the lanes RONELD weighs e^2 more.
+EGO_CHANNELS = (1, 2)
+
+
 @dataclass(frozen=True, eq=False)
 class FrameMaps:
     """The lane probability maps of one frame.
@@ -144,11 +158,13 @@ class FrameMaps:
     `probabilities` is a (C, H, W) uint8 array, 0..255 = probability * 255, lane channels
     only (background dropped), channel 0 the outermost left lane. It may be a read-only
     memory map. `existence` holds the model's per-channel lane existence in [0, 1] when the
-    stored output has it, else None.
+    stored output has it, else None. `lanes` are the lanes the maps were drawn from when they
+    come from another detector's lane files (`--maps-format lanes`): that detector's own output.
     """
 
     probabilities: np.ndarray
     existence: np.ndarray | None = None
+    lanes: tuple[Lane, ...] | None = None
 
     @property
     def n_channels(self) -> int:

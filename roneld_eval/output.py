@@ -73,7 +73,9 @@ def read_manifest(folder: Path) -> dict | None:
         if not isinstance(entries, list) or not all(isinstance(e, str) and _plain_name(e) for e in entries):
             raise ValueError("bad entry list")
     except (OSError, ValueError, AttributeError, UnicodeError, RecursionError) as error:
-        raise InputError(path, f"not a manifest this tool wrote ({error}); remove the folder or choose another --out") from None
+        raise InputError(
+            path, f"not a manifest this tool wrote ({error}); remove the folder or choose another --out"
+        ) from None
     return data
 
 
@@ -139,11 +141,11 @@ class OutputFolder:
             raise
         return self
 
-    def __exit__(self, kind, error, trace) -> bool:
+    def __exit__(self, kind, error, trace) -> None:
         if self.committed:
             with held_signals():  # the results are complete: a signal now must not say otherwise
                 self._release_lock()
-            return False
+            return
         try:
             if self._staging is not None:
                 shutil.rmtree(self._staging, ignore_errors=True)
@@ -152,7 +154,6 @@ class OutputFolder:
             self._release_lock()
             if kind is not None:
                 self._remove_if_empty()
-        return False
 
     def _take_lock(self) -> None:
         path = self.path / LOCK
@@ -372,3 +373,29 @@ def _write_atomically(path: Path, text: str) -> None:
         handle.flush()
         os.fsync(handle.fileno())
     os.replace(temporary, path)
+
+
+class Staging:
+    """Where one command writes its files: the staging area of an `OutputFolder` it holds.
+
+    Nothing written here is visible in the output folder until `OutputFolder.commit()`.
+    """
+
+    def __init__(self, folder: OutputFolder):
+        self.folder = folder
+        self.out_dir = folder.path
+        self.path = folder.staging()
+
+    def file(self, name: str) -> Path:
+        path = self.path / name
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
+        return path
+
+    def write_text(self, name: str, text: str) -> None:
+        try:
+            self.file(name).write_text(text, encoding="utf-8")
+        except OSError as error:
+            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None

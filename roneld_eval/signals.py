@@ -77,3 +77,28 @@ def held_signals():
         name = signal.Signals(received[0]).name
         raise RunInterrupted(f"{name} received while the results were being put in place; they are complete",
                              exit_code=128 + received[0])
+
+
+class TimeLimitExceeded(BaseException):
+    """A call outlived its `time_limit` (a BaseException, so that `except Exception` in the
+    code being timed does not swallow it)."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None):
+    """Interrupt the block after `seconds` (SIGALRM; main thread only, else no limit). Code
+    inside a C call is interrupted when the call returns to Python."""
+    if seconds is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expired(number, frame):
+        raise TimeLimitExceeded()
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)

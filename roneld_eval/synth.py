@@ -21,12 +21,14 @@ from typing import Iterable
 import cv2
 import numpy as np
 
+from .config import IMAGE_SIZES
 from .errors import InputError
+from .model import image_stem
 
 CHANNELS = 4
 MAP_WIDTH, MAP_HEIGHT = 800, 288
-CULANE_SIZE = (1640, 590)
-TUSIMPLE_SIZE = (1280, 720)
+CULANE_SIZE = IMAGE_SIZES["culane"]
+TUSIMPLE_SIZE = IMAGE_SIZES["tusimple"]
 TUSIMPLE_ROWS = tuple(range(160, 720, 10))
 CULANE_CATEGORIES = ("normal", "crowd", "hlight", "shadow", "noline", "arrow", "curve", "cross", "night")
 
@@ -210,11 +212,44 @@ def tusimple_lanes(scene: Scene, rng: np.random.Generator) -> list[list[int]]:
     return [lanes[i] for i in order]
 
 
+def detector_lanes(scene: Scene, style: ClipStyle, frame_index: int, rng: np.random.Generator,
+                   rows: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """A lane detector's output for one frame, as (points (N, 2) in image pixels, score) per lane:
+    the true boundaries sampled at `rows`, with a per-lane offset and per-point jitter, shorter
+    at the top, an ego lane missed where the style makes it vanish, now and then a false lane."""
+    out = []
+    for channel, lateral in sorted(channel_lanes(scene).items()):
+        if frame_index in style.vanish_frames and channel == style.vanish_channel:
+            continue
+        top = scene.top_y + rng.uniform(0, 0.25) * (scene.height - scene.top_y)
+        ys = rows[(rows >= top) & (rows < scene.height)].astype(np.float64)
+        xs = scene.boundary_x(lateral, ys) + rng.normal(0, 6 / style.quality) + rng.normal(0, 1.5, ys.size)
+        keep = (xs >= 0) & (xs < scene.width)
+        if keep.sum() >= 4:
+            out.append((np.stack([xs[keep], ys[keep]], axis=1), float(rng.uniform(0.55, 1.0))))
+    if rng.random() < style.false_positive_rate / 2:  # a short false lane somewhere in the road
+        ys = rows[(rows >= scene.vanish_y + 0.4 * (scene.height - scene.vanish_y)) & (rows < scene.height)]
+        x0 = rng.uniform(0.1, 0.9) * scene.width
+        xs = x0 + rng.uniform(-0.6, 0.6) * (ys - ys[0])
+        keep = (xs >= 0) & (xs < scene.width)
+        if keep.sum() >= 4:
+            out.append((np.stack([xs[keep], ys[keep].astype(np.float64)], axis=1), float(rng.uniform(0.3, 0.6))))
+    return out
+
+
+def _write_lane_files(stem: Path, lanes: list[tuple[np.ndarray, float]]) -> None:
+    """A detector's CULane output: <stem>.lines.txt, and <stem>.scores.txt with its lane scores."""
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    stem.with_name(stem.name + ".lines.txt").write_text(
+        "".join(" ".join(f"{x:.2f} {int(y)}" for x, y in points[::-1]) + "\n" for points, _ in lanes))
+    stem.with_name(stem.name + ".scores.txt").write_text("".join(f"{score:.3f}\n" for _, score in lanes))
+
+
 def _clip_style(dataset: str, index: int, rng: np.random.Generator, n_frames: int) -> tuple[ClipStyle, str]:
     """A varied but deterministic mix: plain, curved, lane change, and vanishing ego lanes."""
     kind = ("normal", "curve", "lane-change", "vanish")[index % 4]
     quality = 1.0 if dataset == "culane" else 0.8
-    vanish = ()
+    vanish: tuple[int, ...] = ()
     if kind == "vanish" or (dataset == "tusimple" and index % 2 == 1):
         start = int(rng.integers(1, max(n_frames - 3, 2)))
         vanish = tuple(range(start, min(start + 3, n_frames)))
@@ -293,23 +328,26 @@ def synth_culane(out: str | Path, clips: int = 3, frames: int = 12, seed: int = 
     if structure is not None:
         structure = list(structure)
     else:
-        structure = [
-            (f"driver_{100 + k}_30frame/{5181432 + 317 * k:08d}_{203 + k:04d}.MP4",
-             [f"driver_{100 + k}_30frame/{5181432 + 317 * k:08d}_{203 + k:04d}.MP4/{30 * i:05d}.jpg" for i in range(frames)])
-            for k in range(clips)
-        ]
-    listing, categories = [], {name: [] for name in CULANE_CATEGORIES}
+        clip_ids = [f"driver_{100 + k}_30frame/{5181432 + 317 * k:08d}_{203 + k:04d}.MP4" for k in range(clips)]
+        structure = [(clip, [f"{clip}/{30 * i:05d}.jpg" for i in range(frames)]) for clip in clip_ids]
+    listing: list[str] = []
+    categories: dict[str, list[str]] = {name: [] for name in CULANE_CATEGORIES}
     total = 0
-    for index, (clip_id, relpaths) in enumerate(structure):
+    for index, (_clip_id, relpaths) in enumerate(structure):
         rng = np.random.default_rng([seed, index])
         style, category = _clip_style("culane", index, rng, len(relpaths))
         scenes = scene_sequence(CULANE_SIZE, len(relpaths), style, rng, frames_apart=30)
+        detector = np.random.default_rng([seed, index, 1])  # lane files: the detector's own noise
         for k, (relpath, scene) in enumerate(zip(relpaths, scenes)):
-            stem = relpath.rsplit(".", 1)[0]
+            stem = image_stem(relpath)
             label_path = data_root / f"{stem}.lines.txt"
             label_path.parent.mkdir(parents=True, exist_ok=True)
             label_path.write_text(culane_lines(scene))
-            _write_maps(maps_root / stem, render_maps(scene, style, k, rng), maps_format)
+            if maps_format == "lanes":
+                rows = np.arange(scene.height - 1, 0, -10)[::-1]
+                _write_lane_files(maps_root / stem, detector_lanes(scene, style, k, detector, rows))
+            else:
+                _write_maps(maps_root / stem, render_maps(scene, style, k, rng), maps_format)
             listing.append("/" + relpath)
             categories[category].append(relpath)
             total += 1
@@ -331,15 +369,21 @@ def synth_tusimple(out: str | Path, clips: int = 3, frames: int = 20, seed: int 
     out = Path(out)
     data_root, maps_root = out / "data", out / "maps"
     data_root.mkdir(parents=True, exist_ok=True)
-    records = []
+    records, predictions = [], []
+    rows = np.array(TUSIMPLE_ROWS)
     total = 0
     for index in range(clips):
         rng = np.random.default_rng([seed, index])
         style, _ = _clip_style("tusimple", index, rng, frames)
         scenes = scene_sequence(TUSIMPLE_SIZE, frames, style, rng, frames_apart=1)
         clip_id = posixpath.join("clips", f"05{30 + index % 2:02d}", f"{1492626760788443246 + 7919 * index}_0")
+        detector = np.random.default_rng([seed, index, 1])  # lane files: the detector's own noise
         for k, scene in enumerate(scenes):
-            _write_maps(maps_root / clip_id / str(k + 1), render_maps(scene, style, k, rng), maps_format)
+            if maps_format == "lanes":
+                predictions.append(_tusimple_prediction(posixpath.join(clip_id, f"{k + 1}.jpg"),
+                                                        detector_lanes(scene, style, k, detector, rows)))
+            else:
+                _write_maps(maps_root / clip_id / str(k + 1), render_maps(scene, style, k, rng), maps_format)
             total += 1
             if progress is not None:
                 progress(1)
@@ -350,7 +394,20 @@ def synth_tusimple(out: str | Path, clips: int = 3, frames: int = 20, seed: int 
             "raw_file": posixpath.join(clip_id, f"{frames}.jpg"),
         }))
     (data_root / "test_label.json").write_text("".join(record + "\n" for record in records))
+    if maps_format == "lanes":
+        maps_root.mkdir(parents=True, exist_ok=True)
+        (maps_root / "predictions.json").write_text("".join(line + "\n" for line in predictions))
     return SynthResult(data_root, maps_root, "tusimple", maps_format, clips, total)
+
+
+def _tusimple_prediction(raw_file: str, lanes: list[tuple[np.ndarray, float]]) -> str:
+    """A detector's TuSimple output line: x per h_samples row (-2 where the lane is not), scores."""
+    lanes_xs = []
+    for points, _ in lanes:
+        at_row = {int(y): x for x, y in points}
+        lanes_xs.append([round(float(at_row[y]), 2) if y in at_row else -2 for y in TUSIMPLE_ROWS])
+    return json.dumps({"raw_file": raw_file, "lanes": lanes_xs, "h_samples": list(TUSIMPLE_ROWS), "run_time": 0,
+                       "scores": [round(score, 3) for _, score in lanes]})
 
 
 def synthesize(dataset: str, out: str | Path, clips: int = 3, frames: int | None = None, seed: int = 0,
@@ -414,7 +471,7 @@ def synth_lane_files(out: str | Path, frames: int = 2000, seed: int = 0) -> tupl
             predicted.append(np.zeros((0, 2)))
         if rng.random() < 0.02:
             predicted.append(np.array([[-900.0, 700.0], [-500.0, 800.0]]))
-        stem = relpath.rsplit(".", 1)[0]
+        stem = image_stem(relpath)
         for root, lanes in ((gt_root, truth), (pred_root, predicted)):
             path = root / f"{stem}.lines.txt"
             path.parent.mkdir(parents=True, exist_ok=True)

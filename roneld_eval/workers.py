@@ -45,7 +45,8 @@ def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, inita
         initializer(*initargs)
 
 
-def process_pool(workers: int, initializer: Callable[..., Any] | None = None, initargs: tuple = ()) -> ProcessPoolExecutor:
+def process_pool(workers: int, initializer: Callable[..., Any] | None = None,
+                 initargs: tuple = ()) -> ProcessPoolExecutor:
     """Worker processes (forked where the platform allows). Unlike multiprocessing.Pool, a
     worker that dies makes its pending results raise BrokenProcessPool instead of hanging."""
     method = "fork" if sys.platform == "linux" else "spawn"

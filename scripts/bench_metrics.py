@@ -61,7 +61,8 @@ def main() -> None:
         timings[label] = sorted(runs)[1]
         row = score.table[score.table["category"] == "all"].iloc[0]
         print(f"roneld-eval, 1 core, {label:22s}: {timings[label]:6.2f} s median of 3 = "
-              f"{args.frames / timings[label]:7.1f} frames/s  (tp {row.tp} fp {row.fp} fn {row.fn} at the first threshold)")
+              f"{args.frames / timings[label]:7.1f} frames/s  "
+              f"(tp {row.tp} fp {row.fp} fn {row.fn} at the first threshold)")
 
     if args.official is None:
         print("\nThe official C++ tool was not given (--official). Measured on this kind of machine for "

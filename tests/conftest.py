@@ -10,7 +10,10 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("RONELD_SHARED", REPO.parent / "shared")) / "data"
+# Expected values from the official tools or by hand (each with its source) ...
 GOLDEN = Path(__file__).parent / "golden"
+# ... and output the tool itself wrote, kept to catch unintended changes (see snapshots/README.md).
+SNAPSHOTS = Path(__file__).parent / "snapshots"
 
 
 @pytest.fixture

@@ -141,4 +141,5 @@ def test_real_tusimple_labels(shared_data, tmp_path):
     assert len(dataset.clips) == 2782 and dataset.n_labelled == 2782 and dataset.n_frames == 2782 * 20
     lanes = [len(f.lanes) for c in dataset.clips for f in c.labelled_frames]
     assert max(lanes) == 5 and min(lanes) >= 1
-    assert all(np.all(lane.points[:, 0] >= 0) for c in dataset.clips[:50] for f in c.labelled_frames for lane in f.lanes)
+    assert all(np.all(lane.points[:, 0] >= 0)
+               for c in dataset.clips[:50] for f in c.labelled_frames for lane in f.lanes)

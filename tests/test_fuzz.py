@@ -57,7 +57,8 @@ def test_list_files_from_random_bytes(tmp_path_factory, data):
 
 
 JSON_VALUES = st.recursive(
-    st.none() | st.booleans() | st.integers(-5, 2000) | st.floats(allow_nan=False, allow_infinity=False) | st.text(max_size=5),
+    st.none() | st.booleans() | st.integers(-5, 2000) | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text(max_size=5),
     lambda children: st.lists(children, max_size=4) | st.dictionaries(st.sampled_from(
         ["raw_file", "lanes", "h_samples", "run_time", "x"]), children, max_size=4),
     max_leaves=20,

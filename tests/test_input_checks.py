@@ -619,7 +619,8 @@ def test_a_corrupt_png_prints_only_our_line(sets, tmp_path, capfd, corrupt, expe
 
 def test_maps_found_in_another_format_are_named(sets, tmp_path):
     result = run_cli(*run_args(sets / "culane-png", tmp_path / "o"))  # the presets' npy
-    one_line(result, "maps missing for 2 frames of 1 clips:", "00000.npy (found 00000_1_avg.png: use --maps-format scnn-png)")
+    one_line(result, "maps missing for 2 frames of 1 clips:",
+             "00000.npy (found 00000_1_avg.png: use --maps-format scnn-png)")
     result = run_cli(*run_args(sets / "culane", tmp_path / "o", "--maps-format", "npz"))
     one_line(result, "00000.npz (found 00000.npy: use --maps-format npy)")
     shutil.rmtree(sets / "culane" / "maps" / "driver_100_30frame")

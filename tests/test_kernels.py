@@ -48,9 +48,9 @@ def random_channel(rng, height=120, width=200):
     xs = np.full(height, np.nan)
     start = int(rng.integers(0, height // 2))
     slope = rng.uniform(-1.5, 1.5)
-    xs[start:] = rng.uniform(20, width - 20) + slope * np.arange(height - start) + rng.normal(0, 2, height - start).cumsum() * 0.2
+    xs[start:] = (rng.uniform(20, width - 20) + slope * np.arange(height - start)
+                  + rng.normal(0, 2, height - start).cumsum() * 0.2)
     plane = lane_map(height, width, xs, value=int(rng.integers(60, 255)), sigma=rng.uniform(1, 4)).astype(np.int64)
-    plane[rng.random((height, width)) < 0.02] += rng.integers(0, 120, (height, width))[rng.random((height, width)) < 0.02].mean().astype(np.int64) if False else 0
     noise = (rng.random((height, width)) < 0.01) * rng.integers(0, 150, (height, width))
     gaps = rng.random(height) < 0.2
     plane[gaps] = 0
@@ -137,7 +137,8 @@ def test_outlier_rule_on_hand_made_points():
     assert (K.remove_outliers.py_func(xs, ys, np.ones(10), 0.2, 3) == keep).all()
 
 
-@pytest.mark.parametrize("lines", [((2.0, 10.0), (2.1, 30.0)), ((-1.5, 500.0), (1.2, -300.0)), ((3.0, 5.0), (3.0, 80.0))])
+@pytest.mark.parametrize("lines", [((2.0, 10.0), (2.1, 30.0)), ((-1.5, 500.0), (1.2, -300.0)),
+                                   ((3.0, 5.0), (3.0, 80.0))])
 def test_line_distance_is_the_rms_integral(lines):
     (a1, b1), (a2, b2) = lines
     height = 288
@@ -188,7 +189,8 @@ def test_track_lanes_matches_the_rule(seed):
         return dict(slope=rng.choice([-1, 1]) * rng.uniform(0.3, 2), intercept=rng.uniform(-300, 600),
                     weight=float(rng.choice([1e-5, 0.1, 5, 50])))
     previous = [lane() for _ in range(int(rng.integers(0, 8)))]
-    current = [dict(previous[j % len(previous)]) if previous and rng.random() < 0.5 else lane() for j in range(int(rng.integers(0, 5)))]
+    current = [dict(previous[j % len(previous)]) if previous and rng.random() < 0.5 else lane()
+               for j in range(int(rng.integers(0, 5)))]
     for c in current:
         c["intercept"] += rng.normal(0, 1)
     gains = rng.uniform(0, 100, len(current))
@@ -223,3 +225,100 @@ def test_row_argmax_is_numpys_first_maximum():
         columns, values = kernel(maps, rows)
         np.testing.assert_array_equal(columns, maps[:, rows, :].argmax(axis=2))
         np.testing.assert_array_equal(values, maps[:, rows, :].max(axis=2))
+
+
+# ---- whole-lane kernels against the method document, step by step in plain Python ----------
+
+
+def obvious_channel_lane(channel, threshold, stride):
+    """(xs, ys, confidences, curve, slope, intercept, rms) of one channel, or None: extraction,
+    curve test, one outlier pass for straight lanes, weighted fit (sections 1-3)."""
+    points, confidences = obvious_extract_points(channel, threshold, stride)
+    if len(points) <= CONSTANTS.min_straight_points:
+        return None
+    xs = np.array([p[0] for p in points], np.int64)
+    ys = np.array([p[1] for p in points], np.int64)
+    weights = np.array(confidences, np.float64)
+    top = CONSTANTS.curve_top_points
+    curve = len(xs) >= CONSTANTS.min_curve_points and obvious_r2(xs, ys) < obvious_r2(xs[top:], ys[top:]) - K.R2_TIE
+    if not curve:
+        slope, intercept = np.polyfit(xs.astype(float), ys.astype(float), 1, w=np.sqrt(weights))
+        distance = np.abs(xs - (ys - intercept) / slope)
+        drop = int(len(xs) * CONSTANTS.outlier_fraction) + 1
+        keep = np.ones(len(xs), bool)
+        keep[np.argsort(distance, kind="stable")[len(xs) - drop:]] = False
+        xs, ys, weights = xs[keep], ys[keep], weights[keep]
+    slope, intercept = np.polyfit(xs.astype(float), ys.astype(float), 1, w=np.sqrt(weights))
+    return xs, ys, weights, curve, slope, intercept, math.sqrt(np.mean(weights**2))
+
+
+def random_frame(rng, channels=4, height=120, width=200):
+    return np.stack([random_channel(rng, height, width) if rng.random() < 0.8 else np.zeros((height, width), np.uint8)
+                     for _ in range(channels)])
+
+
+def test_root_mean_square_does_not_overflow_uint8():
+    values = np.array([255, 255, 3, 0], np.uint8)
+    expected = math.sqrt(np.mean(values.astype(float) ** 2))
+    assert K.root_mean_square(values) == pytest.approx(expected, rel=1e-15)
+    assert K.root_mean_square.py_func(values) == pytest.approx(expected, rel=1e-15)
+    floats = np.random.default_rng(0).uniform(0, 255, 50)
+    assert K.root_mean_square(floats) == pytest.approx(math.sqrt(np.mean(floats**2)), rel=1e-14)
+
+
+@pytest.mark.parametrize("seed", range(16))
+def test_channel_lane_matches_the_method_step_by_step(seed):
+    rng = np.random.default_rng(seed)
+    maps = random_frame(rng, channels=1)
+    row_max = K.row_maxima(maps)
+    threshold = K.frame_threshold(row_max)
+    stride = maps.shape[1] // CONSTANTS.rows_per_point
+    arguments = (maps[0], row_max[0], threshold, stride, CONSTANTS.min_straight_points,
+                 CONSTANTS.min_curve_points, CONSTANTS.curve_top_points, CONSTANTS.outlier_fraction)
+    got = K.channel_lane(*arguments)
+    expected = obvious_channel_lane(maps[0], threshold, stride)
+    if expected is None:
+        assert got[0].size == 0
+        return
+    xs, ys, weights, curve, slope, intercept, rms = expected
+    np.testing.assert_array_equal(got[0], xs)
+    np.testing.assert_array_equal(got[1], ys)
+    np.testing.assert_array_equal(got[2], weights)
+    assert got[3] == curve
+    assert got[4:] == pytest.approx((slope, intercept, rms), rel=1e-7, abs=1e-7)
+    python = K.channel_lane.py_func(*arguments)
+    assert python[3:] == pytest.approx(got[3:], rel=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_frame_lanes_packs_every_channels_lane(seed):
+    rng = np.random.default_rng(100 + seed)
+    maps = random_frame(rng)
+    arguments = (CONSTANTS.rows_per_point, CONSTANTS.min_straight_points, CONSTANTS.min_curve_points,
+                 CONSTANTS.curve_top_points, CONSTANTS.outlier_fraction)
+    counts, xs, ys, fields = K.frame_lanes(maps, *arguments)
+    threshold = max(int(maps.max()) // 3, 1)
+    stride = maps.shape[1] // CONSTANTS.rows_per_point
+    offset, row = 0, 0
+    for channel in range(maps.shape[0]):
+        expected = obvious_channel_lane(maps[channel], threshold, stride)
+        if expected is None:
+            assert counts[channel] == 0
+            continue
+        lane_xs, lane_ys, _, curve, slope, intercept, rms = expected
+        n = len(lane_xs)
+        assert counts[channel] == n
+        np.testing.assert_array_equal(xs[offset:offset + n], lane_xs)
+        np.testing.assert_array_equal(ys[offset:offset + n], lane_ys)
+        field = fields[row]
+        assert field[K.F_SLOPE] == pytest.approx(slope, rel=1e-7)
+        assert field[K.F_INTERCEPT] == pytest.approx(intercept, rel=1e-7, abs=1e-7)
+        assert field[K.F_RMS] == pytest.approx(rms, rel=1e-12)
+        assert (field[K.F_CURVE], field[K.F_CHANNEL], field[K.F_POINTS]) == (float(curve), channel, n)
+        assert (field[K.F_TOP_X], field[K.F_BOTTOM_X], field[K.F_TOP_Y]) == (lane_xs[0], lane_xs[-1], lane_ys[0])
+        assert field[K.F_WEIGHT] == 0.0
+        offset, row = offset + n, row + 1
+    assert fields.shape[0] == row and xs.size == offset
+    python = K.frame_lanes.py_func(maps, *arguments)
+    np.testing.assert_array_equal(python[0], counts)
+    np.testing.assert_allclose(python[3], fields, rtol=1e-12)

@@ -40,7 +40,8 @@ def test_a_constant_difference_is_recovered_exactly():
     for clip in range(12):
         for frame in range(2):
             for side, base in (("left", 0.9), ("right", 0.1)):
-                rows += [(f"c{clip}/{frame}.jpg", side, "roneld", 0.9), (f"c{clip}/{frame}.jpg", side, "baseline", base)]
+                name = f"c{clip}/{frame}.jpg"
+                rows += [(name, side, "roneld", 0.9), (name, side, "baseline", base)]
     gains = paired_bootstrap(per_frame_table(rows), THRESHOLDS, "baseline")
     np.testing.assert_allclose(gains[["difference", "ci_low", "ci_high"]].to_numpy(), 0.5)
 

@@ -109,16 +109,16 @@ def test_tusimple_fixture_scores_only_labelled_frames(tmp_path):
 
 
 def test_fixture_official_scores_equal_the_committed_ones(fixture_run):
-    """Golden numbers of the official CULane protocol on the fixture (results/official.csv)."""
+    """The fixture's official CULane scores equal the regression snapshot results/official.csv."""
     _, out = fixture_run
     assert (out / "official.csv").read_text() == (REPO / "results" / "official.csv").read_text()
 
 
-def test_tusimple_fixture_golden_numbers(tmp_path):
-    """Golden numbers of both protocols on the TuSimple fixture (tests/golden/fixture_tusimple/)."""
-    from conftest import GOLDEN
+def test_tusimple_fixture_matches_its_snapshot(tmp_path):
+    """Both protocols on the TuSimple fixture equal the regression snapshot (tests/snapshots/)."""
+    from conftest import SNAPSHOTS
 
     config = api.default_config("tusimple").with_overrides(pft_ablation=True, workers=1)
     api.run(config, tmp_path, progress=False)
     for name in ("accuracy.csv", "official.csv"):
-        assert (tmp_path / name).read_text() == (GOLDEN / "fixture_tusimple" / name).read_text(), name
+        assert (tmp_path / name).read_text() == (SNAPSHOTS / "fixture_tusimple" / name).read_text(), name

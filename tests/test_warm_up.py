@@ -152,8 +152,19 @@ def test_stable_argsort_is_numpys_stable_argsort(seed):
 
 
 def test_groups_follow_the_methods_and_the_dataset():
-    assert kernels.groups_for(["baseline", "roneld"], "culane") == ("roneld", "baseline", "official", "paper")
-    assert kernels.groups_for(["roneld-nopft"], "tusimple") == ("roneld", "paper")
+    from roneld_eval.benchmarks import benchmark_for
+    from roneld_eval.config import EvalConfig
+    from roneld_eval.extract.registry import methods_of
+
+    def groups(methods, dataset):
+        config = EvalConfig.preset(f"scnn-{dataset}").with_overrides(methods=methods)
+        return kernels.groups_for(methods_of(config), benchmark_for(dataset))
+
+    assert groups(["baseline", "roneld"], "culane") == ("baseline", "roneld", "official", "paper")
+    assert groups(["roneld-nopft"], "tusimple") == ("roneld", "paper")
+    # A plug-in brings no kernels of ours; the benchmark and the paper's protocol still do.
+    plugin = EvalConfig.preset("scnn-culane").with_overrides(methods=["baseline"]).with_plugin("mine", "x:y")
+    assert kernels.groups_for(methods_of(plugin), benchmark_for("culane")) == ("baseline", "official", "paper")
     with pytest.raises(ValueError, match="unknown kernel groups"):
         kernels.warm_up(["roneld", "sideways"])
 

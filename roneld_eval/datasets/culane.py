@@ -15,12 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config import IMAGE_SIZES
 from ..errors import InputError
 from ..lanes_io import check_regular_file, read_culane_lines, read_text, split_lines
 from ..model import Clip, Dataset, Frame, image_stem
 from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
 
-IMAGE_WIDTH, IMAGE_HEIGHT = 1640, 590
+IMAGE_WIDTH, IMAGE_HEIGHT = IMAGE_SIZES["culane"]
 _CATEGORY_FILE = re.compile(r"test(\d+)_(\w+)\.txt\Z")
 
 
@@ -68,7 +69,8 @@ def check_inside(lanes, path, width: int, height: int) -> None:
         points = lane.points
         if not len(points):
             continue
-        bad = (points[:, 0] < -width) | (points[:, 0] > 2 * width) | (points[:, 1] < -height) | (points[:, 1] > 2 * height)
+        xs, ys = points[:, 0], points[:, 1]
+        bad = (xs < -width) | (xs > 2 * width) | (ys < -height) | (ys > 2 * height)
         if bad.any():
             x, y = points[np.argmax(bad)]
             raise InputError(path, f"point ({x:g}, {y:g}) lies far outside the {width}x{height} image", line=number)
@@ -82,7 +84,7 @@ def read_frame_labels(root: Path, relpath: str):
     return lanes
 
 
-def with_labels(clip: Clip, root: Path, errors: list[InputError] | None = None) -> Clip:
+def with_labels(clip: Clip, root: str | Path, errors: list[InputError] | None = None) -> Clip:
     """The clip with its frames' labels read (frames with bad labels left out when collecting errors)."""
     frames = []
     for frame in clip.frames:

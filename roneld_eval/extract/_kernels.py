@@ -7,6 +7,7 @@ Each kernel has an obvious pure-Python counterpart in tests/test_kernels.py, and
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import types
@@ -72,7 +73,7 @@ def extract_points(channel, row_max, threshold, stride):
     confidences = np.empty(height, np.float64)
     count = 0
     # Typed zeros: literal ones would have type inference compile window_max for them too.
-    left = np.int64(0)
+    left: int | np.int64 = np.int64(0)
     right = width
     row = np.int64(0)
     while row < height:
@@ -82,14 +83,14 @@ def extract_points(channel, row_max, threshold, stride):
         ):
             end = min(row + stride, height)
             best = 0
-            best_row = row
+            best_row: int | np.int64 = row
             for r in range(row, end):
                 value = window_max(channel, r, left, right)
                 if value > best:
                     best = value
                     best_row = r
             line = channel[best_row]
-            best_x = left
+            best_x: int | np.int64 = left
             for column in range(left, right):
                 if line[column] == best:
                     best_x = column
@@ -452,7 +453,7 @@ _VALUES = types.Array(types.float64, 1, "C")
 _ROWS = types.Array(types.int64, 1, "C")
 _I, _F = types.int64, types.float64
 
-ENTRY_SIGNATURES = {
+ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     # roneld.current_lanes, roneld_step
     "roneld": [(frame_lanes, (maps, _I, _I, _I, _I, _F)) for maps in _MAPS] + [
         (track_lanes, (_FIELDS, _FIELDS, _VALUES, _F, _F, _F, _F)),

@@ -11,13 +11,15 @@ here: the cubic spline belongs to drawing the lane for scoring.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Mapping
 
 import numpy as np
 
 from ..config import BaselineParams, parse_rows
 from ..geometry import MapGeometry
-from ..model import FrameMaps, Lane
+from ..model import EGO_CHANNELS, FrameMaps, Lane
 from ._kernels import row_argmax
+from .protocol import Prediction, ego_pair
 
 
 def _round_half_up(numerator: np.ndarray, denominator: int) -> np.ndarray:
@@ -48,7 +50,7 @@ def baseline_lanes(maps: FrameMaps, params: BaselineParams, geometry: MapGeometr
     probabilities = maps.probabilities
     if (geometry.map_width, geometry.map_height) != (maps.width, maps.height):
         geometry = geometry.with_map_size(maps.width, maps.height)
-        rows = None
+        rows = None  # sampled for the other size
     if rows is None:
         rows = sample_rows(params, geometry)
     columns, values = row_argmax(probabilities, rows.map_rows)  # first maximum, as MATLAB's max
@@ -63,3 +65,28 @@ def baseline_lanes(maps: FrameMaps, params: BaselineParams, geometry: MapGeometr
             continue
         lanes.append(Lane.from_xy(xs[channel][keep], rows.image_rows[keep]))
     return lanes
+
+
+class BaselineExtractor:
+    """The method 'baseline': the model's own lanes. From maps, prob2lines as above, active
+    lanes from the ego channels; from lane files (`FrameMaps.lanes`), the detector's lanes as
+    they are, active lanes the nearest on each side of the ego position."""
+
+    stateless = True  # each frame's lanes depend on that frame alone
+
+    def __init__(self, geometry: MapGeometry, params: Mapping[str, Any]):
+        params = dict(params)
+        self.ego_center_ratio = float(params.pop("ego_center_ratio", 0.5))
+        self.params = BaselineParams(**params)
+        self.geometry = geometry
+        self.rows = sample_rows(self.params, geometry)
+
+    def __call__(self, maps: FrameMaps) -> Prediction:
+        if maps.lanes is not None:
+            lanes = tuple(maps.lanes)
+            active = ego_pair(lanes, self.geometry.image_width, self.geometry.image_height, self.ego_center_ratio)
+            return Prediction(lanes, active, spline=True)
+        per_channel = baseline_lanes(maps, self.params, self.geometry, self.rows)
+        left, right = (per_channel[c] if c < len(per_channel) else None for c in EGO_CHANNELS)
+        # The models' lanes are sparse points that their own tools draw through a cubic spline.
+        return Prediction(tuple(lane for lane in per_channel if lane is not None), (left, right), spline=True)

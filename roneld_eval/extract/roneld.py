@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any, Mapping
 
 import numpy as np
 
 from ..config import RoneldParams
 from ..geometry import MapGeometry
-from ..model import FrameMaps, Lane
+from ..model import EGO_CHANNELS, FrameMaps, Lane
 from . import _kernels
+from .protocol import Prediction
 
 
 @dataclass(frozen=True)
@@ -32,7 +34,7 @@ class RoneldConstants:
     outlier_fraction: float = 0.2  # drop floor(0.2*m)+1 farthest points, once
     rows_per_point: int = 20  # row stride = H // 20
     merge_width_divisor: float = 200.0  # same lane when RMS distance < W/200
-    ego_channels: tuple[int, ...] = (1, 2)  # channels whose lanes weigh e^2 more
+    ego_channels: tuple[int, ...] = EGO_CHANNELS  # channels whose lanes weigh e^2 more
     ego_weight: float = math.e**2
     other_weight: float = 1.0
     decay: float = math.e  # weight of a missed lane is divided by e per frame
@@ -168,7 +170,7 @@ def roneld_step(
     top_row = height * (1 - params.lane_ratio)
     for row in chosen:
         top_row = min(top_row, tracked[row, _kernels.F_TOP_Y])
-    outlines = []
+    outlines: list[np.ndarray | None] = []
     for row in (left, right):
         if row < 0:
             outlines.append(None)
@@ -199,9 +201,9 @@ class RoneldTracker:
     def __call__(self, frame: FrameMaps | np.ndarray) -> ActiveLanes:
         maps = frame.probabilities if isinstance(frame, FrameMaps) else frame
         self.state, left, right, curve_mode = roneld_step(self.state, maps, self.params, pft=self.pft)
-        geometry = self.geometry
-        if geometry is None or (geometry.map_width, geometry.map_height) != (maps.shape[2], maps.shape[1]):
-            geometry = _geometry_for(geometry, maps)
+        height, width = maps.shape[1:]
+        # Without a geometry, lanes stay in map pixels.
+        geometry = (self.geometry or MapGeometry(width, height, width, height)).with_map_size(width, height)
         return ActiveLanes(
             left=None if left is None else Lane(geometry.map_to_image(left)),
             right=None if right is None else Lane(geometry.map_to_image(right)),
@@ -209,9 +211,25 @@ class RoneldTracker:
         )
 
 
-def _geometry_for(geometry: MapGeometry | None, maps: np.ndarray) -> MapGeometry:
-    height, width = maps.shape[1:]
-    if geometry is None:
-        # Without a geometry, lanes stay in map pixels.
-        return MapGeometry(width, height, width, height)
-    return geometry.with_map_size(width, height)
+
+class RoneldExtractor:
+    """RONELD as an extractor: one tracker per clip; its two active lanes are all it outputs."""
+
+    stateless = False  # preceding-frame tracking needs every frame, in order
+
+    def __init__(self, geometry: MapGeometry, params: Mapping[str, Any], pft: bool = True):
+        self.tracker = RoneldTracker(RoneldParams(**params), geometry, pft=pft)
+
+    def __call__(self, maps: FrameMaps) -> Prediction:
+        lanes = self.tracker(maps)
+        return Prediction(tuple(lanes.as_list()), (lanes.left, lanes.right), spline=False)
+
+
+def with_pft(geometry: MapGeometry, params: Mapping[str, Any]) -> RoneldExtractor:
+    """The method 'roneld': RONELD with preceding-frame tracking."""
+    return RoneldExtractor(geometry, params, pft=True)
+
+
+def without_pft(geometry: MapGeometry, params: Mapping[str, Any]) -> RoneldExtractor:
+    """The method 'roneld-nopft': RONELD without preceding-frame tracking (the ablation)."""
+    return RoneldExtractor(geometry, params, pft=False)

@@ -13,6 +13,7 @@ import stat
 from pathlib import Path
 
 from ..config import MapsConfig
+from ..geometry import MapGeometry
 from ..datasets._paths import under_root
 from ..errors import InputError
 from ..model import FrameMaps, image_stem
@@ -75,12 +76,27 @@ def missing_reason(path: Path) -> str:
 def required_paths(root: Path, relpath: str, config: MapsConfig) -> list[Path]:
     """Files that must exist for a frame's maps to load (PNGs of absent lanes may be missing)."""
     stem = map_stem(root, relpath)
+    if config.format == "lanes":
+        from .lanes import lane_files
+
+        return lane_files(stem, root)
     return [stem.with_name(stem.name + _FORMAT_SUFFIXES[config.format])]
 
 
-def load_maps(root: Path, relpath: str, config: MapsConfig) -> FrameMaps:
-    """The maps of one frame in the canonical form, or an InputError naming the bad file."""
+def load_maps(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry | None = None,
+              center_ratio: float = 0.5) -> FrameMaps:
+    """The maps of one frame in the canonical form, or an InputError naming the bad file.
+
+    Lane files (format "lanes") are drawn into maps of the configured size: they need the
+    map-to-image `geometry` and the ego position (`center_ratio`) that orders the channels.
+    """
     stem = map_stem(root, relpath)
+    if config.format == "lanes":
+        from .lanes import load_lane_maps
+
+        if geometry is None:
+            raise InputError(None, "lane files become maps only with the run's geometry")
+        return load_lane_maps(root, relpath, stem, config, geometry, center_ratio)
     if config.format == "npy":
         return load_npy(stem.with_name(stem.name + _FORMAT_SUFFIXES["npy"]), config)
     if config.format == "npz":

@@ -28,7 +28,8 @@ MIN_CLIPS = 5
 
 def clip_of(frames: pd.Series) -> pd.Series:
     """The clip (video folder) of each frame path: the unit the bootstrap resamples."""
-    return frames.map(posixpath.dirname)
+    unique = frames.unique()  # each frame has a row per side and method: name each folder once
+    return frames.map(dict(zip(unique, map(posixpath.dirname, unique))))
 
 
 def count_clips(per_frame: pd.DataFrame) -> int:
@@ -36,11 +37,12 @@ def count_clips(per_frame: pd.DataFrame) -> int:
     return int(clip_of(per_frame["frame"]).nunique()) if len(per_frame) else 0
 
 
-def clip_counts(per_frame: pd.DataFrame, method: str, thresholds: Thresholds, clips: list[str]) -> tuple[np.ndarray, np.ndarray]:
+def clip_counts(per_frame: pd.DataFrame, method: str, thresholds: Thresholds,
+                clips: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """(tp, n_gt): (C, T) true positives and (C,) ground-truth lanes per clip of one method."""
     rows = per_frame[per_frame["method"] == method]
-    index = {clip: k for k, clip in enumerate(clips)}
-    positions = np.array([index[c] for c in clip_of(rows["frame"])], np.int64)
+    positions = pd.Categorical(clip_of(rows["frame"]), categories=clips).codes.astype(np.int64)
+    assert (positions >= 0).all(), "every frame's clip is among the clips"
     above = rows["iou"].to_numpy(np.float64)[:, None] > np.asarray(thresholds.values)[None, :]
     tp = np.zeros((len(clips), len(thresholds)), np.int64)
     np.add.at(tp, positions, above.astype(np.int64))
@@ -73,4 +75,5 @@ def paired_bootstrap(per_frame: pd.DataFrame, thresholds: Thresholds, method: st
         samples = (weights @ delta) / drawn_gt[:, None]
     tail = (1 - level) / 2 * 100
     low, high = np.nanpercentile(samples, [tail, 100 - tail], axis=0) if total else (difference, difference)
-    return pd.DataFrame({"threshold": list(thresholds.labels), "difference": difference, "ci_low": low, "ci_high": high})
+    return pd.DataFrame({"threshold": list(thresholds.labels), "difference": difference,
+                         "ci_low": low, "ci_high": high})

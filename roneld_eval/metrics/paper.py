@@ -26,14 +26,11 @@ SIDES = ("left", "right")
 
 def bottom_x(lane: Lane, bottom_row: float) -> float:
     """x where the line through a lane's two lowest points meets `bottom_row`."""
-    order = lane.points[:, 1].argsort(kind="stable")
-    (x1, y1), (x2, y2) = lane.points[order[-2]], lane.points[order[-1]]
-    if y2 == y1:
-        return float(x2)
-    return float(x2 + (bottom_row - y2) * (x2 - x1) / (y2 - y1))
+    return lane.bottom_x(bottom_row)
 
 
-def ego_lanes(lanes: Sequence[Lane], image_width: int, image_height: int, center_ratio: float) -> tuple[Lane | None, Lane | None]:
+def ego_lanes(lanes: Sequence[Lane], image_width: int, image_height: int,
+              center_ratio: float) -> tuple[Lane | None, Lane | None]:
     """(left, right) ground-truth lanes bounding the ego lane; lanes of < 2 points are ignored."""
     center = center_ratio * image_width
     left = right = None
@@ -78,6 +75,7 @@ def side_ious(gt: dict[str, LaneMask | None], predicted: Sequence[Lane | None], 
         if lane is None:
             out[side] = 0.0
             continue
-        value = mask_iou(truth, map_mask(lane, geometry, pred_thickness, spline=spline, rounding=params.prediction_rounding))
+        drawn = map_mask(lane, geometry, pred_thickness, spline=spline, rounding=params.prediction_rounding)
+        value = mask_iou(truth, drawn)
         out[side] = 0.0 if value != value else value
     return out

@@ -64,10 +64,18 @@ def _image(path: Path, alt: str) -> str:
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
 
 
+def _present(folder: Path, name: str | None) -> Path | None:
+    """The file `name` in `folder`, or None when no name is given or the run has no such file."""
+    if not name or not (folder / name).exists():
+        return None
+    return folder / name
+
+
 def build_html(folder: Path) -> str:
     """The page for the run in `folder`."""
     folder = Path(folder)
-    summary = json.loads((folder / "summary.json").read_text(encoding="utf-8")) if (folder / "summary.json").exists() else {}
+    summary_path = folder / "summary.json"
+    summary = json.loads(summary_path.read_text(encoding="utf-8")) if summary_path.exists() else {}
     config = summary.get("config", {})
     counts = summary.get("counts", {})
     protocol = Protocol.from_summary(summary)
@@ -78,7 +86,8 @@ def build_html(folder: Path) -> str:
              '<p class="meta">' + html.escape(
                  f"{counts.get('clips', '?')} clips, {counts.get('frames', '?')} frames, "
                  f"{counts.get('labelled_frames', '?')} scored, {counts.get('ego_lanes', '?')} ego lanes; "
-                 f"data: {summary.get('data_root', '?')}; roneld-eval {summary.get('versions', {}).get('roneld-eval', '?')}")
+                 f"data: {summary.get('data_root', '?')}; "
+                 f"roneld-eval {summary.get('versions', {}).get('roneld-eval', '?')}")
              + "</p>"]
     if protocol is not None:
         line = f"Paper's protocol: {protocol.paper()}."
@@ -91,9 +100,11 @@ def build_html(folder: Path) -> str:
     else:
         official_note = ("SCNN's CULane evaluator per category, and 'ego': the two ego lanes only"
                          + (f"; {protocol.official()}." if protocol is not None else "."))
-    colours = {"baseline": "baseline red (dashed)", "roneld": "RONELD green", "roneld-nopft": "RONELD w/o PFT cyan (dashed)"}
+    colours = {"baseline": "baseline red (dashed)", "roneld": "RONELD green",
+               "roneld-nopft": "RONELD w/o PFT cyan (dashed)"}
     drawn = [colours[m] for m in config.get("methods", colours) if m in colours]
-    picture_note = (", ".join(["Ground truth blue", *drawn]) + "; numbers are each lane's IoU under the paper's protocol"
+    picture_note = (", ".join(["Ground truth blue", *drawn])
+                    + "; numbers are each lane's IoU under the paper's protocol"
                     + (f" ({protocol.paper()})." if protocol is not None else "."))
     sections = [
         ("Accuracy (the RONELD paper's protocol)", "accuracy.md", None, None),
@@ -105,20 +116,21 @@ def build_html(folder: Path) -> str:
         ("Where the methods differ most", None, "overlays.png", picture_note),
     ]
     for title, table_file, image_file, note in sections:
-        table_path = folder / table_file if table_file else None
-        image_path = folder / image_file if image_file else None
-        if (table_path is None or not table_path.exists()) and (image_path is None or not image_path.exists()):
+        table_path = _present(folder, table_file)
+        image_path = _present(folder, image_file)
+        if table_path is None and image_path is None:
             continue
         parts.append(f"<h2>{html.escape(title)}</h2>")
-        has_table = table_path is not None and table_path.exists()
-        markdown = table_path.read_text(encoding="utf-8") if has_table and table_path.suffix == ".md" else None
+        markdown: str | None = None
+        if table_path is not None and table_path.suffix == ".md":
+            markdown = table_path.read_text(encoding="utf-8")
         # A table's own notes (what produced its numbers) go with it; else the section's.
         text = html.escape(note, quote=False) if note else _markdown_notes(markdown) if markdown else ""
         if text:
             parts.append(f'<p class="meta">{text}</p>')
-        if has_table:
+        if table_path is not None:
             parts.append(_csv_table(table_path, config.get("model")) if markdown is None else _markdown_table(markdown))
-        if image_path is not None and image_path.exists():
+        if image_path is not None:
             parts.append(_image(image_path, title))
     body = "\n".join(parts)
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>roneld-eval report</title>'

@@ -55,12 +55,12 @@ def worst_frames(per_frame: pd.DataFrame, count: int, first: str = "baseline", s
         if alone is None:
             return []
         scores = per_frame[per_frame["method"] == alone].groupby("frame")["iou"].sum()
-        return [frame for frame, _ in sorted(scores.items(), key=lambda item: (item[1], item[0]))[:count]]
+        return [str(frame) for frame, _ in sorted(scores.items(), key=lambda item: (item[1], item[0]))[:count]]
     table = per_frame[per_frame["method"].isin([first, second])].pivot_table(
         index=["frame", "side"], columns="method", values="iou", aggfunc="first")
     difference = (table[first] - table[second]).abs().groupby(level="frame").sum()
     ranked = sorted(difference.items(), key=lambda item: (-item[1], item[0]))
-    return [frame for frame, _ in ranked[:count]]
+    return [str(frame) for frame, _ in ranked[:count]]
 
 
 def heat_map(probabilities: np.ndarray, width: int, height: int, crop_top: int, crop_bottom: int) -> np.ndarray:
@@ -123,8 +123,8 @@ def draw_frame(picture: FramePicture, background: np.ndarray, model: str, captio
     image = cv2.resize(background, (OUTPUT_WIDTH, round(height * scale)), interpolation=cv2.INTER_AREA)
     out_height = image.shape[0]
     colour, thickness, dashed = STYLES["ground truth"]
-    for lane in picture.other_ground_truth:
-        _polyline(image, lane.points * scale, colour, 2, False)
+    for other in picture.other_ground_truth:
+        _polyline(image, other.points * scale, colour, 2, False)
     for lane in picture.ground_truth:
         if lane is not None and len(lane) >= 2:
             _polyline(image, lane.points * scale, colour, thickness, dashed)
@@ -139,18 +139,19 @@ def draw_frame(picture: FramePicture, background: np.ndarray, model: str, captio
             if iou is not None:
                 anchor = _point_at_height(points, out_height * (0.62 + 0.12 * rank))
                 _label(image, f"{iou:.2f}", anchor, colour)
-    legend = [("ground truth", STYLES["ground truth"][0], False)] + [
+    legend: list[tuple[str, tuple[int, int, int] | None, bool]] = [("ground truth", STYLES["ground truth"][0], False)]
+    legend += [
         (display_name(method, model), *STYLES.get(method, (CYAN, 3, True))[::2]) for method in picture.lanes]
     legend.append((f"numbers: each lane's IoU ({protocol or 'the paper' + chr(39) + 's protocol'})", None, False))
-    for row, (text, colour, dashed) in enumerate(legend):
+    for row, (text, sample_colour, dashed) in enumerate(legend):
         y = 24 + 24 * row
-        x = 52 if colour is not None else 12
+        x = 52 if sample_colour is not None else 12
         overlay = image.copy()
         cv2.rectangle(overlay, (6, y - 17), (max(250, x + cv2.getTextSize(text, FONT, 0.55, 1)[0][0] + 8), y + 7),
                       (0, 0, 0), -1)
         cv2.addWeighted(overlay, 0.6, image, 0.4, 0, dst=image)
-        if colour is not None:  # a sample of the line, dashed as drawn
-            _polyline(image, np.array([[12.0, y - 5], [44.0, y - 5]]), colour, 4, dashed)
+        if sample_colour is not None:  # a sample of the line, dashed as drawn
+            _polyline(image, np.array([[12.0, y - 5], [44.0, y - 5]]), sample_colour, 4, dashed)
         cv2.putText(image, text, (x, y), FONT, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
     bar = np.full((34, OUTPUT_WIDTH, 3), 255, np.uint8)
     text = caption or picture.relpath
@@ -164,7 +165,8 @@ def contact_sheet(pictures: list[np.ndarray], columns: int = 2, gap: int = 8) ->
     if not pictures:
         return np.full((10, 10, 3), 255, np.uint8)
     width = OUTPUT_WIDTH
-    scaled = [cv2.resize(p, (width, round(p.shape[0] * width / p.shape[1])), interpolation=cv2.INTER_AREA) for p in pictures]
+    scaled = [cv2.resize(p, (width, round(p.shape[0] * width / p.shape[1])), interpolation=cv2.INTER_AREA)
+              for p in pictures]
     cell = max(p.shape[0] for p in scaled)
     rows = math.ceil(len(scaled) / columns)
     sheet = np.full((rows * (cell + gap) + gap, columns * (width + gap) + gap, 3), 255, np.uint8)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import re
 import textwrap
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -21,7 +22,7 @@ import pandas as pd  # noqa: E402
 from ..errors import InputError
 from .tables import Protocol, clips_text, dataset_name, display_name  # noqa: E402
 
-STYLES = {
+STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
     "baseline": dict(color="#d62728", marker="o", linestyle="--"),
     "roneld": dict(color="#2ca02c", marker="s", linestyle="-"),
     "roneld-nopft": dict(color="#1f77b4", marker="^", linestyle=":"),

@@ -223,11 +223,12 @@ class Table:
             lines.append("    " + " & ".join(cells) + " \\\\")
         lines.append("    \\midrule")
         for number, row in enumerate(self.rows):
-            cells = [_latex_lines(value) for value in row]
-            if number and any(len(cell) > 1 for cell in cells):
+            cell_lines = [_latex_lines(value) for value in row]
+            if number and any(len(cell) > 1 for cell in cell_lines):
                 lines.append("    \\addlinespace[3pt]")
-            for level in range(max(len(cell) for cell in cells)):
-                lines.append("    " + " & ".join(cell[level] if level < len(cell) else "" for cell in cells) + " \\\\")
+            for level in range(max(len(cell) for cell in cell_lines)):
+                line = " & ".join(cell[level] if level < len(cell) else "" for cell in cell_lines)
+                lines.append("    " + line + " \\\\")
         lines += ["    \\bottomrule", f"  \\end{{{'tabular*' if wide else 'tabular'}}}", f"\\end{{{environment}}}"]
         return "\n".join(lines) + "\n"
 
@@ -287,6 +288,12 @@ def short_threshold(label: str) -> str:
     return text + "0" if text.endswith(".") else text
 
 
+def _accuracies(accuracy: pd.DataFrame) -> dict[tuple[str, str], float]:
+    """Accuracy by (method, threshold label), from an accuracy table."""
+    rows = zip(accuracy["method"], accuracy["threshold"], accuracy["accuracy"])
+    return {(method, label): float(value) for method, label, value in rows}
+
+
 def comparison_table(accuracy: pd.DataFrame, model: str, clips: int | None = None) -> Table:
     """Tables II/III: at 0.3/0.4/0.5, each method, RONELD beside it, and the increase.
 
@@ -295,15 +302,17 @@ def comparison_table(accuracy: pd.DataFrame, model: str, clips: int | None = Non
     """
     labels = list(dict.fromkeys(accuracy["threshold"]))
     methods = list(dict.fromkeys(accuracy["method"]))
-    value = {(r.method, r.threshold): float(r.accuracy) for r in accuracy.itertuples()}
+    value = _accuracies(accuracy)
     interval = {}
     if "roneld_gain_ci_low" in accuracy.columns:
-        interval = {(r.method, r.threshold): (float(r.roneld_gain_ci_low), float(r.roneld_gain_ci_high))
-                    for r in accuracy.itertuples()}
+        bounds = zip(accuracy["method"], accuracy["threshold"],
+                     accuracy["roneld_gain_ci_low"], accuracy["roneld_gain_ci_high"])
+        interval = {(method, label): (float(low), float(high)) for method, label, low, high in bounds}
     others = [m for m in methods if m != "roneld"]
     paired = "roneld" in methods and bool(others)
     shown = [m for other in others for m in (other, "roneld")] if paired else methods
-    headers, header_lines = ["IoU threshold"], [("IoU", "threshold")]
+    headers = ["IoU threshold"]
+    header_lines: list[tuple[str, ...]] = [("IoU", "threshold")]
     for method in shown:
         headers.append(display_name(method, model))
         header_lines.append(name_parts(method, model))
@@ -335,7 +344,7 @@ def ablation_table(accuracy: pd.DataFrame, dataset: str, model: str | None = Non
     if not set(methods) <= set(accuracy["method"]):
         return None
     labels = list(dict.fromkeys(accuracy["threshold"]))
-    value = {(r.method, r.threshold): float(r.accuracy) for r in accuracy.itertuples()}
+    value = _accuracies(accuracy)
     name = dataset_name(dataset)
     rows = tuple(
         (short_threshold(label), *(value[(m, label)] for m in methods))
@@ -349,7 +358,7 @@ def ablation_table(accuracy: pd.DataFrame, dataset: str, model: str | None = Non
 def runtime_table(runtime: pd.DataFrame, model: str) -> Table:
     """Table V: milliseconds per frame of extraction alone, map loading apart."""
     rows = []
-    for row in runtime.itertuples(index=False):
-        name = "Map loading" if row.method == "map loading" else display_name(row.method, model)
-        rows.append((name, str(row.frames), float(row.mean_ms), float(row.median_ms), float(row.p95_ms)))
+    for row in runtime.to_dict("records"):
+        name = "Map loading" if row["method"] == "map loading" else display_name(row["method"], model)
+        rows.append((name, str(row["frames"]), float(row["mean_ms"]), float(row["median_ms"]), float(row["p95_ms"])))
     return Table(("Method", "Frames", "Mean (ms)", "Median (ms)", "p95 (ms)"), tuple(rows))

@@ -9,64 +9,37 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
+from ..benchmarks import Benchmark
 from ..errors import InputError
 from ..evaluation import FrameOutcome, RunResult
-from ..model import image_stem
-from ..output import OutputFolder
-from ..lanes_io import format_culane_lines, format_tusimple_record, sample_lane_at_rows
+from ..model import Frame, image_stem
+from ..output import OutputFolder, Staging  # noqa: F401 (Staging: its old home)
 from . import tables
 
 
-class Staging:
-    """Where one command writes its files: the staging area of an `OutputFolder` it holds.
-
-    Nothing written here is visible in the output folder until `OutputFolder.commit()`.
-    """
-
-    def __init__(self, folder: OutputFolder):
-        self.folder = folder
-        self.out_dir = folder.path
-        self.path = folder.staging()
-
-    def file(self, name: str) -> Path:
-        path = self.path / name
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as error:
-            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
-        return path
-
-    def write_text(self, name: str, text: str) -> None:
-        try:
-            self.file(name).write_text(text, encoding="utf-8")
-        except OSError as error:
-            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
-
-
 class LaneWriter:
-    """Streams each method's lanes into the staging folder in the official formats."""
+    """Streams each method's lanes into the staging folder, in the benchmark's official format
+    (as its `lane_file` says: one file per frame, or one line per frame in a shared file)."""
 
-    def __init__(self, staging: Staging, dataset: str):
+    def __init__(self, staging: Staging, benchmark: Benchmark):
         self.staging = staging
-        self.dataset = dataset
-        self.handles: dict[str, object] = {}
-        self.h_samples: dict[str, tuple] = {}
+        self.benchmark = benchmark
+        self.handles: dict[str, TextIO] = {}
 
-    def __call__(self, outcome: FrameOutcome) -> None:
-        if self.dataset == "culane":
-            stem = image_stem(outcome.relpath)
-            self.staging.write_text(f"lanes/{outcome.method}/{stem}.lines.txt", format_culane_lines(outcome.lanes))
+    def __call__(self, outcome: FrameOutcome, frame: Frame) -> None:
+        lane_file = self.benchmark.lane_file(outcome.method, frame, outcome.lanes)
+        name = f"lanes/{lane_file.name}"
+        if not lane_file.append:
+            self.staging.write_text(name, lane_file.text)
             return
-        handle = self.handles.get(outcome.method)
+        handle = self.handles.get(name)
         if handle is None:
-            handle = self.staging.file(f"lanes/{outcome.method}/predictions.json").open("w", encoding="utf-8")
-            self.handles[outcome.method] = handle
-        rows = self.h_samples.get(outcome.relpath, ())
-        lanes_xs = [sample_lane_at_rows(lane, rows) for lane in outcome.lanes]
-        handle.write(format_tusimple_record(outcome.relpath, lanes_xs, rows, 0) + "\n")
+            handle = self.handles[name] = self.staging.file(name).open("w", encoding="utf-8")
+        handle.write(lane_file.text)
 
     def close(self) -> None:
         for handle in self.handles.values():
@@ -144,9 +117,11 @@ def stage_report(result: RunResult, staging: Staging) -> None:
               else f"{name}, {model} probability maps")
     paper_note = f"The RONELD paper's protocol: {protocol.paper()}; a true positive needs IoU > the row's threshold."
     staging.write_text("accuracy.csv", result.accuracy.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
+    if result.gains is not None:
+        staging.write_text("gains.csv", result.gains.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
     comparison = tables.comparison_table(result.accuracy, model, protocol.clips)
-    increase_note = (f"Acc. Inc.: RONELD's increase over the method two columns to its left, its {protocol.interval()}, "
-                     "in bold relative to that method.")
+    increase_note = ("Acc. Inc.: RONELD's increase over the method two columns to its left, "
+                     f"its {protocol.interval()}, in bold relative to that method.")
     staging.write_text("accuracy.md", f"# Accuracy on {source}\n\n{paper_note} {increase_note}\n\n"
                        + comparison.to_markdown())
     staging.write_text("accuracy.tex", comparison.to_latex(

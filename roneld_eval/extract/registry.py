@@ -1,0 +1,177 @@
+"""Which extractor each method name means: the built-in ones and plug-ins, found by entry.
+
+A `Method` names its factory as "module:callable" (or "path/to/file.py:callable"), so it
+travels to worker processes as text and is imported there; the runner builds one extractor
+per clip with `Method.build(geometry)`. Built-ins take their parameters from the
+configuration's [baseline] / [roneld] sections, plug-ins from their [methods.NAME] table.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import importlib.util
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from ..config import METHODS, EvalConfig, PluginMethod
+from ..errors import ConfigError
+from ..geometry import MapGeometry
+from .protocol import Extractor, ExtractorFactory
+
+
+@dataclass(frozen=True)
+class BuiltIn:
+    """A built-in method: its factory's entry, its parameters from a configuration, the numba
+    kernel groups it runs (compiled before the workers start)."""
+
+    entry: str
+    params: Callable[[EvalConfig], dict[str, Any]]
+    kernel_groups: tuple[str, ...]
+
+
+def _baseline_params(config: EvalConfig) -> dict[str, Any]:
+    # The ego position judges which of a lane list's lanes are active (lane-file input only).
+    return {**dataclasses.asdict(config.baseline), "ego_center_ratio": config.roneld.center_ratio}
+
+
+def _roneld_params(config: EvalConfig) -> dict[str, Any]:
+    return dataclasses.asdict(config.roneld)
+
+
+BUILT_IN: dict[str, BuiltIn] = {
+    "baseline": BuiltIn("roneld_eval.extract.baseline:BaselineExtractor", _baseline_params, ("baseline",)),
+    "roneld": BuiltIn("roneld_eval.extract.roneld:with_pft", _roneld_params, ("roneld",)),
+    "roneld-nopft": BuiltIn("roneld_eval.extract.roneld:without_pft", _roneld_params, ("roneld",)),
+}
+assert tuple(BUILT_IN) == METHODS
+
+
+@dataclass(frozen=True)
+class Method:
+    """One method of a run: its name, its factory's entry and parameters."""
+
+    name: str
+    entry: str
+    params: tuple[tuple[str, Any], ...] = ()
+    built_in: bool = False  # built-in outputs are trusted: not checked frame by frame
+    kernel_groups: tuple[str, ...] = ()
+    time_limit_s: float | None = None  # plug-ins: seconds one frame may take
+
+    def factory(self) -> ExtractorFactory:
+        """The callable `entry` names (imported on first use in each process)."""
+        return resolve_entry(self.entry, self.name)
+
+    def build(self, geometry: MapGeometry) -> Extractor:
+        """A fresh extractor for one clip."""
+        return self.factory()(geometry, dict(self.params))
+
+
+def methods_of(config: EvalConfig) -> tuple[Method, ...]:
+    """The configuration's methods in order, each with its factory's entry and parameters."""
+    plugins = {plugin.name: plugin for plugin in config.plugins}
+    out = []
+    for name in config.methods:
+        built_in = BUILT_IN.get(name)
+        if built_in is not None:
+            out.append(Method(name, built_in.entry, tuple(built_in.params(config).items()), True,
+                              built_in.kernel_groups))
+        else:
+            plugin: PluginMethod = plugins[name]
+            out.append(Method(name, plugin.entry, plugin.params, False, (), plugin.time_limit_s))
+    return tuple(out)
+
+
+_RESOLVED: dict[str, Callable[..., Any]] = {}
+
+
+def resolve_entry(entry: str, method: str = "") -> Callable[..., Any]:
+    """The callable named by "package.module:callable" or "path/to/file.py:callable".
+
+    A module is looked for on sys.path, then in the current directory (where users keep their
+    own extractor scripts); a failure is one ConfigError naming the method and the entry.
+    """
+    found = _RESOLVED.get(entry)
+    if found is not None:
+        return found
+    where, _, attribute = entry.rpartition(":")
+    label = f"method {method!r}: " if method else ""
+    try:
+        module = _load_file(Path(where)) if where.endswith(".py") else _import(where)
+    except ConfigError as error:
+        raise ConfigError(f"{label}{error}") from None
+    except Exception as error:  # the plug-in's own import failed: say which and why
+        raise ConfigError(f"{label}importing {where!r} failed: {type(error).__name__}: {error}") from None
+    value: Any = module
+    for part in attribute.split("."):
+        value = getattr(value, part, None)
+        if value is None:
+            raise ConfigError(f"{label}{where!r} has no {attribute!r} (entry {entry!r})")
+    if not callable(value):
+        raise ConfigError(f"{label}{entry!r} is a {type(value).__name__}, not a callable factory")
+    _RESOLVED[entry] = value
+    return value
+
+
+def _import(name: str):
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as error:
+        if error.name is None or not name.startswith(error.name.split(".")[0]):
+            raise  # a module the plug-in imports is missing: the plug-in's own problem
+        here = os.getcwd()
+        if here in sys.path:
+            raise ConfigError(f"no module named {error.name!r} (looked on sys.path and in {here})") from None
+        sys.path.append(here)  # console scripts leave the current directory off sys.path
+        try:
+            return importlib.import_module(name)
+        except ModuleNotFoundError as again:
+            if again.name != error.name:
+                raise
+            raise ConfigError(f"no module named {error.name!r} (looked on sys.path and in {here})") from None
+
+
+def _load_file(path: Path):
+    path = path.expanduser().resolve()
+    if not path.is_file():
+        raise ConfigError(f"{path}: plug-in file not found")
+    name = "roneld_eval_plugin_" + hashlib.sha1(str(path).encode()).hexdigest()[:12]
+    module = sys.modules.get(name)
+    if module is not None:
+        return module
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ConfigError(f"{path}: cannot load as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module
+
+
+def source_fingerprint(method: Method) -> str:
+    """What the resume cache must see change when a plug-in's code changes: a digest of its
+    module's source file ("" for built-ins, which the tool's version covers)."""
+    if method.built_in:
+        return ""
+    factory = method.factory()
+    module = sys.modules.get(getattr(factory, "__module__", "") or "")
+    path = getattr(module, "__file__", None)
+    if not path or not os.path.isfile(path):
+        return f"{method.entry} (no source file)"
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def kernel_groups(methods: tuple[Method, ...] | list[Method]) -> tuple[str, ...]:
+    """The numba kernel groups these methods' extractors run."""
+    return tuple(dict.fromkeys(group for method in methods for group in method.kernel_groups))
+
+
+__all__ = ["BUILT_IN", "Method", "methods_of", "resolve_entry", "source_fingerprint", "kernel_groups"]

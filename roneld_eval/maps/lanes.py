@@ -1,0 +1,178 @@
+"""Another detector's lanes, drawn into the probability maps RONELD reads (`--maps-format lanes`).
+
+Detectors that output lane lists (CLRNet, LaneATT, UFLD) have no maps. This reads their lanes
+in the official formats and draws each into a map channel, so that RONELD runs on them as on a
+segmentation model's output:
+
+- CULane: ``<maps-root>/<rel stem>.lines.txt`` mirrored as `run --save-lanes` writes it, with an
+  optional ``<stem>.scores.txt`` beside it (one confidence in [0, 1] per lane line).
+- TuSimple: ``<maps-root>/predictions.json``, one JSON line per frame (the official prediction
+  format, optionally with ``"scores": [...]`` per lane); a frame with no line has no lanes.
+
+Drawing: maps of the configured size (`maps.width` x `maps.height` over the crop rows). In each
+map row that a lane spans, its x is interpolated linearly between its points and a ridge is
+drawn there: the lane's confidence x 255 at the centre pixel, falling linearly to zero
+`RIDGE_HALF_WIDTH_PX` + 1 pixels away (scaled with the map width from 800 px), so that a map's
+row maximum lies on the lane. Channels follow the models' order: lanes left of the ego position
+(`roneld.center_ratio`, judged at the bottom row) go to the ego-left channel, then outwards;
+lanes right of it to the ego-right channel, then outwards; lanes beyond the channels are not
+drawn. `FrameMaps.lanes` keeps every lane as read: it is the detector's own output, what the
+method 'baseline' reports.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..config import MapsConfig
+from ..datasets._paths import normalise_relpath
+from ..errors import InputError
+from ..geometry import MapGeometry
+from ..lanes_io import decode_text, lane_from_tusimple, parse_culane_lines, read_bytes, read_tusimple_records
+from ..model import EGO_CHANNELS, FrameMaps, Lane
+
+TUSIMPLE_FILE = "predictions.json"
+SCORES_SUFFIX = ".scores.txt"
+# Half the width of a drawn lane, beyond its centre pixel, on an 800-px-wide map.
+RIDGE_HALF_WIDTH_PX = 4
+
+
+def lane_files(stem: Path, root: Path) -> list[Path]:
+    """The file that must exist for a frame's lanes: the TuSimple file, else its .lines.txt."""
+    tusimple = root / TUSIMPLE_FILE
+    if tusimple.is_file():
+        return [tusimple]
+    return [stem.with_name(stem.name + ".lines.txt")]
+
+
+def load_lane_maps(root: Path, relpath: str, stem: Path, config: MapsConfig, geometry: MapGeometry,
+                   center_ratio: float) -> FrameMaps:
+    """One frame's lanes (from either format) drawn into (C, H, W) uint8 maps."""
+    tusimple = root / TUSIMPLE_FILE
+    if tusimple.is_file():
+        lanes, scores = _tusimple_frames(tusimple).get(relpath, ((), ()))
+    else:
+        path = stem.with_name(stem.name + ".lines.txt")
+        lanes = parse_culane_lines(decode_text(read_bytes(path), path), path)
+        scores = _read_scores(stem.with_name(stem.name + SCORES_SUFFIX), len(lanes))
+    return draw_lane_maps(lanes, scores, config, geometry, center_ratio)
+
+
+def draw_lane_maps(lanes: tuple[Lane, ...], scores: tuple[float, ...], config: MapsConfig,
+                   geometry: MapGeometry, center_ratio: float) -> FrameMaps:
+    """Lanes in image pixels -> maps at the configured size (see the module docstring)."""
+    height, width, channels = config.height, config.width, config.lane_channels
+    maps = np.zeros((channels, height, width), np.uint8)
+    existence = np.zeros(channels, np.float64)
+    half = max(1, round(RIDGE_HALF_WIDTH_PX * width / 800))
+    for channel, lane, score in _channels(lanes, scores, channels, geometry.image_width, geometry.image_height,
+                                          center_ratio):
+        _draw_ridge(maps[channel], geometry.image_to_map(lane.points), score, half)
+        existence[channel] = 1.0
+    return FrameMaps(maps, existence, tuple(lanes))
+
+
+def _channels(lanes, scores, channels: int, image_width: int, image_height: int, center_ratio: float):
+    """(channel, lane, score) for the lanes that get a channel, in the models' channel order."""
+    centre = center_ratio * image_width
+    left: list[tuple[float, Lane, float]] = []
+    right: list[tuple[float, Lane, float]] = []
+    for lane, score in zip(lanes, scores):
+        if len(lane) < 2:
+            continue
+        x = lane.bottom_x(image_height - 1)
+        (left if x < centre else right).append((x, lane, score))
+    left.sort(key=lambda item: -item[0])  # nearest the ego position first
+    right.sort(key=lambda item: item[0])
+    ego_left, ego_right = EGO_CHANNELS
+    out = []
+    for offset, (_, lane, score) in enumerate(left):
+        if ego_left - offset >= 0:
+            out.append((ego_left - offset, lane, score))
+    for offset, (_, lane, score) in enumerate(right):
+        if ego_right + offset < channels:
+            out.append((ego_right + offset, lane, score))
+    return out
+
+
+def _draw_ridge(channel: np.ndarray, points: np.ndarray, score: float, half: int) -> None:
+    height, width = channel.shape
+    order = np.argsort(points[:, 1], kind="stable")
+    ys, xs = points[order, 1], points[order, 0]
+    keep = np.concatenate([[True], np.diff(ys) > 0])  # one x per row: the first point's
+    ys, xs = ys[keep], xs[keep]
+    if ys.size < 2:
+        return
+    rows = np.arange(max(0, int(np.ceil(ys[0]))), min(height - 1, int(np.floor(ys[-1]))) + 1)
+    if rows.size == 0:
+        return
+    centres = np.floor(np.interp(rows, ys, xs) + 0.5).astype(np.int64)
+    offsets = np.arange(-half, half + 1)
+    columns = centres[:, None] + offsets[None, :]
+    values = np.rint(score * 255.0 * (1.0 - np.abs(offsets) / (half + 1))).astype(np.uint8)
+    values = np.broadcast_to(values, columns.shape)
+    inside = (columns >= 0) & (columns < width)
+    row_index = np.broadcast_to(rows[:, None], columns.shape)
+    np.maximum.at(channel, (row_index[inside], columns[inside]), values[inside])
+
+
+def _read_scores(path: Path, n_lanes: int) -> tuple[float, ...]:
+    data = read_bytes(path, missing_ok=True)
+    if data is None:
+        return (1.0,) * n_lanes
+    values = []
+    for number, line in enumerate(decode_text(data, path).splitlines(), start=1):
+        if line.strip():
+            values.append(_score(line.strip(), path, number))
+    if len(values) != n_lanes:
+        raise InputError(path, f"{len(values)} scores for {n_lanes} lanes: one score per lane line")
+    return tuple(values)
+
+
+def _score(value, path, line: int | None) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = float("nan")
+    if isinstance(value, bool) or not 0.0 <= number <= 1.0:
+        raise InputError(path, f"lane score {value!r} is not a number in [0, 1]", line=line)
+    return number
+
+
+@dataclass(frozen=True)
+class _FileKey:
+    path: str
+    size: int
+    modified_ns: int
+
+
+_TUSIMPLE_CACHE: dict[_FileKey, dict[str, tuple[tuple[Lane, ...], tuple[float, ...]]]] = {}
+
+
+def _tusimple_frames(path: Path) -> dict[str, tuple[tuple[Lane, ...], tuple[float, ...]]]:
+    """relpath -> (lanes, scores) of a TuSimple prediction file, read once per process."""
+    info = os.stat(path)
+    key = _FileKey(str(path), info.st_size, info.st_mtime_ns)
+    frames = _TUSIMPLE_CACHE.get(key)
+    if frames is not None:
+        return frames
+    frames = {}
+    for number, record in read_tusimple_records(path, predictions=True):
+        relpath = normalise_relpath(record["raw_file"], path, number)
+        if relpath in frames:
+            raise InputError(path, f"{relpath} has lanes twice", line=number)
+        rows = record.get("h_samples")
+        if rows is None:
+            raise InputError(path, "missing key 'h_samples' (needed to place the lanes)", line=number)
+        lanes = tuple(lane_from_tusimple(xs, rows) for xs in record["lanes"])
+        scores = record.get("scores", [1.0] * len(lanes))
+        if not isinstance(scores, list) or len(scores) != len(lanes):
+            raise InputError(path, "scores must be a list with one number in [0, 1] per lane", line=number)
+        frames[relpath] = (lanes, tuple(_score(value, path, number) for value in scores))
+    _TUSIMPLE_CACHE.clear()  # one file at a time: memory stays flat
+    _TUSIMPLE_CACHE[key] = frames
+    return frames

@@ -1,0 +1,99 @@
+"""Pictures of chosen frames: each frame's clip is replayed up to it (RONELD's state), drawn on
+the camera image (or, without one, on the maps as a heat map), with every method's lanes and
+their IoUs. Three steps: `replay`, `background`, `frame_pictures` (drawing)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..config import EvalConfig
+from ..datasets import load_labels
+from ..errors import ConfigError, InputError
+from ..evaluation import FrameOutcome, RunContext, evaluate_clip
+from ..maps import load_maps
+from ..metrics.paper import ego_lanes
+from ..model import Clip, Dataset
+from .overlays import FramePicture, draw_frame, heat_map
+from .tables import display_name
+
+
+def _roots(config: EvalConfig) -> tuple[Path, Path]:
+    """The data root and maps root of a run's configuration (a run needs both)."""
+    if config.dataset.data_root is None or config.maps.root is None:
+        raise ConfigError("a run needs both a data root and a maps root")
+    return Path(config.dataset.data_root), Path(config.maps.root)
+
+
+def replay(config: EvalConfig, dataset: Dataset, frames: Sequence[str],
+           methods: Sequence[str]) -> tuple[dict[str, Clip], dict[tuple[str, str], FrameOutcome]]:
+    """(frame -> its clip with labels, (frame, method) -> outcome with lanes): each clip is
+    evaluated again from its start up to its last wanted frame, as the run saw it."""
+    clip_of = {f.relpath: clip for clip in dataset.clips for f in clip.frames}
+    missing = [f for f in frames if f not in clip_of]
+    if missing:
+        raise InputError(dataset.source_file, f"frame {missing[0]} is not in this run's dataset")
+    wanted_clips = {clip_of[f].clip_id: clip_of[f] for f in frames}
+    labelled = {clip_id: load_labels(dataset, clip) for clip_id, clip in wanted_clips.items()}
+    clip_of = {f: labelled[clip_of[f].clip_id] for f in frames}
+    run_config = config.with_overrides(save_lanes=True, methods=tuple(methods), pft_ablation=False)
+    _, maps_root = _roots(config)
+    context = RunContext(run_config, maps_root)
+    outcomes = {}
+    for clip in labelled.values():
+        last = max(i for i, f in enumerate(clip.frames) if f.relpath in frames)
+        for outcome in evaluate_clip(replace(clip, frames=clip.frames[:last + 1]), context).outcomes:
+            outcomes[(outcome.relpath, outcome.method)] = outcome
+    return clip_of, outcomes
+
+
+def background(config: EvalConfig, dataset: Dataset, relpath: str) -> np.ndarray:
+    """The camera image at the benchmark's size, or the frame's maps as a heat map without one."""
+    import cv2
+
+    data_root, maps_root = _roots(config)
+    image_path = data_root / relpath
+    image = cv2.imread(str(image_path)) if image_path.is_file() else None
+    size = (dataset.image_width, dataset.image_height)
+    if image is None:
+        geometry = config.geometry
+        maps = load_maps(maps_root, relpath, config.maps, geometry, config.roneld.center_ratio)
+        crop_bottom = geometry.crop_top_px + geometry.crop_height_px
+        return heat_map(np.asarray(maps.probabilities), *size, geometry.crop_top_px, crop_bottom)
+    if image.shape[:2] != (dataset.image_height, dataset.image_width):
+        image = cv2.resize(image, size)
+    return image
+
+
+def frame_pictures(config: EvalConfig, dataset: Dataset, frames: Sequence[str], methods: Sequence[str],
+                   protocol: str = "") -> list[tuple[str, np.ndarray]]:
+    """(relpath, picture) for each frame. `protocol` says in a few words how the IoUs written
+    beside the lanes were measured."""
+    wanted = list(dict.fromkeys(frames))
+    methods = [m for m in methods if m in config.methods] or list(config.methods)
+    clip_of, outcomes = replay(config, dataset, wanted, methods)
+    pictures = []
+    for relpath in wanted:
+        frame = next(f for f in clip_of[relpath].frames if f.relpath == relpath)
+        if not frame.labelled:
+            raise InputError(dataset.source_file, f"frame {relpath} has no labels to compare with")
+        left, right = ego_lanes(frame.lanes, dataset.image_width, dataset.image_height, config.roneld.center_ratio)
+        chosen = {id(left), id(right)}
+        picture = FramePicture(
+            relpath=relpath,
+            ground_truth=(left, right),
+            other_ground_truth=tuple(lane for lane in frame.lanes if id(lane) not in chosen and len(lane) >= 2),
+            lanes={m: outcomes[(relpath, m)].active for m in methods if (relpath, m) in outcomes},
+            ious={m: outcomes[(relpath, m)].ious for m in methods if (relpath, m) in outcomes},
+        )
+        scores = "  ".join(
+            f"{display_name(m, config.model)}: "
+            + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in ious.items())
+            for m, ious in picture.ious.items())
+        title = f"{relpath}   {scores}"
+        pictures.append((relpath, draw_frame(picture, background(config, dataset, relpath), config.model, title,
+                                             protocol=protocol)))
+    return pictures

@@ -1,0 +1,118 @@
+"""RONELD on another detector's lanes: lane files drawn into maps (`--maps-format lanes`)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval.cli import main
+from roneld_eval.config import MapsConfig
+from roneld_eval.errors import InputError
+from roneld_eval.geometry import MapGeometry
+from roneld_eval.maps import load_maps
+from roneld_eval.maps.lanes import RIDGE_HALF_WIDTH_PX, draw_lane_maps
+from roneld_eval.model import Lane
+from roneld_eval.synth import synth_culane, synth_tusimple
+
+GEOMETRY = MapGeometry(1640, 590, 800, 288)
+MAPS = MapsConfig(format="lanes")
+
+
+def lane(*points) -> Lane:
+    return Lane(np.array(points, np.float64))
+
+
+def invoke(args):
+    result = CliRunner().invoke(main, args)
+    assert "Traceback" not in result.output, result.output
+    assert result.exit_code == 0, result.output
+    return result
+
+
+def test_each_row_of_a_drawn_lane_peaks_on_the_lane():
+    straight = lane((410.0, 589.0), (820.0, 0.0))  # image pixels, bottom first
+    maps = draw_lane_maps((straight,), (0.8,), MAPS, GEOMETRY, 0.5)
+    channel = maps.probabilities[1]  # left of the centre at the bottom: the ego-left channel
+    assert maps.existence.tolist() == [0.0, 1.0, 0.0, 0.0]
+    assert maps.lanes == (straight,)
+    for row in range(0, 288, 7):
+        top, bottom = GEOMETRY.image_to_map(straight.points[::-1])  # the lane in map pixels
+        expected = np.interp(row, [top[1], bottom[1]], [top[0], bottom[0]])
+        assert abs(int(channel[row].argmax()) - expected) <= 0.5 + 1e-9
+        assert channel[row].max() == round(0.8 * 255)
+        assert np.count_nonzero(channel[row]) == 2 * RIDGE_HALF_WIDTH_PX + 1
+
+
+def test_lanes_go_to_the_models_channels_by_side_and_distance():
+    far_left, left, right, far_right, beyond = (
+        lane((100, 589), (700, 250)), lane((600, 589), (780, 250)), lane((1000, 589), (860, 250)),
+        lane((1500, 589), (950, 250)), lane((1630, 589), (1000, 250)))
+    maps = draw_lane_maps((right, beyond, far_left, left, far_right), (1.0,) * 5, MAPS, GEOMETRY, 0.5)
+    bottom = maps.probabilities[:, 287].argmax(axis=1) * 1640 / 800
+    assert np.allclose(bottom, [100, 600, 1000, 1500], atol=6)  # `beyond` has no channel left
+    assert len(maps.lanes) == 5  # but stays in the detector's own output
+
+
+def test_culane_lane_files_with_scores(tmp_path):
+    stem = tmp_path / "d" / "v.MP4" / "00000"
+    stem.parent.mkdir(parents=True)
+    stem.with_name("00000.lines.txt").write_text("600 589 780 250 \n1000 589 860 250 \n")
+    stem.with_name("00000.scores.txt").write_text("0.5\n1\n")
+    maps = load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5)
+    assert maps.probabilities[1].max() == 128 and maps.probabilities[2].max() == 255
+    stem.with_name("00000.scores.txt").write_text("0.5\n")
+    with pytest.raises(InputError, match="1 scores for 2 lanes"):
+        load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5)
+    stem.with_name("00000.scores.txt").write_text("0.5\n1.5\n")
+    with pytest.raises(InputError, match=r"00000.scores.txt:2: lane score '1.5' is not a number in \[0, 1\]"):
+        load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5)
+
+
+def test_tusimple_prediction_files(tmp_path):
+    rows = list(range(160, 720, 10))
+    record = {"raw_file": "clips/a/1.jpg", "lanes": [[400 + y // 4 for y in rows]], "h_samples": rows}
+    (tmp_path / "predictions.json").write_text(json.dumps(record) + "\n")
+    geometry = MapGeometry(1280, 720, 800, 288)
+    maps = load_maps(tmp_path, "clips/a/1.jpg", MAPS, geometry, 0.5)
+    assert maps.existence[1] == 1.0 and len(maps.lanes) == 1
+    # A frame without a line has no lanes (a detector's file may hold only labelled frames).
+    assert load_maps(tmp_path, "clips/a/2.jpg", MAPS, geometry, 0.5).lanes == ()
+    (tmp_path / "predictions.json").write_text((json.dumps(record) + "\n") * 2)
+    with pytest.raises(InputError, match="clips/a/1.jpg has lanes twice"):
+        load_maps(tmp_path, "clips/a/1.jpg", MAPS, geometry, 0.5)
+
+
+def test_the_detector_row_is_the_saved_baseline_exactly_on_the_real_clip(real_clip_tree, tmp_path):
+    data, maps = real_clip_tree
+    first = tmp_path / "maps-run"
+    invoke(["run", "--data-root", str(data), "--maps-root", str(maps), "--maps-format", "scnn-png",
+            "--save-lanes", "--workers", "1", "--quiet", "--out", str(first)])
+    second = tmp_path / "lanes-run"
+    invoke(["run", "--data-root", str(data), "--maps-root", str(first / "lanes" / "baseline"),
+            "--maps-format", "lanes", "--pft-ablation", "--workers", "1", "--quiet", "--out", str(second)])
+    before = pd.read_csv(first / "official.csv")
+    after = pd.read_csv(second / "official.csv")
+    detector = after[after["method"] == "baseline"].reset_index(drop=True)
+    pd.testing.assert_frame_equal(detector, before[before["method"] == "baseline"].reset_index(drop=True))
+    accuracy = pd.read_csv(second / "accuracy.csv")
+    assert {"roneld", "roneld-nopft"} <= set(accuracy["method"])
+    assert accuracy[accuracy["method"] == "roneld"]["n_gt"].iloc[0] == 156
+
+
+@pytest.mark.parametrize("dataset", ["culane", "tusimple"])
+def test_synthetic_lane_files_run_end_to_end(dataset, tmp_path):
+    make = synth_culane if dataset == "culane" else synth_tusimple
+    made = make(tmp_path / "set", clips=2, frames=6 if dataset == "culane" else 20, seed=2, maps_format="lanes")
+    out = tmp_path / "out"
+    invoke(["run", "--dataset", dataset, "--data-root", str(made.data_root), "--maps-root", str(made.maps_root),
+            "--maps-format", "lanes", "--workers", "1", "--quiet", "--set", "model=LaneDetector", "--out", str(out)])
+    accuracy = pd.read_csv(out / "accuracy.csv")
+    assert set(accuracy["method"]) == {"baseline", "roneld"}
+    assert "LaneDetector + RONELD" in (out / "accuracy.md").read_text()
+    again = make(tmp_path / "again", clips=2, frames=6 if dataset == "culane" else 20, seed=2, maps_format="lanes")
+    files = sorted(p.relative_to(made.maps_root) for p in made.maps_root.rglob("*") if p.is_file())
+    assert files and all((made.maps_root / f).read_bytes() == (again.maps_root / f).read_bytes() for f in files)

@@ -1,0 +1,280 @@
+"""Any extractor through the same runner: the protocol, plug-ins by entry, and what a broken
+plug-in does to a run (one line naming the method, the frame and the problem)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval import api, evaluation
+from roneld_eval.cli import main
+from roneld_eval.config import EvalConfig, PluginMethod
+from roneld_eval.datasets import read_dataset
+from roneld_eval.errors import ConfigError, RunInterrupted
+from roneld_eval.extract.protocol import Prediction, ego_pair, prediction_problem
+from roneld_eval.extract.registry import methods_of, resolve_entry
+from roneld_eval.maps import load_maps
+from roneld_eval.metrics.culane_official import evaluate_culane_frame
+from roneld_eval.metrics.paper import ego_masks, side_ious
+from roneld_eval.model import Lane
+from roneld_eval.synth import synth_culane
+
+
+PLUGINS = Path(__file__).with_name("plugin_extractors.py")
+
+
+def entry(name: str) -> str:
+    return f"{PLUGINS}:{name}"
+
+
+@pytest.fixture(scope="module")
+def base(tmp_path_factory):
+    root = tmp_path_factory.mktemp("plugins")
+    synth_culane(root / "set", clips=5, frames=4, seed=5)
+    return root / "set"
+
+
+@pytest.fixture
+def dataset(base, tmp_path):
+    shutil.copytree(base, tmp_path / "set")
+    return tmp_path / "set"
+
+
+def run_args(root: Path, out: Path, *extra: str) -> list[str]:
+    return ["run", "--data-root", str(root / "data"), "--maps-root", str(root / "maps"), "--quiet",
+            "--out", str(out), *extra]
+
+
+def invoke(args):
+    result = CliRunner().invoke(main, args)
+    assert "Traceback" not in result.output, result.output
+    return result
+
+
+# ---- a working plug-in is evaluated exactly like the built-in methods -------------------------
+
+
+def direct_scores(root: Path, config: EvalConfig):
+    """The plug-in's IoUs and official matches computed here, without the runner."""
+    factory = resolve_entry(entry("ego_points"))
+    dataset = read_dataset("culane", root / "data")
+    ious, matched = {}, {}
+    for clip in dataset.clips:
+        extract = factory(config.geometry, {})
+        for frame in clip.frames:
+            maps = load_maps(root / "maps", frame.relpath, config.maps)
+            prediction = extract(maps)
+            truth = ego_masks(frame.lanes, config.geometry, config.paper, config.roneld.center_ratio)
+            for side, iou in side_ious(truth, prediction.active, config.geometry, config.paper).items():
+                ious[(frame.relpath, side)] = iou
+            matched[frame.relpath] = evaluate_culane_frame(frame.lanes, list(prediction.lanes)).true_positives(0.5)
+    return ious, matched
+
+
+def test_a_plugin_runs_with_two_workers_and_resume_and_is_in_every_output(dataset, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    args = run_args(dataset, out, "--method", f"mine={entry('ego_points')}", "--workers", "2", "--save-lanes",
+                    "--overlays", "2")
+    result = invoke(args)
+    assert result.exit_code == 0, result.output
+    accuracy = pd.read_csv(out / "accuracy.csv")
+    assert set(accuracy["method"]) == {"baseline", "roneld", "mine"}
+    per_frame = pd.read_csv(out / "per_frame.csv")
+    official = pd.read_csv(out / "official.csv")
+    runtime = pd.read_csv(out / "runtime.csv")
+    gains = pd.read_csv(out / "gains.csv")
+    assert "mine" in set(official["method"]) and "mine" in set(runtime["method"])
+    assert {("mine", "baseline"), ("mine", "roneld")} <= set(zip(gains["method"], gains["reference"]))
+    assert len(list((out / "lanes" / "mine").rglob("*.lines.txt"))) == 20
+    assert "mine" in (out / "accuracy.md").read_text() and "mine" in (out / "report.html").read_text()
+    assert "[methods.mine]" in (out / "config.toml").read_text()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["config"]["methods"]["mine"]["entry"] == entry("ego_points")
+
+    # Its numbers are those of the plug-in called directly and scored with the metrics alone.
+    config = api.default_config("culane")
+    ious, matched = direct_scores(dataset, config)
+    mine = per_frame[per_frame["method"] == "mine"]
+    assert len(mine) == len(ious)
+    for row in mine.itertuples():
+        assert row.iou == pytest.approx(ious[(row.frame, row.side)], rel=1e-9)  # per_frame.csv: 10 digits
+    total = official[(official["method"] == "mine") & (official["category"] == "all")]
+    assert int(total["tp"].iloc[0]) == sum(matched.values())
+
+    # Resume: an interrupted run's finished clips are reused and give the same bytes.
+    again = tmp_path / "again"
+    original = evaluation.evaluate_clip
+    calls = []
+
+    def interrupting(clip, context):
+        calls.append(clip.clip_id)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return original(clip, context)
+
+    monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
+    interrupted = api.default_config("culane").with_overrides(**{
+        "dataset.data_root": str(dataset / "data"), "maps.root": str(dataset / "maps"), "workers": 1,
+        "save_lanes": True}).with_plugin("mine", entry("ego_points"))
+    with pytest.raises(RunInterrupted):
+        api.run(interrupted, again, progress=False, overlays=2)
+    monkeypatch.setattr(evaluation, "evaluate_clip", original)
+    resumed_args = run_args(dataset, again, "--method", f"mine={entry('ego_points')}", "--workers", "2",
+                            "--save-lanes", "--overlays", "2", "--resume")
+    resumed_args.remove("--quiet")  # the note on what was reused is part of the normal output
+    resumed = CliRunner().invoke(main, resumed_args)
+    assert resumed.exit_code == 0, resumed.output
+    assert "reused 2" in resumed.output
+    for name in ("accuracy.csv", "per_frame.csv", "official.csv", "gains.csv"):
+        assert (again / name).read_bytes() == (out / name).read_bytes(), name
+
+
+def test_a_changed_plugin_file_is_not_resumed_from(dataset, tmp_path, monkeypatch):
+    plugin = tmp_path / "mine.py"
+    plugin.write_text(PLUGINS.read_text())
+    config = api.default_config("culane").with_overrides(**{
+        "dataset.data_root": str(dataset / "data"), "maps.root": str(dataset / "maps"), "workers": 1,
+    }).with_plugin("mine", f"{plugin}:ego_points")
+    from roneld_eval.cache import ResultCache
+
+    before = ResultCache(tmp_path / "o", config, "v", resume=False).config_key
+    assert ResultCache(tmp_path / "o", config, "v", resume=True).config_key == before
+    plugin.write_text(PLUGINS.read_text() + "\n# a change\n")
+    from roneld_eval.extract import registry
+
+    monkeypatch.setattr(registry, "_RESOLVED", {})
+    assert ResultCache(tmp_path / "o", config, "v", resume=True).config_key != before
+
+
+def test_a_stateful_plugin_sees_every_frame_and_a_stateless_one_only_scored_ones(tmp_path):
+    from roneld_eval.synth import synth_tusimple
+
+    synth_tusimple(tmp_path / "t", clips=1, frames=20, seed=1)  # only the 20th frame is labelled
+    config = api.default_config("tusimple").with_overrides(**{
+        "dataset.data_root": str(tmp_path / "t" / "data"), "maps.root": str(tmp_path / "t" / "maps"),
+        "workers": 1, "methods": ["baseline"]})
+    config = config.with_plugin("counting", f"{PLUGINS}:CountingExtractor").with_plugin("cheap", entry("no_op"))
+    result = evaluation.evaluate(config, progress=False)
+    frames = result.runtime.set_index("method")["frames"]
+    assert frames["counting"] == 20 and frames["cheap"] == 1 and frames["baseline"] == 1
+
+
+def test_a_plugin_module_is_found_on_the_path_and_in_the_current_directory(tmp_path, monkeypatch):
+    (tmp_path / "my_lanes.py").write_text("def make(geometry, params):\n    return lambda maps: None\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("sys.path", [p for p in __import__("sys").path if p not in ("", str(tmp_path))])
+    assert callable(resolve_entry("my_lanes:make"))
+    with pytest.raises(ConfigError, match="no module named 'not_there'"):
+        resolve_entry("not_there:make", "x")
+    with pytest.raises(ConfigError, match="has no 'missing'"):
+        resolve_entry("my_lanes:missing", "x")
+
+
+def test_installed_extractors_are_found_by_name(monkeypatch):
+    from roneld_eval import config as config_module
+
+    monkeypatch.setattr(config_module, "installed_extractors", lambda: {"ufld-fix": "pkg.module:make"})
+    config = EvalConfig(methods=("baseline", "ufld-fix"))
+    assert config.plugins == (PluginMethod("ufld-fix", "pkg.module:make"),)
+    # Recorded with its entry, so the written config.toml reruns without the lookup.
+    assert 'entry = "pkg.module:make"' in config.to_toml()
+    with pytest.raises(ConfigError, match="unknown method 'other'.*ufld-fix"):
+        EvalConfig(methods=("other",))
+
+
+def test_plugin_tables_in_a_config_file(tmp_path):
+    text = ('[methods.baseline]\n[methods.roneld]\n[methods.mine]\nentry = "mod:make"\nthreshold = 0.4\n'
+            'rows = [1, 2]\ntime_limit_s = 5\n')
+    config = EvalConfig.from_toml_text(text)
+    assert config.methods == ("baseline", "roneld", "mine")
+    assert dict(config.plugins[0].params) == {"threshold": 0.4, "rows": [1, 2]}
+    assert config.plugins[0].time_limit_s == 5.0
+    assert EvalConfig.from_toml_text(config.to_toml()) == config
+    method = methods_of(config)[2]
+    assert (method.entry, method.built_in, method.time_limit_s) == ("mod:make", False, 5.0)
+    for bad, message in [
+        ('[methods.mine]\nthreshold = 1\n', "needs entry"),
+        ('[methods.roneld]\nentry = "a:b"\n', "is built in"),
+        ('[methods."a/b"]\nentry = "a:b"\n', "bad method name"),
+        ('[methods.mine]\nentry = "not an entry"\n', "entry must be"),
+        ('[methods.mine]\nentry = "a:b"\nnested = {x = 1}\n', "must be a number, text"),
+        ('[methods.mine]\nentry = "a:b"\ntime_limit_s = -1\n', "time_limit_s"),
+        ('plugins = []\n', "unknown key 'plugins'"),
+    ]:
+        with pytest.raises(ConfigError, match=message):
+            EvalConfig.from_toml_text(bad)
+
+
+# ---- a broken plug-in: one line naming the method, the frame and the problem ----------------
+
+
+BROKEN = [
+    ("raises", "raised ZeroDivisionError: division by zero in my post-processing"),
+    ("wrong_type", "returned list, not a roneld_eval.Prediction"),
+    ("nan_lanes", "lane 1 of 1: has NaN or infinite coordinates"),
+    ("far_lanes", r"point \(50000, 300\) lies far outside the 1640x590 image"),
+    ("one_point_lanes", "lane 1 of 1: has 1 point; a lane needs at least 2"),
+    ("factory_raises", "building the extractor raised KeyError: 'threshold'"),
+    ("factory_returns_number", "the factory returned int, not a callable extractor"),
+]
+
+
+@pytest.mark.parametrize("name, problem", BROKEN)
+def test_a_broken_plugin_stops_the_run_with_one_line(dataset, tmp_path, name, problem):
+    out = tmp_path / "out"
+    result = invoke(run_args(dataset, out, "--method", f"bad={entry(name)}", "--workers", "1"))
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: method 'bad', frame driver_"), result.output
+    import re
+
+    assert re.search(problem, lines[0]), lines[0]
+    assert not out.exists() or not (out / "accuracy.csv").exists()
+
+
+def test_a_plugin_slower_than_its_limit_stops_the_run_in_a_worker_too(dataset, tmp_path):
+    config = tmp_path / "slow.toml"
+    base = api.default_config("culane").to_toml()
+    config.write_text(base.replace('methods = ["baseline", "roneld"]\n', "") +
+                      f'\n[methods.baseline]\n[methods.slow]\nentry = "{entry("slow_once")}"\ntime_limit_s = 0.5\n'
+                      f'seconds = 20\n')
+    result = invoke(run_args(dataset, tmp_path / "out", "--config", str(config), "--workers", "2"))
+    assert result.exit_code == 2, result.output
+    assert "method 'slow', frame " in result.output
+    assert "took longer than 0.5 s (time_limit_s in [methods.slow])" in result.output
+
+
+def test_on_error_skip_leaves_the_frames_out_for_every_method(dataset, tmp_path):
+    out = tmp_path / "out"
+    result = invoke(run_args(dataset, out, "--method", f"bad={entry('nan_lanes')}", "--workers", "1",
+                             "--on-error", "skip"))
+    assert result.exit_code == 0, result.output
+    assert "NaN or infinite coordinates (frame skipped)" in result.output
+    per_frame = pd.read_csv(out / "per_frame.csv")
+    assert per_frame.empty  # the plug-in failed on every frame: none is scored for anyone
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(summary["skipped"]) == 20
+
+
+# ---- the protocol's records -----------------------------------------------------------------
+
+
+def lane(*points) -> Lane:
+    return Lane(np.array(points, np.float64))
+
+
+def test_a_prediction_keeps_its_active_lanes_among_its_lanes():
+    left, right, other = lane((700, 589), (760, 300)), lane((950, 589), (880, 300)), lane((200, 589), (600, 300))
+    prediction = Prediction(lanes=[other, left], active=(left, right))
+    assert prediction.lanes == (other, left, right)
+    assert prediction_problem(prediction, 1640, 590) is None
+    assert "active must be (left, right)" in prediction_problem(Prediction(active=(left,)), 1640, 590)
+    assert "not a roneld_eval.Lane" in prediction_problem(Prediction(lanes=(np.zeros((2, 2)),)), 1640, 590)
+    assert ego_pair([other, left, right], 1640, 590, 0.5) == (left, right)
+    assert ego_pair([lane((100, 5))], 1640, 590, 0.5) == (None, None)  # one point: no side
