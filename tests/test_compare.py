@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from decimal import ROUND_HALF_UP, Decimal
 import re
 import shutil
 import statistics
@@ -89,9 +90,12 @@ def accuracy_csv(run: Path) -> pd.DataFrame:
 
 
 def fixed(value: float, decimals: int, signed: bool = False) -> str:
+    """The tables' rule: halves round up from 12 significant digits, so one number prints alike in
+    every table however it was computed."""
     if math.isnan(value):
         return "n/a"
-    text = f"{value:.{decimals}f}"
+    digits = Decimal(format(float(value), ".12g"))
+    text = f"{digits.quantize(Decimal(1).scaleb(-decimals), ROUND_HALF_UP):f}"
     if float(text) == 0:
         text = f"{0.0:.{decimals}f}"
     return "+" + text if signed and not text.startswith("-") else text
@@ -133,7 +137,7 @@ def gain_cell(paths: list[Path], threshold: str) -> str:
     else:
         interval_text = f"[n/a ({clips} clip{'s' if clips != 1 else ''})]" if clips < 5 else "[n/a]"
     base = statistics.fmean(bases)
-    relative = "n/a" if base == 0 else f"{statistics.fmean(gains) / base * 100:.1f}%"
+    relative = "n/a" if base == 0 else f"{fixed(statistics.fmean(gains) / base * 100, 1)}%"
     return f"{stat(gains, signed=True)} {interval_text} **({relative})**"
 
 
@@ -355,7 +359,7 @@ def test_pairs_are_a_paired_bootstrap_over_clips(compared, runs):
     for row, method in zip(body, words):
         for cell, threshold in zip(row[2:], ("0.30", "0.40", "0.50")):
             hit = pairs[(pairs["method"] == method) & (pairs["threshold"] == threshold)].iloc[0]
-            relative = "n/a" if hit.accuracy_a == 0 else f"{hit.difference / hit.accuracy_a * 100:.1f}%"
+            relative = "n/a" if hit.accuracy_a == 0 else f"{fixed(hit.difference / hit.accuracy_a * 100, 1)}%"
             assert cell == (f"{fixed(hit.difference, 3, signed=True)} [{fixed(hit.ci_low, 3)}, "
                             f"{fixed(hit.ci_high, 3)}] **({relative})**"), (method, threshold)
 

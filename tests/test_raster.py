@@ -79,3 +79,40 @@ def test_few_points_draw_nothing_and_empty_masks():
     one = mask_from_pixels(np.array([5]), np.array([5]), 30, 100, 100)
     assert one.area == 0
     assert LaneMask.empty().intersection(one) == 0
+
+
+# ---- the paper protocol's map-resolution lanes against plain Python ---------------------------
+
+
+def obvious_map_pixels(points, scale_x, scale_y, offset_y, truncate):
+    """Image points -> map pixels, as the method document says: divide, snap, drop non-finite."""
+    snap = np.trunc if truncate else np.rint  # rint: half to even, as numpy and numba round
+    keep = np.isfinite(points).all(axis=1)
+    xs = snap(points[keep, 0] / scale_x).astype(np.int64)
+    ys = snap((points[keep, 1] - offset_y) / scale_y).astype(np.int64)
+    return xs, ys
+
+
+@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("truncate", [False, True])
+def test_map_pixels_and_map_lane_match_plain_python(seed, truncate):
+    from roneld_eval.metrics.raster import _points, _quad_extras
+
+    rng = np.random.default_rng(seed)
+    points = np.stack([rng.uniform(-100, 1740, 6), np.sort(rng.uniform(200, 650, 6))], axis=1)
+    points[rng.integers(0, 6)] = [np.nan, 400.0] if seed % 3 == 0 else points[0]
+    lane = _points(Lane(points))
+    scale_x, scale_y, offset_y = 1640 / 800, 590 / 288, 0.0
+    px, py = K.map_pixels(lane, False, scale_x, scale_y, offset_y, truncate)
+    xs, ys = obvious_map_pixels(points, scale_x, scale_y, offset_y, truncate)
+    np.testing.assert_array_equal(px, xs)
+    np.testing.assert_array_equal(py, ys)
+    # map_lane is those pixels through the golden-tested rasteriser, compiled or not.
+    extras = _quad_extras(9)
+    drawn = K.map_lane(lane, False, scale_x, scale_y, offset_y, truncate, 9, 800, 288, *extras)
+    expected = K.rasterise_with_area(xs, ys, 9, 800, 288, *extras)
+    python = K.map_lane.py_func(lane, False, scale_x, scale_y, offset_y, truncate, 9, 800, 288, *extras)
+    for got in (drawn, python):
+        assert got[0] == expected[0] and got[1] == expected[1] and got[3] == expected[3]
+        np.testing.assert_array_equal(got[2], expected[2])
+    assert drawn[3] == int(np.count_nonzero(drawn[2])) > 0

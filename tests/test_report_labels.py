@@ -49,7 +49,7 @@ def markdown_rows(path: Path) -> tuple[list[str], list[list[str]]]:
 def accuracy_at(folder: Path) -> dict[tuple[str, str], str]:
     """(method, short threshold) -> accuracy as the tables print it, from accuracy.csv."""
     table = pd.read_csv(folder / "accuracy.csv", dtype={"threshold": str})
-    return {(r.method, tables.short_threshold(r.threshold)): f"{r.accuracy:.3f}" for r in table.itertuples()}
+    return {(r.method, tables.short_threshold(r.threshold)): tables.fixed(r.accuracy) for r in table.itertuples()}
 
 
 def assert_columns_hold_their_methods(folder: Path, model: str = "SCNN") -> None:
@@ -346,3 +346,12 @@ def test_fixture_report_titles_say_it_is_synthetic(fixture_run):
     page = (out / "report.html").read_text()
     assert "roneld-eval: SCNN on CULane (bundled synthetic fixture)" in page
     assert "IoU &gt; 0.5" in page and "IoU &gt; 0.3" not in page
+
+
+def test_one_number_prints_alike_however_it_was_computed():
+    # 23/80 and 0.7125 - 0.425 differ in their last binary digit; f"{:.3f}" printed 0.287 and 0.288.
+    assert tables.fixed(23 / 80) == tables.fixed(0.7125 - 0.425) == "0.288"
+    assert tables.fixed(71 / 80) == "0.888" and tables.fixed(0.9625 - 0.8875, signed=True) == "+0.075"
+    assert tables.fixed(-0.0001, signed=True) == "+0.000" and tables.fixed(float("nan")) == "n/a"
+    assert tables.fixed(8.45, 1) == "8.5" and tables.fixed(-0.0875) == "-0.088"
+    assert tables.fixed(0.7125 - 0.675) == "0.038"  # 3/80, whatever the float rounding left

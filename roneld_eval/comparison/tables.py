@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from ..metrics.bootstrap import MIN_CLIPS
-from ..report.tables import latex_text
+from ..report.tables import fixed, latex_text
 
 # Widths in TeX points of a \footnotesize booktabs table in a two-column article: \columnwidth
 # is 229.5 pt and \textwidth 469 pt (IEEEtran: 252 and 516). Blocks are packed to less, because
@@ -46,12 +46,10 @@ def text_pt(text: str, bold: bool = False) -> float:
 
 
 def number(value: float, decimals: int, signed: bool = False) -> str:
-    if value is None or math.isnan(value):
+    """As the run's own tables print it (report.tables.fixed), so both show the same digits."""
+    if value is None:
         return "n/a"
-    text = f"{value:.{decimals}f}"
-    if float(text) == 0:
-        text = f"{0.0:.{decimals}f}"  # never "-0.000"
-    return "+" + text if signed and not text.startswith("-") else text
+    return fixed(value, decimals, signed)
 
 
 LATEX_SYMBOLS = {"±": "$\\pm$", "−": "$-$", "–": "--", "—": "---", "×": "$\\times$"}
@@ -147,7 +145,7 @@ class Gain:
     def relative_text(self) -> str:
         if not self.base or math.isnan(self.base) or math.isnan(self.increase.mean):
             return "(n/a)"
-        return f"({self.increase.mean / self.base * 100:.1f}%)"
+        return f"({fixed(self.increase.mean / self.base * 100, 1)}%)"
 
     def interval_text(self) -> str:
         if self.clips is None:

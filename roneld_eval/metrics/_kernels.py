@@ -24,6 +24,7 @@ XY_ONE = 1 << XY_SHIFT
 HALF = XY_ONE >> 1
 INT_MIN = -(1 << 31)
 DBL_EPSILON = 2.220446049250313e-16
+SPLINE_SAMPLES = 50  # SCNN lane_evaluation: splineInterpTimes(lane, 50): samples per lane segment
 
 
 # ---- numbers as C++ sees them -------------------------------------------------------------
@@ -1284,7 +1285,7 @@ def official_pixels(points):
         xs[i] = np.float32(points[i, 0])
         ys[i] = np.float32(points[i, 1])
     if n >= 3:
-        return official_spline_pixels(xs, ys, 50)
+        return official_spline_pixels(xs, ys, SPLINE_SAMPLES)
     px = np.empty(n, np.int64)
     py = np.empty(n, np.int64)
     for i in range(n):
@@ -1303,7 +1304,7 @@ def official_pixels_by_pow(points):
         xs[i] = np.float32(points[i, 0])
         ys[i] = np.float32(points[i, 1])
     if n >= 3:
-        xs, ys = official_spline(xs, ys, 50)
+        xs, ys = official_spline(xs, ys, SPLINE_SAMPLES)
     m = xs.size
     px = np.empty(m, np.int64)
     py = np.empty(m, np.int64)
@@ -1341,7 +1342,7 @@ def map_pixels(points, spline, scale_x, scale_y, offset_y, truncate):
     """
     n = points.shape[0]
     if spline and n >= 3:
-        xs, ys = official_spline(points[:, 0].copy(), points[:, 1].copy(), 50)
+        xs, ys = official_spline(points[:, 0].copy(), points[:, 1].copy(), SPLINE_SAMPLES)
     else:
         xs = points[:, 0].copy()
         ys = points[:, 1].copy()

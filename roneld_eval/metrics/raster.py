@@ -19,7 +19,7 @@ from ..geometry import MapGeometry
 from ..model import Lane
 from . import _kernels
 
-SPLINE_SAMPLES = 50  # SCNN lane_evaluation: splineInterpTimes(lane, 50)
+SPLINE_SAMPLES = _kernels.SPLINE_SAMPLES  # one place: the kernels use it as a compile-time constant
 
 
 @dataclass(frozen=True, eq=False)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import re
+from decimal import ROUND_HALF_UP, Decimal
 from dataclasses import dataclass, fields
 
 import pandas as pd
@@ -152,7 +153,7 @@ class Increase:
     def interval_text(self) -> str:
         """'[0.050, 0.100]', '[n/a (4 clips)]', '[n/a]', or '' when no interval was asked for."""
         if not math.isnan(self.low) and not math.isnan(self.high):
-            return f"[{self.low:.3f}, {self.high:.3f}]"
+            return f"[{fixed(self.low)}, {fixed(self.high)}]"
         if self.clips is not None and self.clips < MIN_CLIPS:
             return f"[n/a ({clips_text(self.clips)})]"
         return "" if self.clips is None else "[n/a]"
@@ -233,14 +234,28 @@ class Table:
         return "\n".join(lines) + "\n"
 
 
+def fixed(value: float, decimals: int = 3, signed: bool = False) -> str:
+    """A number with `decimals` places, halves rounded up from its 12 significant digits, so that
+    the same number prints the same however it was computed: 0.7125 - 0.425 and 23/80 differ in
+    their last binary digit, and f"{x:.3f}" prints them as 0.288 and 0.287; 0.7125 - 0.675 is
+    0.03749999999999998, which is 3/80 = 0.0375 (0.038) before float rounding."""
+    if math.isnan(value):
+        return "n/a"
+    digits = Decimal(format(float(value), ".12g"))
+    text = f"{digits.quantize(Decimal(1).scaleb(-decimals), ROUND_HALF_UP):f}"
+    if Decimal(text) == 0:
+        text = f"{Decimal(0).scaleb(-decimals):f}"  # never "-0.000"
+    return "+" + text if signed and not text.startswith("-") else text
+
+
 def _percent(value: Increase) -> str:
-    return "n/a" if math.isnan(value.relative) else f"{value.relative * 100:.1f}%"
+    return "n/a" if math.isnan(value.relative) else f"{fixed(value.relative * 100, 1)}%"
 
 
 def _latex_lines(value) -> list[str]:
     """A cell as LaTeX, one entry per table line: an increase takes up to three."""
     if isinstance(value, Increase):
-        lines = [_latex_number(f"{value.absolute:+.3f}"), f"\\textbf{{({latex_text(_percent(value))})}}"]
+        lines = [_latex_number(fixed(value.absolute, signed=True)), f"\\textbf{{({latex_text(_percent(value))})}}"]
         interval = value.interval_text()
         return lines + ([_latex_number(latex_text(interval))] if interval else [])
     return [_cell(value, latex=True)]
@@ -249,9 +264,9 @@ def _latex_lines(value) -> list[str]:
 def _cell(value, latex: bool) -> str:
     if isinstance(value, Increase):  # Markdown; LaTeX stacks it (_latex_lines)
         interval = value.interval_text()
-        return f"{value.absolute:+.3f}{' ' + interval if interval else ''} **({_percent(value)})**"
+        return f"{fixed(value.absolute, signed=True)}{' ' + interval if interval else ''} **({_percent(value)})**"
     if isinstance(value, float):
-        text = "n/a" if math.isnan(value) else f"{value:.3f}"
+        text = fixed(value)
         return _latex_number(text) if latex else text
     return latex_text(str(value)) if latex else str(value)
 
