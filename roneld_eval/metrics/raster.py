@@ -15,6 +15,7 @@ from functools import lru_cache
 import numpy as np
 
 from .._numba_cache import compile_now
+from ..config import IMAGE_SIZES
 from ..geometry import MapGeometry
 from ..model import Lane
 from . import _kernels
@@ -174,9 +175,9 @@ def warm_up(groups=("tables", "official", "paper")) -> None:
     lane = Lane(np.array([[700.0, 589.0], [760.0, 450.0], [800.0, 330.0], [815.0, 260.0]]))
     masks: list = []
     if "official" in groups:
-        masks.append(official_mask(lane, 1640, 590, 30))
+        masks.append(official_mask(lane, *IMAGE_SIZES["culane"], 30))
     if "paper" in groups:
-        geometry = MapGeometry(1640, 590, 800, 288)
+        geometry = MapGeometry(*IMAGE_SIZES["culane"], 800, 288)
         masks += [map_mask(lane, geometry, 16, spline, rounding) for spline in (False, True)
                   for rounding in ("nearest", "truncate")]
     if masks:
