@@ -170,6 +170,8 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
             name, equals, entry = plugin.partition("=")
             if not equals or not name.strip() or not entry.strip():
                 raise ConfigError(f"--method needs NAME=MODULE:CALLABLE, got {plugin!r}")
+            if name.strip() in added:
+                raise ConfigError(f"--method {name.strip()} is given twice")
             config = config.with_plugin(name.strip(), entry.strip())
             added.append(name.strip())
         if chosen is not None:  # --methods may name the plug-ins; those it leaves out still run

@@ -245,7 +245,7 @@ def _built(method: Method, geometry: MapGeometry, frame: Frame) -> tuple[Method,
     else:
         try:
             extractor = method.build(geometry)
-        except Exception as error:  # a plug-in's own bug: name it, not the runner's frames
+        except (Exception, SystemExit) as error:  # a plug-in's own bug: name it, not the runner's frames
             problem = f"building the extractor raised {_raised(error)}"
             raise ExtractorError(method.name, frame.relpath, problem) from None
         if not callable(extractor):
@@ -276,21 +276,40 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
     """A plug-in's prediction, checked: whatever goes wrong is one ExtractorError naming the
     method, the frame and the problem, never a traceback from deep inside the runner."""
     problem = None
+    too_slow = f"took longer than {method.time_limit_s:g} s (time_limit_s in [methods.{method.name}])"
+    # A read-only view: a plug-in that writes into the maps would change what the methods after
+    # it see (npy maps are read-only memory maps already; the other formats are arrays).
+    maps = _read_only(maps)
     try:
         with time_limit(method.time_limit_s):
             start = time.perf_counter()
             prediction = extractor(maps)
             elapsed = time.perf_counter() - start
     except TimeLimitExceeded:
-        problem = f"took longer than {method.time_limit_s:g} s (time_limit_s in [methods.{method.name}])"
-    except Exception as error:
+        problem = too_slow
+    except (Exception, SystemExit) as error:  # sys.exit() in a plug-in must not end the run silently
         problem = f"raised {_raised(error)}"
     else:
-        problem = prediction_problem(prediction, config.dataset.image_width, config.dataset.image_height)
+        if method.time_limit_s is not None and elapsed > method.time_limit_s:
+            problem = too_slow  # it caught or blocked the alarm
+        else:
+            problem = prediction_problem(prediction, config.dataset.image_width, config.dataset.image_height)
     if problem is not None:
         raise ExtractorError(method.name, frame.relpath, problem)
     extract_ms[method.name].append(elapsed * 1e3)
     return prediction
+
+
+def _read_only(maps: FrameMaps) -> FrameMaps:
+    probabilities = maps.probabilities
+    existence = maps.existence
+    if probabilities.flags.writeable:
+        probabilities = probabilities.view()
+        probabilities.flags.writeable = False
+    if existence is not None and existence.flags.writeable:
+        existence = existence.view()
+        existence.flags.writeable = False
+    return replace(maps, probabilities=probabilities, existence=existence)
 
 
 def _raised(error: BaseException) -> str:
@@ -499,6 +518,10 @@ def evaluate(
                          data_root=Path(dataset.root),
                          label_file=None if dataset.source_file is None else Path(dataset.source_file))
     say = announce or (lambda message: None)
+    if config.maps.format == "lanes":
+        from .maps.lanes import check_coverage
+
+        check_coverage(maps_root, [f.relpath for clip in clips for f in clip.frames if f.labelled], say)
     geometry = _first_geometry(clips, context)
     if geometry is not None:
         say(f"geometry: {geometry.describe()}")

@@ -197,6 +197,8 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
         record = json.loads(line)
     except json.JSONDecodeError as error:
         raise InputError(path, f"not valid JSON: {error.msg}", line=number) from None
+    except (ValueError, RecursionError) as error:  # a 5,000-digit number; arrays nested 100,000 deep
+        raise InputError(path, f"not JSON this tool can read: {str(error).splitlines()[0]}", line=number) from None
     if not isinstance(record, dict):
         raise InputError(path, "each line must be a JSON object", line=number)
     required = ("raw_file", "lanes") if predictions else ("raw_file", "lanes", "h_samples")

@@ -117,3 +117,29 @@ def factory_raises(geometry, params):
 
 def factory_returns_number(geometry, params):
     return 42
+
+
+def exits(geometry, params):
+    def extract(maps):
+        raise SystemExit(0)  # sys.exit(0) deep in someone's code
+
+    return extract
+
+
+def writes_maps(geometry, params):
+    def extract(maps):
+        maps.probabilities[:] = 0  # would blank the maps for the methods after it
+        return Prediction()
+
+    return extract
+
+
+def ignores_the_alarm(geometry, params):
+    def extract(maps):
+        try:
+            time.sleep(params.get("seconds", 2.0))
+        except BaseException:  # swallows the time limit's interruption
+            time.sleep(params.get("seconds", 2.0))
+        return Prediction()
+
+    return extract

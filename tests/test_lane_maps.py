@@ -116,3 +116,22 @@ def test_synthetic_lane_files_run_end_to_end(dataset, tmp_path):
     again = make(tmp_path / "again", clips=2, frames=6 if dataset == "culane" else 20, seed=2, maps_format="lanes")
     files = sorted(p.relative_to(made.maps_root) for p in made.maps_root.rglob("*") if p.is_file())
     assert files and all((made.maps_root / f).read_bytes() == (again.maps_root / f).read_bytes() for f in files)
+
+
+def test_a_tusimple_prediction_file_for_other_paths_is_refused(tmp_path):
+    made = synth_tusimple(tmp_path / "set", clips=2, frames=20, seed=2, maps_format="lanes")
+    predictions = made.maps_root / "predictions.json"
+    predictions.write_text(predictions.read_text().replace('"raw_file": "clips/', '"raw_file": "test_set/clips/'))
+    result = CliRunner().invoke(main, ["run", "--dataset", "tusimple", "--data-root", str(made.data_root),
+                                       "--maps-root", str(made.maps_root), "--maps-format", "lanes", "--quiet",
+                                       "--workers", "1", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and "no line for any of the 2 labelled frames" in result.output, result.output
+    assert "its first line is for 'test_set/clips/" in result.output
+
+
+@pytest.mark.parametrize("line", ['{"raw_file": "a/1.jpg", "lanes": [[' + "9" * 5001 + ']], "h_samples": [1]}',
+                                  "[" * 100_000])
+def test_json_no_parser_can_hold_is_one_error(tmp_path, line):
+    (tmp_path / "predictions.json").write_text(line + "\n")
+    with pytest.raises(InputError, match="predictions.json:1: not JSON this tool can read"):
+        load_maps(tmp_path, "a/1.jpg", MAPS, MapGeometry(1280, 720, 800, 288), 0.5)

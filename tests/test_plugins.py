@@ -222,6 +222,8 @@ BROKEN = [
     ("one_point_lanes", "lane 1 of 1: has 1 point; a lane needs at least 2"),
     ("factory_raises", "building the extractor raised KeyError: 'threshold'"),
     ("factory_returns_number", "the factory returned int, not a callable extractor"),
+    ("exits", "raised SystemExit"),
+    ("writes_maps", "raised ValueError: assignment destination is read-only"),
 ]
 
 
@@ -278,3 +280,19 @@ def test_a_prediction_keeps_its_active_lanes_among_its_lanes():
     assert "not a roneld_eval.Lane" in prediction_problem(Prediction(lanes=(np.zeros((2, 2)),)), 1640, 590)
     assert ego_pair([other, left, right], 1640, 590, 0.5) == (left, right)
     assert ego_pair([lane((100, 5))], 1640, 590, 0.5) == (None, None)  # one point: no side
+
+
+def test_a_plugin_that_defeats_its_alarm_is_still_too_slow(dataset, tmp_path):
+    config = tmp_path / "slow.toml"
+    base = api.default_config("culane").to_toml()
+    config.write_text(base.replace('methods = ["baseline", "roneld"]\n', "") +
+                      f'\n[methods.roneld]\n[methods.stubborn]\nentry = "{entry("ignores_the_alarm")}"\n'
+                      f'time_limit_s = 0.3\nseconds = 0.4\n')
+    result = invoke(run_args(dataset, tmp_path / "out", "--config", str(config), "--workers", "1"))
+    assert result.exit_code == 2 and "took longer than 0.3 s" in result.output, result.output
+
+
+def test_the_same_plugin_name_twice_is_refused(dataset, tmp_path):
+    result = invoke(run_args(dataset, tmp_path / "out", "--method", f"m={entry('no_op')}",
+                             "--method", f"m={entry('ego_points')}"))
+    assert result.exit_code == 2 and "--method m is given twice" in result.output

@@ -104,7 +104,7 @@ def resolve_entry(entry: str, method: str = "") -> Callable[..., Any]:
         module = _load_file(Path(where)) if where.endswith(".py") else _import(where)
     except ConfigError as error:
         raise ConfigError(f"{label}{error}") from None
-    except Exception as error:  # the plug-in's own import failed: say which and why
+    except (Exception, SystemExit) as error:  # the plug-in's own import failed (or exited): say which
         raise ConfigError(f"{label}importing {where!r} failed: {type(error).__name__}: {error}") from None
     value: Any = module
     for part in attribute.split("."):

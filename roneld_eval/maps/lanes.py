@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -141,6 +142,26 @@ def _score(value, path, line: int | None) -> float:
     if isinstance(value, bool) or not 0.0 <= number <= 1.0:
         raise InputError(path, f"lane score {value!r} is not a number in [0, 1]", line=line)
     return number
+
+
+def check_coverage(root: Path, labelled: Sequence[str], say: Callable[[str], None]) -> None:
+    """A TuSimple prediction file must hold lanes for the frames that are scored: none found is
+    a wrong file or raw_file paths in another form (an InputError), fewer than half a warning.
+    (CULane lane files are one per frame and missing ones are refused as missing maps are.)"""
+    path = root / TUSIMPLE_FILE
+    if not path.is_file() or not labelled:
+        return
+    frames = _tusimple_frames(path)
+    missing = [relpath for relpath in labelled if relpath not in frames]
+    if len(missing) == len(labelled):
+        example = next(iter(frames), None)
+        found = f"; its first line is for {example!r}" if example is not None else "; it holds no line"
+        raise InputError(path, f"no line for any of the {len(labelled)} labelled frames (first looked for: "
+                               f"{missing[0]!r}){found}: raw_file must be the image path relative to the "
+                               f"dataset root")
+    if len(missing) * 2 > len(labelled):
+        say(f"warning: {path} has lanes for only {len(labelled) - len(missing)} of {len(labelled)} labelled "
+            f"frames (first without: {missing[0]}); the others count as frames without lanes")
 
 
 @dataclass(frozen=True)

@@ -16,10 +16,12 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
+# Labels are model and method names, never mathtext: "$\\input{x}$" must print as typed.
+matplotlib.rcParams["text.parse_math"] = False
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from ..errors import InputError
+from ..errors import InputError  # noqa: E402
 from .tables import Protocol, clips_text, dataset_name, display_name  # noqa: E402
 
 STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
