@@ -100,11 +100,17 @@ def read_bytes(path: Path, missing_ok: bool = False) -> bytes | None:
         raise InputError(path, _os_problem(error)) from None
     except ValueError:  # a NUL character in the name
         raise InputError(path, "not a usable file name") from None
+    try:
+        # Checked before fdopen, which refuses a folder with an error naming the descriptor.
+        problem = _not_regular(os.fstat(descriptor).st_mode)
+    except OSError as error:
+        os.close(descriptor)
+        raise InputError(path, _os_problem(error)) from None
+    if problem is not None:
+        os.close(descriptor)
+        raise InputError(path, problem)
     with os.fdopen(descriptor, "rb") as handle:
         try:
-            problem = _not_regular(os.fstat(descriptor).st_mode)
-            if problem is not None:
-                raise InputError(path, problem)
             return handle.read()
         except OSError as error:
             raise InputError(path, _os_problem(error)) from None

@@ -639,3 +639,11 @@ def test_preset_comments_agree_with_their_format():
         maps_section = text.split("\n[maps]\n")[1].split("\n[baseline]\n")[0]
         assert '"npy": one' in maps_section and "--maps-format scnn-png" in maps_section
         assert "pft" not in text.replace("pft_ablation", "")
+
+
+def test_a_folder_in_place_of_a_label_file_is_named(sets, tmp_path):
+    root = sets / "culane"
+    label = sorted((root / "data").rglob("*.lines.txt"))[1]
+    label.unlink()
+    label.mkdir()  # os.fdopen refused it naming the descriptor: "error: 4: Is a directory"
+    one_line(run_cli(*run_args(root, tmp_path / "o")), str(label), "is a folder, not a file")

@@ -296,3 +296,14 @@ def test_the_same_plugin_name_twice_is_refused(dataset, tmp_path):
     result = invoke(run_args(dataset, tmp_path / "out", "--method", f"m={entry('no_op')}",
                              "--method", f"m={entry('ego_points')}"))
     assert result.exit_code == 2 and "--method m is given twice" in result.output
+
+
+def test_a_plugin_file_imports_the_modules_beside_it(tmp_path, monkeypatch):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "helpers_for_my_lanes.py").write_text("THRESHOLD = 7\n")
+    (folder / "my_lanes.py").write_text("from helpers_for_my_lanes import THRESHOLD\n"
+                                        "def make(geometry, params):\n    return lambda maps: THRESHOLD\n")
+    monkeypatch.setattr("sys.path", list(__import__("sys").path))
+    factory = resolve_entry(f"{folder / 'my_lanes.py'}:make")
+    assert factory(None, {})(None) == 7

@@ -143,6 +143,8 @@ def _load_file(path: Path):
     module = sys.modules.get(name)
     if module is not None:
         return module
+    if str(path.parent) not in sys.path:
+        sys.path.append(str(path.parent))  # as `python file.py` would: its own modules beside it import
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
         raise ConfigError(f"{path}: cannot load as a Python module")
