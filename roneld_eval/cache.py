@@ -209,17 +209,14 @@ def _secret_key() -> bytes:
 # ---- plain-data form of a clip's results ------------------------------------------------
 
 
-_number, _float, _int, _string, _list = json_number, read_float, read_count, read_string, read_list
-
-
 def _encode_lane(lane: Lane | None) -> Any:
-    return None if lane is None else [[_number(x), _number(y)] for x, y in lane.points]
+    return None if lane is None else [[json_number(x), json_number(y)] for x, y in lane.points]
 
 
 def _decode_lane(value: Any) -> Lane | None:
     if value is None:
         return None
-    points = [(_float(x), _float(y)) for x, y in _list(value)]
+    points = [(read_float(x), read_float(y)) for x, y in read_list(value)]
     return Lane(np.array(points, np.float64).reshape(-1, 2))
 
 
@@ -237,13 +234,13 @@ def encode_result(result: ClipResult) -> dict:
         "clip_id": result.clip_id,
         "outcomes": [{
             "relpath": o.relpath, "method": o.method,
-            "ious": {side: _number(iou) for side, iou in o.ious.items()},
+            "ious": {side: json_number(iou) for side, iou in o.ious.items()},
             "official": o.official.to_json(),
             "lanes": [_encode_lane(lane) for lane in o.lanes],
             "active": [_encode_lane(lane) for lane in o.active],
         } for o in result.outcomes],
-        "extract_ms": {method: [_number(v) for v in values] for method, values in result.extract_ms.items()},
-        "load_ms": [_number(v) for v in result.load_ms],
+        "extract_ms": {method: [json_number(v) for v in values] for method, values in result.extract_ms.items()},
+        "load_ms": [json_number(v) for v in result.load_ms],
         "n_frames": result.n_frames, "n_scored": result.n_scored, "n_gt_lanes": result.n_gt_lanes,
         "skipped": list(result.skipped),
         "map_size": None if result.map_size is None else list(result.map_size),
@@ -255,18 +252,18 @@ def decode_result(data: Any, benchmark: Benchmark) -> ClipResult:
     if not isinstance(data, dict):
         raise TypeError("result is not a record")
     outcomes = []
-    for item in _list(data["outcomes"]):
+    for item in read_list(data["outcomes"]):
         ious = item["ious"]
         if not isinstance(ious, dict):
             raise TypeError("ious is not a record")
-        active = tuple(_decode_lane(lane) for lane in _list(item["active"]))
+        active = tuple(_decode_lane(lane) for lane in read_list(item["active"]))
         if len(active) != 2:
             raise ValueError("active lanes are not a pair")
         outcomes.append(FrameOutcome(
-            relpath=_string(item["relpath"]), method=_string(item["method"]),
-            ious={_string(side): _float(iou) for side, iou in ious.items()},
+            relpath=read_string(item["relpath"]), method=read_string(item["method"]),
+            ious={read_string(side): read_float(iou) for side, iou in ious.items()},
             official=benchmark.decode(item["official"]),
-            lanes=tuple(_decode_found_lane(lane) for lane in _list(item["lanes"])),
+            lanes=tuple(_decode_found_lane(lane) for lane in read_list(item["lanes"])),
             active=active,
         ))
     extract_ms = data["extract_ms"]
@@ -274,15 +271,16 @@ def decode_result(data: Any, benchmark: Benchmark) -> ClipResult:
         raise TypeError("extract_ms is not a record")
     map_size = data["map_size"]
     if map_size is not None:
-        map_size = tuple(_int(v) for v in _list(map_size))
+        map_size = tuple(read_count(v) for v in read_list(map_size))
         if len(map_size) != 2:
             raise ValueError("map_size is not a pair")
     return ClipResult(
-        clip_id=_string(data["clip_id"]),
+        clip_id=read_string(data["clip_id"]),
         outcomes=outcomes,
-        extract_ms={_string(m): [_float(v) for v in _list(values)] for m, values in extract_ms.items()},
-        load_ms=[_float(v) for v in _list(data["load_ms"])],
-        n_frames=_int(data["n_frames"]), n_scored=_int(data["n_scored"]), n_gt_lanes=_int(data["n_gt_lanes"]),
-        skipped=[_string(line) for line in _list(data["skipped"])],
+        extract_ms={read_string(m): [read_float(v) for v in read_list(values)] for m, values in extract_ms.items()},
+        load_ms=[read_float(v) for v in read_list(data["load_ms"])],
+        n_frames=read_count(data["n_frames"]), n_scored=read_count(data["n_scored"]),
+        n_gt_lanes=read_count(data["n_gt_lanes"]),
+        skipped=[read_string(line) for line in read_list(data["skipped"])],
         map_size=map_size,
     )

@@ -37,7 +37,7 @@ from .maps.scnn_png import scnn_png_paths
 from .metrics.bootstrap import paired_bootstrap
 from .metrics.paper import ego_masks, side_ious
 from .metrics.sweep import sweep_accuracy
-from .model import Clip, Dataset, Frame, FrameMaps, Lane
+from .model import Clip, Dataset, Frame, FrameMaps, Lane, read_only
 from .signals import TimeLimitExceeded, time_limit
 from .workers import default_workers, process_pool, stopping
 
@@ -173,9 +173,7 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
         except InputError as error:
             if not skip:
                 raise
-            # The frame is left out: neither scored nor seen by RONELD (as a dropped frame).
-            result.skipped.append(f"{error} (frame skipped)")
-            result.n_frames -= 1
+            _leave_out(result, error)  # neither scored nor seen by RONELD (as a dropped frame)
             continue
         result.load_ms.append(load_ms)
         if extractors is None:
@@ -188,9 +186,7 @@ def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
         except ExtractorError as error:
             if not skip:
                 raise
-            # Left out for every method, so that all methods are scored on the same frames.
-            result.skipped.append(f"{error} (frame skipped)")
-            result.n_frames -= 1
+            _leave_out(result, error)  # for every method, so that all are scored on the same frames
             continue
         if frame.labelled:
             result.n_scored += 1
@@ -238,6 +234,12 @@ def _prefetched(frames: Sequence[Frame], context: RunContext) -> Iterator[tuple[
                 future.cancel()
 
 
+def _leave_out(result: ClipResult, error: Exception) -> None:
+    """A frame skipped under --on-error skip: listed, and not counted as evaluated."""
+    result.skipped.append(f"{error} (frame skipped)")
+    result.n_frames -= 1
+
+
 def _built(method: Method, geometry: MapGeometry, frame: Frame) -> tuple[Method, Extractor, bool]:
     """(method, its extractor for this clip, whether it is stateless)."""
     if method.built_in:
@@ -279,7 +281,8 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
     too_slow = f"took longer than {method.time_limit_s:g} s (time_limit_s in [methods.{method.name}])"
     # A read-only view: a plug-in that writes into the maps would change what the methods after
     # it see (npy maps are read-only memory maps already; the other formats are arrays).
-    maps = _read_only(maps)
+    maps = replace(maps, probabilities=read_only(maps.probabilities),
+                   existence=None if maps.existence is None else read_only(maps.existence))
     try:
         with time_limit(method.time_limit_s):
             start = time.perf_counter()
@@ -298,18 +301,6 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
         raise ExtractorError(method.name, frame.relpath, problem)
     extract_ms[method.name].append(elapsed * 1e3)
     return prediction
-
-
-def _read_only(maps: FrameMaps) -> FrameMaps:
-    probabilities = maps.probabilities
-    existence = maps.existence
-    if probabilities.flags.writeable:
-        probabilities = probabilities.view()
-        probabilities.flags.writeable = False
-    if existence is not None and existence.flags.writeable:
-        existence = existence.view()
-        existence.flags.writeable = False
-    return replace(maps, probabilities=probabilities, existence=existence)
 
 
 def _raised(error: BaseException) -> str:

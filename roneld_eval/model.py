@@ -79,6 +79,15 @@ class Lane:
         return f"Lane({len(self)} points)"
 
 
+def read_only(array: np.ndarray) -> np.ndarray:
+    """The array itself if it cannot be written, else a read-only view of it."""
+    if not array.flags.writeable:
+        return array
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
 def image_stem(relpath: str) -> str:
     """An image path without its extension, cut at the last '.' of the file name only.
 

@@ -91,3 +91,19 @@ def fixture_run(tmp_path_factory):
     config = api.default_config("culane").with_overrides(pft_ablation=True, save_lanes=True, workers=1)
     result = api.run(config, out, progress=False)
     return result, out
+
+
+def interrupt_after(monkeypatch, finished: int):
+    """Make the next run stop (as Ctrl-C) when it starts clip number `finished` + 1."""
+    from roneld_eval import evaluation
+
+    original, calls = evaluation.evaluate_clip, []
+
+    def interrupting(clip, context):
+        calls.append(clip.clip_id)
+        if len(calls) == finished + 1:
+            raise KeyboardInterrupt
+        return original(clip, context)
+
+    monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
+    return lambda: monkeypatch.setattr(evaluation, "evaluate_clip", original)

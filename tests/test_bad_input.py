@@ -229,18 +229,12 @@ def test_interrupted_run_writes_nothing_and_resume_gives_the_same_numbers(sets, 
     clean = tmp_path / "clean"
     api.run(_config(root), clean, progress=False)
 
+    from conftest import interrupt_after
+
     from roneld_eval import evaluation
 
     original = evaluation.evaluate_clip
-    calls = []
-
-    def interrupting(clip, context):
-        calls.append(clip.clip_id)
-        if len(calls) == 3:
-            raise KeyboardInterrupt
-        return original(clip, context)
-
-    monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
+    interrupt_after(monkeypatch, 2)
     with pytest.raises(RunInterrupted) as caught:
         api.run(_config(root), out, progress=False)
     assert caught.value.exit_code == 130
@@ -248,7 +242,7 @@ def test_interrupted_run_writes_nothing_and_resume_gives_the_same_numbers(sets, 
     assert sorted(p.name for p in out.iterdir()) == sorted(EARLIER + [".roneld-cache"])
     assert (out / "accuracy.csv").read_text() == SENTINEL
 
-    calls.clear()
+    calls: list[str] = []
     monkeypatch.setattr(evaluation, "evaluate_clip",
                         lambda clip, context: calls.append(clip.clip_id) or original(clip, context))
     api.run(_config(root), out, progress=False, resume=True)

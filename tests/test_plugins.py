@@ -12,6 +12,8 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
+from conftest import interrupt_after
+
 from roneld_eval import api, evaluation
 from roneld_eval.cli import main
 from roneld_eval.config import EvalConfig, PluginMethod
@@ -109,22 +111,13 @@ def test_a_plugin_runs_with_two_workers_and_resume_and_is_in_every_output(datase
 
     # Resume: an interrupted run's finished clips are reused and give the same bytes.
     again = tmp_path / "again"
-    original = evaluation.evaluate_clip
-    calls = []
-
-    def interrupting(clip, context):
-        calls.append(clip.clip_id)
-        if len(calls) == 3:
-            raise KeyboardInterrupt
-        return original(clip, context)
-
-    monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
+    restore = interrupt_after(monkeypatch, 2)
     interrupted = api.default_config("culane").with_overrides(**{
         "dataset.data_root": str(dataset / "data"), "maps.root": str(dataset / "maps"), "workers": 1,
         "save_lanes": True}).with_plugin("mine", entry("ego_points"))
     with pytest.raises(RunInterrupted):
         api.run(interrupted, again, progress=False, overlays=2)
-    monkeypatch.setattr(evaluation, "evaluate_clip", original)
+    restore()
     resumed_args = run_args(dataset, again, "--method", f"mine={entry('ego_points')}", "--workers", "2",
                             "--save-lanes", "--overlays", "2", "--resume")
     resumed_args.remove("--quiet")  # the note on what was reused is part of the normal output
@@ -240,12 +233,16 @@ def test_a_broken_plugin_stops_the_run_with_one_line(dataset, tmp_path, name, pr
     assert not out.exists() or not (out / "accuracy.csv").exists()
 
 
-def test_a_plugin_slower_than_its_limit_stops_the_run_in_a_worker_too(dataset, tmp_path):
-    config = tmp_path / "slow.toml"
+def config_with_methods(path: Path, tables: str) -> Path:
+    """The CULane preset as a config file whose methods are the given [methods.NAME] tables."""
     base = api.default_config("culane").to_toml()
-    config.write_text(base.replace('methods = ["baseline", "roneld"]\n', "") +
-                      f'\n[methods.baseline]\n[methods.slow]\nentry = "{entry("slow_once")}"\ntime_limit_s = 0.5\n'
-                      f'seconds = 20\n')
+    path.write_text(base.replace('methods = ["baseline", "roneld"]\n', "") + "\n" + tables)
+    return path
+
+
+def test_a_plugin_slower_than_its_limit_stops_the_run_in_a_worker_too(dataset, tmp_path):
+    config = config_with_methods(tmp_path / "slow.toml", f'[methods.baseline]\n[methods.slow]\n'
+                                 f'entry = "{entry("slow_once")}"\ntime_limit_s = 0.5\nseconds = 20\n')
     result = invoke(run_args(dataset, tmp_path / "out", "--config", str(config), "--workers", "2"))
     assert result.exit_code == 2, result.output
     assert "method 'slow', frame " in result.output
@@ -283,11 +280,8 @@ def test_a_prediction_keeps_its_active_lanes_among_its_lanes():
 
 
 def test_a_plugin_that_defeats_its_alarm_is_still_too_slow(dataset, tmp_path):
-    config = tmp_path / "slow.toml"
-    base = api.default_config("culane").to_toml()
-    config.write_text(base.replace('methods = ["baseline", "roneld"]\n', "") +
-                      f'\n[methods.roneld]\n[methods.stubborn]\nentry = "{entry("ignores_the_alarm")}"\n'
-                      f'time_limit_s = 0.3\nseconds = 0.4\n')
+    config = config_with_methods(tmp_path / "slow.toml", f'[methods.roneld]\n[methods.stubborn]\n'
+                                 f'entry = "{entry("ignores_the_alarm")}"\ntime_limit_s = 0.3\nseconds = 0.4\n')
     result = invoke(run_args(dataset, tmp_path / "out", "--config", str(config), "--workers", "1"))
     assert result.exit_code == 2 and "took longer than 0.3 s" in result.output, result.output
 

@@ -18,7 +18,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from roneld_eval import api, evaluation, output
+from roneld_eval import api, output
+from conftest import interrupt_after
+
 from roneld_eval.cli import main
 from roneld_eval.errors import InputError, RunInterrupted
 from roneld_eval.synth import synth_culane
@@ -207,20 +209,6 @@ def test_a_commit_cut_short_by_a_kill_is_finished_by_the_next_command(dataset, t
 
 
 # ---- resume: only what is still true is reused ----------------------------------------------
-
-
-def interrupt_after(monkeypatch, finished: int):
-    """Make the next run stop (as Ctrl-C) when it starts clip number `finished` + 1."""
-    original, calls = evaluation.evaluate_clip, []
-
-    def interrupting(clip, context):
-        calls.append(clip.clip_id)
-        if len(calls) == finished + 1:
-            raise KeyboardInterrupt
-        return original(clip, context)
-
-    monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
-    return lambda: monkeypatch.setattr(evaluation, "evaluate_clip", original)
 
 
 def interrupted_run(monkeypatch, root: Path, out: Path, finished: int, **overrides) -> None:

@@ -8,6 +8,7 @@ The runner asks `benchmark_for(dataset name)` and knows no benchmark by name; ad
 from __future__ import annotations
 
 import importlib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Protocol, Sequence
 
@@ -24,13 +25,14 @@ class OfficialRecord(Protocol):
     def to_json(self) -> Any: ...
 
 
-class LaneFile(Protocol):
+@dataclass(frozen=True)
+class LaneFile:
     """Where one frame's lanes go: a file under lanes/METHOD/, its text, and whether the text
     is appended to a file shared by all frames (one line per frame) or is the whole file."""
 
     name: str
     text: str
-    append: bool
+    append: bool = False
 
 
 class Benchmark(Protocol):

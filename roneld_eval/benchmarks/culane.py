@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ..config import EvalConfig
+from . import LaneFile
 from ..datasets.culane import labels_path
 from ..extract.protocol import Prediction
 from ..json_fields import json_number, read_count, read_float, read_list
@@ -41,13 +42,6 @@ class _Truth:
     masks: list
     ego_rows: list[int]
     size: tuple[int, int, int]  # image width, height, official lane width
-
-
-@dataclass(frozen=True)
-class _LaneFile:
-    name: str
-    text: str
-    append: bool = False
 
 
 class CulaneBenchmark:
@@ -105,8 +99,8 @@ class CulaneBenchmark:
             raise ValueError("a CULane record holds all lanes and ego lanes")
         return CulaneOfficial(*parts)
 
-    def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> _LaneFile:
-        return _LaneFile(f"{method}/{frame.stem}.lines.txt", format_culane_lines(lanes))
+    def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
+        return LaneFile(f"{method}/{frame.stem}.lines.txt", format_culane_lines(lanes))
 
 
 BENCHMARK = CulaneBenchmark()

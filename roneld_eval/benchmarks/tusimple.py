@@ -10,6 +10,7 @@ from typing import Any, Mapping, Sequence
 import pandas as pd
 
 from ..config import EvalConfig
+from . import LaneFile
 from ..extract.protocol import Prediction
 from ..json_fields import json_number, read_float, read_list
 from ..lanes_io import format_tusimple_record, sample_lane_at_rows, tusimple_xs
@@ -33,13 +34,6 @@ class TusimpleOfficial:
 class _Truth:
     rows: tuple[int, ...]
     lanes_xs: list[list[float]]
-
-
-@dataclass(frozen=True)
-class _LaneFile:
-    name: str
-    text: str
-    append: bool = True
 
 
 class TusimpleBenchmark:
@@ -74,10 +68,11 @@ class TusimpleBenchmark:
             raise ValueError("a TuSimple record holds accuracy, FP and FN")
         return TusimpleOfficial(*scores)
 
-    def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> _LaneFile:
+    def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         rows = frame.h_samples or ()
         lanes_xs = [sample_lane_at_rows(lane, rows) for lane in lanes]
-        return _LaneFile(f"{method}/predictions.json", format_tusimple_record(frame.relpath, lanes_xs, rows, 0) + "\n")
+        text = format_tusimple_record(frame.relpath, lanes_xs, rows, 0) + "\n"
+        return LaneFile(f"{method}/predictions.json", text, append=True)
 
 
 BENCHMARK = TusimpleBenchmark()

@@ -5,7 +5,7 @@ import numpy as np
 from .._numba_cache import compile_now
 from ..config import IMAGE_SIZES, BaselineParams, RoneldParams
 from ..geometry import MapGeometry
-from ..model import FrameMaps
+from ..model import FrameMaps, read_only
 from . import _kernels
 from .baseline import baseline_lanes, sample_rows
 from .roneld import ActiveLanes, RoneldState, RoneldTracker, roneld_step
@@ -30,12 +30,12 @@ def warm_up(groups=("roneld", "baseline")) -> None:
         tracker = RoneldTracker(RoneldParams())
         for maps in clip:  # the last frames are in curve mode
             tracker(maps)
-        tracker(_read_only(clip[-1]))
+        tracker(read_only(clip[-1]))
         RoneldTracker(RoneldParams(), pft=False)(clip[0])
     if "baseline" in groups:
         height, width = clip[0].shape[1:]
         geometry = MapGeometry(*IMAGE_SIZES["culane"], width, height)
-        for maps in (clip[0], _read_only(clip[0])):
+        for maps in (clip[0], read_only(clip[0])):
             baseline_lanes(FrameMaps(maps), BaselineParams(), geometry)
 
 
@@ -55,9 +55,3 @@ def curving_clip(frames: int = 12, height: int = 100, width: int = 160) -> list[
             maps[channel, height // 5:] = np.rint(ridge[height // 5:]).astype(np.uint8)
         clip.append(maps)
     return clip
-
-
-def _read_only(maps: np.ndarray) -> np.ndarray:
-    view = maps.view()
-    view.flags.writeable = False
-    return view
