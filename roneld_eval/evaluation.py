@@ -3,18 +3,23 @@ score them, and return one `RunResult`. Writes nothing itself (see report.write)
 
 A clip is the unit of state (RONELD's tracking) and of parallel work: `evaluate_clip` runs in
 worker processes and returns plain per-frame records; they are merged in clip order, so any
-number of workers gives the same result. Lanes to save stream to a `lane_sink` as clips finish,
+number of workers gives the same result. A long clip is cut into segments (`segments_of`):
+each is extracted in frame order from the tracking state the one before left (`Tracking`,
+pickled between workers), and scored in whichever worker is free, so one long video uses every
+core. How a clip is cut never changes a result. Lanes to save stream to a `lane_sink` as clips finish,
 so memory stays flat in the number of frames.
 """
 
 from __future__ import annotations
 
+import functools
 import itertools
+import pickle
 import platform
 import threading
 import time
 from collections import deque
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -149,53 +154,132 @@ def effective_geometry(config: EvalConfig, map_width: int, map_height: int) -> E
 
 def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
     """Run every method over one clip in frame order and score its labelled frames."""
+    extraction = extract_segment(clip, context, Tracking())
+    return merged_clip(clip, [extraction], [score_segment(extraction, context)])
+
+
+@dataclass
+class Tracking:
+    """What extraction carries from one frame of a clip to the next: each method's extractor
+    (RONELD's tracking state inside), the clip's map shape and geometry. Pickled between the
+    segments of a long clip, so the segments may run in any worker, one after the other."""
+
+    extractors: list[tuple[Method, Extractor, bool]] | None = None
+    map_shape: tuple[int, ...] | None = None
+    geometry: MapGeometry | None = None
+
+
+@dataclass
+class SegmentExtraction:
+    """One run of a clip's frames through every method: the predictions of its labelled
+    frames (to score anywhere) and what the clip's result counts of them."""
+
+    frames: int  # frames of the segment evaluated (skipped ones not counted)
+    labelled: list[tuple[Frame, dict[str, Prediction]]] = field(default_factory=list)
+    geometry: MapGeometry | None = None
+    map_size: tuple[int, int] | None = None
+    extract_ms: dict[str, list[float]] = field(default_factory=dict)
+    load_ms: list[float] = field(default_factory=list)
+    label_skips: list[str] = field(default_factory=list)
+    frame_skips: list[str] = field(default_factory=list)
+    # The tracking state after the segment, pickled, for the next segment (None: not wanted).
+    tracking: bytes | None = None
+
+
+def extract_segment(segment: Clip, context: RunContext, tracking: Tracking) -> SegmentExtraction:
+    """Load and extract a clip's frames in order, continuing from `tracking` (which it updates)."""
     config = context.config
-    result = ClipResult(clip_id=clip.clip_id, n_frames=len(clip.frames))
+    out = SegmentExtraction(frames=len(segment.frames))
     if context.labels_root is not None:
         errors: list[InputError] | None = [] if config.on_error == "skip" else None
-        clip = with_labels(config.dataset.name, clip, context.labels_root, errors)
-        result.skipped += [f"{error} (labels skipped)" for error in errors or ()]
-        result.n_frames = len(clip.frames)
-    result.extract_ms = {method.name: [] for method in context.methods}
-    extractors: list[tuple[Method, Extractor, bool]] | None = None
-    clip_size = None
+        segment = with_labels(config.dataset.name, segment, context.labels_root, errors)
+        out.label_skips = [f"{error} (labels skipped)" for error in errors or ()]
+        out.frames = len(segment.frames)
+    out.extract_ms = {method.name: [] for method in context.methods}
     skip = config.on_error == "skip"
-    for frame, loaded, load_ms in _prefetched(clip.frames, context):
+    for frame, loaded, load_ms in _prefetched(segment.frames, context):
         try:
             if isinstance(loaded, InputError):
                 raise loaded
             maps = loaded
-            if clip_size is not None and maps.probabilities.shape != clip_size:
+            if tracking.map_shape is not None and maps.probabilities.shape != tracking.map_shape:
                 raise InputError(
                     frame_map_path(context, frame),
-                    f"maps of shape {maps.probabilities.shape} differ from the clip's first frame {clip_size}",
+                    f"maps of shape {maps.probabilities.shape} differ from the clip's first frame "
+                    f"{tracking.map_shape}",
                 )
         except InputError as error:
             if not skip:
                 raise
-            _leave_out(result, error)  # neither scored nor seen by RONELD (as a dropped frame)
+            _leave_out(out, error)  # neither scored nor seen by RONELD (as a dropped frame)
             continue
-        result.load_ms.append(load_ms)
-        if extractors is None:
-            clip_size = maps.probabilities.shape
-            geometry = _geometry_for(context, maps, frame_map_path(context, frame))
-            result.map_size = (maps.width, maps.height)
-            extractors = [_built(method, geometry, frame) for method in context.methods]
+        out.load_ms.append(load_ms)
+        if tracking.extractors is None:
+            tracking.map_shape = maps.probabilities.shape
+            tracking.geometry = _geometry_for(context, maps, frame_map_path(context, frame))
+            tracking.extractors = [_built(method, tracking.geometry, frame) for method in context.methods]
+        if out.map_size is None:
+            out.map_size = (maps.width, maps.height)
         try:
-            predictions = _predictions(extractors, maps, frame, result.extract_ms, config)
+            predictions = _predictions(tracking.extractors, maps, frame, out.extract_ms, config)
         except ExtractorError as error:
             if not skip:
                 raise
-            _leave_out(result, error)  # for every method, so that all are scored on the same frames
+            _leave_out(out, error)  # for every method, so that all are scored on the same frames
             continue
         if frame.labelled:
-            result.n_scored += 1
-            result.n_gt_lanes += len(frame.lanes)
-            result.outcomes.extend(_score_frame(frame, predictions, geometry, context))
-    if not config.save_lanes:
-        # Lanes only travel back to the main process when they are to be written.
-        result.outcomes = [outcome.without_lanes() for outcome in result.outcomes]
+            out.labelled.append((frame, predictions))
+    out.geometry = tracking.geometry
+    return out
+
+
+def score_segment(extraction: SegmentExtraction, context: RunContext) -> list[FrameOutcome]:
+    """Every method's outcome on each labelled frame of an extracted segment, in frame order.
+    Lanes are kept only when they are to be saved: they travel back to the main process."""
+    outcomes: list[FrameOutcome] = []
+    if extraction.geometry is None:
+        return outcomes
+    for frame, predictions in extraction.labelled:
+        outcomes.extend(_score_frame(frame, predictions, extraction.geometry, context))
+    if not context.config.save_lanes:
+        outcomes = [outcome.without_lanes() for outcome in outcomes]
+    return outcomes
+
+
+def merged_clip(clip: Clip, extractions: Sequence[SegmentExtraction],
+                scored: Sequence[list[FrameOutcome]]) -> ClipResult:
+    """One clip's result from its segments in frame order; the same whatever the segments were."""
+    result = ClipResult(clip_id=clip.clip_id, n_frames=sum(part.frames for part in extractions))
+    result.extract_ms = {name: [] for name in (extractions[0].extract_ms if extractions else ())}
+    for part, outcomes in zip(extractions, scored):
+        for name, values in part.extract_ms.items():
+            result.extract_ms[name] += values
+        result.load_ms += part.load_ms
+        result.outcomes += outcomes
+        result.n_scored += len(part.labelled)
+        result.n_gt_lanes += sum(len(frame.lanes) for frame, _ in part.labelled)
+        if result.map_size is None:
+            result.map_size = part.map_size
+    # Label problems first, as when a clip's labels were read before its frames.
+    result.skipped = [skip for part in extractions for skip in part.label_skips]
+    result.skipped += [skip for part in extractions for skip in part.frame_skips]
     return result
+
+
+# A clip longer than this is extracted in segments of SEGMENT_FRAMES, each continuing the
+# tracking state of the one before, so its loading and scoring can spread over every worker.
+# Fixed, not derived from --workers: the segments never change a result, but they should not
+# change how the work is cut either. CULane test clips have at most 180 frames.
+SEGMENT_FRAMES = 128
+
+
+def segments_of(clip: Clip) -> list[Clip]:
+    """The clip cut into consecutive parts for extraction: itself, unless it is long."""
+    frames = clip.frames
+    if len(frames) <= 2 * SEGMENT_FRAMES:
+        return [clip]
+    return [replace(clip, frames=frames[start:start + SEGMENT_FRAMES])
+            for start in range(0, len(frames), SEGMENT_FRAMES)]
 
 
 # Frames whose maps are read ahead of the one being extracted and scored, in a thread of the
@@ -234,10 +318,10 @@ def _prefetched(frames: Sequence[Frame], context: RunContext) -> Iterator[tuple[
                 future.cancel()
 
 
-def _leave_out(result: ClipResult, error: Exception) -> None:
+def _leave_out(extraction: SegmentExtraction, error: Exception) -> None:
     """A frame skipped under --on-error skip: listed, and not counted as evaluated."""
-    result.skipped.append(f"{error} (frame skipped)")
-    result.n_frames -= 1
+    extraction.frame_skips.append(f"{error} (frame skipped)")
+    extraction.frames -= 1
 
 
 def _built(method: Method, geometry: MapGeometry, frame: Frame) -> tuple[Method, Extractor, bool]:
@@ -347,6 +431,21 @@ def _evaluate_in_worker(clip: Clip) -> ClipResult:
     return evaluate_clip(clip, _WORKER_CONTEXT)
 
 
+def _extract_in_worker(segment: Clip, tracking: bytes | None) -> SegmentExtraction:
+    """One segment of a long clip, continuing the tracking state the segment before left."""
+    assert _WORKER_CONTEXT is not None
+    # The bytes come from _extract_in_worker in this run's own pool, never from a file.
+    state = Tracking() if tracking is None else pickle.loads(tracking)
+    extraction = extract_segment(segment, _WORKER_CONTEXT, state)
+    extraction.tracking = pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+    return extraction
+
+
+def _score_in_worker(extraction: SegmentExtraction) -> list[FrameOutcome]:
+    assert _WORKER_CONTEXT is not None
+    return score_segment(extraction, _WORKER_CONTEXT)
+
+
 class ClipCache(Protocol):
     """Where finished clips are kept so an interrupted run can resume (see roneld_eval.cache)."""
 
@@ -364,11 +463,13 @@ def clip_inputs(clip: Clip, context: RunContext) -> list[Path]:
 
 
 def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
-                  cache: ClipCache | None = None) -> Iterator[ClipResult]:
+                  cache: ClipCache | None = None,
+                  advance: Callable[[int], object] | None = None) -> Iterator[ClipResult]:
     """Results in clip order: cached ones, then from `workers` processes (in-process for 1).
 
-    Each finished clip is stored in the cache before it is yielded. A worker that dies
-    (killed, out of memory) ends the run with RunInterrupted instead of a hang.
+    Each finished clip is stored in the cache before it is yielded; `advance(frames)` is told
+    of every clip or segment of a long clip as it finishes. A worker that dies (killed, out of
+    memory) ends the run with RunInterrupted instead of a hang.
     """
     cached: dict[int, ClipResult] = {}
     inputs: dict[int, list[Path]] = {}
@@ -379,48 +480,169 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
             if found is not None:
                 cached[index] = found
     todo = [index for index in range(len(clips)) if index not in cached]
+    advance = advance or (lambda frames: None)
 
     def keep(index: int, result: ClipResult) -> ClipResult:
         if cache is not None:
             cache.store(clips[index], inputs[index], result)
         return result
 
-    if workers <= 1 or len(todo) <= 1:
+    if workers <= 1 or work_units([clips[index] for index in todo], context) <= 1:
         if todo:
             kernels.warm_up(context.kernel_groups())
         for index, clip in enumerate(clips):
             result = cached.get(index)
             yield result if result is not None else keep(index, evaluate_clip(clip, context))
+            advance(len(clip.frames))
         return
-    futures: dict[int, Future] = {}
-    queue = iter(todo)
     plotting: threading.Thread | None = None
-    current = clips[todo[0]].clip_id
-    executor = process_pool(workers, initializer=_init_worker, initargs=(context,))
+    schedule = _Schedule(process_pool(workers, initializer=_init_worker, initargs=(context,)),
+                         clips, todo, context, workers, advance)
 
     def died() -> str:
-        return f"a worker process died (killed, or out of memory) while evaluating clip {current}"
+        return f"a worker process died (killed, or out of memory) while evaluating clip {schedule.current}"
 
-    with stopping(executor, died):
+    with stopping(schedule.executor, died):
         for index, clip in enumerate(clips):
             if index in cached:
                 yield cached[index]
+                advance(len(clip.frames))
                 continue
-            current = clip.clip_id
-            # Keep a few clips in flight, in order: results wait in memory only briefly.
-            while len(futures) < 2 * workers:
-                following = next(queue, None)
-                if following is None:
-                    break
-                futures[following] = executor.submit(_evaluate_in_worker, clips[following])
+            schedule.start_more()
             if plotting is None:
                 # The workers exist now (none forks later); the idle main process meanwhile
                 # imports the plotting library the report needs.
                 plotting = threading.Thread(target=_import_plotting, daemon=True)
                 plotting.start()
-            yield keep(index, futures.pop(index).result())
+            yield keep(index, schedule.result(index))
     if plotting is not None:
         plotting.join()  # the report must not use matplotlib while that thread is still importing it
+
+
+def segmentable(context: RunContext) -> bool:
+    """Whether long clips may be cut into segments: only built-in extractors are known to carry
+    their tracking state from one process to another (a plug-in's may not pickle)."""
+    return all(method.built_in for method in context.methods)
+
+
+def work_units(clips: Sequence[Clip], context: RunContext) -> int:
+    """Tasks the clips make for the workers: one per clip, one per segment of a long one."""
+    if not segmentable(context):
+        return len(clips)
+    return sum(len(segments_of(clip)) for clip in clips)
+
+
+@dataclass
+class _Chain:
+    """A long clip in flight: its segments extracted one after another, each scored as soon as
+    it is extracted, in any worker."""
+
+    segments: list[Clip]
+    extractions: dict[int, SegmentExtraction] = field(default_factory=dict)
+    scored: dict[int, list[FrameOutcome]] = field(default_factory=dict)
+
+
+class _Schedule:
+    """Clips, and the segments of long clips, in flight in a process pool: they finish in any
+    order and are handed out in clip order. Work is started only while few clips wait to be
+    handed out, so results wait in memory briefly; a clip's error is raised when its turn
+    comes, so which error a run reports does not depend on the number of workers."""
+
+    def __init__(self, executor, clips: Sequence[Clip], todo: Sequence[int], context: RunContext,
+                 workers: int, advance: Callable[[int], object]):
+        self.executor = executor
+        self.clips = clips
+        self.waiting = deque(todo)
+        self.segmented = segmentable(context)
+        self.limit = 2 * workers
+        self.advance = advance
+        self.tasks: dict[Future, Callable[[Future], None]] = {}  # what to do when each finishes
+        self.started: set[int] = set()  # clips started and not yet handed out
+        self.chains: dict[int, _Chain] = {}
+        self.done: dict[int, ClipResult | BaseException] = {}
+        self.current = clips[todo[0]].clip_id if todo else ""
+
+    def start_more(self) -> None:
+        failed = min((index for index, done in self.done.items() if isinstance(done, BaseException)), default=None)
+        while self.waiting and len(self.started) < self.limit and len(self.tasks) < self.limit:
+            index = self.waiting[0]
+            if failed is not None and index > failed:
+                break  # the run stops at that clip's error: nothing after it is wanted
+            self.waiting.popleft()
+            self.started.add(index)
+            clip = self.clips[index]
+            segments = segments_of(clip) if self.segmented else [clip]
+            if len(segments) == 1:
+                self._submit(functools.partial(self._clip_done, index), _evaluate_in_worker, clip)
+            else:
+                self.chains[index] = _Chain(segments)
+                self._extract(index, 0, None)
+
+    def result(self, index: int) -> ClipResult:
+        """Clip `index`'s result, waiting for it while the other work goes on."""
+        self.current = self.clips[index].clip_id
+        while index not in self.done:
+            self.start_more()
+            if not self.tasks:  # cannot happen: clips start in order, so this one is under way
+                raise RuntimeError(f"clip {self.current} was never started")
+            finished, _ = wait(list(self.tasks), return_when=FIRST_COMPLETED)
+            for future in finished:
+                self.tasks.pop(future)(future)
+        self.started.discard(index)
+        done = self.done.pop(index)
+        if isinstance(done, BaseException):
+            raise done
+        return done
+
+    def _submit(self, then: Callable[[Future], None], function, *args) -> None:
+        self.tasks[self.executor.submit(function, *args)] = then
+
+    def _extract(self, index: int, number: int, tracking: bytes | None) -> None:
+        segment = self.chains[index].segments[number]
+        self._submit(functools.partial(self._extracted, index, number), _extract_in_worker, segment, tracking)
+
+    def _extracted(self, index: int, number: int, future: Future) -> None:
+        chain = self.chains.get(index)
+        if chain is None:
+            return  # the clip failed already
+        try:
+            extraction = future.result()
+        except BaseException as error:
+            self._fail(index, error)
+            return
+        tracking, extraction.tracking = extraction.tracking, None
+        if number + 1 < len(chain.segments):  # first, so the chain waits least
+            self._extract(index, number + 1, tracking)
+        chain.extractions[number] = extraction
+        self._submit(functools.partial(self._scored, index, number), _score_in_worker, extraction)
+
+    def _scored(self, index: int, number: int, future: Future) -> None:
+        chain = self.chains.get(index)
+        if chain is None:
+            return
+        try:
+            chain.scored[number] = future.result()
+        except BaseException as error:
+            self._fail(index, error)
+            return
+        self.advance(len(chain.segments[number].frames))
+        if len(chain.scored) == len(chain.segments):
+            order = range(len(chain.segments))
+            self.done[index] = merged_clip(self.clips[index], [chain.extractions[k] for k in order],
+                                           [chain.scored[k] for k in order])
+            del self.chains[index]
+
+    def _clip_done(self, index: int, future: Future) -> None:
+        try:
+            self.done[index] = future.result()
+        except BaseException as error:
+            self.done[index] = error
+            return
+        self.advance(len(self.clips[index].frames))
+
+    def _fail(self, index: int, error: BaseException) -> None:
+        self.done[index] = error
+        del self.chains[index]
 
 
 def _import_plotting() -> None:
@@ -516,20 +738,19 @@ def evaluate(
     geometry = _first_geometry(clips, context)
     if geometry is not None:
         say(f"geometry: {geometry.describe()}")
-    workers = min(config.workers or default_workers(), max(len(clips), 1))
+    workers = min(config.workers or default_workers(), max(work_units(clips, context), 1))
     # Compiled once here, before the workers fork, instead of in every worker at once.
     kernels.prepare(announce=say, needed=context.kernel_groups())
     outcomes: list[FrameOutcome] = []
     extract_ms: dict[str, list[float]] = {method: [] for method in config.methods}
     load_ms: list[float] = []
     totals = dict(clips=0, frames=0, labelled_frames=0, gt_lanes=0)
-    sizes = {clip.clip_id: len(clip.frames) for clip in clips}
     # The frames as read here: what a lane file needs of its frame (TuSimple's h_samples).
     frames = {frame.relpath: frame for clip in clips for frame in clip.frames} if lane_sink is not None else {}
-    bar = _progress_bar(sum(sizes.values()), progress)
+    bar = _progress_bar(sum(len(clip.frames) for clip in clips), progress)
     map_sizes: dict[tuple[int, int], str] = {}
     try:
-        for result in _clip_results(clips, context, workers, cache):
+        for result in _clip_results(clips, context, workers, cache, advance=bar.update):
             if result.map_size is not None:
                 map_sizes.setdefault(result.map_size, result.clip_id)
             totals["clips"] += 1
@@ -544,7 +765,6 @@ def evaluate(
                 if lane_sink is not None:
                     lane_sink(outcome, frames[outcome.relpath])
                 outcomes.append(outcome.without_lanes())
-            bar.update(sizes[result.clip_id])
     finally:
         bar.close()
 

@@ -1,9 +1,11 @@
 """Benchmark one long clip against the same frames split into clips (target: within 1.3x).
 
-Clips are the unit of parallel work, because RONELD's tracking runs in frame order within a
-clip; a long clip relies on reading its maps ahead in a thread while its frames are extracted
-and scored. Generates --frames synthetic CULane frames twice, as one video folder and as
-videos of --clip-frames frames, then runs `roneld-eval run` on each alternately (--repeats
+RONELD's tracking runs in frame order within a clip, so a long clip is cut into segments
+(roneld_eval.evaluation.SEGMENT_FRAMES) extracted one after another, the tracking state passed
+along, and scored in parallel by every worker.
+
+Generates --frames synthetic CULane frames twice, as one video folder and as videos of
+--clip-frames frames, then runs `roneld-eval run` on each alternately (--repeats
 times) and prints the median wall times, frames/s and their ratio.
 
     python scripts/bench_long_clip.py [--frames 5000] [--clip-frames 100] [--maps-format npy] [--workers N]
