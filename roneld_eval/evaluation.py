@@ -18,12 +18,13 @@ import pickle
 import platform
 import threading
 import time
+from array import array
 from collections import deque
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Callable, Iterator, Protocol, Sequence
+from typing import Callable, Iterator, Mapping, Protocol, Sequence
 
 import numpy as np
 import pandas as pd
@@ -741,16 +742,17 @@ def evaluate(
     workers = min(config.workers or default_workers(), max(work_units(clips, context), 1))
     # Compiled once here, before the workers fork, instead of in every worker at once.
     kernels.prepare(announce=say, needed=context.kernel_groups())
-    outcomes: list[FrameOutcome] = []
-    extract_ms: dict[str, list[float]] = {method: [] for method in config.methods}
-    load_ms: list[float] = []
+    # Kept compact, not as the workers' records: the main process stays small however long the run.
+    rows = PerFrameRows()
+    tally = context.benchmark.tally(config.methods, dataset, config)
+    extract_ms = {method: array("d") for method in config.methods}
+    load_ms = array("d")
     totals = dict(clips=0, frames=0, labelled_frames=0, gt_lanes=0)
-    # The frames as read here: what a lane file needs of its frame (TuSimple's h_samples).
-    frames = {frame.relpath: frame for clip in clips for frame in clip.frames} if lane_sink is not None else {}
     bar = _progress_bar(sum(len(clip.frames) for clip in clips), progress)
     map_sizes: dict[tuple[int, int], str] = {}
     try:
-        for result in _clip_results(clips, context, workers, cache, advance=bar.update):
+        results = _clip_results(clips, context, workers, cache, advance=bar.update)
+        for clip, result in zip(clips, results, strict=True):  # strict: runs the generator to its end
             if result.map_size is not None:
                 map_sizes.setdefault(result.map_size, result.clip_id)
             totals["clips"] += 1
@@ -761,23 +763,25 @@ def evaluate(
                 extract_ms[method].extend(values)
             load_ms.extend(result.load_ms)
             skipped.extend(result.skipped)
+            # The frames as read here: what a lane file needs of its frame (TuSimple's h_samples),
+            # and the relpath strings kept (not the workers' copies, which would each stay).
+            listed = {frame.relpath: frame for frame in clip.frames}
             for outcome in result.outcomes:
+                frame = listed[outcome.relpath]
                 if lane_sink is not None:
-                    lane_sink(outcome, frames[outcome.relpath])
-                outcomes.append(outcome.without_lanes())
+                    lane_sink(outcome, frame)
+                rows.add(frame.relpath, outcome)
+                tally.add(outcome.method, frame.relpath, outcome.official)
+            del result, listed
     finally:
         bar.close()
 
-    per_frame = pd.DataFrame(
-        [(o.relpath, side, o.method, iou) for o in outcomes for side, iou in o.ious.items()],
-        columns=["frame", "side", "method", "iou"],
-    )
+    per_frame = rows.table()
+    del rows
     thresholds = parse_thresholds(config.paper.thresholds)
     accuracy = with_intervals(sweep_accuracy(per_frame, thresholds, methods=config.methods), per_frame, thresholds)
     gains = pairwise_gains(per_frame, thresholds, config.methods)
-    records = {method: [(o.relpath, o.official) for o in outcomes if o.method == method]
-               for method in config.methods}
-    official = context.benchmark.table(records, dataset, config)
+    official = tally.table()
     runtime = _runtime_table(extract_ms, load_ms)
     totals["ego_lanes"] = int(len(per_frame) // max(len(config.methods), 1))
     if map_sizes:
@@ -855,7 +859,43 @@ def pairwise_gains(per_frame: pd.DataFrame, thresholds, methods: Sequence[str]) 
     return pd.concat(tables, ignore_index=True)[columns] if tables else pd.DataFrame(columns=columns)
 
 
-def _runtime_table(extract_ms: dict[str, list[float]], load_ms: list[float]) -> pd.DataFrame:
+class PerFrameRows:
+    """The rows of `RunResult.per_frame` (frame, side, method, IoU) gathered outcome by outcome
+    as compact columns: a frame's rows share one string, sides and methods are small codes."""
+
+    COLUMNS = ["frame", "side", "method", "iou"]
+
+    def __init__(self) -> None:
+        self.frames: list[str] = []
+        self.sides, self.methods = array("B"), array("B")
+        self.ious = array("d")
+        self.names: dict[str, int] = {}  # side and method names, coded
+
+    def add(self, relpath: str, outcome: FrameOutcome) -> None:
+        """Add an outcome's rows under `relpath` (one string shared by the frame's rows)."""
+        method = self._code(outcome.method)
+        for side, iou in outcome.ious.items():
+            self.frames.append(relpath)
+            self.sides.append(self._code(side))
+            self.methods.append(method)
+            self.ious.append(iou)
+
+    def _code(self, name: str) -> int:
+        return self.names.setdefault(name, len(self.names))
+
+    def table(self) -> pd.DataFrame:
+        if not self.frames:
+            return pd.DataFrame([], columns=self.COLUMNS)
+        names = list(self.names)
+        return pd.DataFrame({
+            "frame": self.frames,
+            "side": [names[code] for code in self.sides],
+            "method": [names[code] for code in self.methods],
+            "iou": np.array(self.ious, np.float64),
+        }, columns=self.COLUMNS)
+
+
+def _runtime_table(extract_ms: Mapping[str, Sequence[float]], load_ms: Sequence[float]) -> pd.DataFrame:
     rows = []
     for name, times in list(extract_ms.items()) + [("map loading", load_ms)]:
         values = np.asarray(times, np.float64)

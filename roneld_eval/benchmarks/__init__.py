@@ -25,6 +25,16 @@ class OfficialRecord(Protocol):
     def to_json(self) -> Any: ...
 
 
+class OfficialTally(Protocol):
+    """The official table gathered one frame record at a time, kept compact: what a run's main
+    process holds instead of every record."""
+
+    def add(self, method: str, relpath: str, record: Any) -> None: ...
+
+    def table(self) -> pd.DataFrame:
+        """The table `Benchmark.table` gives for the same records in the same order."""
+
+
 @dataclass(frozen=True)
 class LaneFile:
     """Where one frame's lanes go: a file under lanes/METHOD/, its text, and whether the text
@@ -52,6 +62,9 @@ class Benchmark(Protocol):
 
     def score(self, prepared: Any, prediction: Prediction, config: EvalConfig) -> OfficialRecord:
         """One method's official record of one frame."""
+
+    def tally(self, methods: Sequence[str], dataset: Dataset, config: EvalConfig) -> "OfficialTally":
+        """An empty official table for these methods, to `add` records to frame by frame."""
 
     def table(self, records: Mapping[str, Sequence[tuple[str, OfficialRecord]]], dataset: Dataset,
               config: EvalConfig) -> pd.DataFrame:

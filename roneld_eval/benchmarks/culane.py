@@ -4,7 +4,8 @@ protocol restricted to the two ego lanes ("ego" row); lanes written as mirrored 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from array import array
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -17,7 +18,8 @@ from ..datasets.culane import labels_path
 from ..extract.protocol import Prediction
 from ..json_fields import json_number, read_count, read_float, read_list
 from ..lanes_io import format_culane_lines
-from ..metrics.culane_official import CulaneFrameResult, category_table, evaluate_culane_frame, official_masks
+from ..metrics.culane_official import (CulaneFrameResult, ScoredFrames, evaluate_culane_frame, official_masks,
+                                       sweep_rows)
 from ..metrics.paper import ego_lanes
 from ..model import Clip, Dataset, Frame, Lane
 
@@ -72,19 +74,16 @@ class CulaneBenchmark:
         )
         return CulaneOfficial(every, ego)
 
+    def tally(self, methods: Sequence[str], dataset: Dataset, config: EvalConfig) -> "CulaneTally":
+        return CulaneTally(tuple(methods), dataset.categories, config.official.iou_threshold)
+
     def table(self, records: Mapping[str, Sequence[tuple[str, CulaneOfficial]]], dataset: Dataset,
               config: EvalConfig) -> pd.DataFrame:
-        threshold = config.official.iou_threshold
-        tables = []
+        tally = self.tally(list(records), dataset, config)
         for method, frames in records.items():
-            table = category_table({relpath: record.all_lanes for relpath, record in frames}, dataset.categories,
-                                   threshold)
-            ego = category_table({relpath: record.ego for relpath, record in frames}, {}, threshold)
-            ego["category"] = "ego"
-            table = pd.concat([table, ego], ignore_index=True)
-            table.insert(0, "method", method)
-            tables.append(table)
-        return pd.concat(tables, ignore_index=True)
+            for relpath, record in frames:
+                tally.add(method, relpath, record)
+        return tally.table()
 
     def decode(self, value: Any) -> CulaneOfficial:
         if not isinstance(value, dict) or set(value) != {"culane"}:
@@ -101,6 +100,57 @@ class CulaneBenchmark:
 
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         return LaneFile(f"{method}/{frame.stem}.lines.txt", format_culane_lines(lanes))
+
+
+@dataclass
+class _Columns:
+    """One method's frame results as compact columns, in the order they were added."""
+
+    frames: list[str] = field(default_factory=list)
+    n_gt: array = field(default_factory=lambda: array("q"))
+    n_pred: array = field(default_factory=lambda: array("q"))
+    matched_iou: array = field(default_factory=lambda: array("d"))
+
+    def add(self, relpath: str, result: CulaneFrameResult) -> None:
+        self.frames.append(relpath)
+        self.n_gt.append(result.n_gt)
+        self.n_pred.append(result.n_pred)
+        self.matched_iou.extend(np.asarray(result.matched_iou, np.float64).tolist())
+
+    def scored(self) -> ScoredFrames:
+        n_gt = np.array(self.n_gt, np.int64)
+        return ScoredFrames(tuple(self.frames), n_gt, np.array(self.n_pred, np.int64).reshape(1, len(self.frames)),
+                            np.array(self.matched_iou, np.float64).reshape(1, int(n_gt.sum())))
+
+
+class CulaneTally:
+    """The official table, gathered frame by frame as compact columns (some 100 bytes a frame
+    and method instead of the records' objects), so a long run's main process stays small."""
+
+    def __init__(self, methods: Sequence[str], categories: Mapping[str, frozenset[str]], threshold: float):
+        self.categories = categories
+        self.threshold = threshold
+        self.columns = {method: (_Columns(), _Columns()) for method in methods}  # all lanes, ego lanes
+
+    def add(self, method: str, relpath: str, record: CulaneOfficial) -> None:
+        every, ego = self.columns[method]
+        every.add(relpath, record.all_lanes)
+        ego.add(relpath, record.ego)
+
+    def table(self) -> pd.DataFrame:
+        tables = []
+        for method, (every, ego_only) in self.columns.items():
+            table = self._rows(every, self.categories)
+            ego = self._rows(ego_only, {})
+            ego["category"] = "ego"
+            table = pd.concat([table, ego], ignore_index=True)
+            table.insert(0, "method", method)
+            tables.append(table)
+        return pd.concat(tables, ignore_index=True)
+
+    def _rows(self, columns: _Columns, categories: Mapping[str, frozenset[str]]) -> pd.DataFrame:
+        table = sweep_rows(columns.scored(), ["-"], categories, [self.threshold])
+        return table.drop(columns=["method", "threshold"]).reset_index(drop=True)
 
 
 BENCHMARK = CulaneBenchmark()

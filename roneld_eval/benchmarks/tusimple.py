@@ -3,6 +3,7 @@ frame's h_samples; the labels are one file; lanes written as one JSON line per f
 
 from __future__ import annotations
 
+from array import array
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -52,13 +53,16 @@ class TusimpleBenchmark:
         pred_xs = [sample_lane_at_rows(lane, prepared.rows) for lane in prediction.lanes]
         return TusimpleOfficial(*bench_frame(pred_xs, prepared.lanes_xs, prepared.rows, 0.0))
 
+    def tally(self, methods: Sequence[str], dataset: Dataset, config: EvalConfig) -> "TusimpleTally":
+        return TusimpleTally(tuple(methods))
+
     def table(self, records: Mapping[str, Sequence[tuple[str, TusimpleOfficial]]], dataset: Dataset,
               config: EvalConfig) -> pd.DataFrame:
-        rows = []
+        tally = self.tally(list(records), dataset, config)
         for method, frames in records.items():
-            score = mean_scores([(r.accuracy, r.fp, r.fn) for _, r in frames], len(frames))
-            rows.append(dict(method=method, accuracy=score.accuracy, fp=score.fp, fn=score.fn))
-        return pd.DataFrame(rows, columns=["method", "accuracy", "fp", "fn"])
+            for relpath, record in frames:
+                tally.add(method, relpath, record)
+        return tally.table()
 
     def decode(self, value: Any) -> TusimpleOfficial:
         if not isinstance(value, dict) or set(value) != {"scores"}:
@@ -73,6 +77,25 @@ class TusimpleBenchmark:
         lanes_xs = [sample_lane_at_rows(lane, rows) for lane in lanes]
         text = format_tusimple_record(frame.relpath, lanes_xs, rows, 0) + "\n"
         return LaneFile(f"{method}/predictions.json", text, append=True)
+
+
+class TusimpleTally:
+    """The official table, gathered frame by frame as three float columns per method; summed
+    in frame order at the end, as lane.py sums."""
+
+    def __init__(self, methods: Sequence[str]):
+        self.scores = {method: (array("d"), array("d"), array("d")) for method in methods}
+
+    def add(self, method: str, relpath: str, record: TusimpleOfficial) -> None:
+        for column, value in zip(self.scores[method], (record.accuracy, record.fp, record.fn)):
+            column.append(value)
+
+    def table(self) -> pd.DataFrame:
+        rows = []
+        for method, columns in self.scores.items():
+            score = mean_scores(list(zip(*columns)), len(columns[0]))
+            rows.append(dict(method=method, accuracy=score.accuracy, fp=score.fp, fn=score.fn))
+        return pd.DataFrame(rows, columns=["method", "accuracy", "fp", "fn"])
 
 
 BENCHMARK = TusimpleBenchmark()
