@@ -16,11 +16,12 @@ import functools
 import itertools
 import pickle
 import platform
+import queue
 import threading
 import time
 from array import array
 from collections import deque
-from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -153,10 +154,19 @@ def effective_geometry(config: EvalConfig, map_width: int, map_height: int) -> E
     )
 
 
-def evaluate_clip(clip: Clip, context: RunContext) -> ClipResult:
-    """Run every method over one clip in frame order and score its labelled frames."""
-    extraction = extract_segment(clip, context, Tracking())
-    return merged_clip(clip, [extraction], [score_segment(extraction, context)])
+def evaluate_clip(clip: Clip, context: RunContext,
+                  advance: Callable[[int], object] | None = None) -> ClipResult:
+    """Run every method over one clip in frame order and score its labelled frames, segment by
+    segment as the workers do, so that errors and progress do not depend on --workers."""
+    tracking = Tracking()
+    extractions, scored = [], []
+    for segment in segments_of(clip) if segmentable(context) else [clip]:
+        extraction = extract_segment(segment, context, tracking)
+        scored.append(score_segment(extraction, context))
+        extractions.append(extraction.counts_only())  # the predictions are scored: let them go
+        if advance is not None:
+            advance(len(segment.frames))
+    return merged_clip(clip, extractions, scored)
 
 
 @dataclass
@@ -185,6 +195,12 @@ class SegmentExtraction:
     frame_skips: list[str] = field(default_factory=list)
     # The tracking state after the segment, pickled, for the next segment (None: not wanted).
     tracking: bytes | None = None
+    n_scored: int = 0  # labelled frames, and their ground-truth lanes: what the clip counts
+    n_gt_lanes: int = 0
+
+    def counts_only(self) -> "SegmentExtraction":
+        """The segment without its predictions: what merging needs once it is scored."""
+        return replace(self, labelled=[])
 
 
 def extract_segment(segment: Clip, context: RunContext, tracking: Tracking) -> SegmentExtraction:
@@ -230,6 +246,8 @@ def extract_segment(segment: Clip, context: RunContext, tracking: Tracking) -> S
             continue
         if frame.labelled:
             out.labelled.append((frame, predictions))
+            out.n_scored += 1
+            out.n_gt_lanes += len(frame.lanes)
     out.geometry = tracking.geometry
     return out
 
@@ -257,8 +275,8 @@ def merged_clip(clip: Clip, extractions: Sequence[SegmentExtraction],
             result.extract_ms[name] += values
         result.load_ms += part.load_ms
         result.outcomes += outcomes
-        result.n_scored += len(part.labelled)
-        result.n_gt_lanes += sum(len(frame.lanes) for frame, _ in part.labelled)
+        result.n_scored += part.n_scored
+        result.n_gt_lanes += part.n_gt_lanes
         if result.map_size is None:
             result.map_size = part.map_size
     # Label problems first, as when a clip's labels were read before its frames.
@@ -493,8 +511,11 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
             kernels.warm_up(context.kernel_groups())
         for index, clip in enumerate(clips):
             result = cached.get(index)
-            yield result if result is not None else keep(index, evaluate_clip(clip, context))
-            advance(len(clip.frames))
+            if result is None:
+                result = keep(index, evaluate_clip(clip, context, advance))
+            else:
+                advance(len(clip.frames))
+            yield result
         return
     plotting: threading.Thread | None = None
     schedule = _Schedule(process_pool(workers, initializer=_init_worker, initargs=(context,)),
@@ -558,6 +579,10 @@ class _Schedule:
         self.limit = 2 * workers
         self.advance = advance
         self.tasks: dict[Future, Callable[[Future], None]] = {}  # what to do when each finishes
+        # Finished futures, put by their done-callbacks. A C queue: Ctrl-C (twice) while the main
+        # process waits on it cannot leave a lock of threading's Python code taken or released
+        # twice, as it can within concurrent.futures.wait (RuntimeError, or a hang at exit).
+        self.finished: queue.SimpleQueue[Future] = queue.SimpleQueue()
         self.started: set[int] = set()  # clips started and not yet handed out
         self.chains: dict[int, _Chain] = {}
         self.done: dict[int, ClipResult | BaseException] = {}
@@ -586,9 +611,8 @@ class _Schedule:
             self.start_more()
             if not self.tasks:  # cannot happen: clips start in order, so this one is under way
                 raise RuntimeError(f"clip {self.current} was never started")
-            finished, _ = wait(list(self.tasks), return_when=FIRST_COMPLETED)
-            for future in finished:
-                self.tasks.pop(future)(future)
+            future = self.finished.get()
+            self.tasks.pop(future)(future)
         self.started.discard(index)
         done = self.done.pop(index)
         if isinstance(done, BaseException):
@@ -596,7 +620,9 @@ class _Schedule:
         return done
 
     def _submit(self, then: Callable[[Future], None], function, *args) -> None:
-        self.tasks[self.executor.submit(function, *args)] = then
+        future = self.executor.submit(function, *args)
+        self.tasks[future] = then
+        future.add_done_callback(self.finished.put)
 
     def _extract(self, index: int, number: int, tracking: bytes | None) -> None:
         segment = self.chains[index].segments[number]
@@ -614,8 +640,8 @@ class _Schedule:
         tracking, extraction.tracking = extraction.tracking, None
         if number + 1 < len(chain.segments):  # first, so the chain waits least
             self._extract(index, number + 1, tracking)
-        chain.extractions[number] = extraction
         self._submit(functools.partial(self._scored, index, number), _score_in_worker, extraction)
+        chain.extractions[number] = extraction.counts_only()  # the predictions travel on, not kept here
 
     def _scored(self, index: int, number: int, future: Future) -> None:
         chain = self.chains.get(index)
