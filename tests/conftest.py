@@ -99,11 +99,11 @@ def interrupt_after(monkeypatch, finished: int):
 
     original, calls = evaluation.evaluate_clip, []
 
-    def interrupting(clip, context):
+    def interrupting(clip, context, *rest):
         calls.append(clip.clip_id)
         if len(calls) == finished + 1:
             raise KeyboardInterrupt
-        return original(clip, context)
+        return original(clip, context, *rest)
 
     monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
     return lambda: monkeypatch.setattr(evaluation, "evaluate_clip", original)

@@ -244,7 +244,7 @@ def test_interrupted_run_writes_nothing_and_resume_gives_the_same_numbers(sets, 
 
     calls: list[str] = []
     monkeypatch.setattr(evaluation, "evaluate_clip",
-                        lambda clip, context: calls.append(clip.clip_id) or original(clip, context))
+                        lambda clip, context, *rest: calls.append(clip.clip_id) or original(clip, context, *rest))
     api.run(_config(root), out, progress=False, resume=True)
     assert len(calls) == 3  # only the clips that had not finished
     for name in ("accuracy.csv", "per_frame.csv", "official.csv"):
@@ -271,10 +271,10 @@ def test_a_killed_worker_ends_the_run_clearly(sets, monkeypatch):
     original = evaluation.evaluate_clip
     parent = os.getpid()
 
-    def dying(clip, context):
+    def dying(clip, context, *rest):
         if os.getpid() != parent and clip.clip_id.endswith("0204.MP4"):
             os._exit(9)  # as if killed
-        return original(clip, context)
+        return original(clip, context, *rest)
 
     monkeypatch.setattr(evaluation, "evaluate_clip", dying)
     with pytest.raises(RunInterrupted) as caught:

@@ -332,9 +332,9 @@ SLOW_RUN = """
 import sys, time
 from roneld_eval import evaluation
 original = evaluation.evaluate_clip
-def slow(clip, context):
+def slow(clip, context, *rest):
     time.sleep(0.6)
-    return original(clip, context)
+    return original(clip, context, *rest)
 evaluation.evaluate_clip = slow
 from roneld_eval.cli import main
 sys.argv = ["roneld-eval"] + sys.argv[1:]
