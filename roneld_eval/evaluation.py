@@ -198,9 +198,12 @@ class SegmentExtraction:
     n_scored: int = 0  # labelled frames, and their ground-truth lanes: what the clip counts
     n_gt_lanes: int = 0
 
+    # `labelled`, pickled, while it travels from an extracting worker to a scoring one.
+    labelled_bytes: bytes | None = None
+
     def counts_only(self) -> "SegmentExtraction":
         """The segment without its predictions: what merging needs once it is scored."""
-        return replace(self, labelled=[])
+        return replace(self, labelled=[], labelled_bytes=None)
 
 
 def extract_segment(segment: Clip, context: RunContext, tracking: Tracking) -> SegmentExtraction:
@@ -457,11 +460,16 @@ def _extract_in_worker(segment: Clip, tracking: bytes | None) -> SegmentExtracti
     state = Tracking() if tracking is None else pickle.loads(tracking)
     extraction = extract_segment(segment, _WORKER_CONTEXT, state)
     extraction.tracking = pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
-    return extraction
+    # The predictions pass through the main process on their way to a scoring worker: as bytes,
+    # so that the main process (which shares the cores) neither unpickles nor pickles them again.
+    labelled = pickle.dumps(extraction.labelled, protocol=pickle.HIGHEST_PROTOCOL)
+    return replace(extraction, labelled=[], labelled_bytes=labelled)
 
 
 def _score_in_worker(extraction: SegmentExtraction) -> list[FrameOutcome]:
     assert _WORKER_CONTEXT is not None
+    if extraction.labelled_bytes is not None:  # from _extract_in_worker, in this run's own pool
+        extraction = replace(extraction, labelled=pickle.loads(extraction.labelled_bytes), labelled_bytes=None)
     return score_segment(extraction, _WORKER_CONTEXT)
 
 

@@ -57,7 +57,8 @@ def culane_reference(records, categories, threshold) -> pd.DataFrame:
 def test_culane_tally_equals_the_category_tables(run):
     records, categories, threshold = run
     config = EvalConfig.preset("scnn-culane").with_overrides(**{"official.iou_threshold": threshold})
-    dataset = Dataset(name="culane", root=Path("."), clips=(), image_width=1640, image_height=590, categories=categories)
+    dataset = Dataset(name="culane", root=Path("."), clips=(), image_width=1640, image_height=590,
+                      categories=categories)
     tally = CULANE.tally(list(records), dataset, config)
     # Frame by frame, methods interleaved, as a run's clips arrive.
     for index in range(max(len(frames) for frames in records.values())):
