@@ -7,24 +7,40 @@ full evaluation (paper protocol, official CULane scores, all outputs) with one w
 every core, and prints frames per second and peak memory. Memory should not grow with frames:
 the run is repeated on half the set to show it.
 
+With --against REV (default cdebfc1, the tool when issue 15 was filed) it instead times the
+whole command of that revision (a temporary `git worktree` outside the repository, run with the
+same Python and PYTHONPATH pointing at it, its numba cache in a temporary folder) against this
+checkout's, alternating on the same set, each warmed up first: frames/s of both, their ratio,
+whether per_frame.csv, official.csv and accuracy.csv are byte-identical, the peak RSS of the
+main process and of the largest worker of each, and the CPU seconds of all their processes (less
+sensitive than wall time to other work on the machine). Every map is read once first, so that
+both read from the page cache. The worktree is removed at the end, also on Ctrl-C or SIGTERM.
+
 With --compare-scoring it instead times, in one go on the same set, the whole command with
 scoring as it was before masks became runs per row (roneld_eval.metrics.reference: every lane
 drawn pixel by pixel on a canvas) against the current scoring, alternating, and one official
 CULane lane mask both ways (ms per ground-truth lane of the set, one core).
 
-    python scripts/bench_run.py [--frames 2000] [--data DIR] [--compare-scoring]
+    python scripts/bench_run.py [--frames 2000] [--data DIR] [--against [REV] | --compare-scoring]
 """
 
 from __future__ import annotations
 
 import argparse
+import filecmp
+import os
 import posixpath
-import resource
+import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import textwrap
 import time
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterator
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -52,25 +68,73 @@ def structure(frames: int):
     return chosen
 
 
-# `python -m roneld_eval` with scoring's masks drawn on canvases, as before runs per row.
-_REFERENCE_SCORING = ("import sys; from roneld_eval.cli import main\n"
-                      "from roneld_eval.metrics.reference import drawn_masks\n"
-                      "with drawn_masks(): main(sys.argv[1:], prog_name='roneld-eval')")
+# `python -m roneld_eval` (or `_REFERENCE`: with scoring's masks drawn on canvases, as before
+# runs per row), then the peak RSS of this (main) process and of its largest reaped child (a
+# worker), and the CPU seconds of both, written as "main_kb child_kb cpu_s" to the file named by
+# $RONELD_BENCH_PEAK.
+_RUN = "runpy.run_module('roneld_eval', run_name='__main__', alter_sys=True)"
+_REFERENCE = "from roneld_eval.metrics.reference import drawn_masks\nwith drawn_masks():\n    " + _RUN
+
+
+def _measured(body: str) -> str:
+    return ("import os, resource, runpy\ntry:\n" + textwrap.indent(body, "    ") + "\nfinally:\n"
+            "    own = resource.getrusage(resource.RUSAGE_SELF)\n"
+            "    children = resource.getrusage(resource.RUSAGE_CHILDREN)\n"
+            "    cpu = own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime\n"
+            "    with open(os.environ['RONELD_BENCH_PEAK'], 'w') as peak:\n"
+            "        peak.write(f'{own.ru_maxrss} {children.ru_maxrss} {cpu}')\n")
+
+
+@dataclass(frozen=True)
+class Timed:
+    """One whole command: wall seconds, peak RSS (MB) of the main process and of its largest worker,
+    and CPU seconds of all its processes."""
+
+    seconds: float
+    main_mb: int
+    worker_mb: int
+    cpu_s: float = 0.0
 
 
 def timed_run(data: Path, maps: Path, workers: int, limit: int | None, out: Path,
-              reference_scoring: bool = False) -> tuple[float, int]:
-    python = [sys.executable, "-c", _REFERENCE_SCORING] if reference_scoring else [sys.executable, "-m", "roneld_eval"]
-    command = python + ["run", "--dataset", "culane", "--data-root", str(data),
-                        "--maps-root", str(maps), "--maps-format", "npy", "--methods", "baseline,roneld",
-                        "--workers", str(workers), "--out", str(out), "--quiet"]
+              reference_scoring: bool = False, tree: Path = REPO, env: dict[str, str] | None = None) -> Timed:
+    """Run `roneld-eval run` of the code in `tree` (started there, PYTHONPATH=tree) on the set."""
+    code = _measured(_REFERENCE if reference_scoring else _RUN)
+    command = [sys.executable, "-c", code, "run", "--dataset", "culane", "--data-root", str(data),
+               "--maps-root", str(maps), "--maps-format", "npy", "--methods", "baseline,roneld",
+               "--workers", str(workers), "--out", str(out), "--quiet"]
     if limit:
         command += ["--limit", str(limit)]
-    start = time.perf_counter()
-    subprocess.run(command, check=True)
-    elapsed = time.perf_counter() - start
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss // 1024
-    return elapsed, peak
+    environment = dict(os.environ if env is None else env)
+    # The tree first on sys.path (python -c puts its working directory, the tree, first too),
+    # ahead of the editable install's finder, which would otherwise import this checkout.
+    environment["PYTHONPATH"] = str(tree)
+    with tempfile.NamedTemporaryFile(prefix="roneld-bench-peak-") as peak:
+        environment["RONELD_BENCH_PEAK"] = peak.name
+        start = time.perf_counter()
+        _run_group(command, cwd=tree, env=environment)
+        elapsed = time.perf_counter() - start
+        main_kb, worker_kb, cpu_s = (Path(peak.name).read_text().split() or ["0", "0", "0"])
+    return Timed(elapsed, int(main_kb) // 1024, int(worker_kb) // 1024, float(cpu_s))
+
+
+def _run_group(command: list[str], **options) -> None:
+    """Run a command in a process group of its own; if this one is interrupted (Ctrl-C, SIGTERM),
+    end the whole group (workers and kernel compilers included) before going on."""
+    process = subprocess.Popen(command, start_new_session=True, **options)
+    try:
+        code = process.wait()
+    except BaseException:
+        for sent in (signal.SIGTERM, signal.SIGKILL):
+            try:
+                os.killpg(process.pid, sent)
+                process.wait(timeout=10)
+                break
+            except (ProcessLookupError, subprocess.TimeoutExpired):
+                continue
+        raise
+    if code != 0:
+        raise subprocess.CalledProcessError(code, command)
 
 
 def evaluation_seconds(out: Path) -> float:
@@ -84,10 +148,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=2000)
     parser.add_argument("--data", type=Path, help="where to generate the set (default: a temporary folder)")
-    parser.add_argument("--compare-scoring", action="store_true",
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs of each kind (the median is printed)")
+    choice = parser.add_mutually_exclusive_group()
+    choice.add_argument("--against", metavar="REV", nargs="?", const=OLD_REVISION,
+                        help=f"time the whole command of git revision REV (default {OLD_REVISION}) against this "
+                             "checkout's, alternating, on the same set")
+    choice.add_argument("--compare-scoring", action="store_true",
                         help="time the run with canvas-drawn masks (the old scoring) against the current one")
     args = parser.parse_args()
-    folder = args.data or Path(tempfile.mkdtemp(prefix="roneld-bench-run-"))
+    folder = (args.data or Path(tempfile.mkdtemp(prefix="roneld-bench-run-"))).resolve()
     layout = structure(args.frames)
     start = time.perf_counter()
     if not (folder / "data" / "list" / "test.txt").exists():
@@ -97,41 +166,147 @@ def main() -> None:
     data, maps = folder / "data", folder / "maps"
     frames = len((data / "list" / "test.txt").read_text().split())
     videos = len({posixpath.dirname(line) for line in (data / "list" / "test.txt").read_text().split()})
+    print(f"{frames} frames in {videos} videos, 4x288x800 uint8 .npy; methods baseline, roneld; "
+          f"{os.cpu_count()} cores; {load()}")
+    if args.against:
+        against(args.against, data, maps, folder, frames, args.repeats)
+        return
     # Warm the page cache and numba's on-disk cache so both runs read the same way.
     timed_run(data, maps, 1, 1, folder / "warm")
-    print(f"{frames} frames in {videos} videos, 4x288x800 uint8 .npy; methods baseline, roneld")
     if args.compare_scoring:
-        compare_scoring(data, maps, folder, frames)
+        compare_scoring(data, maps, folder, frames, args.repeats)
         return
     for workers in sorted({1, default_workers()}):
-        runs = [timed_run(data, maps, workers, None, folder / f"out-{workers}") for _ in range(3)]
-        elapsed, peak = sorted(runs)[1]
+        runs = [timed_run(data, maps, workers, None, folder / f"out-{workers}") for _ in range(args.repeats)]
+        run = median(runs)
         inner = evaluation_seconds(folder / f"out-{workers}")
-        print(f"  {workers} worker(s): {elapsed:6.1f} s  {frames / elapsed:6.0f} frames/s for the whole command, "
-              "median of 3 "
-              f"({inner:.1f} s inside the run: {frames / inner:.0f} frames/s; peak RSS of a process {peak} MB)")
+        print(f"  {workers} worker(s): {run.seconds:6.1f} s  {frames / run.seconds:6.0f} frames/s for the whole "
+              f"command, median of {args.repeats} ({inner:.1f} s inside the run: {frames / inner:.0f} frames/s; "
+              f"{peaks(run)})")
     half = max(videos // 2, 1)
-    elapsed, peak = timed_run(data, maps, default_workers(), half, folder / "out-half")
-    print(f"  first {half} videos only, all workers: {elapsed:6.1f} s  (peak RSS of a process {peak} MB)")
+    run = timed_run(data, maps, default_workers(), half, folder / "out-half")
+    print(f"  first {half} videos only, all workers: {run.seconds:6.1f} s  ({peaks(run)})")
     print("Target: at least 400 frames/s on 2 cores (the 34,680-frame CULane test set in under 1.5 minutes).")
+    print(f"  ({load()})")
+
+
+def median(runs: list[Timed]) -> Timed:
+    """The run of median wall time."""
+    return sorted(runs, key=lambda run: run.seconds)[len(runs) // 2]
+
+
+def peaks(run: Timed) -> str:
+    return f"peak RSS: main process {run.main_mb} MB, largest worker {run.worker_mb} MB"
+
+
+def load() -> str:
+    """The machine's load averages (1, 5, 15 minutes), as `uptime` prints them."""
+    return "load average " + ", ".join(f"{value:.2f}" for value in os.getloadavg())
+
+
+OUTPUTS = ("per_frame.csv", "official.csv", "accuracy.csv")  # the numbers; must be the same bytes
+OLD_REVISION = "cdebfc1"  # the tool when issue 15 (speed of real maps) was filed
+
+
+@contextmanager
+def worktree(revision: str) -> Iterator[Path]:
+    """A detached checkout of `revision` in a temporary folder outside the repository, removed
+    (with git's record of it) when the block ends, by an exception, Ctrl-C or SIGTERM included."""
+    parent = Path(tempfile.mkdtemp(prefix="roneld-bench-against-"))
+    tree = parent / "tree"
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "--quiet", str(tree), revision],
+                       check=True)
+        yield tree
+    finally:
+        # Held off here: a second Ctrl-C must not leave the worktree behind.
+        held = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(tree)],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            shutil.rmtree(parent, ignore_errors=True)
+            subprocess.run(["git", "-C", str(REPO), "worktree", "prune"], stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL)
+        finally:
+            signal.signal(signal.SIGINT, held)
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def read_all(folder: Path) -> int:
+    """Read every file under `folder` once (into the page cache); the bytes read."""
+    total = 0
+    for path in sorted(folder.rglob("*")):
+        if path.is_file():
+            with path.open("rb") as stream:
+                while chunk := stream.read(1 << 22):
+                    total += len(chunk)
+    return total
+
+
+def against(revision: str, data: Path, maps: Path, folder: Path, frames: int, repeats: int = 3) -> None:
+    """The whole command of `revision` against this checkout's, alternating on the same set."""
+    workers = default_workers()
+    described = subprocess.run(["git", "-C", str(REPO), "log", "-1", "--format=%h %s", revision], check=True,
+                               capture_output=True, text=True).stdout.strip()
+    with worktree(revision) as old_tree, tempfile.TemporaryDirectory(prefix="roneld-bench-numba-") as numba_dir:
+        # The old code compiles into its own numba cache, removed with it: numba keys entries by
+        # source path, so it would not mix with ours, but it would leave dead entries behind.
+        old_env = dict(os.environ, NUMBA_CACHE_DIR=numba_dir)
+        trees = {"old": (old_tree, old_env), "new": (REPO, dict(os.environ))}
+        for name, (tree, env) in trees.items():
+            imported = subprocess.run([sys.executable, "-c", "import roneld_eval; print(roneld_eval.__file__)"],
+                                      cwd=tree, env=dict(env, PYTHONPATH=str(tree)), check=True,
+                                      capture_output=True, text=True).stdout.strip()
+            if not Path(imported).resolve().is_relative_to(tree.resolve()):
+                sys.exit(f"the {name} run would import {imported}, not the code in {tree}")
+        print(f"  old: {described} (worktree {old_tree}); new: this checkout {REPO}")
+        start = time.perf_counter()
+        size = read_all(maps)
+        print(f"  read every map once ({size / 2**30:.1f} GiB, {time.perf_counter() - start:.0f} s): both read from "
+              "the page cache")
+        # Warm-up: numba's cache of each (the old one compiles from nothing).
+        for name, (tree, env) in trees.items():
+            start = time.perf_counter()
+            timed_run(data, maps, workers, 1, folder / f"warm-{name}", tree=tree, env=env)
+            print(f"  warm-up {name}: {time.perf_counter() - start:.0f} s")
+        runs: dict[str, list[Timed]] = {"old": [], "new": []}
+        for repeat in range(repeats):
+            # Alternating, and which goes first too: neither always runs after the other.
+            for name in ("old", "new") if repeat % 2 == 0 else ("new", "old"):
+                tree, env = trees[name]
+                runs[name].append(timed_run(data, maps, workers, None, folder / f"out-{name}", tree=tree, env=env))
+                print(f"    {name}: {runs[name][-1].seconds:6.1f} s, {runs[name][-1].cpu_s:5.1f} CPU s ({load()})",
+                      flush=True)
+    old, new = median(runs["old"]), median(runs["new"])
+    differ = [name for name in OUTPUTS
+              if not filecmp.cmp(folder / "out-old" / name, folder / "out-new" / name, shallow=False)]
+    print(f"  {workers} worker(s), whole `roneld-eval run`, median of {repeats} (alternating), {load()}:")
+    cpu = {name: sorted(run.cpu_s for run in timed)[len(timed) // 2] for name, timed in runs.items()}
+    print(f"    old ({revision}): {old.seconds:6.1f} s  {frames / old.seconds:6.0f} frames/s  ({peaks(old)})")
+    print(f"    new (checkout): {new.seconds:6.1f} s  {frames / new.seconds:6.0f} frames/s  ({peaks(new)})")
+    print(f"    new / old frames/s = {old.seconds / new.seconds:.2f}x (target 1.5x); CPU seconds, median: old "
+          f"{cpu['old']:.1f}, new {cpu['new']:.1f} ({cpu['old'] / cpu['new']:.2f}x); "
+          + (f"{', '.join(OUTPUTS)} byte-identical" if not differ else f"DIFFERENT: {', '.join(differ)}"))
 
 
 def compare_scoring(data: Path, maps: Path, folder: Path, frames: int, repeats: int = 3) -> None:
     """Old (canvas) against new (runs) scoring: whole runs alternating, then one lane mask."""
-    import filecmp
-
     workers = default_workers()
     timed_run(data, maps, workers, 1, folder / "warm-old", reference_scoring=True)
     seconds: dict[bool, list[float]] = {True: [], False: []}
     for _ in range(repeats):
         for reference in (True, False):
             out = folder / f"out-{'old' if reference else 'new'}"
-            elapsed, _ = timed_run(data, maps, workers, None, out, reference)
-            seconds[reference].append(elapsed)
+            seconds[reference].append(timed_run(data, maps, workers, None, out, reference).seconds)
     old, new = sorted(seconds[True])[repeats // 2], sorted(seconds[False])[repeats // 2]
     same = all(filecmp.cmp(folder / "out-old" / name, folder / "out-new" / name, shallow=False)
-               for name in ("per_frame.csv", "official.csv", "accuracy.csv"))
-    print(f"  {workers} worker(s), whole command, median of {repeats} (alternating):")
+               for name in OUTPUTS)
+    print(f"  {workers} worker(s), whole command, median of {repeats} (alternating), {load()}:")
     print(f"    old scoring (canvas masks): {old:6.1f} s  {frames / old:6.0f} frames/s")
     print(f"    new scoring (runs per row): {new:6.1f} s  {frames / new:6.0f} frames/s  = {old / new:.2f}x "
           f"({'identical' if same else 'DIFFERENT'} per_frame.csv, official.csv, accuracy.csv)")
@@ -151,6 +326,7 @@ def lane_mask_ms(data: Path, lanes_wanted: int = 4000) -> None:
         if len(lanes) >= lanes_wanted:
             break
     for name, draw in (("canvas (old)", official_mask_by_canvas), ("runs per row (new)", official_mask)):
+        draw(lanes[0], 1640, 590, 30)  # one lane at a time is not what a run compiles ahead: compile it here
         runs = []
         for _ in range(5):
             start = time.process_time()
@@ -162,4 +338,8 @@ def lane_mask_ms(data: Path, lanes_wanted: int = 4000) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the worktree is already removed
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)

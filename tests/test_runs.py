@@ -148,7 +148,7 @@ def test_spline_pixels_are_those_of_the_pow_spline(lane):
     np.testing.assert_array_equal(fast[1], by_pow[1])
 
 
-def test_spline_pixels_py_func_and_the_float32_test():
+def test_spline_pixels_py_func():
     xs = np.array([10.0, 30.5, 80.25, 200.0]).astype(np.float32).astype(np.float64)
     ys = np.array([590.0, 400.0, 300.0, 250.0]).astype(np.float32).astype(np.float64)
     compiled = K.official_spline_pixels(xs, ys, 50)
@@ -158,9 +158,6 @@ def test_spline_pixels_py_func_and_the_float32_test():
     for got in (compiled, python):
         np.testing.assert_array_equal(got[0], obvious[0])
         np.testing.assert_array_equal(got[1], obvious[1])
-    midpoint = (1.0 + float(np.nextafter(np.float32(1.0), np.float32(2.0)))) / 2  # float32 rounds either way here
-    for kernel in (K._float32_settled, K._float32_settled.py_func):
-        assert kernel(1.25, 10.0) and not kernel(midpoint, 10.0) and not kernel(float("nan"), 1.0)
 
 
 @pytest.mark.parametrize("seed", range(8))

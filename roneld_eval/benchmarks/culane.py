@@ -18,9 +18,9 @@ from ..datasets.culane import labels_path
 from ..extract.protocol import Prediction
 from ..json_fields import json_number, read_count, read_float, read_list
 from ..lanes_io import format_culane_lines
-from ..metrics.culane_official import (CulaneFrameResult, ScoredFrames, evaluate_culane_frame, official_masks,
-                                       sweep_rows)
+from ..metrics.culane_official import CulaneFrameResult, ScoredFrames, matched_result, official_masks, sweep_rows
 from ..metrics.paper import ego_lanes
+from ..metrics.raster import MaskSet
 from ..model import Clip, Dataset, Frame, Lane
 
 
@@ -34,14 +34,15 @@ class CulaneOfficial:
     ego: CulaneFrameResult
 
     def to_json(self) -> Any:
-        return {"culane": [[part.n_gt, part.n_pred, [json_number(v) for v in part.matched_iou]]
+        # tolist(): Python floats at once, not a numpy scalar per value (the main process encodes every frame)
+        return {"culane": [[part.n_gt, part.n_pred, [json_number(v) for v in part.matched_iou.tolist()]]
                            for part in (self.all_lanes, self.ego)]}
 
 
 @dataclass(frozen=True, eq=False)
 class _Truth:
     lanes: tuple[Lane, ...]
-    masks: list
+    masks: MaskSet  # official_masks of the lanes
     ego_rows: list[int]
     size: tuple[int, int, int]  # image width, height, official lane width
 
@@ -64,15 +65,15 @@ class CulaneBenchmark:
         return _Truth(frame.lanes, official_masks(frame.lanes, *size), rows, size)
 
     def score(self, prepared: _Truth, prediction: Prediction, config: EvalConfig) -> CulaneOfficial:
-        lanes, size, gt_masks = list(prediction.lanes), prepared.size, prepared.masks
-        pred_masks = official_masks(lanes, *size)
-        every = evaluate_culane_frame(prepared.lanes, lanes, *size, gt_masks=gt_masks, pred_masks=pred_masks)
+        lanes = prediction.lanes
+        # Every IoU at once; the ego lanes' outcome is matched on its rows and columns (the same
+        # IoUs evaluate_culane_frame would compute again for those lanes alone).
+        if prepared.lanes and lanes:
+            similarity = prepared.masks.ious(official_masks(lanes, *prepared.size))
+        else:
+            similarity = np.zeros((len(prepared.lanes), len(lanes)))
         active = [i for lane in prediction.active if lane is not None for i, other in enumerate(lanes) if other is lane]
-        ego = evaluate_culane_frame(
-            [prepared.lanes[i] for i in prepared.ego_rows], [lanes[i] for i in active], *size,
-            gt_masks=[gt_masks[i] for i in prepared.ego_rows], pred_masks=[pred_masks[i] for i in active],
-        )
-        return CulaneOfficial(every, ego)
+        return CulaneOfficial(matched_result(similarity), matched_result(similarity, prepared.ego_rows, active))
 
     def tally(self, methods: Sequence[str], dataset: Dataset, config: EvalConfig) -> "CulaneTally":
         return CulaneTally(tuple(methods), dataset.categories, config.official.iou_threshold)

@@ -128,13 +128,6 @@ def official_spline(xs, ys, times):
 _SPLINE_SLACK = 2.0**-48
 
 
-@cached_njit(nogil=True)
-def _float32_settled(value, size):
-    """Whether everything within size * _SPLINE_SLACK of `value` becomes the same float32."""
-    slack = size * _SPLINE_SLACK
-    return np.float32(value - slack) == np.float32(value + slack)
-
-
 @cached_njit(nogil=True, error_model="numpy")
 def official_spline_pixels(xs, ys, times):
     """(px, py): cvRound of float32 of each official_spline sample, as official_pixels needs
@@ -143,36 +136,42 @@ def official_spline_pixels(xs, ys, times):
     pow(t, 3) is most of official_spline's time. t * t * t can differ from it in the last bit
     or two, which moves the sample by far less than _SPLINE_SLACK of its terms; a sample that
     far from where float32 rounds the other way lands on the same float32, hence the same
-    pixel, either way. The others (one in millions, and NaN) are computed again with pow,
-    afterwards: a pow call inside the first loop, even one never taken, slows it to pow's pace.
+    pixel, either way. The size of the terms is bounded once per segment (t < h: |a| + |b| h +
+    |c| h^2 + |d| h^3 bounds the terms and the sample, so twice it bounds their sum; a larger
+    slack only sends more samples to pow). The others (one in millions, and NaN) are computed
+    again with pow, afterwards: a pow call inside the first loop, even one never taken, slows
+    it to pow's pace, as a branch in it keeps it from running several samples at once.
     """
     n = xs.size
     h, mx, my = _spline_moments(xs, ys)
     m = (n - 1) * times + 1
     px = np.empty(m, np.int64)
     py = np.empty(m, np.int64)
-    again = np.empty(m, np.int64)  # samples to compute with pow
-    n_again = 0
-    k_out = 0
+    unsure = np.zeros(m, np.bool_)  # samples to compute with pow
     for i in range(n - 1):
         ax, bx, cx, ddx = _cubic(xs, h, mx, i)
         ay, by, cy, ddy = _cubic(ys, h, my, i)
         delta = h[i] / times
+        hi = h[i]
+        slack_x = 2.0 * (abs(ax) + abs(bx) * hi + abs(cx) * hi * hi + abs(ddx) * hi * hi * hi) * _SPLINE_SLACK
+        slack_y = 2.0 * (abs(ay) + abs(by) * hi + abs(cy) * hi * hi + abs(ddy) * hi * hi * hi) * _SPLINE_SLACK
+        first = i * times
         for k in range(times):
             t = delta * k
             t2 = t * t
             t3 = t2 * t
             x = ax + bx * t + cx * t2 + ddx * t3
             y = ay + by * t + cy * t2 + ddy * t3
-            if not (_float32_settled(x, abs(ax) + abs(bx * t) + abs(cx * t2) + abs(ddx * t3) + abs(x))
-                    and _float32_settled(y, abs(ay) + abs(by * t) + abs(cy * t2) + abs(ddy * t3) + abs(y))):
-                again[n_again] = k_out
-                n_again += 1
-            px[k_out] = _round_float32(np.float64(np.float32(x)))
-            py[k_out] = _round_float32(np.float64(np.float32(y)))
-            k_out += 1
-    for j in range(n_again):
-        k_out = again[j]
+            unsure[first + k] = ((np.float32(x - slack_x) != np.float32(x + slack_x))
+                                 | (np.float32(y - slack_y) != np.float32(y + slack_y)))
+            # _round_float32, without branches
+            fx = np.float64(np.float32(x))
+            fy = np.float64(np.float32(y))
+            px[first + k] = np.int64(np.rint(fx)) if (fx < 2.0**31) & (fx >= -(2.0**31)) else INT_MIN
+            py[first + k] = np.int64(np.rint(fy)) if (fy < 2.0**31) & (fy >= -(2.0**31)) else INT_MIN
+    for k_out in range(m - 1):
+        if not unsure[k_out]:
+            continue
         i = k_out // times
         ax, bx, cx, ddx = _cubic(xs, h, mx, i)
         ay, by, cy, ddy = _cubic(ys, h, my, i)
@@ -988,6 +987,98 @@ def _quad_unclipped(ax, ay, bx, by, dpx, dpy, width, height):
             and (min(ay, by) << XY_SHIFT) - dpy >= 0 and (max(ay, by) << XY_SHIFT) + dpy <= last_y)
 
 
+# Offsets from an image edge (in pixels, of the step's first point) that clip_extras tabulates
+# beyond the disc radius: an 8-neighbour step's quad reaches at most radius + 2 from its ends.
+CLIP_REACH = 4
+_LEFT, _RIGHT, _TOP, _BOTTOM = range(4)  # the edges of clip_extras' tables
+
+
+@cached_njit(nogil=True)
+def clip_extras(thickness):
+    """For each 8-neighbour step whose quad one image edge clips, the pixels it holds inside the
+    image and outside the discs at both ends, as runs: (runs, counts).
+
+    runs[e, d, o + m, k] = (y, left, right) offsets from the step's first point, for edge e
+    (_LEFT, _RIGHT, _TOP, _BOTTOM), direction d = (dx + 1) * 3 + (dy + 1), and o the first
+    point's x (left), x - width (right), y (top) or y - height (bottom), |o| <= m = radius +
+    CLIP_REACH; counts -1 where not tabulated. Drawn once each, with no other edge near: where
+    the other three edges clip nothing (_clipped_edge), the quad's arithmetic (cv::clipLine's
+    included) is the same shifted by whole pixels along the edge, so these are its pixels there.
+    """
+    radius = ((np.int64(thickness) << (XY_SHIFT - 1)) + HALF) >> XY_SHIFT
+    reach = radius + CLIP_REACH
+    size = 2 * reach + 2 * radius + 16  # an image wide enough that only the one edge comes near
+    middle = size // 2
+    zero = np.int64(0)  # a literal 0 would compile the drawing kernels a second time
+    half = disc_half_widths(radius)
+    offsets = 2 * reach + 1
+    limit = 2 * size
+    runs = np.zeros((4, 9, offsets, limit, 3), np.int64)
+    counts = np.full((4, 9, offsets), -1, np.int64)
+    quad = np.zeros((size, size), np.uint8)
+    for edge in range(4):
+        for dx in range(-1, 2):
+            for dy in range(-1, 2):
+                if dx == 0 and dy == 0:
+                    continue
+                direction = (dx + 1) * 3 + (dy + 1)
+                for o in range(-reach, reach + 1):
+                    ax = o if edge == _LEFT else (size + o if edge == _RIGHT else middle)
+                    ay = o if edge == _TOP else (size + o if edge == _BOTTOM else middle)
+                    quad[:] = 0
+                    _segment_quad(quad, zero, zero, size, size, ax, ay, ax + dx, ay + dy, thickness)
+                    for cx, cy in ((ax, ay), (ax + dx, ay + dy)):
+                        for k in range(2 * radius + 1):
+                            y = cy - radius + k
+                            if 0 <= y < size:
+                                for x in range(max(cx - half[k], 0), min(cx + half[k], size - 1) + 1):
+                                    quad[y, x] = 0
+                    found = 0
+                    for row in range(size):
+                        x = 0
+                        while x < size:
+                            if quad[row, x] == 0:
+                                x += 1
+                                continue
+                            start = x
+                            while x < size and quad[row, x] != 0:
+                                x += 1
+                            if found < limit:
+                                runs[edge, direction, o + reach, found, 0] = row - ay
+                                runs[edge, direction, o + reach, found, 1] = start - ax
+                                runs[edge, direction, o + reach, found, 2] = x - 1 - ax
+                            found += 1
+                    if found <= limit:
+                        counts[edge, direction, o + reach] = found
+    most = 1
+    for edge in range(4):
+        for direction in range(9):
+            for o in range(offsets):
+                most = max(most, counts[edge, direction, o])
+    return runs[:, :, :, :most].copy(), counts
+
+
+@cached_njit(nogil=True)
+def _clipped_edge(ax, ay, bx, by, dpx, dpy, width, height):
+    """(edge, offset) when exactly one image edge clips the quad of a step with corner offsets
+    (dpx, dpy) (see _quad_unclipped), else (-1, 0)."""
+    last_x = (np.int64(width) << XY_SHIFT) - HALF - 1
+    last_y = (np.int64(height) << XY_SHIFT) - HALF - 1
+    left = (min(ax, bx) << XY_SHIFT) - dpx < 0
+    right = (max(ax, bx) << XY_SHIFT) + dpx > last_x
+    top = (min(ay, by) << XY_SHIFT) - dpy < 0
+    bottom = (max(ay, by) << XY_SHIFT) + dpy > last_y
+    if int(left) + int(right) + int(top) + int(bottom) != 1:  # int(): numpy's bools add as "or"
+        return -1, 0
+    if left:
+        return _LEFT, ax
+    if right:
+        return _RIGHT, ax - width
+    if top:
+        return _TOP, ay
+    return _BOTTOM, ay - height
+
+
 _NO_PIXEL = np.int64(1 << 40)  # chain_lo of a row no disc has reached; chain_hi is -_NO_PIXEL
 
 
@@ -1020,14 +1111,42 @@ def _add_chain(lo, hi, counts, x0, y0, x1, y1, width, height, chain_lo, chain_hi
     return True
 
 
+
 @cached_njit(nogil=True)
-def polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts, step_info):
+def _add_listed(lo, hi, counts, x0, y0, x1, y1, width, height, ax, ay, listed, count):
+    """Add `count` runs (y, left, right) listed as offsets from (ax, ay), kept to the image and
+    the box as _pixel keeps them. False when a row has no slot left."""
+    leftmost = max(x0, 0)
+    rightmost = min(x1, width) - 1
+    top = max(y0, 0)
+    bottom = min(y1, height)
+    for k in range(count):
+        y = ay + listed[k, 0]
+        left = max(ax + listed[k, 1], leftmost)
+        right = min(ax + listed[k, 2], rightmost)
+        if y < top or y >= bottom or right < left:
+            continue
+        row = y - y0
+        if counts[row] == 1 and left <= hi[row, 0] + 1 and right >= lo[row, 0] - 1:
+            lo[row, 0] = min(lo[row, 0], left)
+            hi[row, 0] = max(hi[row, 0], right)
+        elif counts[row] == 0:
+            lo[row, 0] = left
+            hi[row, 0] = right
+            counts[row] = 1
+        elif not _merge_run(lo, hi, counts, row, left, right):
+            return False
+    return True
+
+@cached_njit(nogil=True)
+def polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts, step_info, clip_runs, clip_counts):
     """(ok, x0, y0, x1, lo, hi, area): rasterise()'s pixels as runs per row, without a canvas.
 
     (x0, y0, x1) and the rows are rasterise()'s canvas box; lo[r, k]..hi[r, k] (image x) are
     the runs of image row y0 + r, unused slots (1, 0). ok is False (the rest meaningless) for
     fewer than 2 points, far points, an empty box, or a row of more than _RUN_SLOTS runs.
-    `step_runs` .. `step_info`: step_extras(thickness, STEP_REACH).
+    `step_runs` .. `step_info`: step_extras(thickness, STEP_REACH); `clip_runs`, `clip_counts`:
+    clip_extras(thickness).
 
     The pixels are draw_polyline's: a disc at each vertex and a quad per segment. A quad that
     step_extras lists and that lies whole inside the image (_quad_unclipped) adds the pixels
@@ -1037,12 +1156,14 @@ def polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts, step
     gap there). The discs of a chain that reach an image row belong to consecutive vertices,
     so on that row the chain's discs and quads are one interval, from the leftmost disc end to
     the rightmost (min and max), plus its quads' pixels outside the discs. Clipping the discs
-    to the image keeps that true.
+    to the image keeps that true. An 8-neighbour step's quad that one edge clips adds the pixels
+    clip_extras lists for it.
     """
     n = xs.size
     none = np.empty((0, 1), np.int64)
     if n < 2:
         return False, 0, 0, 0, none, none, 0
+    clip_reach = (clip_runs.shape[2] - 1) // 2
     x_low, x_high = _low_high(xs)
     y_low, y_high = _low_high(ys)
     if (x_low < -(1 << 20)) or (y_low < -(1 << 20)) or (x_high > (1 << 20)) or (y_high > (1 << 20)):
@@ -1132,7 +1253,19 @@ def polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts, step
                 run_right = cx
         if i < n:
             if previous and not tabled:
-                if not _add_quad(lo, hi, counts, x0, y0, x1, y1, width, height, prev_x, prev_y, cx, cy, thickness):
+                edge = -1
+                offset = 0
+                if abs(dx) <= 1 and abs(dy) <= 1:
+                    step = (dx + STEP_REACH) * side + (dy + STEP_REACH)
+                    edge, offset = _clipped_edge(prev_x, prev_y, cx, cy, step_info[step, 1], step_info[step, 2],
+                                                 width, height)
+                neighbour = (dx + 1) * 3 + (dy + 1)
+                if edge >= 0 and abs(offset) <= clip_reach and clip_counts[edge, neighbour, offset + clip_reach] >= 0:
+                    if not _add_listed(lo, hi, counts, x0, y0, x1, y1, width, height, prev_x, prev_y,
+                                       clip_runs[edge, neighbour, offset + clip_reach],
+                                       clip_counts[edge, neighbour, offset + clip_reach]):
+                        return False, 0, 0, 0, none, none, 0
+                elif not _add_quad(lo, hi, counts, x0, y0, x1, y1, width, height, prev_x, prev_y, cx, cy, thickness):
                     return False, 0, 0, 0, none, none, 0
             previous = True
             prev_x = cx
@@ -1228,15 +1361,15 @@ def canvas_runs(canvas):
 
 @cached_njit(nogil=True)
 def rasterise_runs(xs, ys, thickness, width, height, extras, extra_counts, crescents, crescent_counts, step_runs,
-                   step_counts, step_info):
+                   step_counts, step_info, clip_runs, clip_counts):
     """rasterise_with_area()'s mask as runs, (x0, y0, x1, lo, hi, area): polyline_runs where it
     can, else the canvas read row by row (far points, or a row of too many runs).
 
     `extras` .. `crescent_counts`: short_quad_extras(thickness); `step_runs` .. `step_info`:
-    step_extras(thickness, STEP_REACH).
+    step_extras(thickness, STEP_REACH); `clip_runs`, `clip_counts`: clip_extras(thickness).
     """
     ok, x0, y0, x1, lo, hi, area = polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts,
-                                                 step_info)
+                                                 step_info, clip_runs, clip_counts)
     if ok:
         return x0, y0, x1, lo, hi, area
     x0, y0, canvas, area = rasterise_with_area(xs, ys, thickness, width, height, extras, extra_counts, crescents,
@@ -1325,11 +1458,11 @@ def official_lane(points, width, height, thickness, extras, extra_counts, cresce
 
 @cached_njit(nogil=True, error_model="numpy")
 def official_lane_runs(points, width, height, thickness, extras, extra_counts, crescents, crescent_counts, step_runs,
-                       step_counts, step_info):
+                       step_counts, step_info, clip_runs, clip_counts):
     """official_lane's mask as runs per row: (x0, y0, x1, lo, hi, area) (rasterise_runs)."""
     px, py = official_pixels(points)
     return rasterise_runs(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts,
-                          step_runs, step_counts, step_info)
+                          step_runs, step_counts, step_info, clip_runs, clip_counts)
 
 
 @cached_njit(nogil=True, error_model="numpy")
@@ -1346,6 +1479,19 @@ def map_pixels(points, spline, scale_x, scale_y, offset_y, truncate):
     else:
         xs = points[:, 0].copy()
         ys = points[:, 1].copy()
+    return _snapped(xs, ys, scale_x, scale_y, offset_y, truncate)
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def _snap(value, offset, scale, truncate):
+    """A coordinate in map pixels, snapped: (value - offset) / scale, then rint or trunc."""
+    mapped = (value - offset) / scale
+    return np.trunc(mapped) if truncate else np.rint(mapped)
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def _snapped(xs, ys, scale_x, scale_y, offset_y, truncate):
+    """map_pixels' (px, py) of image samples (xs, ys): non-finite ones dropped, the rest snapped."""
     px = np.empty(xs.size, np.int64)
     py = np.empty(xs.size, np.int64)
     count = 0
@@ -1364,6 +1510,61 @@ def map_pixels(points, spline, scale_x, scale_y, offset_y, truncate):
 
 
 @cached_njit(nogil=True, error_model="numpy")
+def map_spline_pixels(points, spline, scale_x, scale_y, offset_y, truncate):
+    """map_pixels, its spline samples computed with t * t * t where that cannot change a pixel.
+
+    As official_spline_pixels: a sample within _SPLINE_SLACK of its terms' size snaps to the
+    same pixel as the pow spline's whenever everything that close snaps alike (_snap is
+    monotone: a quotient and rint or trunc); the others, non-finite ones included, are computed
+    again with pow, afterwards.
+    """
+    n = points.shape[0]
+    if not (spline and n >= 3):  # map_pixels without a spline (not calling it: that compiles its pow spline in)
+        return _snapped(points[:, 0].copy(), points[:, 1].copy(), scale_x, scale_y, offset_y, truncate)
+    xs = points[:, 0].copy()
+    ys = points[:, 1].copy()
+    h, mx, my = _spline_moments(xs, ys)
+    times = SPLINE_SAMPLES
+    m = (n - 1) * times + 1
+    sample_x = np.empty(m)
+    sample_y = np.empty(m)
+    again = np.empty(m, np.int64)  # samples to compute with pow
+    n_again = 0
+    k_out = 0
+    for i in range(n - 1):
+        ax, bx, cx, ddx = _cubic(xs, h, mx, i)
+        ay, by, cy, ddy = _cubic(ys, h, my, i)
+        delta = h[i] / times
+        for k in range(times):
+            t = delta * k
+            t2 = t * t
+            t3 = t2 * t
+            x = ax + bx * t + cx * t2 + ddx * t3
+            y = ay + by * t + cy * t2 + ddy * t3
+            slack_x = (abs(ax) + abs(bx * t) + abs(cx * t2) + abs(ddx * t3) + abs(x)) * _SPLINE_SLACK
+            slack_y = (abs(ay) + abs(by * t) + abs(cy * t2) + abs(ddy * t3) + abs(y)) * _SPLINE_SLACK
+            if not (_snap(x - slack_x, 0.0, scale_x, truncate) == _snap(x + slack_x, 0.0, scale_x, truncate)
+                    and _snap(y - slack_y, offset_y, scale_y, truncate) == _snap(y + slack_y, offset_y, scale_y,
+                                                                                  truncate)):
+                again[n_again] = k_out
+                n_again += 1
+            sample_x[k_out] = x
+            sample_y[k_out] = y
+            k_out += 1
+    sample_x[k_out] = xs[n - 1]
+    sample_y[k_out] = ys[n - 1]
+    for j in range(n_again):
+        k_out = again[j]
+        i = k_out // times
+        ax, bx, cx, ddx = _cubic(xs, h, mx, i)
+        ay, by, cy, ddy = _cubic(ys, h, my, i)
+        t = (h[i] / times) * (k_out - i * times)  # official_spline's delta * k
+        sample_x[k_out] = ax + bx * t + cx * math.pow(t, 2.0) + ddx * math.pow(t, 3.0)
+        sample_y[k_out] = ay + by * t + cy * math.pow(t, 2.0) + ddy * math.pow(t, 3.0)
+    return _snapped(sample_x, sample_y, scale_x, scale_y, offset_y, truncate)
+
+
+@cached_njit(nogil=True, error_model="numpy")
 def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height, extras, extra_counts,
              crescents, crescent_counts):
     """(x0, y0, canvas, area) of a lane drawn at map resolution (map_pixels, then rasterise).
@@ -1374,11 +1575,193 @@ def map_lane(points, spline, scale_x, scale_y, offset_y, truncate, thickness, wi
 
 @cached_njit(nogil=True, error_model="numpy")
 def map_lane_runs(points, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height, extras,
-                  extra_counts, crescents, crescent_counts, step_runs, step_counts, step_info):
-    """map_lane's mask as runs per row: (x0, y0, x1, lo, hi, area) (rasterise_runs)."""
-    px, py = map_pixels(points, spline, scale_x, scale_y, offset_y, truncate)
+                  extra_counts, crescents, crescent_counts, step_runs, step_counts, step_info, clip_runs, clip_counts):
+    """map_lane's mask as runs per row: (x0, y0, x1, lo, hi, area) (map_spline_pixels, rasterise_runs)."""
+    px, py = map_spline_pixels(points, spline, scale_x, scale_y, offset_y, truncate)
     return rasterise_runs(px, py, thickness, width, height, extras, extra_counts, crescents, crescent_counts,
-                          step_runs, step_counts, step_info)
+                          step_runs, step_counts, step_info, clip_runs, clip_counts)
+
+
+# ---- several lanes at once: what scoring a frame calls ----------------------------------------
+# One call draws all of a frame's lanes (or computes all IoUs of two sets of them): a kernel call
+# from Python costs microseconds in argument checks, about what drawing a short lane costs.
+
+_SET_Y0, _SET_FIRST, _SET_ROWS, _SET_AREA, _SET_DRAWN, _SET_X0, _SET_X1 = range(7)  # columns of a set's `meta`
+
+
+@cached_njit(nogil=True, error_model="numpy")
+def lane_set_runs(points, starts, official, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height,
+                  extras, extra_counts, crescents, crescent_counts, step_runs, step_counts, step_info, clip_runs,
+                  clip_counts):
+    """(meta, lo, hi): the masks of lanes points[starts[i]:starts[i + 1]], as runs per row, packed.
+
+    Each lane of 2+ points is official_lane_runs' mask (`official`) or map_lane_runs' (with
+    spline .. truncate); a lane of fewer points is not drawn. meta[i] = (y0, first, rows, area,
+    drawn, x0, x1): the lane's rows y0 .. y0 + rows - 1 are rows first .. first + rows - 1 of lo
+    and hi, whose columns are as many as the fullest row of any lane needs (unused slots (1, 0));
+    x0, x1 are the one-lane kernel's box.
+    """
+    n = starts.size - 1
+    meta = np.zeros((n, 7), np.int64)
+    none = np.empty((0, 1), np.int64)
+    los = [none for _ in range(n)]
+    his = [none for _ in range(n)]
+    total = 0
+    slots = 1
+    for i in range(n):
+        lane = points[starts[i]:starts[i + 1]]
+        if lane.shape[0] < 2:
+            continue
+        if official:
+            px, py = official_pixels(lane)
+        else:
+            px, py = map_spline_pixels(lane, spline, scale_x, scale_y, offset_y, truncate)
+        x0, y0, x1, lo, hi, area = rasterise_runs(px, py, thickness, width, height, extras, extra_counts, crescents,
+                                                  crescent_counts, step_runs, step_counts, step_info, clip_runs,
+                                                  clip_counts)
+        los[i] = lo
+        his[i] = hi
+        meta[i, _SET_Y0] = y0
+        meta[i, _SET_FIRST] = total
+        meta[i, _SET_ROWS] = lo.shape[0]
+        meta[i, _SET_AREA] = area
+        meta[i, _SET_DRAWN] = 1
+        meta[i, _SET_X0] = x0
+        meta[i, _SET_X1] = x1
+        total += lo.shape[0]
+        slots = max(slots, lo.shape[1])
+    lo_all = np.full((total, slots), _EMPTY_LO, np.int64)
+    hi_all = np.full((total, slots), _EMPTY_HI, np.int64)
+    for i in range(n):
+        first = meta[i, _SET_FIRST]
+        lo = los[i]
+        hi = his[i]
+        for r in range(lo.shape[0]):
+            for k in range(lo.shape[1]):
+                lo_all[first + r, k] = lo[r, k]
+                hi_all[first + r, k] = hi[r, k]
+    return meta, lo_all, hi_all
+
+
+@cached_njit(nogil=True)
+def lane_set_ious(a_meta, a_lo, a_hi, b_meta, b_lo, b_hi):
+    """(len(a), len(b)) IoUs of two lane_set_runs sets: 0 where either lane is not drawn, NaN
+    where both masks are empty (0/0), else intersection / union (as iou.iou_matrix)."""
+    out = np.zeros((a_meta.shape[0], b_meta.shape[0]))
+    single = a_lo.shape[1] == 1 and b_lo.shape[1] == 1
+    for i in range(a_meta.shape[0]):
+        if a_meta[i, _SET_DRAWN] == 0:
+            continue
+        ay0 = a_meta[i, _SET_Y0]
+        a_first = a_meta[i, _SET_FIRST]
+        a_area = a_meta[i, _SET_AREA]
+        for j in range(b_meta.shape[0]):
+            if b_meta[j, _SET_DRAWN] == 0:
+                continue
+            by0 = b_meta[j, _SET_Y0]
+            b_first = b_meta[j, _SET_FIRST]
+            b_area = b_meta[j, _SET_AREA]
+            inter = np.int64(0)
+            if a_area != 0 and b_area != 0:
+                top = max(ay0, by0)
+                bottom = min(ay0 + a_meta[i, _SET_ROWS], by0 + b_meta[j, _SET_ROWS])
+                for y in range(top, bottom):
+                    ra = a_first + y - ay0
+                    rb = b_first + y - by0
+                    if single:
+                        count = min(a_hi[ra, 0], b_hi[rb, 0]) - max(a_lo[ra, 0], b_lo[rb, 0]) + 1
+                        inter += max(count, 0)
+                        continue
+                    for p in range(a_lo.shape[1]):
+                        for q in range(b_lo.shape[1]):
+                            count = min(a_hi[ra, p], b_hi[rb, q]) - max(a_lo[ra, p], b_lo[rb, q]) + 1
+                            inter += max(count, 0)
+            union = a_area + b_area - inter
+            out[i, j] = inter / union if union != 0 else np.nan
+    return out
+
+
+# ---- the official matching -----------------------------------------------------------------
+
+
+@cached_njit(nogil=True)
+def _augment(u, matrix, left_weight, right_weight, left_used, right_used, left_match, right_match, tolerance):
+    """iou.match_lanes' augment(u): a depth-first search for an augmenting path on tight edges."""
+    left_used[u] = True
+    for v in range(matrix.shape[1]):
+        if not right_used[v] and abs(left_weight[u] + right_weight[v] - matrix[u, v]) < tolerance:
+            right_used[v] = True
+            if right_match[v] == -1 or _augment(right_match[v], matrix, left_weight, right_weight, left_used,
+                                                right_used, left_match, right_match, tolerance):
+                right_match[v] = u
+                left_match[u] = v
+                return True
+    return False
+
+
+@cached_njit(nogil=True)
+def matched_ious(similarity, rows, columns, tolerance):
+    """Each row's matched IoU (-inf where unmatched) under the official Kuhn-Munkres matching of
+    similarity[rows][:, columns] (ground truth x predictions): iou.match_lanes step for step."""
+    n_rows = rows.size
+    n_columns = columns.size
+    out = np.full(n_rows, -np.inf)
+    if n_rows == 0 or n_columns == 0:
+        return out
+    swapped = n_rows > n_columns
+    n_left = n_columns if swapped else n_rows
+    n_right = n_rows if swapped else n_columns
+    matrix = np.empty((n_left, n_right))
+    for i in range(n_rows):
+        for j in range(n_columns):
+            if swapped:
+                matrix[j, i] = similarity[rows[i], columns[j]]
+            else:
+                matrix[i, j] = similarity[rows[i], columns[j]]
+    left_match = np.full(n_left, -1, np.int64)
+    right_match = np.full(n_right, -1, np.int64)
+    right_weight = np.zeros(n_right)
+    left_weight = np.empty(n_left)
+    for i in range(n_left):
+        best = -1e5
+        for j in range(n_right):
+            if best < matrix[i, j]:
+                best = matrix[i, j]
+        left_weight[i] = best
+    left_used = np.zeros(n_left, np.bool_)
+    right_used = np.zeros(n_right, np.bool_)
+    finished = True
+    for u in range(n_left):
+        while True:
+            left_used[:] = False
+            right_used[:] = False
+            if _augment(u, matrix, left_weight, right_weight, left_used, right_used, left_match, right_match,
+                        tolerance):
+                break
+            d = 1e10
+            for i in range(n_left):
+                if left_used[i]:
+                    for j in range(n_right):
+                        if not right_used[j]:
+                            slack = left_weight[i] + right_weight[j] - matrix[i, j]
+                            if slack < d:
+                                d = slack
+            if d == 1e10:
+                finished = False
+                break
+            for i in range(n_left):
+                if left_used[i]:
+                    left_weight[i] -= d
+            for j in range(n_right):
+                if right_used[j]:
+                    right_weight[j] += d
+        if not finished:
+            break
+    match = right_match if swapped else left_match
+    for i in range(n_rows):
+        if match[i] >= 0:
+            out[i] = similarity[rows[i], columns[match[i]]]
+    return out
 
 
 # ---- the argument types raster.py calls the kernels above with ------------------------------
@@ -1391,19 +1774,25 @@ _MASK = types.Array(types.uint8, 2, "C")
 _RUNS = types.Array(types.int64, 2, "C")  # LaneMask.lo, .hi
 _I, _F, _B = types.int64, types.float64, types.boolean
 _TABLES = (_TABLE, _COUNTS, _TABLE, _COUNTS)  # short_quad_extras(thickness)
-_STEPS = (_TABLE, _COUNTS, types.Array(types.int64, 2, "C"))  # step_extras(thickness, STEP_REACH)
+# step_extras(thickness, STEP_REACH) and clip_extras(thickness) (raster._step_extras)
+_STEPS = (_TABLE, _COUNTS, types.Array(types.int64, 2, "C"), types.Array(types.int64, 5, "C"), _TABLE)
+# raster.official_mask_set and map_mask_set (the lanes' points end to end, and where each starts)
+_LANE_SET = (types.Array(types.float64, 2, "C"), _COUNTS, _B, _B, _F, _F, _F, _B, _I, _I, _I) + _TABLES + _STEPS
+_SET_IOUS = (_RUNS, _RUNS, _RUNS, _RUNS, _RUNS, _RUNS)  # LaneRuns.ious: (meta, lo, hi) of each set
 
 ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     # raster's tables (_quad_extras, _step_extras) and LaneMask.intersection: every protocol needs them
-    "tables": [(short_quad_extras, (_I,)), (step_extras, (_I, _I)), (overlap, (_I, _I, _MASK, _I, _I, _MASK)),
-               (run_overlap, (_I, _RUNS, _RUNS, _I, _RUNS, _RUNS))],
-    # raster.official_mask
-    "official": [(official_lane_runs, (_POINTS, _I, _I, _I) + _TABLES + _STEPS)],
-    # raster.map_mask
-    "paper": [(map_lane_runs, (_POINTS, _B, _F, _F, _F, _B, _I, _I, _I) + _TABLES + _STEPS)],
+    "tables": [(short_quad_extras, (_I,)), (step_extras, (_I, _I)), (clip_extras, (_I,)),
+               (overlap, (_I, _I, _MASK, _I, _I, _MASK)), (run_overlap, (_I, _RUNS, _RUNS, _I, _RUNS, _RUNS))],
+    # culane_official.official_masks (raster.official_mask_set) and LaneRuns.ious
+    "official": [(lane_set_runs, _LANE_SET), (lane_set_ious, _SET_IOUS),
+                 (matched_ious, (types.Array(types.float64, 2, "C"), _COUNTS, _COUNTS, _F))],
+    # paper.ego_masks and side_ious (raster.map_mask_set): the same kernels
+    "paper": [(lane_set_runs, _LANE_SET), (lane_set_ious, _SET_IOUS)],
 }
-# The pixel-by-pixel references the runs are tested and benchmarked against (metrics.reference):
-# compiled only where they are used, so that a first run of the tool does not pay for them.
+# The pixel-by-pixel references the runs are tested and benchmarked against (metrics.reference),
+# and one lane at a time (raster.official_mask, map_mask: tests and benchmarks): compiled only
+# where they are used, so that a first run of the tool does not pay for them.
 REFERENCE_SIGNATURES: list[tuple[Any, tuple]] = [
     (official_lane, (_POINTS, _I, _I, _I) + _TABLES),
     (map_lane, (_POINTS, _B, _F, _F, _F, _B, _I, _I, _I) + _TABLES),

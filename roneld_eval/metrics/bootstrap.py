@@ -12,11 +12,14 @@ are NaN and only the difference is reported.
 from __future__ import annotations
 
 import posixpath
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from ..config import Thresholds
+
+if TYPE_CHECKING:  # imported where used: report.tables needs this module's constants, not pandas
+    import pandas as pd
 
 RESAMPLES = 2000
 SEED = 20201  # fixed: intervals are reproducible
@@ -28,7 +31,9 @@ MIN_CLIPS = 5
 
 def clip_of(frames: pd.Series) -> pd.Series:
     """The clip (video folder) of each frame path: the unit the bootstrap resamples."""
-    unique = frames.unique()  # each frame has a row per side and method: name each folder once
+    # Each frame has a row per side and method: name each folder once. As a numpy array: pandas'
+    # string arrays are slow to walk one element at a time.
+    unique = np.asarray(frames.unique(), dtype=object)
     return frames.map(dict(zip(unique, map(posixpath.dirname, unique))))
 
 
@@ -40,12 +45,23 @@ def count_clips(per_frame: pd.DataFrame) -> int:
 def clip_counts(per_frame: pd.DataFrame, method: str, thresholds: Thresholds,
                 clips: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """(tp, n_gt): (C, T) true positives and (C,) ground-truth lanes per clip of one method."""
-    rows = per_frame[per_frame["method"] == method]
-    positions = pd.Categorical(clip_of(rows["frame"]), categories=clips).codes.astype(np.int64)
+    return _clip_counts(per_frame, clip_of(per_frame["frame"]), method, thresholds, clips)
+
+
+def _clip_counts(per_frame: pd.DataFrame, clip: pd.Series, method: str, thresholds: Thresholds,
+                 clips: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """clip_counts with each row's clip (clip_of its frame) given."""
+    import pandas as pd
+
+    chosen = (per_frame["method"] == method).to_numpy()
+    rows = per_frame[chosen]
+    positions = pd.Categorical(clip[chosen], categories=clips).codes.astype(np.int64)
     assert (positions >= 0).all(), "every frame's clip is among the clips"
     above = rows["iou"].to_numpy(np.float64)[:, None] > np.asarray(thresholds.values)[None, :]
-    tp = np.zeros((len(clips), len(thresholds)), np.int64)
-    np.add.at(tp, positions, above.astype(np.int64))
+    # Each (clip, threshold) pair a bin: one bincount of the pairs a row is above, not np.add.at (slow).
+    pairs = positions[:, None] * len(thresholds) + np.arange(len(thresholds))[None, :]
+    tp = np.bincount(pairs[above], minlength=len(clips) * len(thresholds)).astype(np.int64)
+    tp = tp.reshape(len(clips), len(thresholds))
     n_gt = np.bincount(positions, minlength=len(clips))
     return tp, n_gt
 
@@ -56,9 +72,12 @@ def paired_bootstrap(per_frame: pd.DataFrame, thresholds: Thresholds, method: st
 
     ci_low and ci_high are NaN with fewer than MIN_CLIPS clips; the difference is always given.
     """
-    clips = sorted(set(clip_of(per_frame["frame"])))
-    tp_ref, n_gt = clip_counts(per_frame, reference, thresholds, clips)
-    tp_other, n_gt_other = clip_counts(per_frame, method, thresholds, clips)
+    import pandas as pd
+
+    clip = clip_of(per_frame["frame"])  # once for both methods
+    clips = sorted(set(np.asarray(clip.unique(), dtype=object)))
+    tp_ref, n_gt = _clip_counts(per_frame, clip, reference, thresholds, clips)
+    tp_other, n_gt_other = _clip_counts(per_frame, clip, method, thresholds, clips)
     assert np.array_equal(n_gt, n_gt_other), "methods are scored on the same ground truth"
     delta = (tp_ref - tp_other).astype(np.float64)  # (C, T)
     total = n_gt.sum()

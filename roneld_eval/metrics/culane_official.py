@@ -14,16 +14,20 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from decimal import Decimal
-from typing import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Iterable, Mapping, Sequence
 
 import numpy as np
-import pandas as pd
 
 from ..model import Lane
-from .iou import iou_matrix, match_lanes
-from .raster import LaneMask, official_mask
+from . import _kernels
+from .iou import KM_TOLERANCE
+from .raster import LaneMask, LaneRuns, MaskList, MaskSet, official_mask_set
+
+if TYPE_CHECKING:  # pandas only where a DataFrame is asked for: `score culane` starts without it
+    import pandas as pd
 
 UNMATCHED = -np.inf
+OFFICIAL_COLUMNS = ("method", "category", "threshold", "tp", "fp", "fn", "precision", "recall", "f1")
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,9 +42,24 @@ class CulaneFrameResult:
         return int(np.count_nonzero(self.matched_iou > threshold))
 
 
-def official_masks(lanes: Sequence[Lane], width: int, height: int, lane_width: int) -> list[LaneMask | None]:
-    """Masks of a frame's lanes as the official evaluator draws them (None: < 2 points)."""
-    return [official_mask(lane, width, height, lane_width) for lane in lanes]
+def official_masks(lanes: Sequence[Lane], width: int, height: int, lane_width: int) -> MaskSet:
+    """Masks of a frame's lanes as the official evaluator draws them (a lane of < 2 points is
+    not drawn), all in one kernel call."""
+    return official_mask_set(lanes, width, height, lane_width)
+
+
+def matched_result(similarity: np.ndarray, rows: Sequence[int] | None = None,
+                   columns: Sequence[int] | None = None) -> CulaneFrameResult:
+    """The outcome of a frame from its (ground truth, predictions) IoU matrix, or from the rows
+    and columns of it given: the official matching (iou.match_lanes, in one kernel call), and
+    each ground-truth lane's matched IoU."""
+    picked = [np.arange(size, dtype=np.int64) if chosen is None else np.asarray(chosen, np.int64)
+              for chosen, size in ((rows, similarity.shape[0]), (columns, similarity.shape[1]))]
+    n_gt, n_pred = picked[0].size, picked[1].size
+    if n_gt == 0 or n_pred == 0:
+        return CulaneFrameResult(n_gt, n_pred, np.full(n_gt, UNMATCHED))
+    matrix = np.ascontiguousarray(similarity, np.float64)
+    return CulaneFrameResult(n_gt, n_pred, _kernels.matched_ious(matrix, *picked, KM_TOLERANCE))
 
 
 def evaluate_culane_frame(
@@ -49,8 +68,8 @@ def evaluate_culane_frame(
     width: int = 1640,
     height: int = 590,
     lane_width: int = 30,
-    gt_masks: Sequence[LaneMask | None] | None = None,
-    pred_masks: Sequence[LaneMask | None] | None = None,
+    gt_masks: MaskSet | Sequence[LaneMask | None] | None = None,
+    pred_masks: MaskSet | Sequence[LaneMask | None] | None = None,
 ) -> CulaneFrameResult:
     """Match one frame's predictions to its ground truth as the official evaluator does.
 
@@ -59,16 +78,15 @@ def evaluate_culane_frame(
     n_gt, n_pred = len(gt_lanes), len(pred_lanes)
     if n_gt == 0 or n_pred == 0:
         return CulaneFrameResult(n_gt, n_pred, np.full(n_gt, UNMATCHED))
-    if gt_masks is None:
-        gt_masks = official_masks(gt_lanes, width, height, lane_width)
-    if pred_masks is None:
-        pred_masks = official_masks(pred_lanes, width, height, lane_width)
-    similarity = iou_matrix(gt_masks, pred_masks)
-    match = match_lanes(similarity)
-    matched = np.full(n_gt, UNMATCHED)
-    rows = np.flatnonzero(match >= 0)
-    matched[rows] = similarity[rows, match[rows]]
-    return CulaneFrameResult(n_gt, n_pred, matched)
+    gt = official_masks(gt_lanes, width, height, lane_width) if gt_masks is None else _mask_set(gt_masks)
+    pred = official_masks(pred_lanes, width, height, lane_width) if pred_masks is None else _mask_set(pred_masks)
+    return matched_result(gt.ious(pred))
+
+
+def _mask_set(masks: MaskSet | Sequence[LaneMask | None]) -> MaskSet:
+    if isinstance(masks, (LaneRuns, MaskList)):
+        return masks
+    return MaskList(tuple(masks))
 
 
 @dataclass(frozen=True)
@@ -146,10 +164,9 @@ def category_groups(frames: Sequence[str], categories: Mapping[str, frozenset[st
     return groups
 
 
-def sweep_rows(scored: ScoredFrames, methods: Sequence[str], categories: Mapping[str, frozenset[str]],
-               thresholds: Sequence[float], labels: Sequence[str] | None = None) -> pd.DataFrame:
-    """method, category, threshold, tp, fp, fn, precision, recall, f1: one row per method,
-    category (its lists, then `all`) and threshold, counts summed before any ratio."""
+def sweep_records(scored: ScoredFrames, methods: Sequence[str], categories: Mapping[str, frozenset[str]],
+                  thresholds: Sequence[float], labels: Sequence[str] | None = None) -> list[tuple]:
+    """sweep_rows' rows as plain tuples in OFFICIAL_COLUMNS order (Python str, int and float)."""
     limits = np.asarray(thresholds, np.float64)
     shown: list[str] | list[float] = list(labels) if labels is not None else [float(t) for t in thresholds]
     lane_frame = scored.lane_frame
@@ -165,10 +182,17 @@ def sweep_rows(scored: ScoredFrames, methods: Sequence[str], categories: Mapping
             above = len(ious) - np.searchsorted(ious, limits, side="right")
             for label, tp in zip(shown, above.tolist()):
                 precision, recall, f1 = f_measure(tp, n_pred - tp, n_gt - tp)
-                rows.append(dict(method=method, category=name, threshold=label, tp=tp, fp=n_pred - tp,
-                                 fn=n_gt - tp, precision=precision, recall=recall, f1=f1))
-    return pd.DataFrame(rows, columns=["method", "category", "threshold", "tp", "fp", "fn", "precision", "recall",
-                                       "f1"])
+                rows.append((method, name, label, tp, n_pred - tp, n_gt - tp, precision, recall, f1))
+    return rows
+
+
+def sweep_rows(scored: ScoredFrames, methods: Sequence[str], categories: Mapping[str, frozenset[str]],
+               thresholds: Sequence[float], labels: Sequence[str] | None = None) -> pd.DataFrame:
+    """method, category, threshold, tp, fp, fn, precision, recall, f1: one row per method,
+    category (its lists, then `all`) and threshold, counts summed before any ratio."""
+    import pandas as pd
+
+    return pd.DataFrame(sweep_records(scored, methods, categories, thresholds, labels), columns=list(OFFICIAL_COLUMNS))
 
 
 def category_table(
@@ -187,17 +211,27 @@ def highlight_name(label: str) -> str:
     return f"F1@{percent:f}"
 
 
+def summary_records(official: Iterable[Sequence], highlighted: Sequence[str],
+                    labels: Sequence[str]) -> tuple[list[str], list[tuple]]:
+    """(columns, rows) of f1_summary from sweep_records' rows, as plain tuples."""
+    f1s: dict[tuple[str, str], dict] = {}  # (method, category) in order of first appearance
+    for row in official:
+        f1s.setdefault((row[0], row[1]), {})[row[2]] = row[-1]
+    rows = []
+    for (method, category), f1 in f1s.items():
+        row = [method, category] + [float(f1[label]) for label in highlighted]
+        if len(labels) > 1:
+            row.append(float(np.mean(np.array([f1[label] for label in labels], np.float64))))
+        rows.append(tuple(row))
+    columns = ["method", "category"] + [highlight_name(t) for t in highlighted] + (["mF1"] if len(labels) > 1 else [])
+    return columns, rows
+
+
 def f1_summary(official: pd.DataFrame, highlighted: Sequence[str], labels: Sequence[str]) -> pd.DataFrame:
     """method, category, F1@<t> for each highlighted threshold, and mF1 (the mean F1 over
     every threshold in `labels`) when there is more than one: from sweep_rows' table."""
-    rows = []
-    for (method, category), group in official.groupby(["method", "category"], sort=False):
-        f1 = dict(zip(group["threshold"], group["f1"].to_numpy(np.float64)))
-        row = dict(method=method, category=category)
-        for label in highlighted:
-            row[highlight_name(label)] = float(f1[label])
-        if len(labels) > 1:
-            row["mF1"] = float(np.mean([f1[label] for label in labels]))
-        rows.append(row)
-    columns = ["method", "category"] + [highlight_name(t) for t in highlighted] + (["mF1"] if len(labels) > 1 else [])
+    import pandas as pd
+
+    table = official[list(OFFICIAL_COLUMNS)]
+    columns, rows = summary_records(table.itertuples(index=False, name=None), highlighted, labels)
     return pd.DataFrame(rows, columns=columns)

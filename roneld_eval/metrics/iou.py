@@ -44,7 +44,8 @@ def match_lanes(similarity: np.ndarray) -> np.ndarray:
     The official evaluator's Kuhn-Munkres (maximum total IoU), step for step: rows and
     columns swap when there are more rows, edges count as tight within 1e-2, and NaN IoUs
     (two empty masks) never match. Scipy's exact assignment can pick another matching among
-    near-ties, which changes TP counts; the official one is reproduced instead.
+    near-ties, which changes TP counts; the official one is reproduced instead. Scoring runs it
+    as _kernels.matched_ious (one kernel call a frame); this is that kernel's reference.
     """
     rows, columns = similarity.shape
     if rows == 0 or columns == 0:

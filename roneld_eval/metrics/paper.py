@@ -13,13 +13,13 @@ has IoU 0; a prediction without ground truth is not scored. No thresholds here.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Sequence
 
 from ..config import PaperMetricParams
 from ..geometry import MapGeometry
 from ..model import Lane
-from .iou import mask_iou
-from .raster import LaneMask, map_mask
+from .raster import MaskSet, map_mask_set
 
 SIDES = ("left", "right")
 
@@ -32,6 +32,20 @@ def bottom_x(lane: Lane, bottom_row: float) -> float:
 def ego_lanes(lanes: Sequence[Lane], image_width: int, image_height: int,
               center_ratio: float) -> tuple[Lane | None, Lane | None]:
     """(left, right) ground-truth lanes bounding the ego lane; lanes of < 2 points are ignored."""
+    if isinstance(lanes, tuple):  # a frame's lanes: scoring asks twice per frame (paper and official)
+        return _ego_lanes_of(lanes, image_width, image_height, center_ratio)
+    return _ego_lanes(lanes, image_width, image_height, center_ratio)
+
+
+# Lanes hash by identity and never change (frozen, read-only points): a tuple of them is a key.
+@lru_cache(maxsize=4)
+def _ego_lanes_of(lanes: tuple[Lane, ...], image_width: int, image_height: int,
+                  center_ratio: float) -> tuple[Lane | None, Lane | None]:
+    return _ego_lanes(lanes, image_width, image_height, center_ratio)
+
+
+def _ego_lanes(lanes: Sequence[Lane], image_width: int, image_height: int,
+               center_ratio: float) -> tuple[Lane | None, Lane | None]:
     center = center_ratio * image_width
     left = right = None
     left_x = right_x = None
@@ -49,33 +63,36 @@ def ego_lanes(lanes: Sequence[Lane], image_width: int, image_height: int,
 
 def thicknesses(params: PaperMetricParams, geometry: MapGeometry) -> tuple[int, int]:
     """(ground truth, prediction) thickness in map pixels."""
-    return (
-        params.thickness(params.gt_thickness_px, geometry.map_width, geometry.map_height),
-        params.thickness(params.pred_thickness_px, geometry.map_width, geometry.map_height),
-    )
+    return _thicknesses(params, geometry.map_width, geometry.map_height)
+
+
+@lru_cache(maxsize=64)
+def _thicknesses(params: PaperMetricParams, map_width: int, map_height: int) -> tuple[int, int]:
+    # Cached: PaperMetricParams.thickness computes with Decimal, and every scored frame asks.
+    return (params.thickness(params.gt_thickness_px, map_width, map_height),
+            params.thickness(params.pred_thickness_px, map_width, map_height))
 
 
 def ego_masks(gt_lanes: Sequence[Lane], geometry: MapGeometry, params: PaperMetricParams,
-              center_ratio: float) -> dict[str, LaneMask | None]:
-    """Masks of the ground-truth ego lanes per side (None where the side has no lane)."""
+              center_ratio: float) -> MaskSet:
+    """Masks of the ground-truth ego lanes, left then right (not drawn where a side has no lane)."""
     gt_thickness, _ = thicknesses(params, geometry)
     chosen = ego_lanes(gt_lanes, geometry.image_width, geometry.image_height, center_ratio)
-    return {side: None if lane is None else map_mask(lane, geometry, gt_thickness) for side, lane in zip(SIDES, chosen)}
+    return map_mask_set(chosen, geometry, gt_thickness)
 
 
-def side_ious(gt: dict[str, LaneMask | None], predicted: Sequence[Lane | None], geometry: MapGeometry,
+def side_ious(gt: MaskSet, predicted: Sequence[Lane | None], geometry: MapGeometry,
               params: PaperMetricParams, spline: bool = False) -> dict[str, float]:
-    """IoU per side that has a ground-truth lane; 0 where the method gave no lane."""
+    """IoU per side that has a ground-truth lane (ego_masks); 0 where the method gave no lane."""
+    scored = [k for k in range(min(len(SIDES), len(predicted))) if gt.drawn(k)]
+    if not scored:
+        return {}
     _, pred_thickness = thicknesses(params, geometry)
+    # Only the sides scored are drawn; a side without a lane (or of < 2 points) is not: IoU 0.
+    lanes = [predicted[k] if k in scored else None for k in range(len(SIDES))]
+    values = gt.ious(map_mask_set(lanes, geometry, pred_thickness, spline, params.prediction_rounding))
     out = {}
-    for side, lane in zip(SIDES, predicted):
-        truth = gt[side]
-        if truth is None:
-            continue
-        if lane is None:
-            out[side] = 0.0
-            continue
-        drawn = map_mask(lane, geometry, pred_thickness, spline=spline, rounding=params.prediction_rounding)
-        value = mask_iou(truth, drawn)
-        out[side] = 0.0 if value != value else value
+    for k in scored:
+        value = float(values[k, k])
+        out[SIDES[k]] = 0.0 if value != value else value
     return out

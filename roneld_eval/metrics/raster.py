@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from itertools import accumulate
+from typing import Sequence
 
 import numpy as np
 
@@ -77,8 +79,9 @@ def _quad_extras(thickness: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
 
 
 @lru_cache(maxsize=None)
-def _step_extras(thickness: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    return _kernels.step_extras(thickness, _kernels.STEP_REACH)
+def _step_extras(thickness: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The runs kernels' tables of a thickness: step_extras(thickness, STEP_REACH) and clip_extras(thickness)."""
+    return _kernels.step_extras(thickness, _kernels.STEP_REACH) + _kernels.clip_extras(thickness)
 
 
 def _points(lane: Lane) -> np.ndarray:
@@ -166,19 +169,133 @@ def map_mask_by_canvas(lane: Lane | None, geometry: MapGeometry, thickness: int,
     return LaneMask(int(x0), int(y0), pixels, int(area))
 
 
+# ---- several lanes at once ---------------------------------------------------------------------
+# Scoring a frame draws all its lanes in one kernel call and computes all their IoUs in another
+# (a call per lane costs about what drawing a short lane costs). Pixels and IoUs are exactly
+# those of the one-lane functions above.
+
+
+@dataclass(frozen=True, eq=False)
+class LaneRuns:
+    """Several lanes' masks as runs per row in shared arrays (`_kernels.lane_set_runs`).
+
+    meta[i] = (y0, first, rows, area, drawn, x0, x1): lane i covers image rows y0 .. y0 + rows - 1,
+    rows first .. first + rows - 1 of lo and hi (unused run slots (1, 0)), in the box x0 .. x1 - 1;
+    a lane that was None or of fewer than 2 points is not drawn (drawn 0): IoU 0 with anything.
+    """
+
+    meta: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.meta.shape[0])
+
+    def drawn(self, i: int) -> bool:
+        return bool(self.meta[i, 4])
+
+    def mask(self, i: int) -> LaneMask | None:
+        """Lane i as a LaneMask (None where not drawn)."""
+        y0, first, rows, area, drawn, x0, x1 = (int(v) for v in self.meta[i])
+        if not drawn:
+            return None
+        return LaneMask(x0, y0, None, area, x1, self.lo[first:first + rows], self.hi[first:first + rows])
+
+    def ious(self, other: "MaskSet") -> np.ndarray:
+        """(len(self), len(other)) IoUs: 0 where either lane is not drawn, NaN for two empty masks."""
+        if isinstance(other, LaneRuns):
+            return _kernels.lane_set_ious(self.meta, self.lo, self.hi, other.meta, other.lo, other.hi)
+        from .iou import iou_matrix  # iou imports this module
+
+        return iou_matrix([self.mask(i) for i in range(len(self))], other.masks)
+
+
+@dataclass(frozen=True, eq=False)
+class MaskList:
+    """Several lanes' masks one by one (None: not drawn), as the pixel-by-pixel references give them."""
+
+    masks: tuple[LaneMask | None, ...]
+
+    def __len__(self) -> int:
+        return len(self.masks)
+
+    def drawn(self, i: int) -> bool:
+        return self.masks[i] is not None
+
+    def mask(self, i: int) -> LaneMask | None:
+        return self.masks[i]
+
+    def ious(self, other: "MaskSet") -> np.ndarray:
+        """(len(self), len(other)) IoUs: 0 where either lane is not drawn, NaN for two empty masks."""
+        from .iou import iou_matrix  # iou imports this module
+
+        return iou_matrix(self.masks, [other.mask(j) for j in range(len(other))])
+
+
+MaskSet = LaneRuns | MaskList
+
+
+def _lane_set(lanes: Sequence[Lane | None]) -> tuple[np.ndarray, np.ndarray]:
+    """(points, starts): the lanes' points end to end (a None lane as no points)."""
+    arrays = [_NO_POINTS if lane is None else lane.points for lane in lanes]
+    starts = np.array([0, *accumulate(len(points) for points in arrays)], np.int64)
+    points = np.concatenate(arrays) if arrays else _NO_POINTS
+    return np.ascontiguousarray(points, np.float64), starts
+
+
+_NO_POINTS = np.zeros((0, 2), np.float64)
+
+
+def official_mask_set(lanes: Sequence[Lane], width: int, height: int, thickness: int) -> MaskSet:
+    """official_mask of every lane, in one kernel call (a lane of < 2 points: not drawn)."""
+    thickness = int(thickness)
+    points, starts = _lane_set(lanes)
+    meta, lo, hi = _kernels.lane_set_runs(points, starts, True, False, 1.0, 1.0, 0.0, False, thickness, int(width),
+                                          int(height), *_quad_extras(thickness), *_step_extras(thickness))
+    return LaneRuns(meta, lo, hi)
+
+
+def map_mask_set(lanes: Sequence[Lane | None], geometry: MapGeometry, thickness: int, spline: bool = False,
+                 rounding: str = "nearest") -> MaskSet:
+    """map_mask of every lane, in one kernel call (None or < 2 points: not drawn)."""
+    if rounding not in ("nearest", "truncate"):
+        raise ValueError(f"rounding must be 'nearest' or 'truncate', got {rounding!r}")
+    thickness = int(thickness)
+    points, starts = _lane_set(lanes)
+    meta, lo, hi = _kernels.lane_set_runs(
+        points, starts, False, bool(spline), float(geometry.scale_x), float(geometry.scale_y),
+        float(geometry.crop_top_px), rounding == "truncate", thickness, int(geometry.map_width),
+        int(geometry.map_height), *_quad_extras(thickness), *_step_extras(thickness),
+    )
+    return LaneRuns(meta, lo, hi)
+
+
+def official_mask_set_by_canvas(lanes: Sequence[Lane], width: int, height: int, thickness: int) -> MaskList:
+    """official_mask_set drawn pixel by pixel, lane by lane (official_mask_by_canvas): its reference."""
+    return MaskList(tuple(official_mask_by_canvas(lane, width, height, thickness) for lane in lanes))
+
+
+def map_mask_set_by_canvas(lanes: Sequence[Lane | None], geometry: MapGeometry, thickness: int,
+                           spline: bool = False, rounding: str = "nearest") -> MaskList:
+    """map_mask_set drawn pixel by pixel, lane by lane (map_mask_by_canvas): its reference."""
+    return MaskList(tuple(None if lane is None or len(lane) < 2 else
+                          map_mask_by_canvas(lane, geometry, thickness, spline, rounding) for lane in lanes))
+
+
 def warm_up(groups=("tables", "official", "paper")) -> None:
     """Compile (or load from numba's cache) the drawing kernels of these groups of
-    `_kernels.ENTRY_SIGNATURES`, and draw a lane each way once."""
+    `_kernels.ENTRY_SIGNATURES`, and draw lanes each way once (as scoring draws them: in sets)."""
     for group in groups:
         for kernel, signature in _kernels.ENTRY_SIGNATURES[group]:
             compile_now(kernel, signature)
     lane = Lane(np.array([[700.0, 589.0], [760.0, 450.0], [800.0, 330.0], [815.0, 260.0]]))
-    masks: list = []
+    line = Lane(np.array([[650.0, 589.0], [790.0, 270.0]]))
+    sets: list = []
     if "official" in groups:
-        masks.append(official_mask(lane, *IMAGE_SIZES["culane"], 30))
+        sets.append(official_mask_set([lane, line], *IMAGE_SIZES["culane"], 30))
     if "paper" in groups:
         geometry = MapGeometry(*IMAGE_SIZES["culane"], 800, 288)
-        masks += [map_mask(lane, geometry, 16, spline, rounding) for spline in (False, True)
-                  for rounding in ("nearest", "truncate")]
-    if masks:
-        masks[0].intersection(masks[-1])
+        sets += [map_mask_set([lane, None], geometry, 16, spline, rounding) for spline in (False, True)
+                 for rounding in ("nearest", "truncate")]
+    if sets:
+        sets[0].ious(sets[-1])
