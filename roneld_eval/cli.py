@@ -238,8 +238,15 @@ def score():
 def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, strict, workers, out, quiet, debug):
     """Official CULane precision, recall and F1 per method and category, as SCNN's lane_evaluation
     computes them; with a grid, F1@50, F1@75 and mF1 as CLRNet reports them."""
+    import atexit
+    import gc
+
     from . import score as scoring  # not api: scoring needs none of the evaluation's imports
 
+    # When the process ends, its last garbage collections would walk numba's ~110,000 objects, none of
+    # them garbage: 0.3 s of a one-frame score (scripts/bench_startup.py). Frozen then, they are skipped.
+    atexit.unregister(gc.freeze)  # registered once, however often the command runs in one process
+    atexit.register(gc.freeze)
     score = _guard(scoring.score_culane, debug, data_root, list(pred_roots), list_file=list_file, iou=iou, width=width,
                    out=out, workers=workers, progress=not quiet, announce=_announcer(quiet), preset=preset,
                    strict=strict)
@@ -250,8 +257,7 @@ def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, s
 
 
 def _print_culane_score(score, width: int) -> None:
-    from .report.tables import Table
-    from .score import grid_text, summary_table
+    from .score import first_threshold_table, grid_text, summary_table
 
     grid = grid_text(score.thresholds)
     click.echo(f"{score.n_frames:,} frames, {len(score.trees)} method{'s' if len(score.trees) > 1 else ''}, "
@@ -260,10 +266,7 @@ def _print_culane_score(score, width: int) -> None:
         click.echo("F1 in percent; mF1 = mean F1 over the thresholds")
         click.echo(summary_table(score).to_markdown())
     else:
-        table = score.table
-        rows = tuple(tuple(float(v) if isinstance(v, float) else str(v) for v in row)
-                     for row in table.itertuples(index=False))
-        click.echo(Table(tuple(table.columns), rows).to_markdown())
+        click.echo(first_threshold_table(score).to_markdown())
 
 
 @score.command("tusimple")

@@ -17,21 +17,22 @@ process at once, in the middle of the first clip. Instead:
 Kernel groups: "roneld" and "baseline" (extract/_kernels.ENTRY_SIGNATURES), "official" and
 "paper" (metrics/_kernels.ENTRY_SIGNATURES; both bring "tables"). `groups_for` says which a
 run needs. Nothing here changes a result: it only decides when compiling happens.
+The extractors' kernels (and their modules) are imported only when an extraction group is
+asked for, so `score culane` loads the scoring kernels alone.
 """
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import math
-import multiprocessing
 import sys
+from types import ModuleType
 from typing import Callable, Iterable
 
 from ._numba_cache import cache_dir, compile_now, in_cache
-from .extract import _kernels as extract_kernels
-from .extract import warm_up as warm_up_extraction
 from .metrics import _kernels as metric_kernels
 from .metrics.raster import warm_up as warm_up_scoring
-from .workers import default_workers, leave_signals_to_parent
 
 GROUPS = ("roneld", "baseline", "official", "paper")
 EXTRACTION = ("roneld", "baseline")
@@ -41,7 +42,16 @@ SCORING = ("official", "paper")
 # and the seconds each unit takes to compile from nothing on one core of the 2-core machine
 # this is developed on (scripts/bench_cold.py): to balance processes and announce a duration.
 _UNITS = {"roneld": ("roneld",), "baseline": ("baseline",), "scoring": ("tables", "official", "paper")}
-_UNIT_COMPILE_S = {"roneld": 9.0, "baseline": 1.0, "scoring": 26.0}
+_UNIT_COMPILE_S = {"roneld": 9.0, "baseline": 1.0, "scoring": 32.0}
+
+
+def _kernel_modules(groups: Iterable[str] | None = None) -> tuple[ModuleType, ...]:
+    """The kernel modules holding these groups (default: all), the extractors' imported only here."""
+    if groups is not None and not set(groups) & set(EXTRACTION):
+        return (metric_kernels,)
+    from .extract import _kernels as extract_kernels
+
+    return (extract_kernels, metric_kernels)
 
 
 def groups_for(methods, benchmark) -> tuple[str, ...]:
@@ -66,8 +76,8 @@ def _entries(groups: Iterable[str]) -> list[tuple[object, tuple]]:
     if groups & set(SCORING):
         groups.add("tables")
     entries: list[tuple[object, tuple]] = []
-    for table in (extract_kernels.ENTRY_SIGNATURES, metric_kernels.ENTRY_SIGNATURES):
-        for group, listed in table.items():
+    for module in _kernel_modules(groups):
+        for group, listed in module.ENTRY_SIGNATURES.items():
             if group in groups:
                 entries += listed
     return entries
@@ -118,6 +128,8 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
     groups = _groups(needed)
     units = missing_units(groups)
     if units:
+        from .workers import default_workers
+
         parallel = default_workers() if processes is None else max(1, processes)
         if cache_dir() is None:
             parallel = 1  # without a cache other processes cannot hand their work over
@@ -130,6 +142,8 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
 
 def _compile_in_child(units: tuple[str, ...]) -> None:
     """A compiling process: the parent alone decides about Ctrl-C and termination."""
+    from .workers import leave_signals_to_parent
+
     leave_signals_to_parent()
     _compile_units(units)
 
@@ -146,6 +160,8 @@ def _compile_in_parallel(bins: list[list[str]]) -> None:
         for units in bins:
             _compile_units(tuple(units))
         return
+    import multiprocessing
+
     if sys.platform == "linux":
         context = multiprocessing.get_context("fork")
     else:
@@ -174,17 +190,34 @@ def warm_up(needed: Iterable[str] | None = None) -> None:
     groups = _groups(needed)
     extraction = tuple(group for group in groups if group in EXTRACTION)
     scoring = tuple(group for group in groups if group in SCORING)
-    if extraction:
-        warm_up_extraction(extraction)
-    if scoring:
-        warm_up_scoring(("tables",) + scoring)
+    with _collector_paused():
+        if extraction:
+            from .extract import warm_up as warm_up_extraction
+
+            warm_up_extraction(extraction)
+        if scoring:
+            warm_up_scoring(("tables",) + scoring)
+
+
+@contextlib.contextmanager
+def _collector_paused():
+    """The cyclic garbage collector off, then as it was. numba's first load from its cache
+    builds its registries, ~56,000 objects that live as long as the process: collecting
+    among them meanwhile finds nothing, and cost 0.06-0.09 s of a one-frame `score culane`."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
 
 
 def dispatchers() -> dict[str, object]:
     """Every numba kernel of the package by qualified name ("roneld_eval.extract._kernels.frame_lanes"),
     each with `.signatures` (the argument types compiled in this process)."""
     found = {}
-    for module in (extract_kernels, metric_kernels):
+    for module in _kernel_modules():
         for name, value in vars(module).items():
             if hasattr(value, "signatures") and hasattr(value, "py_func"):
                 found[f"{module.__name__}.{name}"] = value

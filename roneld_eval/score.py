@@ -6,19 +6,26 @@ matched IoUs are kept, so a whole threshold grid (CLRNet's mF1: 0.50..0.95) cost
 pass. Prediction roots are checked before any work: a root where no file of the list is
 stops with the path looked for and the folder that would match. TuSimple: Acc/FP/FN as
 evaluate/lane.py, with the two F1 formulas papers print. Writes nothing but `out`.
+
+Start-up matters here (one frame should score in well under a second): the tables are plain
+tuples written with the csv module, byte for byte what pandas' to_csv wrote, and pandas is
+imported only when a DataFrame is asked for (CulaneScore.official, .summary, .table).
 """
 
 from __future__ import annotations
 
+import csv
+import io
+import math
 import os
 import posixpath
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
-from typing import Callable, Union
+from typing import TYPE_CHECKING, Callable, Union
 
 import numpy as np
-import pandas as pd
 
 from .config import IMAGE_SIZES, Thresholds, parse_thresholds
 from .datasets import read_culane
@@ -27,20 +34,24 @@ from .datasets.culane import labels_path, read_frame_labels
 from .errors import ConfigError, InputError
 from .lanes_io import read_culane_lines
 from .metrics.culane_official import (
+    OFFICIAL_COLUMNS,
     ScoredFrames,
     evaluate_culane_frame,
-    f1_summary,
     highlight_name,
     official_masks,
-    sweep_rows,
+    summary_records,
+    sweep_records,
 )
-from .metrics.tusimple_official import TusimpleScore, score_tusimple_files
 from .model import image_stem
 from .output import OutputFolder
 from .report.tables import Table
 from .output import Staging
 from .signals import terminate_as_interrupt
-from .workers import default_workers, process_pool, stopping
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from .metrics.tusimple_official import TusimpleScore
 
 
 @dataclass(frozen=True)
@@ -74,11 +85,46 @@ class PredictionTree:
 
 
 @dataclass(frozen=True)
-class CulaneScore:
-    """Official CULane scores of one or more prediction trees (methods) over a threshold grid."""
+class PlainTable:
+    """A table as plain Python values (str, int, float; NaN where undefined): what a CSV file holds."""
 
-    official: pd.DataFrame  # method, category, threshold, tp, fp, fn, precision, recall, f1
-    summary: pd.DataFrame  # method, category, F1@50 / F1@75 (those in the grid), mF1 (grids of 2+)
+    columns: tuple[str, ...]
+    rows: tuple[tuple, ...]
+
+    def to_csv(self) -> str:
+        """The text pandas' `to_csv(index=False, float_format="%.6f", lineterminator="\n")` writes
+        for this table, byte for byte: floats with 6 decimals, NaN empty, csv's minimal quoting."""
+        text = io.StringIO()
+        # The dialect pandas hands csv.writer (pandas.io.formats.csvs), so that quoting is the same.
+        writer = csv.writer(text, lineterminator="\n", delimiter=",", quoting=csv.QUOTE_MINIMAL, doublequote=True,
+                            escapechar=None, quotechar='"')
+        writer.writerow(self.columns)
+        writer.writerows(tuple(_csv_cell(value) for value in row) for row in self.rows)
+        return text.getvalue()
+
+    def to_frame(self) -> pd.DataFrame:
+        import pandas as pd
+
+        return pd.DataFrame(list(self.rows), columns=list(self.columns))
+
+
+def _csv_cell(value) -> object:
+    # Every float column holds only floats (a NaN keeps it float), so formatting by value is by column.
+    if isinstance(value, float):
+        return "" if math.isnan(value) else "%.6f" % value
+    return value
+
+
+@dataclass(frozen=True)
+class CulaneScore:
+    """Official CULane scores of one or more prediction trees (methods) over a threshold grid.
+
+    `official` and `summary` give the tables as DataFrames (importing pandas on first use);
+    `official_rows` and `summary_rows` are the same tables as plain rows.
+    """
+
+    official_rows: PlainTable  # method, category, threshold, tp, fp, fn, precision, recall, f1
+    summary_rows: PlainTable  # method, category, F1@50 / F1@75 (those in the grid), mF1 (grids of 2+)
     thresholds: Thresholds
     highlighted: tuple[str, ...]  # threshold labels the summary shows one by one
     trees: tuple[PredictionTree, ...]
@@ -88,6 +134,24 @@ class CulaneScore:
     @property
     def methods(self) -> tuple[str, ...]:
         return tuple(tree.method for tree in self.trees)
+
+    @cached_property
+    def official(self) -> pd.DataFrame:
+        """method, category, threshold, tp, fp, fn, precision, recall, f1 (official.csv)."""
+        return self.official_rows.to_frame()
+
+    @cached_property
+    def summary(self) -> pd.DataFrame:
+        """method, category, F1@50 / F1@75 (those in the grid), mF1 (grids of 2+) (summary.csv)."""
+        return self.summary_rows.to_frame()
+
+    @property
+    def first_rows(self) -> PlainTable:
+        """The rows at the first threshold: method, category, tp, fp, fn, precision, recall, f1."""
+        at = OFFICIAL_COLUMNS.index("threshold")
+        return PlainTable(self.official_rows.columns[:at] + self.official_rows.columns[at + 1:],
+                          tuple(row[:at] + row[at + 1:] for row in self.official_rows.rows
+                                if row[at] == self.thresholds.labels[0]))
 
     @property
     def table(self) -> pd.DataFrame:
@@ -288,15 +352,24 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     roots = tuple(tree.root for tree in trees)
     chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
     tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]
-    workers = min(workers or default_workers(), max(len(chunks), 1))
+    if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
+        from .workers import default_workers
+
+        workers = min(workers or default_workers(), len(chunks))
+    else:
+        workers = 1
     from . import kernels
 
     kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
+    if workers == 1:
+        kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
     from tqdm import tqdm
 
     pieces = []
     with tqdm(total=len(relpaths), unit="frame", desc="scoring", disable=not progress) as bar:
         if workers > 1:
+            from .workers import process_pool, stopping
+
             died = "a worker process died (killed, or out of memory) while scoring: no result was written"
             with stopping(process_pool(workers), lambda: died) as pool:
                 for piece in pool.map(_score_frames, tasks):
@@ -314,21 +387,19 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         np.concatenate([p[2] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
     )
     methods = [tree.method for tree in trees]
-    official = sweep_rows(scored, methods, dataset.categories, thresholds.values, thresholds.labels)
-    summary = f1_summary(official, highlighted, thresholds.labels)
-    score = CulaneScore(official, summary, thresholds, highlighted, tuple(trees), len(relpaths), tuple(warnings))
+    official = sweep_records(scored, methods, dataset.categories, thresholds.values, thresholds.labels)
+    summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
+    score = CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
+                        PlainTable(tuple(summary_columns), tuple(summary)),
+                        thresholds, highlighted, tuple(trees), len(relpaths), tuple(warnings))
     if out is not None:
         with terminate_as_interrupt(), OutputFolder(out, "score culane") as folder:
             staging = Staging(folder)
-            staging.write_text("official.csv", _csv(official))
-            staging.write_text("summary.csv", _csv(summary))
+            staging.write_text("official.csv", score.official_rows.to_csv())
+            staging.write_text("summary.csv", score.summary_rows.to_csv())
             staging.write_text("summary.md", summary_markdown(score, width))
             folder.commit()
     return score
-
-
-def _csv(table: pd.DataFrame) -> str:
-    return table.to_csv(index=False, float_format="%.6f", lineterminator="\n")
 
 
 def _percent(value: float) -> str:
@@ -346,10 +417,15 @@ def grid_text(thresholds: Thresholds) -> str:
 
 def summary_table(score: CulaneScore) -> Table:
     """The summary as papers print it: F1 in percent, two decimals."""
-    headers = tuple(score.summary.columns)
     rows = tuple(tuple(str(v) if k < 2 else _percent(float(v)) for k, v in enumerate(row))
-                 for row in score.summary.itertuples(index=False))
-    return Table(headers, rows)
+                 for row in score.summary_rows.rows)
+    return Table(score.summary_rows.columns, rows)
+
+
+def first_threshold_table(score: CulaneScore) -> Table:
+    """The counts and ratios at the first threshold, as the console shows them (ratios to 3 decimals)."""
+    first = score.first_rows
+    return Table(first.columns, tuple(tuple(v if isinstance(v, float) else str(v) for v in row) for row in first.rows))
 
 
 def summary_markdown(score: CulaneScore, width: int) -> str:
@@ -372,8 +448,12 @@ def summary_markdown(score: CulaneScore, width: int) -> str:
 def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None = None) -> TusimpleScore:
     """Score TuSimple JSON-lines predictions against a label file, as evaluate/lane.py does,
     with F1 under UFLD-v2's and CLRNet's formulas (f1_ufld, f1_clrnet)."""
+    from .metrics.tusimple_official import score_tusimple_files
+
     score = score_tusimple_files(labels, pred)
     if out is not None:
+        import pandas as pd
+
         with terminate_as_interrupt(), OutputFolder(out, "score tusimple") as folder:
             table = pd.DataFrame([score.as_row()])
             Staging(folder).write_text("official.csv", table.to_csv(index=False, float_format="%.10g",
@@ -382,5 +462,5 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
     return score
 
 
-__all__ = ["score_culane", "score_tusimple", "CulaneScore", "PredictionTree", "find_prediction_trees",
+__all__ = ["score_culane", "score_tusimple", "CulaneScore", "PlainTable", "PredictionTree", "find_prediction_trees",
            "SCORE_PRESETS", "highlight_name"]

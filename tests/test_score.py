@@ -4,7 +4,11 @@ prediction roots, and the two TuSimple F1 formulas against the tools that define
 import gzip
 import json
 import math
+import os
 import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -19,7 +23,8 @@ from roneld_eval.cli import main
 from roneld_eval.errors import ConfigError, InputError
 from roneld_eval.metrics.culane_official import CulaneFrameResult, ScoredFrames, highlight_name, sum_counts, sweep_rows
 from roneld_eval.metrics.tusimple_official import TusimpleScore, f1_clrnet, f1_ufld
-from roneld_eval.score import SCORE_PRESETS, score_culane, score_tusimple
+from roneld_eval.report.tables import Table
+from roneld_eval.score import SCORE_PRESETS, PlainTable, first_threshold_table, score_culane, score_tusimple
 from roneld_eval.synth import synth_lane_files
 
 GRID = "0.50:0.95:0.05"
@@ -204,6 +209,79 @@ def test_the_cli_presets_are_the_librarys():
     command = main.commands["score"].commands["culane"]
     preset = next(p for p in command.params if p.name == "preset")
     assert sorted(preset.type.choices) == sorted(SCORE_PRESETS)
+
+
+# ---- start-up: the tables without pandas, byte for byte what pandas wrote ----------------------
+
+
+def pandas_csv(table: PlainTable) -> str:
+    """What score culane wrote before it dropped pandas: DataFrame.to_csv with these options."""
+    frame = pd.DataFrame(list(table.rows), columns=list(table.columns))
+    return frame.to_csv(index=False, float_format="%.6f", lineterminator="\n")
+
+
+def test_the_files_are_what_pandas_wrote_and_the_frames_what_it_held(tmp_path):
+    gt, pred = synth_lane_files(tmp_path, frames=40, seed=4)
+    listed = (gt / "list" / "test.txt").read_text()
+    (gt / "list" / "test.txt").write_text(listed + "/cross/00000.jpg\n")  # no lanes, no prediction: NaN ratios
+    (gt / "cross").mkdir()
+    (gt / "cross" / "00000.lines.txt").write_text("")
+    (gt / "list" / "test_split").mkdir()
+    (gt / "list" / "test_split" / "test0_normal.txt").write_text(listed.replace("/", "", 1)[:400])
+    (gt / "list" / "test_split" / "test7_cross.txt").write_text("cross/00000.jpg\n")
+    score = score_culane(gt, [f'a "quoted", name={pred}', f"truth={gt}"], iou="0.3:0.9:0.15", workers=1,
+                         out=tmp_path / "o")
+    official = (tmp_path / "o" / "official.csv").read_text()
+    assert official == pandas_csv(score.official_rows) == score.official.to_csv(index=False, float_format="%.6f",
+                                                                               lineterminator="\n")
+    assert (tmp_path / "o" / "summary.csv").read_text() == pandas_csv(score.summary_rows)
+    assert '"a ""quoted"", name",cross,0.30,0,0,0,,,' in official  # minimal quoting, NaN empty
+    for frame, plain in ((score.official, score.official_rows), (score.summary, score.summary_rows)):
+        as_before = pd.DataFrame([dict(zip(plain.columns, row)) for row in plain.rows], columns=list(plain.columns))
+        pd.testing.assert_frame_equal(frame, as_before)  # built from dicts, as sweep_rows and f1_summary did
+    # The console's table at the first threshold: what the DataFrame gave, cell for cell.
+    table = score.table
+    cells = tuple(tuple(float(v) if isinstance(v, float) else str(v) for v in row)
+                  for row in table.itertuples(index=False))
+    assert first_threshold_table(score).to_markdown() == Table(tuple(table.columns), cells).to_markdown()
+
+
+cell_text = st.text(st.characters(codec="utf-8"), max_size=6) | \
+    st.sampled_from(["", ",", '"', "a,b", 'say "hi"', "line\nbreak", "cr\r", " lead", "0.50", "NaN", "n/a"])
+cell_number = st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from([0.5, 1 / 3, -0.0, 2.5e-7, 1e300])
+cell_count = st.integers(-(2**63), 2**63 - 1)
+
+
+@st.composite
+def plain_tables(draw):
+    """A table whose columns each hold one kind of value, as score culane's tables do."""
+    kinds = draw(st.lists(st.sampled_from([cell_text, cell_number, cell_count]), min_size=1, max_size=5))
+    columns = draw(st.lists(st.text(st.characters(codec="utf-8"), max_size=5), min_size=len(kinds),
+                            max_size=len(kinds), unique=True))
+    rows = draw(st.lists(st.tuples(*kinds), max_size=6))
+    return PlainTable(tuple(columns), tuple(rows))
+
+
+@settings(max_examples=300, deadline=None)
+@given(plain_tables())
+def test_plain_csv_is_byte_for_byte_what_pandas_writes(table):
+    assert table.to_csv() == pandas_csv(table)
+
+
+def test_score_culane_on_one_frame_starts_without_pandas_or_matplotlib(tmp_path):
+    """Start-up (issue 15): these imports cost more than scoring a small set. No timing here,
+    scripts/bench_startup.py times it; the extractors' kernels are not loaded either."""
+    gt, pred = synth_lane_files(tmp_path, frames=1, seed=0)
+    program = ("import sys\nfrom roneld_eval.cli import main\ntry:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n"
+               "    assert not e.code, e.code\n"
+               "print(sorted(m for m in ('pandas', 'matplotlib', 'roneld_eval.extract') if m in sys.modules))")
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, "-c", program, "score", "culane", "--data-root", str(gt), "--pred-root",
+                           str(pred), "--out", str(tmp_path / "o")], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr
+    assert "| pred | all |" in done.stdout and (tmp_path / "o" / "summary.md").is_file()
+    assert done.stdout.splitlines()[-1] == "[]"
 
 
 # ---- the table arithmetic, as a property -------------------------------------------------------

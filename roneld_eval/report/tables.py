@@ -13,13 +13,15 @@ import math
 import re
 from decimal import ROUND_HALF_UP, Decimal
 from dataclasses import dataclass, fields
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from ..config import EvalConfig
 from ..errors import RoneldEvalError
 from ..geometry import EffectiveGeometry
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, count_clips
+
+if TYPE_CHECKING:  # only annotations use it: `score culane` renders its tables without pandas
+    import pandas as pd
 
 PAPER_THRESHOLDS = ("0.30", "0.40", "0.50")
 ABLATION_THRESHOLDS = ("0.30", "0.50")
