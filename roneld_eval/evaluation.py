@@ -160,7 +160,7 @@ def evaluate_clip(clip: Clip, context: RunContext,
     segment as the workers do, so that errors and progress do not depend on --workers."""
     tracking = Tracking()
     extractions, scored = [], []
-    for segment in segments_of(clip) if segmentable(context) else [clip]:
+    for segment in segments_of(clip, context):
         extraction = extract_segment(segment, context, tracking)
         scored.append(score_segment(extraction, context))
         extractions.append(extraction.counts_only())  # the predictions are scored: let them go
@@ -295,10 +295,11 @@ def merged_clip(clip: Clip, extractions: Sequence[SegmentExtraction],
 SEGMENT_FRAMES = 128
 
 
-def segments_of(clip: Clip) -> list[Clip]:
-    """The clip cut into consecutive parts for extraction: itself, unless it is long."""
+def segments_of(clip: Clip, context: RunContext) -> list[Clip]:
+    """The clip cut into consecutive parts for extraction: itself, unless it is long and every
+    method's tracking state can travel between processes (see `segmentable`)."""
     frames = clip.frames
-    if len(frames) <= 2 * SEGMENT_FRAMES:
+    if len(frames) <= 2 * SEGMENT_FRAMES or not segmentable(context):
         return [clip]
     return [replace(clip, frames=frames[start:start + SEGMENT_FRAMES])
             for start in range(0, len(frames), SEGMENT_FRAMES)]
@@ -557,9 +558,7 @@ def segmentable(context: RunContext) -> bool:
 
 def work_units(clips: Sequence[Clip], context: RunContext) -> int:
     """Tasks the clips make for the workers: one per clip, one per segment of a long one."""
-    if not segmentable(context):
-        return len(clips)
-    return sum(len(segments_of(clip)) for clip in clips)
+    return sum(len(segments_of(clip, context)) for clip in clips)
 
 
 @dataclass
@@ -583,7 +582,7 @@ class _Schedule:
         self.executor = executor
         self.clips = clips
         self.waiting = deque(todo)
-        self.segmented = segmentable(context)
+        self.context = context
         self.limit = 2 * workers
         self.advance = advance
         self.tasks: dict[Future, Callable[[Future], None]] = {}  # what to do when each finishes
@@ -605,7 +604,7 @@ class _Schedule:
             self.waiting.popleft()
             self.started.add(index)
             clip = self.clips[index]
-            segments = segments_of(clip) if self.segmented else [clip]
+            segments = segments_of(clip, self.context)
             if len(segments) == 1:
                 self._submit(functools.partial(self._clip_done, index), _evaluate_in_worker, clip)
             else:

@@ -88,8 +88,9 @@ def test_the_same_error_for_any_workers_when_two_segments_are_bad(dataset, tmp_p
 
 def test_progress_moves_within_a_long_clip_with_one_worker(base):
     told: list[int] = []
-    list(evaluation._clip_results(clips_of(base), context_for(base, 1), 1, advance=told.append))
-    assert len(told) == len(evaluation.segments_of(clips_of(base)[0])) + 1 and sum(told) == LENGTH + 5
+    context = context_for(base, 1)
+    list(evaluation._clip_results(clips_of(base), context, 1, advance=told.append))
+    assert len(told) == len(evaluation.segments_of(clips_of(base)[0], context)) + 1 and sum(told) == LENGTH + 5
 
 
 def test_the_main_process_keeps_no_predictions_of_a_long_clip(base, monkeypatch):
@@ -103,7 +104,7 @@ def test_the_main_process_keeps_no_predictions_of_a_long_clip(base, monkeypatch)
     monkeypatch.setattr(evaluation, "merged_clip", recording)
     results = list(evaluation._clip_results(clips_of(base), context_for(base, 2), 2))
     assert results[0].n_scored == LENGTH and results[0].n_gt_lanes > 0
-    assert len(kept) == len(evaluation.segments_of(clips_of(base)[0]))
+    assert len(kept) == len(evaluation.segments_of(clips_of(base)[0], context_for(base, 2)))
     assert all(not part.labelled for part in kept)
 
 

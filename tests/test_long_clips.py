@@ -68,7 +68,8 @@ def runs(root: Path, tmp_path: Path, monkeypatch, **overrides) -> dict[str, tupl
 
 def test_segments_are_real(base, monkeypatch):
     monkeypatch.setattr(evaluation, "SEGMENT_FRAMES", SEGMENT)
-    clips = [evaluation.segments_of(clip) for clip in _clips(base)]
+    context = evaluation.RunContext(config_for(base, 2), base / "maps")
+    clips = [evaluation.segments_of(clip, context) for clip in _clips(base)]
     assert [len(parts) for parts in clips] == [6, 8, 7, 5, 1]
     for parts, (_, relpaths) in zip(clips, structure()):
         assert [frame.relpath for part in parts for frame in part.frames] == relpaths
@@ -110,8 +111,8 @@ def test_an_error_in_a_segment_is_the_error_of_one_worker(dataset, tmp_path, mon
 def test_tracking_state_survives_pickling(base):
     """Extracting a clip in two halves, the state pickled between them, predicts what one pass does."""
     config = config_for(base, 1)
-    clip = evaluation.segments_of(_clips(base)[1])[0]  # the curved clip, whole (default segments)
     context = evaluation.RunContext(config, base / "maps", base / "data", data_root=base / "data")
+    clip = evaluation.segments_of(_clips(base)[1], context)[0]  # the curved clip, whole (default segments)
     whole = evaluation.extract_segment(clip, context, evaluation.Tracking())
     middle = len(clip.frames) // 2
     tracking = evaluation.Tracking()
