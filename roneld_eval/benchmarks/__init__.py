@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Protocol, Sequence
+from typing import Any, Protocol, Sequence
 
 import pandas as pd
 
@@ -32,7 +32,7 @@ class OfficialTally(Protocol):
     def add(self, method: str, relpath: str, record: Any) -> None: ...
 
     def table(self) -> pd.DataFrame:
-        """The table `Benchmark.table` gives for the same records in the same order."""
+        """The official table: one row per method (and category), methods in the given order."""
 
 
 @dataclass(frozen=True)
@@ -65,10 +65,6 @@ class Benchmark(Protocol):
 
     def tally(self, methods: Sequence[str], dataset: Dataset, config: EvalConfig) -> "OfficialTally":
         """An empty official table for these methods, to `add` records to frame by frame."""
-
-    def table(self, records: Mapping[str, Sequence[tuple[str, OfficialRecord]]], dataset: Dataset,
-              config: EvalConfig) -> pd.DataFrame:
-        """The official table: one row per method (and category), methods in the given order."""
 
     def decode(self, value: Any) -> OfficialRecord:
         """The inverse of `OfficialRecord.to_json` (TypeError/ValueError when malformed)."""

@@ -78,14 +78,6 @@ class CulaneBenchmark:
     def tally(self, methods: Sequence[str], dataset: Dataset, config: EvalConfig) -> "CulaneTally":
         return CulaneTally(tuple(methods), dataset.categories, config.official.iou_threshold)
 
-    def table(self, records: Mapping[str, Sequence[tuple[str, CulaneOfficial]]], dataset: Dataset,
-              config: EvalConfig) -> pd.DataFrame:
-        tally = self.tally(list(records), dataset, config)
-        for method, frames in records.items():
-            for relpath, record in frames:
-                tally.add(method, relpath, record)
-        return tally.table()
-
     def decode(self, value: Any) -> CulaneOfficial:
         if not isinstance(value, dict) or set(value) != {"culane"}:
             raise TypeError("not a CULane official record")

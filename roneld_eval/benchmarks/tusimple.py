@@ -6,7 +6,7 @@ from __future__ import annotations
 from array import array
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import pandas as pd
 
@@ -55,14 +55,6 @@ class TusimpleBenchmark:
 
     def tally(self, methods: Sequence[str], dataset: Dataset, config: EvalConfig) -> "TusimpleTally":
         return TusimpleTally(tuple(methods))
-
-    def table(self, records: Mapping[str, Sequence[tuple[str, TusimpleOfficial]]], dataset: Dataset,
-              config: EvalConfig) -> pd.DataFrame:
-        tally = self.tally(list(records), dataset, config)
-        for method, frames in records.items():
-            for relpath, record in frames:
-                tally.add(method, relpath, record)
-        return tally.table()
 
     def decode(self, value: Any) -> TusimpleOfficial:
         if not isinstance(value, dict) or set(value) != {"scores"}:
