@@ -23,6 +23,7 @@ from .errors import RunInterrupted
 
 _PR_SET_PDEATHSIG = 1
 GRACE_S = 2.0
+_PARENT_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 def leave_signals_to_parent() -> None:
@@ -33,8 +34,24 @@ def leave_signals_to_parent() -> None:
         signal.signal(number, signal.SIG_DFL)
 
 
+@contextlib.contextmanager
+def _signals_held_back() -> Iterator[None]:
+    """Ctrl-C, SIGTERM and SIGHUP stay pending in this thread, and in processes it forks, until
+    the block ends (or, in such a child, until `_start_worker` has its own handlers)."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _PARENT_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple) -> None:
     leave_signals_to_parent()
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _PARENT_SIGNALS)
     if sys.platform == "linux":
         with contextlib.suppress(OSError, AttributeError):
             libc = ctypes.CDLL(None, use_errno=True)
@@ -50,8 +67,22 @@ def process_pool(workers: int, initializer: Callable[..., Any] | None = None,
     """Worker processes (forked where the platform allows). Unlike multiprocessing.Pool, a
     worker that dies makes its pending results raise BrokenProcessPool instead of hanging."""
     method = "fork" if sys.platform == "linux" else "spawn"
-    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method),
-                               initializer=_start_worker, initargs=(os.getpid(), initializer, initargs))
+    executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method),
+                                   initializer=_start_worker, initargs=(os.getpid(), initializer, initargs))
+    if method != "fork":
+        return executor
+    # A forked child runs the parent's signal handlers until `_start_worker` replaces them: a
+    # signal in that moment (the run's own SIGTERM to its workers, Ctrl-C to the terminal's
+    # process group) raised inside the child's fork hooks and printed a traceback. Forking with
+    # the signals held back makes them wait for the child's own handlers. The first submit
+    # forks every worker at once (fork start method), so none forks later, unprotected.
+    try:
+        with _signals_held_back():
+            executor.submit(int)
+    except BaseException:  # a signal that waited during the fork: the workers exist, end them
+        stop_pool(executor)
+        raise
+    return executor
 
 
 def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished: bool = False) -> None:
