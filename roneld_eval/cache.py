@@ -73,8 +73,9 @@ class ResultCache:
     def _path(self, clip_id: str) -> Path:
         return self.folder / (hashlib.sha256(clip_id.encode("utf-8", "surrogateescape")).hexdigest()[:32] + ".json")
 
-    def load(self, clip: Clip, inputs: Sequence[Path]) -> ClipResult | None:
-        """The cached result of this clip if it is valid and made from the same inputs, else None."""
+    def load(self, clip: Clip, inputs: Callable[[], Sequence[Path]]) -> ClipResult | None:
+        """The cached result of this clip if it is valid and made from the same inputs, else None.
+        `inputs()` lists the clip's input files: asked only when an entry is there to check."""
         path = self._path(clip.clip_id)
         try:
             info = os.lstat(path)
@@ -107,7 +108,7 @@ class ResultCache:
             if entry.get("frames") != [frame.relpath for frame in clip.frames]:
                 self.reasons["frame list changed"] += 1
                 return None
-            if entry.get("inputs") != fingerprint(inputs):
+            if entry.get("inputs") != fingerprint(inputs()):
                 self.reasons["maps or labels changed"] += 1
                 return None
             result = decode_result(entry["result"], self.benchmark)
