@@ -5,6 +5,8 @@ Nothing here computes anything; see api.py for the functions each command calls.
 
 from __future__ import annotations
 
+import atexit
+import gc
 import sys
 import traceback
 from pathlib import Path
@@ -54,6 +56,14 @@ def _guard(function, debug: bool, *args, **kwargs):
         where = getattr(error, "filename", None)
         message = f"{where}: {error.strerror}" if where else str(error)
         _fail(RoneldEvalError(message), debug)
+
+
+def _no_collections_at_exit() -> None:
+    """When the process ends, its last garbage collections would walk numba's, pandas' and
+    matplotlib's objects, none of them garbage: 0.2-0.3 s of every command (scripts/bench_startup.py).
+    Frozen at exit, they are skipped."""
+    atexit.unregister(gc.freeze)  # registered once, however often a command runs in one process
+    atexit.register(gc.freeze)
 
 
 def _announcer(quiet: bool):
@@ -134,6 +144,8 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
     refused.
     """
     from . import api
+
+    _no_collections_at_exit()
 
     def build() -> EvalConfig:
         if config_file is not None:
@@ -238,15 +250,9 @@ def score():
 def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, strict, workers, out, quiet, debug):
     """Official CULane precision, recall and F1 per method and category, as SCNN's lane_evaluation
     computes them; with a grid, F1@50, F1@75 and mF1 as CLRNet reports them."""
-    import atexit
-    import gc
-
     from . import score as scoring  # not api: scoring needs none of the evaluation's imports
 
-    # When the process ends, its last garbage collections would walk numba's ~110,000 objects, none of
-    # them garbage: 0.3 s of a one-frame score (scripts/bench_startup.py). Frozen then, they are skipped.
-    atexit.unregister(gc.freeze)  # registered once, however often the command runs in one process
-    atexit.register(gc.freeze)
+    _no_collections_at_exit()
     score = _guard(scoring.score_culane, debug, data_root, list(pred_roots), list_file=list_file, iou=iou, width=width,
                    out=out, workers=workers, progress=not quiet, announce=_announcer(quiet), preset=preset,
                    strict=strict)
@@ -364,6 +370,8 @@ def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
     of one dataset must share frames, ground truth and thresholds.
     """
     from .comparison import compare as compare_runs, parse_label_options
+
+    _no_collections_at_exit()
 
     chosen = _guard(parse_label_options, debug, labels, runs)
     result = _guard(compare_runs, debug, runs, out, chosen, thresholds, pairs, allow_mixed)
