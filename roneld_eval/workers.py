@@ -122,6 +122,45 @@ def stopping(executor: ProcessPoolExecutor, died: Callable[[], str]) -> Iterator
     stop_pool(executor, finished=True)
 
 
+@contextlib.contextmanager
+def alongside(task: Callable[[], object]) -> Iterator[None]:
+    """Run `task` in a forked process while the block runs, and wait for it at the block's end.
+
+    For independent work at the end of a run, such as drawing one figure while another is
+    drawn here. Where no process can be forked (not Linux, or fork fails) or the task fails
+    there, it runs here after the block instead, so its error is raised as usual. If the block
+    fails or is interrupted, the process is killed and reaped before the error goes on: it
+    never writes after its caller has given up.
+    """
+    pid = 0
+    if sys.platform == "linux":
+        with contextlib.suppress(OSError), _signals_held_back():
+            pid = os.fork()
+            if pid == 0:  # pragma: no cover - the child (coverage is not gathered there)
+                code = 1
+                try:
+                    leave_signals_to_parent()
+                    signal.pthread_sigmask(signal.SIG_UNBLOCK, _PARENT_SIGNALS)
+                    task()
+                    code = 0
+                finally:
+                    os._exit(code)  # never the parent's cleanup, atexit or buffered output
+    done = False  # the task, there
+    try:
+        yield
+        if pid:
+            status = os.waitpid(pid, 0)[1]
+            pid = 0
+            done = os.waitstatus_to_exitcode(status) == 0
+    finally:
+        if pid:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+    if not done:
+        task()
+
+
 def default_workers() -> int:
     """All cores this process may use."""
     try:

@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import textwrap
+import time
+from pathlib import Path
 
 import pytest
+
+from roneld_eval import workers
+from roneld_eval.errors import InputError
 
 # The child sends itself the signal from a fork hook, that is before `_start_worker` runs: the
 # moment in which a worker still has the parent's handlers. The parent's are the run's own:
@@ -39,3 +45,73 @@ def test_a_signal_before_a_worker_has_its_handlers_waits_for_them(name, outcome)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == outcome
     assert done.stderr == ""  # before: "Exception ignored in: <function ...>" and a traceback per worker
+
+
+# ---- alongside: a task in a forked process while the caller goes on --------------------------
+
+
+def _write(path, text):
+    def task():
+        path.write_text(f"{text} {os.getpid()}")
+    return task
+
+
+def test_alongside_runs_the_task_in_another_process_during_the_block(tmp_path):
+    target = tmp_path / "figure"
+    with workers.alongside(_write(target, "drawn")):
+        here = os.getpid()
+    text, pid = target.read_text().split()
+    assert text == "drawn"
+    assert int(pid) != here if sys.platform == "linux" else int(pid) == here
+
+
+def test_a_task_that_fails_there_runs_here_so_its_error_is_raised(tmp_path):
+    calls = []
+
+    def task():
+        calls.append(os.getpid())
+        raise InputError(tmp_path / "figure.png", "cannot write: No space left on device")
+
+    with pytest.raises(InputError, match="No space left"):
+        with workers.alongside(task):
+            pass
+    assert calls == [os.getpid()]  # the child's try is not seen here; this process's is
+
+
+def test_where_nothing_forks_the_task_runs_after_the_block(tmp_path, monkeypatch):
+    monkeypatch.setattr(workers.sys, "platform", "darwin")
+    order = []
+    with workers.alongside(lambda: order.append("task")):
+        order.append("block")
+    assert order == ["block", "task"]
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="forks on Linux only")
+def test_when_the_block_fails_the_task_is_killed_before_the_error_goes_on(tmp_path):
+    started, target = tmp_path / "started", tmp_path / "late"
+
+    def slow():
+        started.write_text("")
+        time.sleep(5)
+        target.write_text("written after the caller gave up")
+
+    children_before = _children()
+    with pytest.raises(KeyboardInterrupt):
+        with workers.alongside(slow):
+            deadline = time.monotonic() + 10
+            while not started.exists() and time.monotonic() < deadline:
+                time.sleep(0.01)
+            raise KeyboardInterrupt
+    assert _children() == children_before  # killed and reaped: no zombie either
+    time.sleep(0.2)
+    assert not target.exists()
+
+
+def _children() -> set[int]:
+    own = Path(f"/proc/{os.getpid()}/task")
+    pids = set()
+    for task in own.iterdir():
+        children = task / "children"
+        if children.exists():
+            pids |= {int(pid) for pid in children.read_text().split()}
+    return pids
