@@ -57,11 +57,12 @@ def _clip_counts(per_frame: pd.DataFrame, clip: pd.Series, method: str, threshol
     rows = per_frame[chosen]
     positions = pd.Categorical(clip[chosen], categories=clips).codes.astype(np.int64)
     assert (positions >= 0).all(), "every frame's clip is among the clips"
-    above = rows["iou"].to_numpy(np.float64)[:, None] > np.asarray(thresholds.values)[None, :]
-    # Each (clip, threshold) pair a bin: one bincount of the pairs a row is above, not np.add.at (slow).
-    pairs = positions[:, None] * len(thresholds) + np.arange(len(thresholds))[None, :]
-    tp = np.bincount(pairs[above], minlength=len(clips) * len(thresholds)).astype(np.int64)
-    tp = tp.reshape(len(clips), len(thresholds))
+    ious = rows["iou"].to_numpy(np.float64)
+    # A bincount per threshold (not np.add.at, slow): a row-by-threshold table of pairs would take
+    # some 400 bytes a frame at once, the largest allocation of a run's main process.
+    tp = np.zeros((len(clips), len(thresholds)), np.int64)
+    for column, value in enumerate(thresholds.values):
+        tp[:, column] = np.bincount(positions[ious > value], minlength=len(clips))
     n_gt = np.bincount(positions, minlength=len(clips))
     return tp, n_gt
 
