@@ -394,6 +394,15 @@ class Staging:
             raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
         return path
 
+    def write_csv(self, name: str, table, float_format: str) -> None:
+        """A pandas DataFrame as CSV (no index, '\\n' line ends), streamed: pandas formats and
+        writes it a chunk of rows at a time, so a long run's per-frame table is never one string."""
+        try:
+            with open(self.file(name), "w", encoding="utf-8", newline="") as handle:
+                table.to_csv(handle, index=False, float_format=float_format, lineterminator="\n")
+        except OSError as error:
+            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
+
     def write_text(self, name: str, text: str) -> None:
         try:
             self.file(name).write_text(text, encoding="utf-8")

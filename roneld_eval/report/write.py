@@ -118,9 +118,9 @@ def stage_report(result: RunResult, staging: Staging) -> None:
     source = (f"the bundled {name} fixture (synthetic {model}-like maps)" if result.fixture
               else f"{name}, {model} probability maps")
     paper_note = f"The RONELD paper's protocol: {protocol.paper()}; a true positive needs IoU > the row's threshold."
-    staging.write_text("accuracy.csv", result.accuracy.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
+    staging.write_csv("accuracy.csv", result.accuracy, "%.10g")
     if result.gains is not None:
-        staging.write_text("gains.csv", result.gains.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
+        staging.write_csv("gains.csv", result.gains, "%.10g")
     comparison = tables.comparison_table(result.accuracy, model, protocol.clips)
     increase_note = ("Acc. Inc.: RONELD's increase over the method two columns to its left, "
                      f"its {protocol.interval()}, in bold relative to that method.")
@@ -139,12 +139,12 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         staging.write_text("ablation.tex", ablation.to_latex(
             f"Accuracy of {tables.display_name('roneld', model)} with and without preceding frame tracking (PFT) "
             f"on {source}. {paper_note}", f"tab:pft-{result.dataset.name}"))
-    staging.write_text("runtime.csv", result.runtime.to_csv(index=False, float_format="%.4f", lineterminator="\n"))
+    staging.write_csv("runtime.csv", result.runtime, "%.4f")
     staging.write_text("runtime.md", f"# Runtime per frame on {source}\n\n"
                        f"Milliseconds per frame of extraction alone (after numba warm-up), map loading apart, "
                        f"on {protocol.map_size()}.\n\n" + tables.runtime_table(result.runtime, model).to_markdown())
-    staging.write_text("per_frame.csv", result.per_frame.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
-    staging.write_text("official.csv", result.official.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
+    staging.write_csv("per_frame.csv", result.per_frame, "%.10g")
+    staging.write_csv("official.csv", result.official, "%.6f")
     staging.write_text("config.toml", config_record(result))
     staging.write_text("summary.json", json.dumps(summary(result), indent=2) + "\n")
     from .plots import accuracy_figure, category_figure, save_figure  # matplotlib: imported only to draw
@@ -155,7 +155,7 @@ def stage_report(result: RunResult, staging: Staging) -> None:
 
         threshold = config.official.iou_threshold
         by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
-        staging.write_text("categories.csv", by_category.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
+        staging.write_csv("categories.csv", by_category, "%.6f")
         png = staging.file("categories.png")
         # Each figure takes a quarter of a second, and by now the run's other cores idle.
         other_figure = alongside(lambda: save_figure(
