@@ -39,7 +39,7 @@ from .errors import ConfigError, ExtractorError, InputError
 from .extract.protocol import Extractor, Prediction, is_stateless, prediction_problem
 from .extract.registry import Method, methods_of
 from .geometry import EffectiveGeometry, MapGeometry, check_map_shape
-from .maps import load_maps, map_stem, required_paths
+from .maps import load_maps, map_size, map_stem, required_paths
 from .maps.scnn_png import scnn_png_paths
 from .metrics.bootstrap import paired_bootstrap
 from .metrics.paper import ego_masks, side_ious
@@ -105,7 +105,7 @@ class RunContext:
 
     def kernel_groups(self) -> tuple[str, ...]:
         """The numba kernel groups this run executes (see roneld_eval.kernels)."""
-        return kernels.groups_for(self.methods, self.benchmark)
+        return kernels.groups_for(self.methods, self.benchmark, self.config.maps.format)
 
 
 @dataclass
@@ -843,12 +843,14 @@ def _first_geometry(clips: Sequence[Clip], context: RunContext) -> EffectiveGeom
     """The geometry of the first clip's maps, checked before any work starts (None if unreadable)."""
     for clip in clips[:1]:
         for frame in clip.frames[:1]:
+            config = context.config
             try:
-                maps = context.load(frame)
+                width, height = map_size(context.maps_root, frame.relpath, config.maps, config.geometry,
+                                         config.roneld.center_ratio)
             except InputError:
                 return None  # reported, or skipped, where the clip is evaluated
-            check_map_shape(context.config.geometry, maps.width, maps.height, str(frame_map_path(context, frame)))
-            return effective_geometry(context.config, maps.width, maps.height)
+            check_map_shape(config.geometry, width, height, str(frame_map_path(context, frame)))
+            return effective_geometry(config, width, height)
     return None
 
 

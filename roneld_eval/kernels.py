@@ -15,10 +15,11 @@ process at once, in the middle of the first clip. Instead:
   mode included, so that no compile or first-call import lands in a timed region.
 
 Kernel groups: "roneld" and "baseline" (extract/_kernels.ENTRY_SIGNATURES), "official" and
-"paper" (metrics/_kernels.ENTRY_SIGNATURES; both bring "tables"). `groups_for` says which a
-run needs. Nothing here changes a result: it only decides when compiling happens.
-The extractors' kernels (and their modules) are imported only when an extraction group is
-asked for, so `score culane` loads the scoring kernels alone.
+"paper" (metrics/_kernels.ENTRY_SIGNATURES; both bring "tables"), and "maps" (decoding PNG
+maps, maps/_kernels.ENTRY_SIGNATURES). `groups_for` says which a run needs. Nothing here
+changes a result: it only decides when compiling happens.
+The extractors' and the maps' kernels (and their modules) are imported only when one of their
+groups is asked for, so `score culane` loads the scoring kernels alone.
 """
 
 from __future__ import annotations
@@ -34,31 +35,44 @@ from ._numba_cache import cache_dir, compile_now, in_cache
 from .metrics import _kernels as metric_kernels
 from .metrics.raster import warm_up as warm_up_scoring
 
-GROUPS = ("roneld", "baseline", "official", "paper")
+GROUPS = ("roneld", "baseline", "official", "paper", "maps")
 EXTRACTION = ("roneld", "baseline")
 SCORING = ("official", "paper")
+LOADING = ("maps",)
 
 # Groups compiled in the same process, because their kernels share callees (the rasteriser),
 # and the seconds each unit takes to compile from nothing on one core of the 2-core machine
 # this is developed on (scripts/bench_cold.py): to balance processes and announce a duration.
-_UNITS = {"roneld": ("roneld",), "baseline": ("baseline",), "scoring": ("tables", "official", "paper")}
-_UNIT_COMPILE_S = {"roneld": 9.0, "baseline": 1.0, "scoring": 32.0}
+_UNITS = {"roneld": ("roneld",), "baseline": ("baseline",), "scoring": ("tables", "official", "paper"),
+          "maps": ("maps",)}
+_UNIT_COMPILE_S = {"roneld": 9.0, "baseline": 1.0, "scoring": 32.0, "maps": 1.0}
 
 
 def _kernel_modules(groups: Iterable[str] | None = None) -> tuple[ModuleType, ...]:
-    """The kernel modules holding these groups (default: all), the extractors' imported only here."""
-    if groups is not None and not set(groups) & set(EXTRACTION):
-        return (metric_kernels,)
-    from .extract import _kernels as extract_kernels
+    """The kernel modules holding these groups (default: all), the extractors' and the maps'
+    imported only here."""
+    wanted = set(GROUPS if groups is None else groups)
+    modules: list[ModuleType] = []
+    if wanted & set(EXTRACTION):
+        from .extract import _kernels as extract_kernels
 
-    return (extract_kernels, metric_kernels)
+        modules.append(extract_kernels)
+    modules.append(metric_kernels)
+    if wanted & set(LOADING):
+        from .maps import _kernels as map_kernels
+
+        modules.append(map_kernels)
+    return tuple(modules)
 
 
-def groups_for(methods, benchmark) -> tuple[str, ...]:
+def groups_for(methods, benchmark, maps_format: str | None = None) -> tuple[str, ...]:
     """The kernel groups a run needs: its methods' (extract.registry.Method.kernel_groups), its
-    benchmark's official scoring, and the paper's protocol, which every run scores with."""
+    benchmark's official scoring, the paper's protocol, which every run scores with, and for
+    PNG maps ("scnn-png") their decoding."""
     needed = [group for method in methods for group in method.kernel_groups]
     needed += list(benchmark.kernel_groups) + ["paper"]
+    if maps_format == "scnn-png":
+        needed.append("maps")
     return tuple(dict.fromkeys(needed))
 
 
@@ -197,6 +211,8 @@ def warm_up(needed: Iterable[str] | None = None) -> None:
             warm_up_extraction(extraction)
         if scoring:
             warm_up_scoring(("tables",) + scoring)
+        for kernel, signature in _entries(group for group in groups if group in LOADING):
+            compile_now(kernel, signature)  # one kernel, no callees: loaded, it runs at full speed
 
 
 @contextlib.contextmanager

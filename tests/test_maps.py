@@ -5,7 +5,7 @@ import pytest
 
 from roneld_eval.config import MapsConfig
 from roneld_eval.errors import InputError
-from roneld_eval.maps import load_maps, required_paths
+from roneld_eval.maps import load_maps, map_size, required_paths
 
 
 def _maps(channels=4, height=6, width=8, seed=0):
@@ -130,3 +130,43 @@ def test_real_clip_pngs(real_clip):
     assert loaded.probabilities.shape == (4, 351, 976) and loaded.probabilities.dtype == np.uint8
     assert loaded.existence.tolist() == [0, 1, 1, 1]
     assert loaded.probabilities[1].max() > 200
+
+
+def _write_pngs(folder, maps, exist="1 1 1 1", skip=()):
+    import cv2
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for k, image in enumerate(maps, start=1):
+        if k not in skip:
+            cv2.imwrite(str(folder / f"00000_{k}_avg.png"), image)
+    (folder / "00000.exist.txt").write_text(exist)
+
+
+def _size(maps) -> tuple[int, int]:
+    return maps.width, maps.height
+
+
+def test_map_size_reads_png_headers_as_load_maps_would_size_them(tmp_path):
+    config = MapsConfig(format="scnn-png", width=8, height=6)
+    _write_pngs(tmp_path / "a", _maps(height=5, width=7))
+    assert map_size(tmp_path, "a/00000.jpg", config) == (7, 5) == _size(load_maps(tmp_path, "a/00000.jpg", config))
+    # The first channel's PNG absent (its lane too): the next one's header.
+    _write_pngs(tmp_path / "b", _maps(height=5, width=7), exist="0 1 1 1", skip=(1,))
+    assert map_size(tmp_path, "b/00000.jpg", config) == (7, 5)
+    # No PNG at all (no lane exists): zeros of the configured size, as load_maps gives them.
+    _write_pngs(tmp_path / "c", _maps(), exist="0 0 0 0", skip=(1, 2, 3, 4))
+    assert map_size(tmp_path, "c/00000.jpg", config) == (8, 6) == _size(load_maps(tmp_path, "c/00000.jpg", config))
+    # One file is not a PNG: the size is another's (loading the frame reports the bad one) ...
+    _write_pngs(tmp_path / "d", _maps(height=5, width=7))
+    (tmp_path / "d" / "00000_1_avg.png").write_bytes(b"not a png at all, but long enough")
+    assert map_size(tmp_path, "d/00000.jpg", config) == (7, 5)
+    # ... none is: load_maps' own error.
+    for k in range(2, 5):
+        (tmp_path / "d" / f"00000_{k}_avg.png").write_bytes(b"\x89PNG")
+    with pytest.raises(InputError, match="not a PNG"):
+        map_size(tmp_path, "d/00000.jpg", config)
+
+
+def test_map_size_of_other_formats_is_their_loaded_size(tmp_path):
+    np.save(tmp_path / "00000.npy", _maps(height=5, width=7))
+    assert map_size(tmp_path, "00000.jpg", MapsConfig()) == (7, 5)

@@ -165,8 +165,37 @@ def test_groups_follow_the_methods_and_the_dataset():
     # A plug-in brings no kernels of ours; the benchmark and the paper's protocol still do.
     plugin = EvalConfig.preset("scnn-culane").with_overrides(methods=["baseline"]).with_plugin("mine", "x:y")
     assert kernels.groups_for(methods_of(plugin), benchmark_for("culane")) == ("baseline", "official", "paper")
+    # PNG maps are decoded by a kernel of their own; other formats need none.
+    config = EvalConfig.preset("scnn-culane")
+    assert kernels.groups_for(methods_of(config), benchmark_for("culane"), "scnn-png")[-1] == "maps"
+    assert "maps" not in kernels.groups_for(methods_of(config), benchmark_for("culane"), "npz")
     with pytest.raises(ValueError, match="unknown kernel groups"):
         kernels.warm_up(["roneld", "sideways"])
+
+
+_MAIN_PROCESS_KERNELS = """
+import sys
+from roneld_eval import api
+from roneld_eval.maps._kernels import unfilter_grey
+config = api.default_config("culane").with_overrides(**{
+    "dataset.data_root": sys.argv[1], "maps.root": sys.argv[2], "maps.format": "scnn-png", "workers": 2})
+api.run(config, out=sys.argv[3], progress=False)
+print(len(unfilter_grey.signatures))
+"""
+
+
+def test_a_run_on_png_maps_decodes_them_in_the_workers_only(tmp_path):
+    # The main process checks the first frame's map size from a PNG header: it loads no decoding
+    # kernel, nor numba's machinery with it (0.3 s and 50 MB before the workers could start).
+    from roneld_eval.synth import synth_culane
+
+    made = synth_culane(tmp_path / "set", clips=2, frames=3, maps_format="scnn-png")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
+    done = subprocess.run([sys.executable, "-c", _MAIN_PROCESS_KERNELS, str(made.data_root), str(made.maps_root),
+                           str(tmp_path / "out")], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["0"]
+    assert (tmp_path / "out" / "accuracy.csv").is_file()
 
 
 def test_prepare_announces_compiling_only_when_something_is_missing(monkeypatch):
@@ -200,7 +229,7 @@ def test_units_are_balanced_over_processes():
 
 def test_every_kernel_is_listed():
     names = set(kernels.dispatchers())
-    for module in ("extract", "metrics"):
+    for module in ("extract", "metrics", "maps"):
         source = (PACKAGE / module / "_kernels.py").read_text()
         assert source.count("@cached_njit(") == sum(name.startswith(f"roneld_eval.{module}.") for name in names)
 

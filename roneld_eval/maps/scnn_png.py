@@ -22,6 +22,7 @@ from ..errors import InputError
 from ..lanes_io import decode_text, parse_number, read_bytes
 from ..model import FrameMaps
 from ._checks import canonical_existence
+from ._kernels import unfilter_grey
 
 
 def scnn_png_paths(stem: Path, channels: int) -> tuple[list[Path], Path]:
@@ -115,21 +116,26 @@ def _decode_plain_png(data: bytes) -> np.ndarray | None:
     raw = _inflate(b"".join(parts), height * (1 + width * samples))
     if raw is None:
         return None
-    rows = np.frombuffer(raw, np.uint8).reshape(height, 1 + width * samples)
-    filters = rows[:, 0]
-    if int(filters.max()) > 1:  # Up, Average, Paeth: left to OpenCV
+    stream = np.frombuffer(raw, np.uint8)
+    if int(stream[::1 + width * samples].max()) > 1:  # a row filtered Up, Average or Paeth: left to OpenCV
         return None
-    pixels = rows[:, 1:].reshape(height, width, samples)
-    first = pixels[:, :, 0]
-    if samples > 1 and not ((first == pixels[:, :, 1]).all() and (first == pixels[:, :, 2]).all()):
+    if stream.ctypes.data % 8:  # pragma: no cover - the allocator aligns a buffer this size
+        stream = stream.copy()
+    image, same = unfilter_grey(stream, stream[:stream.size // 8 * 8].view(np.uint64), height, width, samples)
+    return image if same else None
+
+
+def png_size(path: Path) -> tuple[int, int] | None:
+    """(width, height) from a PNG's header alone, or None if the file is missing or does not
+    start as a PNG does (loading it then says what is wrong)."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(24)
+    except (OSError, ValueError):
         return None
-    sub = filters == 1
-    if sub.all():
-        return np.cumsum(first, axis=1, dtype=np.uint8)
-    image = np.ascontiguousarray(first)
-    if sub.any():
-        image[sub] = np.cumsum(first[sub], axis=1, dtype=np.uint8)
-    return image
+    if len(head) < 24 or not head.startswith(_PNG_SIGNATURE) or head[12:16] != b"IHDR":
+        return None
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
 
 
 def _read_png(path: Path, data: bytes) -> np.ndarray:
