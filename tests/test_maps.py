@@ -170,3 +170,26 @@ def test_map_size_reads_png_headers_as_load_maps_would_size_them(tmp_path):
 def test_map_size_of_other_formats_is_their_loaded_size(tmp_path):
     np.save(tmp_path / "00000.npy", _maps(height=5, width=7))
     assert map_size(tmp_path, "00000.jpg", MapsConfig()) == (7, 5)
+
+
+def test_map_size_leaves_odd_pngs_to_load_maps(tmp_path):
+    # A header claiming no rows, a FIFO: no size from them (the worker's load names the problem),
+    # never a division by zero or a hang here.
+    import os
+    import struct
+    import zlib
+
+    config = MapsConfig(format="scnn-png", width=8, height=6)
+    _write_pngs(tmp_path / "a", _maps(height=5, width=7))
+    data = bytearray((tmp_path / "a" / "00000_1_avg.png").read_bytes())
+    data[20:24] = struct.pack(">I", 0)
+    data[29:33] = struct.pack(">I", zlib.crc32(bytes(data[12:29])))  # a consistent, but empty, header
+    for k in range(1, 5):
+        (tmp_path / "a" / f"00000_{k}_avg.png").write_bytes(bytes(data))
+    with pytest.raises(InputError):
+        map_size(tmp_path, "a/00000.jpg", config)
+    if hasattr(os, "mkfifo"):
+        _write_pngs(tmp_path / "b", _maps(height=5, width=7))
+        (tmp_path / "b" / "00000_1_avg.png").unlink()
+        os.mkfifo(tmp_path / "b" / "00000_1_avg.png")
+        assert map_size(tmp_path, "b/00000.jpg", config) == (7, 5)

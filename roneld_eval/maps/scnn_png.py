@@ -126,16 +126,19 @@ def _decode_plain_png(data: bytes) -> np.ndarray | None:
 
 
 def png_size(path: Path) -> tuple[int, int] | None:
-    """(width, height) from a PNG's header alone, or None if the file is missing or does not
-    start as a PNG does (loading it then says what is wrong)."""
+    """(width, height) from the header of a PNG that passes check_png, or None (missing, not a
+    regular file, broken, or a size no map has): loading it then says what is wrong."""
     try:
-        with open(path, "rb") as handle:
-            head = handle.read(24)
-    except (OSError, ValueError):
+        data = read_bytes(path, missing_ok=True)
+        if data is None:
+            return None
+        check_png(data, path)
+    except InputError:
         return None
-    if len(head) < 24 or not head.startswith(_PNG_SIGNATURE) or head[12:16] != b"IHDR":
+    width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    if data[12:16] != b"IHDR" or not (0 < width < 1 << 31 and 0 < height < 1 << 31):
         return None
-    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+    return width, height
 
 
 def _read_png(path: Path, data: bytes) -> np.ndarray:
