@@ -193,3 +193,16 @@ def test_map_size_leaves_odd_pngs_to_load_maps(tmp_path):
         (tmp_path / "b" / "00000_1_avg.png").unlink()
         os.mkfifo(tmp_path / "b" / "00000_1_avg.png")
         assert map_size(tmp_path, "b/00000.jpg", config) == (7, 5)
+
+
+@pytest.mark.parametrize("fmt", ["npy", "npz"])
+def test_an_array_of_python_objects_is_named_as_such(tmp_path, fmt):
+    # np.load's own message advises allow_pickle, an option of the reader's code, not the user's.
+    objects = np.array([{"lane": 1}], dtype=object)
+    if fmt == "npy":
+        np.save(tmp_path / "00000.npy", objects, allow_pickle=True)
+    else:
+        np.savez(tmp_path / "00000.npz", probs=objects)
+    with pytest.raises(InputError, match="holds Python objects") as raised:
+        load_maps(tmp_path, "00000.jpg", MapsConfig(format=fmt))
+    assert "allow_pickle" not in str(raised.value)

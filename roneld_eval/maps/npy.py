@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import io
 import mmap
 import re
@@ -48,6 +49,20 @@ def _map_simple_npy(path: Path) -> np.ndarray | None:
     return np.frombuffer(buffer, np.uint8, count=size, offset=offset).reshape(shape)
 
 
+_PICKLED = "holds Python objects (a pickled array), not numbers: save the maps as a numeric (uint8 or float) array"
+
+
+def _holds_objects(handle) -> bool:
+    """Whether the .npy stream at `handle` declares a dtype of Python objects (which np.load
+    refuses with advice about allow_pickle, an option this tool never sets)."""
+    try:
+        version = np.lib.format.read_magic(handle)
+        read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        return bool(read(handle)[2].hasobject)
+    except Exception:  # not even a readable header: the caller's own error stands
+        return False
+
+
 def load_npy(path: Path, config: MapsConfig) -> FrameMaps:
     """A (C, H, W) array from `.npy`; uint8 files stay memory-mapped."""
     check_regular_file(path, "maps file not found")
@@ -60,6 +75,9 @@ def load_npy(path: Path, config: MapsConfig) -> FrameMaps:
     except PermissionError as error:
         raise InputError(path, f"cannot read: {error.strerror}") from None
     except (ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
+        with contextlib.suppress(OSError), open(path, "rb") as handle:
+            if _holds_objects(handle):
+                raise InputError(path, _PICKLED) from None
         # np.load takes a file that starts like a zip archive for an .npz (BadZipFile if it is not one)
         raise InputError(path, f"not a readable .npy array (truncated or corrupt?): {error}") from None
     if not isinstance(array, np.ndarray):  # an .npz archive under a .npy name
@@ -147,6 +165,9 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
             key = config.npz_key if config.npz_key in names else (names[0] if len(names) == 1 else None)
             if key is None:
                 raise InputError(path, f"no array named {config.npz_key!r} (arrays: {', '.join(names) or 'none'})")
+            with contextlib.suppress(KeyError, OSError, zipfile.BadZipFile), archive.zip.open(key + ".npy") as member:
+                if _holds_objects(member):
+                    raise InputError(path, f"its array {key!r} {_PICKLED}")
             array = archive[key]
             existence = archive["exist"] if "exist" in names and key != "exist" else None
     except FileNotFoundError:
