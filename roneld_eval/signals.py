@@ -79,6 +79,25 @@ def held_signals():
                              exit_code=128 + received[0])
 
 
+@contextlib.contextmanager
+def deferred_signals():
+    """Within the block, Ctrl-C, SIGTERM and SIGHUP are only noted; after it, the first one is
+    sent again, to the handler that was there before (which raises, ends the process, or
+    ignores it, as it would have).
+
+    For a fork of this process: a signal handled while the interpreter runs its fork hooks
+    (logging's, threading's) raises inside them, where the exception is printed as "Exception
+    ignored" and lost, and the interrupted run would carry on. Blocking the signals in the
+    forking thread alone cannot prevent it: any other thread (tqdm's monitor, a library's) may
+    take the signal, and its handler then runs in the main thread all the same.
+    """
+    received: list[int] = []
+    with _handling(_HELD, lambda number, frame: received.append(number)):
+        yield
+    if received:
+        signal.raise_signal(received[0])
+
+
 class TimeLimitExceeded(BaseException):
     """A call outlived its `time_limit` (a BaseException, so that `except Exception` in the
     code being timed does not swallow it)."""

@@ -20,6 +20,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
 
 from .errors import RunInterrupted
+from .signals import deferred_signals
 
 _PR_SET_PDEATHSIG = 1
 GRACE_S = 2.0
@@ -48,7 +49,10 @@ def _signals_held_back() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
-def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple) -> None:
+def _become_child(parent_pid: int) -> None:
+    """In a process this module forked: its own signal handlers, then the signals the fork held
+    back; death with the parent (Linux parent-death signal, armed before the parent's pid is
+    checked, so a parent that died meanwhile is seen)."""
     leave_signals_to_parent()
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _PARENT_SIGNALS)
@@ -56,8 +60,12 @@ def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, inita
         with contextlib.suppress(OSError, AttributeError):
             libc = ctypes.CDLL(None, use_errno=True)
             libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    if os.getppid() != parent_pid:  # the parent died before the signal was armed
+    if os.getppid() != parent_pid:
         os._exit(1)
+
+
+def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple) -> None:
+    _become_child(parent_pid)
     if initializer is not None:
         initializer(*initargs)
 
@@ -71,15 +79,16 @@ def process_pool(workers: int, initializer: Callable[..., Any] | None = None,
                                    initializer=_start_worker, initargs=(os.getpid(), initializer, initargs))
     if method != "fork":
         return executor
-    # A forked child runs the parent's signal handlers until `_start_worker` replaces them: a
-    # signal in that moment (the run's own SIGTERM to its workers, Ctrl-C to the terminal's
-    # process group) raised inside the child's fork hooks and printed a traceback. Forking with
-    # the signals held back makes them wait for the child's own handlers. The first submit
-    # forks every worker at once (fork start method), so none forks later, unprotected.
+    # The first submit forks every worker at once (fork start method), so none forks later,
+    # outside this protection. A forked child runs the parent's signal handlers until
+    # `_start_worker` replaces them: a signal in that moment (the run's own SIGTERM to its
+    # workers, Ctrl-C to the terminal's process group) raised inside the child's fork hooks and
+    # printed a traceback; held back, it waits for the child's own handlers. In this process a
+    # signal meanwhile is deferred to the end of the fork, not lost in its hooks.
     try:
-        with _signals_held_back():
+        with deferred_signals(), _signals_held_back():
             executor.submit(int)
-    except BaseException:  # a signal that waited during the fork: the workers exist, end them
+    except BaseException:  # the signal that waited: the workers exist, end them
         stop_pool(executor)
         raise
     return executor
@@ -133,28 +142,32 @@ def alongside(task: Callable[[], object]) -> Iterator[None]:
     never writes after its caller has given up.
     """
     pid = 0
-    if sys.platform == "linux":
-        with contextlib.suppress(OSError), _signals_held_back():
-            pid = os.fork()
-            if pid == 0:  # pragma: no cover - the child (coverage is not gathered there)
-                code = 1
-                try:
-                    leave_signals_to_parent()
-                    signal.pthread_sigmask(signal.SIG_UNBLOCK, _PARENT_SIGNALS)
-                    task()
-                    code = 0
-                finally:
-                    os._exit(code)  # never the parent's cleanup, atexit or buffered output
     done = False  # the task, there
     try:
+        if sys.platform == "linux":
+            parent = os.getpid()
+            # Signals wait for the end of the fork, here and in the child (see process_pool); one
+            # raised then leaves through the finally below, which ends the child.
+            with deferred_signals(), _signals_held_back(), contextlib.suppress(OSError):
+                pid = os.fork()
+                if pid == 0:  # pragma: no cover - the child (coverage is not gathered there)
+                    code = 1
+                    try:
+                        _become_child(parent)
+                        task()
+                        code = 0
+                    finally:
+                        os._exit(code)  # never the parent's cleanup, atexit or buffered output
         yield
         if pid:
             status = os.waitpid(pid, 0)[1]
             pid = 0
             done = os.waitstatus_to_exitcode(status) == 0
     finally:
-        if pid:
-            with contextlib.suppress(OSError):
+        # Still ours and unreaped (a signal may come between waitpid and `pid = 0`: a reaped
+        # child's pid may be another process's by now), then killed and reaped.
+        with contextlib.suppress(OSError):
+            if pid and os.waitpid(pid, os.WNOHANG) == (0, 0):
                 os.kill(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
     if not done:

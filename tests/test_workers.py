@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -115,3 +116,85 @@ def _children() -> set[int]:
         if children.exists():
             pids |= {int(pid) for pid in children.read_text().split()}
     return pids
+
+
+# ---- a signal to this process while it forks ----------------------------------------------------
+
+# The signal is sent from a fork hook of the parent: it arrives while the interpreter runs its fork
+# hooks, where a handler's exception would be printed as "Exception ignored" and lost.
+DURING_FORK = textwrap.dedent("""
+    import os, signal, sys, threading, time
+    from pathlib import Path
+    from roneld_eval import signals, workers
+
+    # Another thread, as a run has (tqdm's monitor): the kernel may hand it the signal (here it
+    # is sent to it), whose handler then runs in the main thread all the same, in the fork.
+    other = threading.Thread(target=time.sleep, args=(30,), daemon=True)
+    other.start()
+    number = signal.Signals[sys.argv[1]]
+    what, target = sys.argv[2], Path(sys.argv[3])
+
+    def hook():  # as the interpreter's own hooks (logging's) run Python code
+        signal.pthread_kill(other.ident, number)
+        end = time.monotonic() + 0.2  # long enough for the other thread to take it
+        while time.monotonic() < end:
+            pass
+
+    os.register_at_fork(after_in_parent=hook)
+
+    def late():
+        time.sleep(1.0)
+        target.write_text("written after the caller gave up")
+
+    with signals.terminate_as_interrupt():
+        try:
+            if what == "pool":
+                pool = workers.process_pool(2)
+                workers.stop_pool(pool, finished=True)
+            else:
+                with workers.alongside(late):
+                    pass
+        except KeyboardInterrupt as error:
+            print("interrupted", type(error).__name__, flush=True)
+        else:
+            print("carried on", flush=True)
+    time.sleep(1.5)
+    print("children", len(workers.multiprocessing.active_children()), "late file", target.exists(), flush=True)
+""")
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="forks on Linux only")
+@pytest.mark.parametrize("what", ["pool", "alongside"])
+@pytest.mark.parametrize("name, raised", [("SIGTERM", "Terminated"), ("SIGINT", "KeyboardInterrupt")])
+def test_a_signal_while_forking_interrupts_and_leaves_no_process(tmp_path, what, name, raised):
+    done = subprocess.run([sys.executable, "-c", DURING_FORK, name, what, str(tmp_path / "late")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[:2] == [f"interrupted {raised}", "children 0 late file False"], done.stdout
+    assert "Exception ignored" not in done.stderr and "Traceback" not in done.stderr, done.stderr
+    if what == "alongside":  # killed and reaped: no zombie, nothing written
+        assert not (tmp_path / "late").exists()
+
+
+ORPHANED = textwrap.dedent("""
+    import os, signal, sys, time
+    from pathlib import Path
+    from roneld_eval import workers
+
+    target = Path(sys.argv[1])
+
+    def late():
+        time.sleep(1.0)
+        target.write_text("written by an orphan")
+
+    with workers.alongside(late):
+        os.kill(os.getpid(), signal.SIGKILL)
+""")
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="forks on Linux only")
+def test_the_process_alongside_dies_with_its_parent(tmp_path):
+    done = subprocess.run([sys.executable, "-c", ORPHANED, str(tmp_path / "late")], capture_output=True, timeout=60)
+    assert done.returncode == -signal.SIGKILL
+    time.sleep(1.5)
+    assert not (tmp_path / "late").exists()
