@@ -844,12 +844,22 @@ def _first_geometry(clips: Sequence[Clip], context: RunContext) -> EffectiveGeom
     for clip in clips[:1]:
         for frame in clip.frames[:1]:
             config = context.config
+            where = str(frame_map_path(context, frame))
             try:
                 width, height = map_size(context.maps_root, frame.relpath, config.maps, config.geometry,
                                          config.roneld.center_ratio)
+                check_map_shape(config.geometry, width, height, where)
             except InputError:
                 return None  # reported, or skipped, where the clip is evaluated
-            check_map_shape(config.geometry, width, height, str(frame_map_path(context, frame)))
+            except ConfigError:
+                # A header alone does not stop the run: its file may not decode at all, and then
+                # the frame is reported (or, with on_error = "skip", skipped) as unreadable.
+                try:
+                    maps = context.load(frame)
+                except InputError:
+                    return None
+                width, height = maps.width, maps.height
+                check_map_shape(config.geometry, width, height, where)
             return effective_geometry(config, width, height)
     return None
 

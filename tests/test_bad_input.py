@@ -51,6 +51,18 @@ def first_map(root: Path, suffix=".npy") -> Path:
     return sorted((root / "maps").rglob(f"*{suffix}"))[0]
 
 
+def lying_png(width: int, height: int) -> bytes:
+    """A PNG with sound chunks whose header promises far more pixels than its data holds."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\0" * 1000)) + chunk(b"IEND", b""))
+
+
 def first_labels(root: Path) -> Path:
     return sorted((root / "data").rglob("*.lines.txt"))[0]
 
@@ -110,6 +122,9 @@ CASES = [
      lambda r: np.save(first_map(r), np.full((4, 288, 800), np.nan, np.float32)), "NaN or infinite", "00000.npy"),
     ("map values outside [0, 1]", "culane", [],
      lambda r: np.save(first_map(r), np.full((4, 288, 800), 2.0, np.float32)), "found 2..2", "00000.npy"),
+    ("map PNG whose header claims another size", "culane-png", ["--maps-format", "scnn-png"],
+     lambda r: first_map(r, "_1_avg.png").write_bytes(lying_png(8192, 8191)), "not a readable image",
+     "00000_1_avg.png"),
     ("existence with the wrong count", "culane-png", ["--maps-format", "scnn-png"],
      lambda r: first_map(r, ".exist.txt").write_text("1 1 1\n"), "existence has 3 values", "00000.exist.txt"),
     ("existence that is not numbers", "culane-png", ["--maps-format", "scnn-png"],
@@ -337,3 +352,16 @@ def test_a_killed_worker_ends_scoring_clearly(tmp_path, monkeypatch):
     with pytest.raises(RunInterrupted, match="worker process died .* while scoring"):
         api.score_culane(gt, pred, workers=2, out=tmp_path / "out")
     assert not (tmp_path / "out" / "official.csv").exists()
+
+
+def test_a_first_map_that_does_not_decode_is_skipped_whatever_its_header_claims(sets):
+    # The run's main process takes the maps' size from the first PNG's header; a header that
+    # disagrees with the configuration must not stop a run that skips unreadable frames.
+    root_all, out = sets
+    root = root_all / "culane-png"
+    first_map(root, "_1_avg.png").write_bytes(lying_png(8192, 8191))
+    result = CliRunner().invoke(main, ["run", "--data-root", str(root / "data"), "--maps-root", str(root / "maps"),
+                                       "--maps-format", "scnn-png", "--on-error", "skip", "--workers", "1",
+                                       "--quiet", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "00000_1_avg.png: not a readable image" in result.output and "(frame skipped)" in result.output
