@@ -238,3 +238,21 @@ def test_an_archive_or_zip_garbage_under_a_npy_name_is_an_input_error(tmp_path):
         npy.load_npy(tmp_path / "archive.npy", MAPS)
     with pytest.raises(InputError, match="not a readable .npy array"):
         npy.load_npy(tmp_path / "garbage.npy", MAPS)
+
+
+@pytest.mark.parametrize("case", ["IHDR after IDAT", "two IHDRs", "IDATs apart"])
+def test_chunks_out_of_order_go_to_opencv(case):
+    # libpng refuses these files; read here, they would give a map where OpenCV gives an error.
+    grey = smooth_map(np.random.default_rng(5))
+    good = png(grey, [1], idat_parts=2)
+    header = good[8:8 + 25]
+    first_idat = good.index(b"IDAT") - 4
+    second_idat = good.index(b"IDAT", first_idat + 8) - 4
+    text = chunk(b"tEXt", b"Comment\x00between")
+    data = {
+        "IHDR after IDAT": good[:8] + good[33:second_idat] + header + good[second_idat:],
+        "two IHDRs": good[:8] + chunk(b"IHDR", struct.pack(">IIBBBBB", 9, 9, 8, 0, 0, 0, 0)) + good[8:],
+        "IDATs apart": good[:second_idat] + text + good[second_idat:],
+    }[case]
+    assert scnn_png._decode_plain_png(data) is None
+    assert scnn_png._decode_plain_png(good) is not None

@@ -91,19 +91,25 @@ def _decode_plain_png(data: bytes) -> np.ndarray | None:
     Channels equal before the filter are equal after it and back, so grey-in-RGB is checked
     on the filtered bytes and only one channel is summed. check_png has checked the chunks.
     """
-    offset, header, parts = 8, None, []
+    offset, header, parts, after_data = 8, None, [], False
     while offset + 8 <= len(data):
         length = int.from_bytes(data[offset:offset + 4], "big")
         kind = data[offset + 4:offset + 8]
-        if kind not in _PLAIN_CHUNKS:
+        # The order libpng insists on (one IHDR, first; IDATs one after another): a file out of
+        # it goes to OpenCV, which refuses it, rather than being read here.
+        if kind not in _PLAIN_CHUNKS or (kind == b"IHDR") != (offset == 8):
             return None
         body = data[offset + 8:offset + 8 + length]
         if kind == b"IHDR":
             header = body
         elif kind == b"IDAT":
+            if after_data:
+                return None
             parts.append(body)
         elif kind == b"IEND":
             break
+        elif parts:
+            after_data = True
         offset += 12 + length
     if header is None or len(header) != 13 or not parts:
         return None
