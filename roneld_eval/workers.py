@@ -3,7 +3,9 @@
 A worker ignores Ctrl-C (the main process decides what happens), dies with its parent (Linux
 parent-death signal, and a check of the parent's pid as it starts), and is killed after a
 short grace when the pool is stopped, so a stopped (SIGSTOP) or stuck worker cannot keep the
-main process from exiting.
+main process from exiting. Every fork holds Ctrl-C, SIGTERM and SIGHUP back until the child has
+its own handlers, and defers them in the parent until the fork is over. `alongside` runs one
+task in such a process beside the caller (a figure while another is drawn).
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ def leave_signals_to_parent() -> None:
 @contextlib.contextmanager
 def _signals_held_back() -> Iterator[None]:
     """Ctrl-C, SIGTERM and SIGHUP stay pending in this thread, and in processes it forks, until
-    the block ends (or, in such a child, until `_start_worker` has its own handlers)."""
+    the block ends (or, in such a child, until `_become_child` has set its own handlers)."""
     if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
         yield
         return
@@ -81,7 +83,7 @@ def process_pool(workers: int, initializer: Callable[..., Any] | None = None,
         return executor
     # The first submit forks every worker at once (fork start method), so none forks later,
     # outside this protection. A forked child runs the parent's signal handlers until
-    # `_start_worker` replaces them: a signal in that moment (the run's own SIGTERM to its
+    # `_become_child` replaces them: a signal in that moment (the run's own SIGTERM to its
     # workers, Ctrl-C to the terminal's process group) raised inside the child's fork hooks and
     # printed a traceback; held back, it waits for the child's own handlers. In this process a
     # signal meanwhile is deferred to the end of the fork, not lost in its hooks.
