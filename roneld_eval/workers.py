@@ -21,7 +21,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
 
-from .errors import RunInterrupted
+from .errors import RoneldEvalError, RunInterrupted
 from .signals import deferred_signals
 
 _PR_SET_PDEATHSIG = 1
@@ -66,19 +66,44 @@ def _become_child(parent_pid: int) -> None:
         os._exit(1)
 
 
-def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple) -> None:
+class WorkerPool(ProcessPoolExecutor):
+    """A ProcessPoolExecutor whose workers say why they could not start (`start_failure`)."""
+
+    start_failures: Any = None  # a multiprocessing SimpleQueue: one line per worker that failed to start
+
+    def start_failure(self) -> str | None:
+        """Why a worker could not start (its initializer's error), or None."""
+        queue = self.start_failures
+        try:
+            return None if queue is None or queue.empty() else str(queue.get())
+        except (OSError, EOFError, ValueError):  # the queue's pipe is gone
+            return None
+
+
+def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple, failures: Any) -> None:
     _become_child(parent_pid)
-    if initializer is not None:
+    if initializer is None:
+        return
+    try:
         initializer(*initargs)
+    except BaseException as error:
+        # Said once, to the parent, which ends the run with it: not concurrent.futures' traceback
+        # per worker ("Exception in initializer") and then "a worker process died".
+        with contextlib.suppress(Exception):
+            failures.put(str(error) if isinstance(error, RoneldEvalError) else f"{type(error).__name__}: {error}")
+        os._exit(3)
 
 
 def process_pool(workers: int, initializer: Callable[..., Any] | None = None,
-                 initargs: tuple = ()) -> ProcessPoolExecutor:
+                 initargs: tuple = ()) -> WorkerPool:
     """Worker processes (forked where the platform allows). Unlike multiprocessing.Pool, a
     worker that dies makes its pending results raise BrokenProcessPool instead of hanging."""
     method = "fork" if sys.platform == "linux" else "spawn"
-    executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method),
-                                   initializer=_start_worker, initargs=(os.getpid(), initializer, initargs))
+    context = multiprocessing.get_context(method)
+    failures = context.SimpleQueue()
+    executor = WorkerPool(workers, mp_context=context, initializer=_start_worker,
+                          initargs=(os.getpid(), initializer, initargs, failures))
+    executor.start_failures = failures
     if method != "fork":
         return executor
     # The first submit forks every worker at once (fork start method), so none forks later,
@@ -126,7 +151,8 @@ def stopping(executor: ProcessPoolExecutor, died: Callable[[], str]) -> Iterator
         yield executor
     except BrokenProcessPool:
         stop_pool(executor)
-        raise RunInterrupted(died()) from None
+        failure = executor.start_failure() if isinstance(executor, WorkerPool) else None
+        raise RunInterrupted(died() if failure is None else f"a worker process could not start: {failure}") from None
     except BaseException:
         stop_pool(executor)
         raise

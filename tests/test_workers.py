@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from roneld_eval import workers
-from roneld_eval.errors import InputError
+from roneld_eval.errors import InputError, RunInterrupted
 
 # The child sends itself the signal from a fork hook, that is before `_start_worker` runs: the
 # moment in which a worker still has the parent's handlers. The parent's are the run's own:
@@ -198,3 +198,29 @@ def test_the_process_alongside_dies_with_its_parent(tmp_path):
     assert done.returncode == -signal.SIGKILL
     time.sleep(1.5)
     assert not (tmp_path / "late").exists()
+
+
+# ---- a worker that cannot start -------------------------------------------------------------------
+
+
+def _failing_start():
+    raise MemoryError("no memory for the kernels")
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="forks on Linux only")
+def test_a_worker_that_cannot_start_says_why_once(capfd):
+    pool = workers.process_pool(2, initializer=_failing_start)
+    with pytest.raises(RunInterrupted) as raised:
+        with workers.stopping(pool, lambda: "a worker process died"):
+            pool.submit(sum, [1, 2]).result(timeout=60)
+    assert str(raised.value) == "a worker process could not start: MemoryError: no memory for the kernels"
+    captured = capfd.readouterr()
+    assert "Traceback" not in captured.err and "Exception in initializer" not in captured.err, captured.err
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="forks on Linux only")
+def test_a_worker_that_dies_later_is_still_said_to_have_died():
+    pool = workers.process_pool(2)
+    with pytest.raises(RunInterrupted, match="^a worker process died$"):
+        with workers.stopping(pool, lambda: "a worker process died"):
+            pool.submit(os._exit, 9).result(timeout=60)
