@@ -134,10 +134,22 @@ DURING_FORK = textwrap.dedent("""
     number = signal.Signals[sys.argv[1]]
     what, target = sys.argv[2], Path(sys.argv[3])
 
-    def hook():  # as the interpreter's own hooks (logging's) run Python code
+    # The C handler writes each signal it takes to this pipe, whichever thread it runs in.
+    taken, wakeup = os.pipe()
+    os.set_blocking(taken, False)
+    os.set_blocking(wakeup, False)
+    signal.set_wakeup_fd(wakeup)
+
+    def hook():  # Python code, as the interpreter's own hooks (logging's) are
         signal.pthread_kill(other.ident, number)
-        end = time.monotonic() + 0.2  # long enough for the other thread to take it
-        while time.monotonic() < end:
+        end = time.monotonic() + 30
+        while time.monotonic() < end:  # until the other thread has taken it, however loaded the machine
+            try:
+                if os.read(taken, 1):
+                    break
+            except BlockingIOError:
+                pass
+        for _ in range(1000):  # the main thread's handler runs here, inside the fork's hooks
             pass
 
     os.register_at_fork(after_in_parent=hook)
