@@ -675,7 +675,12 @@ _EMPTY_HI = 0
 @cached_njit(nogil=True)
 def _merge_run(lo, hi, counts, row, left, right):
     """Add pixels left..right to row `row` (an index into the arrays, which it must be);
-    False when the row would need more than _RUN_SLOTS runs."""
+    False when the row would need more than _RUN_SLOTS runs.
+
+    The hot loops that add runs (_add_quad, _add_chain, _add_listed, polyline_runs) write its
+    usual cases out in place (a run that extends the row's only one, or a row's first run): with
+    them behind a shared helper kernel, inlined or not, official masks took 30% longer
+    (0.152 -> 0.198 ms a frame of 3,000 CULane label files)."""
     kept = 0
     for i in range(counts[row]):
         if lo[row, i] > right + 1 or hi[row, i] < left - 1:
