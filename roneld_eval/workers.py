@@ -38,17 +38,19 @@ def leave_signals_to_parent() -> None:
 
 
 @contextlib.contextmanager
-def _signals_held_back() -> Iterator[None]:
-    """Ctrl-C, SIGTERM and SIGHUP stay pending in this thread, and in processes it forks, until
-    the block ends (or, in such a child, until `_become_child` has set its own handlers)."""
-    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
-        yield
-        return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _PARENT_SIGNALS)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+def _forking() -> Iterator[None]:
+    """Around a fork of this process. Ctrl-C, SIGTERM and SIGHUP are deferred here until the block
+    ends (signals.deferred_signals), and stay pending in this thread, and so in the child, until
+    `_become_child` has set the child's own handlers."""
+    with deferred_signals():
+        if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
+            yield
+            return
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, _PARENT_SIGNALS)
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _become_child(parent_pid: int) -> None:
@@ -113,7 +115,7 @@ def process_pool(workers: int, initializer: Callable[..., Any] | None = None,
     # printed a traceback; held back, it waits for the child's own handlers. In this process a
     # signal meanwhile is deferred to the end of the fork, not lost in its hooks.
     try:
-        with deferred_signals(), _signals_held_back():
+        with _forking():
             executor.submit(int)
     except BaseException:  # the signal that waited: the workers exist, end them
         stop_pool(executor)
@@ -176,7 +178,7 @@ def alongside(task: Callable[[], object]) -> Iterator[None]:
             parent = os.getpid()
             # Signals wait for the end of the fork, here and in the child (see process_pool); one
             # raised then leaves through the finally below, which ends the child.
-            with deferred_signals(), _signals_held_back(), contextlib.suppress(OSError):
+            with _forking(), contextlib.suppress(OSError):
                 pid = os.fork()
                 if pid == 0:  # pragma: no cover - the child (coverage is not gathered there)
                     code = 1
