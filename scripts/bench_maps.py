@@ -41,7 +41,7 @@ import deflate  # noqa: E402
 
 from roneld_eval.config import EvalConfig  # noqa: E402
 from roneld_eval.maps import load_maps, map_stem  # noqa: E402
-from roneld_eval.maps._kernels import unfilter_grey  # noqa: E402
+from roneld_eval.maps._kernels import unfilter_stream  # noqa: E402
 from roneld_eval.synth import synth_culane  # noqa: E402
 from roneld_eval.workers import default_workers  # noqa: E402
 
@@ -81,7 +81,7 @@ def floor_npy_bytes(raw) -> np.ndarray:
 
 def floor_png_channel(path: Path) -> np.ndarray:
     """Inflate (libdeflate), then undo the row filters on the first channel only with the same
-    kernel as load_maps (maps._kernels.unfilter_grey: it skips zero bytes eight at a time, and
+    kernel as load_maps (maps._kernels.unfilter_stream: it skips zero bytes eight at a time, and
     its channel comparison comes at no cost there); numpy's running sum over every pixel took
     1.4 ms of a real 976x351 map."""
     data = path.read_bytes()
@@ -97,7 +97,7 @@ def floor_png_channel(path: Path) -> np.ndarray:
             parts.append(data[offset + 8:offset + 8 + length])
         offset += 12 + length
     stream = np.frombuffer(deflate.zlib_decompress(b"".join(parts), height * (1 + width * samples)), np.uint8)
-    return unfilter_grey(stream, stream[:stream.size // 8 * 8].view(np.uint64), height, width, samples)[0]
+    return unfilter_stream(stream, height, width, samples)[0]
 
 
 def floor_png(stem: Path) -> np.ndarray:

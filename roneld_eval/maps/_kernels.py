@@ -70,6 +70,13 @@ def unfilter_grey(stream, words, height, width, samples):
     return out, same
 
 
+def unfilter_stream(stream: np.ndarray, height: int, width: int, samples: int) -> tuple[np.ndarray, bool]:
+    """unfilter_grey of a uint8 stream, with its uint64 view made here (aligned: copied if not)."""
+    if stream.ctypes.data % 8:  # pragma: no cover - the allocator aligns a buffer this size
+        stream = stream.copy()
+    return unfilter_grey(stream, stream[:stream.size // 8 * 8].view(np.uint64), height, width, samples)
+
+
 _BYTES = types.Array(types.uint8, 1, "C")
 _WORDS = types.Array(types.uint64, 1, "C")
 _I = types.int64

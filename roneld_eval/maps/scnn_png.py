@@ -22,7 +22,7 @@ from ..errors import InputError
 from ..lanes_io import decode_text, parse_number, read_bytes
 from ..model import FrameMaps
 from ._checks import canonical_existence
-from ._kernels import unfilter_grey
+from ._kernels import unfilter_stream
 
 
 def scnn_png_paths(stem: Path, channels: int) -> tuple[list[Path], Path]:
@@ -125,9 +125,7 @@ def _decode_plain_png(data: bytes) -> np.ndarray | None:
     stream = np.frombuffer(raw, np.uint8)
     if int(stream[::1 + width * samples].max()) > 1:  # a row filtered Up, Average or Paeth: left to OpenCV
         return None
-    if stream.ctypes.data % 8:  # pragma: no cover - the allocator aligns a buffer this size
-        stream = stream.copy()
-    image, same = unfilter_grey(stream, stream[:stream.size // 8 * 8].view(np.uint64), height, width, samples)
+    image, same = unfilter_stream(stream, height, width, samples)
     return image if same else None
 
 
