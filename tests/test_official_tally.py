@@ -1,5 +1,5 @@
-"""The official tables a run gathers frame by frame (compact columns) equal the tables the
-metric functions give for the same records all at once: CULane's category table and TuSimple's
+"""The official tables a run counts frame by frame (a few sums per method and category) equal
+the tables the metric functions give for the same records all at once: CULane's category table and TuSimple's
 mean scores, bit for bit, in any order of methods and frames."""
 
 from __future__ import annotations
@@ -18,7 +18,8 @@ from roneld_eval.metrics.culane_official import CulaneFrameResult, category_tabl
 from roneld_eval.metrics.tusimple_official import mean_scores
 from roneld_eval.model import Dataset
 
-IOUS = st.one_of(st.just(float("-inf")), st.floats(0.0, 1.0))
+# -inf: unmatched; NaN: an IoU of nothing (above no threshold either way)
+IOUS = st.one_of(st.just(float("-inf")), st.just(float("nan")), st.floats(0.0, 1.0))
 
 
 @st.composite

@@ -4,8 +4,7 @@ protocol restricted to the two ego lanes ("ego" row); lanes written as mirrored 
 
 from __future__ import annotations
 
-from array import array
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -18,7 +17,8 @@ from ..datasets.culane import labels_path
 from ..extract.protocol import Prediction
 from ..json_fields import json_number, read_count, read_float, read_list
 from ..lanes_io import format_culane_lines
-from ..metrics.culane_official import CulaneFrameResult, ScoredFrames, matched_result, official_masks, sweep_rows
+from ..metrics.culane_official import (OFFICIAL_COLUMNS, CulaneFrameResult, f_measure, matched_result,
+                                       official_masks)
 from ..metrics.paper import ego_lanes
 from ..metrics.raster import MaskSet
 from ..model import Clip, Dataset, Frame, Lane
@@ -95,55 +95,56 @@ class CulaneBenchmark:
         return LaneFile(f"{method}/{frame.stem}.lines.txt", format_culane_lines(lanes))
 
 
-@dataclass
-class _Columns:
-    """One method's frame results as compact columns, in the order they were added."""
+class _Counts:
+    """One method's official counts so far, per category (its lists, then `all`)."""
 
-    frames: list[str] = field(default_factory=list)
-    n_gt: array = field(default_factory=lambda: array("q"))
-    n_pred: array = field(default_factory=lambda: array("q"))
-    matched_iou: array = field(default_factory=lambda: array("d"))
+    def __init__(self, categories: Mapping[str, frozenset[str]], threshold: float):
+        self.categories = categories
+        self.threshold = threshold
+        # name -> [ground-truth lanes, predicted lanes, true positives]
+        self.sums = {name: [0, 0, 0] for name in [*categories, "all"]}
 
     def add(self, relpath: str, result: CulaneFrameResult) -> None:
-        self.frames.append(relpath)
-        self.n_gt.append(result.n_gt)
-        self.n_pred.append(result.n_pred)
-        self.matched_iou.extend(np.asarray(result.matched_iou, np.float64).tolist())
+        frame = (result.n_gt, result.n_pred, result.true_positives(self.threshold))
+        for name, members in self.categories.items():
+            if relpath in members:
+                self._add(name, frame)
+        self._add("all", frame)
 
-    def scored(self) -> ScoredFrames:
-        n_gt = np.array(self.n_gt, np.int64)
-        return ScoredFrames(tuple(self.frames), n_gt, np.array(self.n_pred, np.int64).reshape(1, len(self.frames)),
-                            np.array(self.matched_iou, np.float64).reshape(1, int(n_gt.sum())))
+    def _add(self, name: str, frame: tuple[int, int, int]) -> None:
+        sums = self.sums[name]
+        for index, value in enumerate(frame):
+            sums[index] += value
+
+    def rows(self, method: str, rename_all: str = "all") -> list[tuple]:
+        """(method, category, tp, fp, fn, precision, recall, f1) per category, as sweep_rows
+        gives them (counts summed before any ratio)."""
+        rows = []
+        for name, (n_gt, n_pred, tp) in self.sums.items():
+            fp, fn = n_pred - tp, n_gt - tp
+            rows.append((method, rename_all if name == "all" else name, tp, fp, fn, *f_measure(tp, fp, fn)))
+        return rows
 
 
 class CulaneTally:
-    """The official table, gathered frame by frame as compact columns (some 100 bytes a frame
-    and method instead of the records' objects), so a long run's main process stays small."""
+    """The official table, counted frame by frame at the run's one threshold: a few integers
+    per method and category, so the main process stays the same size however many frames."""
 
     def __init__(self, methods: Sequence[str], categories: Mapping[str, frozenset[str]], threshold: float):
-        self.categories = categories
-        self.threshold = threshold
-        self.columns = {method: (_Columns(), _Columns()) for method in methods}  # all lanes, ego lanes
+        # all lanes per category, and the ego lanes alone (one "ego" row)
+        self.counts = {method: (_Counts(categories, threshold), _Counts({}, threshold)) for method in methods}
 
     def add(self, method: str, relpath: str, record: CulaneOfficial) -> None:
-        every, ego = self.columns[method]
+        every, ego = self.counts[method]
         every.add(relpath, record.all_lanes)
         ego.add(relpath, record.ego)
 
     def table(self) -> pd.DataFrame:
-        tables = []
-        for method, (every, ego_only) in self.columns.items():
-            table = self._rows(every, self.categories)
-            ego = self._rows(ego_only, {})
-            ego["category"] = "ego"
-            table = pd.concat([table, ego], ignore_index=True)
-            table.insert(0, "method", method)
-            tables.append(table)
-        return pd.concat(tables, ignore_index=True)
-
-    def _rows(self, columns: _Columns, categories: Mapping[str, frozenset[str]]) -> pd.DataFrame:
-        table = sweep_rows(columns.scored(), ["-"], categories, [self.threshold])
-        return table.drop(columns=["method", "threshold"]).reset_index(drop=True)
+        rows = []
+        for method, (every, ego) in self.counts.items():
+            rows += every.rows(method) + ego.rows(method, rename_all="ego")
+        columns = [column for column in OFFICIAL_COLUMNS if column != "threshold"]
+        return pd.DataFrame(rows, columns=columns)
 
 
 BENCHMARK = CulaneBenchmark()
