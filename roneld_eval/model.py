@@ -98,7 +98,7 @@ def image_stem(relpath: str) -> str:
     return posixpath.splitext(relpath)[0]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Frame:
     """One video frame: where it lies in the dataset, and its ground truth when labelled.
 

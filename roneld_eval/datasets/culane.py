@@ -12,6 +12,7 @@ import posixpath
 import re
 from dataclasses import replace
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
@@ -42,8 +43,10 @@ def labels_path(root: Path, relpath: str) -> Path:
     return under_root(root, f"{image_stem(relpath)}.lines.txt")
 
 
-def read_categories(root: Path) -> dict[str, frozenset[str]]:
-    """Category name -> frame relpaths, from list/test_split/ when it exists."""
+def read_categories(root: Path, listed: Mapping[str, str] | None = None) -> dict[str, frozenset[str]]:
+    """Category name -> frame relpaths, from list/test_split/ when it exists. A relpath found
+    in `listed` is that string object: the test list's frames are kept once, not twice."""
+    listed = listed or {}
     folder = root / "list" / "test_split"
     try:
         names = sorted(entry.name for entry in os.scandir(folder))
@@ -59,7 +62,7 @@ def read_categories(root: Path) -> dict[str, frozenset[str]]:
     categories = {}
     for _, name, path in sorted(found):
         entries = read_list_file(path)
-        categories[name] = frozenset(relpath for _, relpath in entries)
+        categories[name] = frozenset(listed.get(relpath, relpath) for _, relpath in entries)
     return categories
 
 
@@ -168,7 +171,7 @@ def read_culane(root: str | Path, list_file: str | Path | None = None, limit: in
         image_width=IMAGE_WIDTH,
         image_height=IMAGE_HEIGHT,
         clips=tuple(clips),
-        categories=read_categories(root),
+        categories=read_categories(root, {relpath: relpath for _, relpath in entries}),
         source_file=list_path,
         labels_loaded=labels,
     )
