@@ -929,15 +929,19 @@ class PerFrameRows:
         return self.names.setdefault(name, len(self.names))
 
     def table(self) -> pd.DataFrame:
+        """The rows as a DataFrame; the gathered rows are handed over (this empties them)."""
         if not self.frames:
             return pd.DataFrame([], columns=self.COLUMNS)
-        names = list(self.names)
+        frames = np.array(self.frames, dtype=object)
+        self.frames = []  # the strings stay, shared with the dataset's frames
+        names = np.array(list(self.names), dtype=object)
+        # Arrays, not lists, and not copied again: the table is built at a run's largest size.
         return pd.DataFrame({
-            "frame": self.frames,
-            "side": [names[code] for code in self.sides],
-            "method": [names[code] for code in self.methods],
-            "iou": np.array(self.ious, np.float64),
-        }, columns=self.COLUMNS)
+            "frame": frames,
+            "side": names[np.frombuffer(self.sides, np.uint8)],
+            "method": names[np.frombuffer(self.methods, np.uint8)],
+            "iou": np.frombuffer(self.ious, np.float64).copy(),
+        }, columns=self.COLUMNS, copy=False)
 
 
 def _runtime_table(extract_ms: Mapping[str, Sequence[float]], load_ms: Sequence[float]) -> pd.DataFrame:

@@ -15,8 +15,9 @@ from ..config import Thresholds
 def sweep_counts(ious: np.ndarray, thresholds: Thresholds) -> np.ndarray:
     """Number of IoUs strictly above each threshold."""
     ious = np.asarray(ious, np.float64)
-    limits = np.asarray(thresholds.values)[:, None]
-    return np.count_nonzero(ious[None, :] > limits, axis=1)
+    # A threshold at a time: a (thresholds, IoUs) table of comparisons would take 21 bytes per
+    # IoU at once, a long run's main process growing with its frames.
+    return np.array([np.count_nonzero(ious > limit) for limit in thresholds.values], np.int64)
 
 
 def sweep_accuracy(per_frame: pd.DataFrame, thresholds: Thresholds, methods=None) -> pd.DataFrame:
