@@ -146,6 +146,7 @@ class OutputFolder:
             with held_signals():  # the results are complete: a signal now must not say otherwise
                 self._release_lock()
             return
+        staging = self._staging
         try:
             if self._staging is not None:
                 shutil.rmtree(self._staging, ignore_errors=True)
@@ -154,6 +155,26 @@ class OutputFolder:
             self._release_lock()
             if kind is not None:
                 self._remove_if_empty()
+        renamed = self._named_as_output(error, staging)
+        if renamed is not None:
+            raise renamed from None
+
+    def _named_as_output(self, error: BaseException | None, staging: Path | None) -> BaseException | None:
+        """The error naming the file in the output folder, where it would have been, instead of
+        the staging folder that is gone by now (a full disk while writing a figure or lane file);
+        None when it names no staged file."""
+        if isinstance(error, InputError):
+            where = error.path
+        elif isinstance(error, OSError):
+            where = error.filename if isinstance(error.filename, str) else None
+        else:
+            return None
+        if staging is None or where is None or not Path(where).is_relative_to(staging):
+            return None
+        shown = self.path / Path(where).relative_to(staging)
+        if isinstance(error, InputError):
+            return InputError(shown, error.problem, error.line)
+        return type(error)(error.errno, error.strerror, str(shown))
 
     def _take_lock(self) -> None:
         path = self.path / LOCK

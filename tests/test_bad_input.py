@@ -196,6 +196,32 @@ def test_disk_full_while_writing_leaves_earlier_results(sets, monkeypatch):
     assert sorted(p.name for p in out.iterdir()) == EARLIER
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (writes fail with ENOSPC)")
+@pytest.mark.parametrize("name, options", [
+    ("accuracy_curve.svg", []),
+    ("categories.png", []),  # drawn in a forked process, then again here when that fails
+    ("lanes/baseline/predictions.json", ["--dataset", "tusimple", "--save-lanes"]),  # appended frame by frame
+])
+def test_disk_full_names_the_file_in_the_output_folder(sets, monkeypatch, name, options):
+    _, out = sets
+    from roneld_eval.report import write
+
+    original = write.Staging.file
+
+    def full_disk(self, wanted):  # the staged file leads to a device that is always full
+        path = original(self, wanted)
+        if wanted == name:
+            path.symlink_to("/dev/full")
+        return path
+
+    monkeypatch.setattr(write.Staging, "file", full_disk)
+    result = CliRunner().invoke(main, ["run", "--out", str(out), "--quiet", "--workers", "1", *options])
+    assert result.exit_code == 2, result.output
+    assert result.output == f"error: {out / name}: cannot write: No space left on device\n"
+    assert (out / "accuracy.csv").read_text() == SENTINEL
+    assert sorted(p.name for p in out.iterdir()) == EARLIER
+
+
 # ---- skipping ------------------------------------------------------------------------------
 
 

@@ -38,14 +38,23 @@ class LaneWriter:
         if not lane_file.append:
             self.staging.write_text(name, lane_file.text)
             return
-        handle = self.handles.get(name)
-        if handle is None:
-            handle = self.handles[name] = self.staging.file(name).open("w", encoding="utf-8")
-        handle.write(lane_file.text)
+        try:
+            handle = self.handles.get(name)
+            if handle is None:
+                handle = self.handles[name] = self.staging.file(name).open("w", encoding="utf-8")
+            handle.write(lane_file.text)
+        except OSError as error:  # a full disk: a write names no file of its own
+            raise InputError(self.staging.out_dir / name, f"cannot write: {error.strerror or error}") from None
 
     def close(self) -> None:
-        for handle in self.handles.values():
-            handle.close()
+        failed = None
+        for name, handle in self.handles.items():
+            try:
+                handle.close()  # every one, even after one fails (its buffer could not be written)
+            except OSError as error:
+                failed = failed or InputError(self.staging.out_dir / name, f"cannot write: {error.strerror or error}")
+        if failed is not None:
+            raise failed
 
 
 def _json_safe(value):
