@@ -12,9 +12,17 @@ whole command of that revision (a temporary `git worktree` outside the repositor
 same Python and PYTHONPATH pointing at it, its numba cache in a temporary folder) against this
 checkout's, alternating on the same set, each warmed up first: frames/s of both, their ratio,
 whether per_frame.csv, official.csv and accuracy.csv are byte-identical, the peak RSS of the
-main process and of the largest worker of each, and the CPU seconds of all their processes (less
-sensitive than wall time to other work on the machine). Every map is read once first, so that
+main process and of the largest child process (a worker, or the figure process) of each, and
+the CPU seconds of all their processes (less sensitive than wall time to other work on the
+machine). Every map is read once first, so that
 both read from the page cache. The worktree is removed at the end, also on Ctrl-C or SIGTERM.
+
+With --memory it instead measures how the peak memory of the main process (and of the largest
+child) grows with the number of frames: the set is written as lane files (`--maps-format lanes`:
+the main process holds the same per frame whatever the maps, and 34,680 frames take 0.4 GB
+instead of 32 GB of .npy), and the whole command runs on its first eighth, half and all of its
+videos, twice each; it prints each peak and the growth per 1,000 frames (least squares). With
+--against REV too, the same for that revision.
 
 With --compare-scoring it instead times, in one go on the same set, the whole command with
 scoring as it was before masks became runs per row (roneld_eval.metrics.reference: every lane
@@ -22,11 +30,14 @@ drawn pixel by pixel on a canvas) against the current scoring, alternating, and 
 CULane lane mask both ways (ms per ground-truth lane of the set, one core).
 
     python scripts/bench_run.py [--frames 2000] [--data DIR] [--against [REV] | --compare-scoring]
+    python scripts/bench_run.py --memory [--frames 34680] [--data DIR] [--against [REV]]
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
+import contextlib
 import filecmp
 import os
 import posixpath
@@ -41,6 +52,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
+
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -70,8 +83,9 @@ def structure(frames: int):
 
 # `python -m roneld_eval` (or `_REFERENCE`: with scoring's masks drawn on canvases, as before
 # runs per row), then the peak RSS of this (main) process and of its largest reaped child (a
-# worker), and the CPU seconds of both, written as "main_kb child_kb cpu_s" to the file named by
-# $RONELD_BENCH_PEAK.
+# worker, or the process drawing a figure: forked from the main one late, it shares the main
+# one's pages and counts them again), and the CPU seconds of both, written as
+# "main_kb child_kb cpu_s" to the file named by $RONELD_BENCH_PEAK.
 _RUN = "runpy.run_module('roneld_eval', run_name='__main__', alter_sys=True)"
 _REFERENCE = "from roneld_eval.metrics.reference import drawn_masks\nwith drawn_masks():\n    " + _RUN
 
@@ -87,21 +101,22 @@ def _measured(body: str) -> str:
 
 @dataclass(frozen=True)
 class Timed:
-    """One whole command: wall seconds, peak RSS (MB) of the main process and of its largest worker,
+    """One whole command: wall seconds, peak RSS (MB) of the main process and of its largest child,
     and CPU seconds of all its processes."""
 
     seconds: float
-    main_mb: int
-    worker_mb: int
+    main_mb: float
+    worker_mb: float
     cpu_s: float = 0.0
 
 
 def timed_run(data: Path, maps: Path, workers: int, limit: int | None, out: Path,
-              reference_scoring: bool = False, tree: Path = REPO, env: dict[str, str] | None = None) -> Timed:
+              reference_scoring: bool = False, tree: Path = REPO, env: dict[str, str] | None = None,
+              maps_format: str = "npy") -> Timed:
     """Run `roneld-eval run` of the code in `tree` (started there, PYTHONPATH=tree) on the set."""
     code = _measured(_REFERENCE if reference_scoring else _RUN)
     command = [sys.executable, "-c", code, "run", "--dataset", "culane", "--data-root", str(data),
-               "--maps-root", str(maps), "--maps-format", "npy", "--methods", "baseline,roneld",
+               "--maps-root", str(maps), "--maps-format", maps_format, "--methods", "baseline,roneld",
                "--workers", str(workers), "--out", str(out), "--quiet"]
     if limit:
         command += ["--limit", str(limit)]
@@ -115,7 +130,7 @@ def timed_run(data: Path, maps: Path, workers: int, limit: int | None, out: Path
         _run_group(command, cwd=tree, env=environment)
         elapsed = time.perf_counter() - start
         main_kb, worker_kb, cpu_s = (Path(peak.name).read_text().split() or ["0", "0", "0"])
-    return Timed(elapsed, int(main_kb) // 1024, int(worker_kb) // 1024, float(cpu_s))
+    return Timed(elapsed, int(main_kb) / 1024, int(worker_kb) / 1024, float(cpu_s))
 
 
 def _run_group(command: list[str], **options) -> None:
@@ -146,7 +161,8 @@ def evaluation_seconds(out: Path) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=2000)
+    parser.add_argument("--frames", type=int, help="frames to generate (default 2000; with --memory 34,680, the "
+                        "whole CULane test list)")
     parser.add_argument("--data", type=Path, help="where to generate the set (default: a temporary folder)")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs of each kind (the median is printed)")
     choice = parser.add_mutually_exclusive_group()
@@ -155,19 +171,34 @@ def main() -> None:
                              "checkout's, alternating, on the same set")
     choice.add_argument("--compare-scoring", action="store_true",
                         help="time the run with canvas-drawn masks (the old scoring) against the current one")
+    parser.add_argument("--memory", action="store_true",
+                        help="peak memory against the number of frames (on lane files; with --against, of both)")
     args = parser.parse_args()
+    if args.memory and args.compare_scoring:
+        parser.error("--memory measures memory alone: no --compare-scoring with it")
+    if args.frames is None:
+        args.frames = 34680 if args.memory else 2000
     folder = (args.data or Path(tempfile.mkdtemp(prefix="roneld-bench-run-"))).resolve()
     layout = structure(args.frames)
     start = time.perf_counter()
+    maps_format = "lanes" if args.memory else "npy"
     if not (folder / "data" / "list" / "test.txt").exists():
-        result = synth_culane(folder, clips=max(args.frames // 30, 1), frames=30, structure=layout, seed=1)
+        result = synth_culane(folder, clips=max(args.frames // 30, 1), frames=30, structure=layout, seed=1,
+                              maps_format=maps_format)
         print(f"generated {result.n_frames} frames in {result.n_clips} videos "
               f"({'CULane test list layout' if layout else 'synthetic layout'}) in {time.perf_counter() - start:.0f} s")
     data, maps = folder / "data", folder / "maps"
     frames = len((data / "list" / "test.txt").read_text().split())
     videos = len({posixpath.dirname(line) for line in (data / "list" / "test.txt").read_text().split()})
-    print(f"{frames} frames in {videos} videos, 4x288x800 uint8 .npy; methods baseline, roneld; "
+    found = "lanes" if next(maps.rglob("*.lines.txt"), None) is not None else "npy"
+    if found != maps_format:
+        sys.exit(f"{folder} holds {found} maps; --memory needs a set of lane files, the others one of .npy maps")
+    print(f"{frames} frames in {videos} videos, "
+          f"{'CULane lane files' if args.memory else '4x288x800 uint8 .npy'}; methods baseline, roneld; "
           f"{os.cpu_count()} cores; {load()}")
+    if args.memory:
+        memory(data, maps, folder, args.against)
+        return
     if args.against:
         against(args.against, data, maps, folder, frames, args.repeats)
         return
@@ -196,7 +227,7 @@ def median(runs: list[Timed]) -> Timed:
 
 
 def peaks(run: Timed) -> str:
-    return f"peak RSS: main process {run.main_mb} MB, largest worker {run.worker_mb} MB"
+    return f"peak RSS: main process {run.main_mb:.0f} MB, largest child {run.worker_mb:.0f} MB"
 
 
 def load() -> str:
@@ -292,6 +323,47 @@ def against(revision: str, data: Path, maps: Path, folder: Path, frames: int, re
     print(f"    new / old frames/s = {old.seconds / new.seconds:.2f}x (target 1.5x); CPU seconds, median: old "
           f"{cpu['old']:.1f}, new {cpu['new']:.1f} ({cpu['old'] / cpu['new']:.2f}x); "
           + (f"{', '.join(OUTPUTS)} byte-identical" if not differ else f"DIFFERENT: {', '.join(differ)}"))
+
+
+def memory(data: Path, maps: Path, folder: Path, revision: str | None, repeats: int = 2) -> None:
+    """Peak RSS of the main process and largest child on the first 1/8, 1/2 and all videos."""
+    listed = (data / "list" / "test.txt").read_text().split()
+    videos = list(dict.fromkeys(posixpath.dirname(line) for line in listed))
+    workers = default_workers()
+    # At least a video per worker: a run with one task evaluates in the main process, which then
+    # holds the extractors' and scoring's compiled code too (some 90 MB more at any size).
+    sizes = sorted({min(max(len(videos) // part, workers), len(videos)) for part in (8, 2, 1)})
+    per_video = collections.Counter(posixpath.dirname(line) for line in listed)
+    frames_of = {size: sum(per_video[video] for video in videos[:size]) for size in sizes}
+    with contextlib.ExitStack() as stack:
+        trees = {"new (checkout)": (REPO, dict(os.environ))}
+        if revision:
+            old_tree = stack.enter_context(worktree(revision))
+            numba_dir = stack.enter_context(tempfile.TemporaryDirectory(prefix="roneld-bench-numba-"))
+            trees = {f"old ({revision})": (old_tree, dict(os.environ, NUMBA_CACHE_DIR=numba_dir)), **trees}
+        for name, (tree, env) in trees.items():
+            try:
+                timed_run(data, maps, workers, 1, folder / "warm", tree=tree, env=env, maps_format="lanes")
+            except subprocess.CalledProcessError:
+                print(f"  {name}: its run failed on the lane files (before --maps-format lanes?); left out")
+                continue
+            print(f"  {name}, {workers} worker(s), peak RSS (MB) of the main process / largest child, "
+                  f"{repeats} runs each:")
+            peaks_of: dict[int, list[float]] = {}
+            for size in sizes:
+                runs = [timed_run(data, maps, workers, size, folder / "out-memory", tree=tree, env=env,
+                                  maps_format="lanes") for _ in range(repeats)]
+                peaks_of[size] = [run.main_mb for run in runs]
+                print(f"    {size:4d} videos, {frames_of[size]:6d} frames: main "
+                      f"{', '.join(f'{run.main_mb:.1f}' for run in runs)}; largest child "
+                      f"{', '.join(f'{run.worker_mb:.1f}' for run in runs)}  ({load()})", flush=True)
+            xs = [frames_of[size] for size in sizes for _ in peaks_of[size]]
+            ys = [peak for size in sizes for peak in peaks_of[size]]
+            if len(set(xs)) > 1:
+                slope = float(np.polyfit(np.array(xs, np.float64), np.array(ys, np.float64), 1)[0])  # MB a frame
+                print(f"    main process: {slope * 1024 * 1000:.0f} KB per 1,000 frames, "
+                      f"{slope * 34680:.1f} MB over the 34,680-frame CULane test set "
+                      "(least squares over the runs above)")
 
 
 def compare_scoring(data: Path, maps: Path, folder: Path, frames: int, repeats: int = 3) -> None:
