@@ -91,7 +91,7 @@ def test_workers_do_not_change_results(dataset, tmp_path):
 def test_tusimple_fixture_scores_only_labelled_frames(tmp_path):
     result = api.run(api.default_config("tusimple").with_overrides(save_lanes=True), tmp_path, progress=False)
     assert result.counts["frames"] == 80 and result.counts["labelled_frames"] == 4
-    assert list(result.official.columns) == ["method", "accuracy", "fp", "fn"]
+    assert list(result.official.columns) == ["method", "accuracy", "fp", "fn", "f1_ufld", "f1_clrnet"]
     lines = (tmp_path / "lanes" / "roneld" / "predictions.json").read_text().splitlines()
     assert len(lines) == 4
     record = json.loads(lines[0])
@@ -106,6 +106,7 @@ def test_tusimple_fixture_scores_only_labelled_frames(tmp_path):
     score = score_tusimple(tmp_path / "labels.json", tmp_path / "lanes" / "roneld" / "predictions.json")
     row = result.official.set_index("method").loc["roneld"]
     assert (score.accuracy, score.fp, score.fn) == (row.accuracy, row.fp, row.fn)
+    assert (score.f1_ufld, score.f1_clrnet) == (row.f1_ufld, row.f1_clrnet)  # the F1 papers print
 
 
 def test_fixture_official_scores_equal_the_committed_ones(fixture_run):

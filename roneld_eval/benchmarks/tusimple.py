@@ -86,11 +86,11 @@ class TusimpleTally:
         self.frames[method] += 1
 
     def table(self) -> pd.DataFrame:
+        """method, accuracy, fp, fn and the F1 papers print (f1_ufld, f1_clrnet), as `score tusimple`."""
         rows = []
         for method, (accuracy, fp, fn) in self.sums.items():
-            score = mean_scores([(accuracy, fp, fn)], self.frames[method])
-            rows.append(dict(method=method, accuracy=score.accuracy, fp=score.fp, fn=score.fn))
-        return pd.DataFrame(rows, columns=["method", "accuracy", "fp", "fn"])
+            rows.append(dict(method=method, **mean_scores([(accuracy, fp, fn)], self.frames[method]).as_row()))
+        return pd.DataFrame(rows, columns=["method", "accuracy", "fp", "fn", "f1_ufld", "f1_clrnet"])
 
 
 BENCHMARK = TusimpleBenchmark()
