@@ -647,3 +647,16 @@ def test_a_folder_in_place_of_a_label_file_is_named(sets, tmp_path):
     label.unlink()
     label.mkdir()  # os.fdopen refused it naming the descriptor: "error: 4: Is a directory"
     one_line(run_cli(*run_args(root, tmp_path / "o")), str(label), "is a folder, not a file")
+
+
+@pytest.mark.parametrize("name", ["all", "ego"])
+def test_a_category_list_named_like_a_tables_own_row_is_refused(sets, tmp_path, name):
+    # A list test9_all.txt would be one more "all" row beside the one over every frame (the
+    # category figure then failed with a traceback); "ego" likewise beside the ego lanes' row.
+    data = sets / "culane" / "data"
+    split = data / "list" / "test_split"
+    (split / f"test9_{name}.txt").write_text(sorted(split.glob("*.txt"))[0].read_text())
+    line = one_line(run_cli("run", "--data-root", str(data), "--maps-root", str(sets / "culane" / "maps"),
+                            "--out", str(tmp_path / "out"), "--quiet"),
+                    f"test9_{name}.txt", f"cannot be called '{name}'", "rename the file")
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir()), line

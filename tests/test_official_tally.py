@@ -35,7 +35,8 @@ def culane_runs(draw):
     records = {method: [(frame, CulaneOfficial(draw(frame_results()), draw(frame_results()))) for frame in frames]
                for method in methods}
     categories = {name: frozenset(draw(st.lists(st.sampled_from(frames), unique=True)) if frames else ())
-                  for name in draw(st.lists(st.sampled_from(["normal", "night", "curve"]), unique=True))}
+                  # "all": a list may take the name of the row over every frame; both rows must stay right
+                  for name in draw(st.lists(st.sampled_from(["normal", "night", "curve", "all"]), unique=True))}
     threshold = draw(st.sampled_from([0.3, 0.5, 0.75]))
     return records, categories, threshold
 

@@ -99,31 +99,33 @@ class _Counts:
     """One method's official counts so far, per category (its lists, then `all`)."""
 
     def __init__(self, categories: Mapping[str, frozenset[str]], threshold: float):
-        self.categories = categories
+        self.categories = list(categories.items())
         self.threshold = threshold
-        # name -> [ground-truth lanes, predicted lanes, true positives]
-        self.sums = {name: [0, 0, 0] for name in [*categories, "all"]}
+        # [ground-truth lanes, predicted lanes, true positives] of each category, then of every frame
+        # (a list, not keyed by name: a category list may itself be called "all")
+        self.sums = [[0, 0, 0] for _ in range(len(self.categories) + 1)]
 
     def add(self, relpath: str, result: CulaneFrameResult) -> None:
         frame = (result.n_gt, result.n_pred, result.true_positives(self.threshold))
-        for name, members in self.categories.items():
+        for sums, (_, members) in zip(self.sums, self.categories):
             if relpath in members:
-                self._add(name, frame)
-        self._add("all", frame)
+                _add(sums, frame)
+        _add(self.sums[-1], frame)
 
-    def _add(self, name: str, frame: tuple[int, int, int]) -> None:
-        sums = self.sums[name]
-        for index, value in enumerate(frame):
-            sums[index] += value
-
-    def rows(self, method: str, rename_all: str = "all") -> list[tuple]:
-        """(method, category, tp, fp, fn, precision, recall, f1) per category, as sweep_rows
-        gives them (counts summed before any ratio)."""
+    def rows(self, method: str, every_frame: str = "all") -> list[tuple]:
+        """(method, category, tp, fp, fn, precision, recall, f1) per category, then `every_frame`,
+        as sweep_rows gives them (counts summed before any ratio)."""
+        names = [name for name, _ in self.categories] + [every_frame]
         rows = []
-        for name, (n_gt, n_pred, tp) in self.sums.items():
+        for name, (n_gt, n_pred, tp) in zip(names, self.sums):
             fp, fn = n_pred - tp, n_gt - tp
-            rows.append((method, rename_all if name == "all" else name, tp, fp, fn, *f_measure(tp, fp, fn)))
+            rows.append((method, name, tp, fp, fn, *f_measure(tp, fp, fn)))
         return rows
+
+
+def _add(sums: list[int], frame: tuple[int, int, int]) -> None:
+    for index, value in enumerate(frame):
+        sums[index] += value
 
 
 class CulaneTally:
@@ -142,7 +144,7 @@ class CulaneTally:
     def table(self) -> pd.DataFrame:
         rows = []
         for method, (every, ego) in self.counts.items():
-            rows += every.rows(method) + ego.rows(method, rename_all="ego")
+            rows += every.rows(method) + ego.rows(method, every_frame="ego")
         columns = [column for column in OFFICIAL_COLUMNS if column != "threshold"]
         return pd.DataFrame(rows, columns=columns)
 

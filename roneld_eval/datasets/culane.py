@@ -24,6 +24,8 @@ from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
 
 IMAGE_WIDTH, IMAGE_HEIGHT = IMAGE_SIZES["culane"]
 _CATEGORY_FILE = re.compile(r"test(\d+)_(\w+)\.txt\Z")
+# Names of the official and accuracy tables' own rows, which a category list would be confused with.
+RESERVED_CATEGORIES = {"all": "every frame", "ego": "the two ego lanes"}
 
 
 def read_list_file(path: Path) -> list[tuple[int, str]]:
@@ -61,6 +63,9 @@ def read_categories(root: Path, listed: Mapping[str, str] | None = None) -> dict
             found.append((int(match.group(1)), match.group(2), folder / name))
     categories = {}
     for _, name, path in sorted(found):
+        if name in RESERVED_CATEGORIES:
+            raise InputError(path, f"a category list cannot be called {name!r}: the tables have a row of that name "
+                                   f"({RESERVED_CATEGORIES[name]}); rename the file")
         entries = read_list_file(path)
         categories[name] = frozenset(listed.get(relpath, relpath) for _, relpath in entries)
     return categories
