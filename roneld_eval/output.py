@@ -157,7 +157,7 @@ class OutputFolder:
                 self._remove_if_empty()
         renamed = self._named_as_output(error, staging)
         if renamed is not None:
-            raise renamed from None
+            raise renamed.with_traceback(trace) from None  # --debug still shows where it failed
 
     def _named_as_output(self, error: BaseException | None, staging: Path | None) -> BaseException | None:
         """The error naming the file in the output folder, where it would have been, instead of
@@ -165,7 +165,7 @@ class OutputFolder:
         None when it names no staged file."""
         if isinstance(error, InputError):
             where = error.path
-        elif isinstance(error, OSError):
+        elif isinstance(error, OSError) and error.errno is not None:
             where = error.filename if isinstance(error.filename, str) else None
         else:
             return None
@@ -174,7 +174,8 @@ class OutputFolder:
         shown = self.path / Path(where).relative_to(staging)
         if isinstance(error, InputError):
             return InputError(shown, error.problem, error.line)
-        return type(error)(error.errno, error.strerror, str(shown))
+        # A plain OSError (its subclass follows from errno), whatever the original's class takes.
+        return OSError(error.errno, error.strerror, str(shown), None, error.filename2)
 
     def _take_lock(self) -> None:
         path = self.path / LOCK
@@ -317,11 +318,17 @@ class OutputFolder:
         staging = self.staging()
         entries = sorted(entry.name for entry in staging.iterdir())
         old = sorted(self.previous["entries"]) if self.previous else []
-        trash = Path(tempfile.mkdtemp(prefix=TRASH_PREFIX, dir=self.path))
-        plan = {"staging": staging.name, "trash": trash.name, "entries": entries, "old": old,
-                "command": self.command}
         with held_signals():
-            _write_atomically(self.path / JOURNAL, json.dumps(plan))
+            trash: Path | None = None
+            try:
+                trash = Path(tempfile.mkdtemp(prefix=TRASH_PREFIX, dir=self.path))
+                plan = {"staging": staging.name, "trash": trash.name, "entries": entries, "old": old,
+                        "command": self.command}
+                _write_atomically(self.path / JOURNAL, json.dumps(plan))
+            except OSError as error:  # a full disk: no journal, so nothing was moved yet
+                if trash is not None:
+                    shutil.rmtree(trash, ignore_errors=True)
+                raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
             self._apply(plan, undo_on_error=True)
             self._staging = None
             self.committed = True
@@ -389,11 +396,16 @@ def _remove(path: Path) -> None:
 
 def _write_atomically(path: Path, text: str) -> None:
     temporary = path.with_name(path.name + ".tmp")
-    with open(temporary, "w", encoding="utf-8") as handle:
-        handle.write(text)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(temporary, path)
+    try:
+        with open(temporary, "w", encoding="utf-8") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            temporary.unlink()
+        raise
 
 
 class Staging:

@@ -222,6 +222,27 @@ def test_disk_full_names_the_file_in_the_output_folder(sets, monkeypatch, name, 
     assert sorted(p.name for p in out.iterdir()) == EARLIER
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (writes fail with ENOSPC)")
+def test_debug_shows_where_a_renamed_write_error_came_from(sets, monkeypatch):
+    _, out = sets
+    from roneld_eval.report import write
+
+    original = write.Staging.file
+
+    def full_disk(self, wanted):
+        path = original(self, wanted)
+        if wanted == "accuracy_curve.svg":
+            path.symlink_to("/dev/full")
+        return path
+
+    monkeypatch.setattr(write.Staging, "file", full_disk)
+    result = CliRunner().invoke(main, ["run", "--out", str(out), "--quiet", "--workers", "1", "--debug"])
+    assert result.exit_code == 2
+    assert "in save_figure" in result.output and ".staging-" not in result.output.splitlines()[-1]
+    last = result.output.splitlines()[-1]
+    assert last == f"error: {out / 'accuracy_curve.svg'}: cannot write: No space left on device"
+
+
 # ---- skipping ------------------------------------------------------------------------------
 
 

@@ -658,3 +658,55 @@ def test_a_symlinked_cache_folder_is_not_written_through(dataset, tmp_path, monk
     interrupted_run(monkeypatch, dataset, out, 2)
     assert sorted(p.name for p in elsewhere.iterdir()) == ["keep.txt"]
     assert not (out / output.CACHE).is_symlink() and cache_entries(out)
+
+
+class _OddOSError(OSError):
+    """An OSError whose constructor takes other arguments than OSError's."""
+
+    def __init__(self, message: str, path: str):
+        super().__init__(28, message, path)
+
+
+@pytest.mark.parametrize("raised", [
+    lambda staged: InputError(staged, "cannot write: No space left on device"),
+    lambda staged: _OddOSError("No space left on device", str(staged)),
+    lambda staged: OSError(28, "No space left on device", str(staged), None, "/elsewhere"),
+])
+def test_an_error_about_a_staged_file_names_its_place_in_the_output_folder(tmp_path, raised):
+    out = tmp_path / "out"
+    with pytest.raises((InputError, OSError)) as caught:
+        with output.OutputFolder(out, "run") as folder:
+            raise raised(folder.staging() / "sub" / "figure.png")
+    error = caught.value
+    where = error.path if isinstance(error, InputError) else error.filename
+    assert where == str(out / "sub" / "figure.png")
+    assert "No space left on device" in str(error) and ".staging-" not in str(error)
+    if isinstance(error, OSError) and not isinstance(error, InputError):
+        assert error.errno == 28 and error.filename2 in (None, "/elsewhere")
+
+
+def test_an_error_about_another_file_is_left_as_it_is(tmp_path):
+    with pytest.raises(OSError) as caught:
+        with output.OutputFolder(tmp_path / "out", "run"):
+            raise OSError(28, "No space left on device", "/somewhere/else")
+    assert caught.value.filename == "/somewhere/else"
+
+
+def test_a_full_disk_while_writing_the_commit_journal_leaves_the_earlier_results(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    with output.OutputFolder(out, "run") as folder:
+        (folder.staging() / "accuracy.csv").write_text("earlier\n")
+        folder.commit()
+    before = sorted(path.name for path in out.iterdir())
+
+    def full(descriptor):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(output.os, "fsync", full)
+    with pytest.raises(InputError) as caught:
+        with output.OutputFolder(out, "run") as folder:
+            (folder.staging() / "accuracy.csv").write_text("later\n")
+            folder.commit()
+    assert str(caught.value) == f"{out}: cannot write results here: No space left on device"
+    assert sorted(path.name for path in out.iterdir()) == before  # no journal, .tmp or trash left
+    assert (out / "accuracy.csv").read_text() == "earlier\n"
