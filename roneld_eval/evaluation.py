@@ -809,7 +809,7 @@ def evaluate(
     finally:
         bar.close()
 
-    per_frame = rows.table()
+    per_frame = rows.take_table()
     del rows
     thresholds = parse_thresholds(config.paper.thresholds)
     accuracy = with_intervals(sweep_accuracy(per_frame, thresholds, methods=config.methods), per_frame, thresholds)
@@ -911,6 +911,9 @@ class PerFrameRows:
     COLUMNS = ["frame", "side", "method", "iou"]
 
     def __init__(self) -> None:
+        self._empty()
+
+    def _empty(self) -> None:
         self.frames: list[str] = []
         self.sides, self.methods = array("B"), array("B")
         self.ious = array("d")
@@ -928,19 +931,22 @@ class PerFrameRows:
     def _code(self, name: str) -> int:
         return self.names.setdefault(name, len(self.names))
 
-    def table(self) -> pd.DataFrame:
-        """The rows as a DataFrame; the gathered rows are handed over (this empties them)."""
-        if not self.frames:
+    def take_table(self) -> pd.DataFrame:
+        """The rows as a DataFrame, handed over: the gatherer is empty afterwards, as new (so that
+        its lists are freed as the table is built, at a run's largest size)."""
+        frames, sides, methods, ious, names = self.frames, self.sides, self.methods, self.ious, list(self.names)
+        self._empty()
+        if not frames:
             return pd.DataFrame([], columns=self.COLUMNS)
-        frames = np.array(self.frames, dtype=object)
-        self.frames = []  # the strings stay, shared with the dataset's frames
-        names = np.array(list(self.names), dtype=object)
-        # Arrays, not lists, and not copied again: the table is built at a run's largest size.
+        column = np.array(frames, dtype=object)
+        del frames  # the strings stay, shared with the dataset's frames
+        coded = np.array(names, dtype=object)
+        # Arrays, not lists, and not copied again.
         return pd.DataFrame({
-            "frame": frames,
-            "side": names[np.frombuffer(self.sides, np.uint8)],
-            "method": names[np.frombuffer(self.methods, np.uint8)],
-            "iou": np.frombuffer(self.ious, np.float64).copy(),
+            "frame": column,
+            "side": coded[np.frombuffer(sides, np.uint8)],
+            "method": coded[np.frombuffer(methods, np.uint8)],
+            "iou": np.frombuffer(ious, np.float64).copy(),
         }, columns=self.COLUMNS, copy=False)
 
 

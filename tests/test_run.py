@@ -123,3 +123,17 @@ def test_tusimple_fixture_matches_its_snapshot(tmp_path):
     api.run(config, tmp_path, progress=False)
     for name in ("accuracy.csv", "official.csv"):
         assert (tmp_path / name).read_text() == (SNAPSHOTS / "fixture_tusimple" / name).read_text(), name
+
+
+def test_per_frame_rows_are_handed_over_once():
+    from roneld_eval.evaluation import FrameOutcome, PerFrameRows
+
+    rows = PerFrameRows()
+    rows.add("d/v.MP4/00000.jpg", FrameOutcome("d/v.MP4/00000.jpg", "roneld", {"left": 0.5, "right": float("nan")},
+                                               None, ()))  # type: ignore[arg-type]
+    table = rows.take_table()
+    assert table.values.tolist()[0] == ["d/v.MP4/00000.jpg", "left", "roneld", 0.5]
+    assert list(table["side"]) == ["left", "right"] and np.isnan(table["iou"][1])
+    assert rows.take_table().empty  # handed over: nothing is left, and nothing half
+    rows.add("d/v.MP4/00030.jpg", FrameOutcome("d/v.MP4/00030.jpg", "baseline", {"left": 0.25}, None, ()))  # type: ignore[arg-type]
+    assert rows.take_table().values.tolist() == [["d/v.MP4/00030.jpg", "left", "baseline", 0.25]]
