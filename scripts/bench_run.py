@@ -21,7 +21,8 @@ With --memory it instead measures how the peak memory of the main process (and o
 child) grows with the number of frames: the set is written as lane files (`--maps-format lanes`:
 the main process holds the same per frame whatever the maps, and 34,680 frames take 0.4 GB
 instead of 32 GB of .npy), and the whole command runs on its first eighth, half and all of its
-videos, twice each; it prints each peak and the growth per 1,000 frames (least squares). With
+videos, twice each (--repeats); it prints each peak and the growth per 1,000 frames (least
+squares; only over 10,000 frames or more, as peaks vary by ~0.5 MB between identical runs). With
 --against REV too, the same for that revision.
 
 With --compare-scoring it instead times, in one go on the same set, the whole command with
@@ -164,7 +165,8 @@ def main() -> None:
     parser.add_argument("--frames", type=int, help="frames to generate (default 2000; with --memory 34,680, the "
                         "whole CULane test list)")
     parser.add_argument("--data", type=Path, help="where to generate the set (default: a temporary folder)")
-    parser.add_argument("--repeats", type=int, default=3, help="timed runs of each kind (the median is printed)")
+    parser.add_argument("--repeats", type=int, help="timed runs of each kind (the median is printed; default 3, "
+                        "with --memory 2 per size)")
     choice = parser.add_mutually_exclusive_group()
     choice.add_argument("--against", metavar="REV", nargs="?", const=OLD_REVISION,
                         help=f"time the whole command of git revision REV (default {OLD_REVISION}) against this "
@@ -178,6 +180,11 @@ def main() -> None:
         parser.error("--memory measures memory alone: no --compare-scoring with it")
     if args.frames is None:
         args.frames = 34680 if args.memory else 2000
+    if args.repeats is None:
+        args.repeats = 2 if args.memory else 3
+    if args.against and subprocess.run(["git", "-C", str(REPO), "rev-parse", "--verify", "--quiet",
+                                        f"{args.against}^{{commit}}"], capture_output=True).returncode != 0:
+        sys.exit(f"--against {args.against}: no such revision in {REPO}")
     folder = (args.data or Path(tempfile.mkdtemp(prefix="roneld-bench-run-"))).resolve()
     layout = structure(args.frames)
     start = time.perf_counter()
@@ -190,14 +197,16 @@ def main() -> None:
     data, maps = folder / "data", folder / "maps"
     frames = len((data / "list" / "test.txt").read_text().split())
     videos = len({posixpath.dirname(line) for line in (data / "list" / "test.txt").read_text().split()})
-    found = "lanes" if next(maps.rglob("*.lines.txt"), None) is not None else "npy"
+    found = ("lanes" if next(maps.rglob("*.lines.txt"), None) is not None
+             else "npy" if next(maps.rglob("*.npy"), None) is not None else None)
     if found != maps_format:
-        sys.exit(f"{folder} holds {found} maps; --memory needs a set of lane files, the others one of .npy maps")
+        sys.exit(f"{folder} holds {f'{found} maps' if found else 'no maps'}; --memory needs a set of lane files, "
+                 "the other modes one of .npy maps")
     print(f"{frames} frames in {videos} videos, "
           f"{'CULane lane files' if args.memory else '4x288x800 uint8 .npy'}; methods baseline, roneld; "
           f"{os.cpu_count()} cores; {load()}")
     if args.memory:
-        memory(data, maps, folder, args.against)
+        memory(data, maps, folder, args.against, args.repeats)
         return
     if args.against:
         against(args.against, data, maps, folder, frames, args.repeats)
@@ -325,6 +334,11 @@ def against(revision: str, data: Path, maps: Path, folder: Path, frames: int, re
           + (f"{', '.join(OUTPUTS)} byte-identical" if not differ else f"DIFFERENT: {', '.join(differ)}"))
 
 
+# Peak RSS moves by about half a megabyte between identical runs: a growth figure needs
+# at least this many frames between the smallest and the largest run to mean anything.
+MEMORY_SPAN = 10000
+
+
 def memory(data: Path, maps: Path, folder: Path, revision: str | None, repeats: int = 2) -> None:
     """Peak RSS of the main process and largest child on the first 1/8, 1/2 and all videos."""
     listed = (data / "list" / "test.txt").read_text().split()
@@ -359,11 +373,14 @@ def memory(data: Path, maps: Path, folder: Path, revision: str | None, repeats: 
                       f"{', '.join(f'{run.worker_mb:.1f}' for run in runs)}  ({load()})", flush=True)
             xs = [frames_of[size] for size in sizes for _ in peaks_of[size]]
             ys = [peak for size in sizes for peak in peaks_of[size]]
-            if len(set(xs)) > 1:
-                slope = float(np.polyfit(np.array(xs, np.float64), np.array(ys, np.float64), 1)[0])  # MB a frame
-                print(f"    main process: {slope * 1024 * 1000:.0f} KB per 1,000 frames, "
-                      f"{slope * 34680:.1f} MB over the 34,680-frame CULane test set "
-                      "(least squares over the runs above)")
+            if max(xs) - min(xs) < MEMORY_SPAN:
+                print(f"    no growth figure: {min(xs)} to {max(xs)} frames is too short a span (peaks vary by "
+                      f"~0.5 MB between identical runs; use at least {MEMORY_SPAN:,} frames, e.g. the default)")
+                continue
+            slope = float(np.polyfit(np.array(xs, np.float64), np.array(ys, np.float64), 1)[0])  # MB a frame
+            print(f"    main process: {slope * 1024 * 1000:.0f} KB per 1,000 frames between {min(xs):,} and "
+                  f"{max(xs):,} frames, {slope * 34680:.1f} MB over the 34,680-frame CULane test set "
+                  "(least squares over the runs above)")
 
 
 def compare_scoring(data: Path, maps: Path, folder: Path, frames: int, repeats: int = 3) -> None:
