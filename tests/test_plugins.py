@@ -145,6 +145,49 @@ def test_a_changed_plugin_file_is_not_resumed_from(dataset, tmp_path, monkeypatc
     assert ResultCache(tmp_path / "o", config, "v", resume=True).config_key != before
 
 
+def test_a_changed_helper_beside_a_plugin_is_not_resumed_from(dataset, tmp_path, monkeypatch):
+    """The plug-in's own modules count, not only its file: here a helper module beside it and a
+    package below it, which it imports; a library in a virtual environment beside it does not."""
+    import sys
+
+    from roneld_eval.cache import ResultCache
+    from roneld_eval.extract import registry
+
+    suffix = tmp_path.name.replace("-", "_")
+    home = tmp_path / "code"
+    (home / f"pkg_{suffix}").mkdir(parents=True)
+    (home / f"pkg_{suffix}" / "__init__.py").write_text("SCALE = 1\n")
+    (home / f"helper_{suffix}.py").write_text("OFFSET = 0\n")
+    library = home / ".venv" / "lib" / "site-packages" / f"lib_{suffix}.py"
+    library.parent.mkdir(parents=True)
+    library.write_text("X = 1\n")
+    plugin = home / "mine.py"
+    plugin.write_text(PLUGINS.read_text() + f"\nimport helper_{suffix}, pkg_{suffix}, lib_{suffix}  # noqa\n")
+    monkeypatch.setattr(sys, "path", [*sys.path, str(library.parent)])
+    for name in (f"helper_{suffix}", f"pkg_{suffix}", f"lib_{suffix}"):
+        monkeypatch.delitem(sys.modules, name, raising=False)  # and gone again afterwards
+    config = api.default_config("culane").with_overrides(**{
+        "dataset.data_root": str(dataset / "data"), "maps.root": str(dataset / "maps"), "workers": 1,
+    }).with_plugin("mine", f"{plugin}:ego_points")
+
+    def key() -> str:
+        monkeypatch.setattr(registry, "_RESOLVED", {})
+        return ResultCache(tmp_path / "o", config, "v", resume=True).config_key
+
+    first = key()
+    assert key() == first  # the same code, the same key
+    module = sys.modules[registry.resolve_entry(f"{plugin}:ego_points").__module__]
+    own = [path.relative_to(home).as_posix() for path in registry.own_modules(module)[1]]
+    assert own == ["mine.py", f"helper_{suffix}.py", f"pkg_{suffix}/__init__.py"]
+    library.write_text("X = 2\n")
+    assert key() == first  # an installed library is not the plug-in's code
+    (home / f"helper_{suffix}.py").write_text("OFFSET = 1\n")
+    second = key()
+    assert second != first
+    (home / f"pkg_{suffix}" / "__init__.py").write_text("SCALE = 2\n")
+    assert key() not in (first, second)
+
+
 def test_a_stateful_plugin_sees_every_frame_and_a_stateless_one_only_scored_ones(tmp_path):
     from roneld_eval.synth import synth_tusimple
 

@@ -160,15 +160,64 @@ def _load_file(path: Path):
 
 def source_fingerprint(method: Method) -> str:
     """What the resume cache must see change when a plug-in's code changes: a digest of its
-    module's source file ("" for built-ins, which the tool's version covers)."""
+    module's source file and of the plug-in's own modules it has loaded (`own_modules`);
+    "" for built-ins, which the tool's version covers."""
     if method.built_in:
         return ""
     factory = method.factory()
     module = sys.modules.get(getattr(factory, "__module__", "") or "")
     path = getattr(module, "__file__", None)
-    if not path or not os.path.isfile(path):
+    if module is None or not path or not os.path.isfile(path):
         return f"{method.entry} (no source file)"
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    home, files = own_modules(module)
+    digest = hashlib.sha256()
+    for file in files:
+        digest.update(f"{file.relative_to(home)}\0{hashlib.sha256(file.read_bytes()).hexdigest()}\0".encode(
+            "utf-8", "surrogateescape"))
+    return digest.hexdigest()
+
+
+# Folders of installed libraries: a plug-in's code beside a virtual environment is not the
+# libraries in it (their versions are recorded apart).
+_LIBRARY_FOLDERS = frozenset({"site-packages", "dist-packages"})
+
+
+def own_modules(module) -> tuple[Path, list[Path]]:
+    """(home, source files): a plug-in module's own code as loaded now. Home is its top-level
+    package's folder, or the module's folder for a single file; the files are its own and those
+    of every loaded module below home (its helpers: a plug-in file imports the modules beside
+    it), libraries installed there and hidden folders (.venv) apart. Sorted, the module's first."""
+    own_file = os.path.abspath(module.__file__)
+    top = (module.__package__ or "").partition(".")[0]
+    package_file = getattr(sys.modules.get(top), "__file__", None) if top else None
+    home_file = os.path.abspath(package_file) if package_file else own_file
+    own, home = Path(own_file).resolve(), Path(home_file).resolve().parent
+    if not own.is_relative_to(home):  # a namespace package spread over folders
+        home_file, home = own_file, own.parent
+    # Installed as a single file among the libraries: only the files beside it, not below.
+    below = home.name not in _LIBRARY_FOLDERS
+    # Resolved only where the path may lie below home (as given, or with its links resolved):
+    # a thousand libraries' modules are loaded.
+    prefixes = tuple({str(home) + os.sep, os.path.dirname(home_file) + os.sep})
+    found = set()
+    for loaded in list(sys.modules.values()):
+        path = getattr(loaded, "__file__", None)
+        if not isinstance(path, str) or not path.endswith(".py"):
+            continue
+        if os.path.isabs(path) and not path.startswith(prefixes):
+            continue
+        try:
+            file = Path(path).resolve()
+            relative = file.relative_to(home)
+        except (OSError, ValueError):
+            continue
+        folders = relative.parts[:-1]
+        if (folders and not below) or any(part in _LIBRARY_FOLDERS or part.startswith(".") for part in folders):
+            continue
+        if file.is_file():
+            found.add(file)
+    found.discard(own)
+    return home, [own, *sorted(found)]
 
 
 def kernel_groups(methods: tuple[Method, ...] | list[Method]) -> tuple[str, ...]:
@@ -176,4 +225,4 @@ def kernel_groups(methods: tuple[Method, ...] | list[Method]) -> tuple[str, ...]
     return tuple(dict.fromkeys(group for method in methods for group in method.kernel_groups))
 
 
-__all__ = ["BUILT_IN", "Method", "methods_of", "resolve_entry", "source_fingerprint", "kernel_groups"]
+__all__ = ["BUILT_IN", "Method", "methods_of", "own_modules", "resolve_entry", "source_fingerprint", "kernel_groups"]
