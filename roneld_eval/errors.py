@@ -29,6 +29,11 @@ class InputError(RoneldEvalError):
             where = f"{where}:{self.line}"
         return f"{where}: {self.problem}" if where else self.problem
 
+    @classmethod
+    def unwritable(cls, path: str | Path, error: OSError) -> "InputError":
+        """'PATH: cannot write: <why>' for a write that failed (a full disk names no file itself)."""
+        return cls(path, f"cannot write: {error.strerror or error}")
+
     def __reduce__(self):
         # Worker processes send errors back by pickling; keep the three fields.
         return (type(self), (self.path, self.problem, self.line))

@@ -424,7 +424,7 @@ class Staging:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as error:
-            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
+            raise InputError.unwritable(self.out_dir / name, error) from None
         return path
 
     def write_csv(self, name: str, table, float_format: str) -> None:
@@ -434,10 +434,10 @@ class Staging:
             with open(self.file(name), "w", encoding="utf-8", newline="") as handle:
                 table.to_csv(handle, index=False, float_format=float_format, lineterminator="\n")
         except OSError as error:
-            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
+            raise InputError.unwritable(self.out_dir / name, error) from None
 
     def write_text(self, name: str, text: str) -> None:
         try:
             self.file(name).write_text(text, encoding="utf-8")
         except OSError as error:
-            raise InputError(self.out_dir / name, f"cannot write: {error.strerror}") from None
+            raise InputError.unwritable(self.out_dir / name, error) from None

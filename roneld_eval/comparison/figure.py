@@ -129,6 +129,6 @@ def save(figure, paths: list[Path]) -> None:
                 try:
                     figure.savefig(path, metadata=metadata[path.suffix])
                 except OSError as error:
-                    raise InputError(path, f"cannot write: {error.strerror or error}") from None
+                    raise InputError.unwritable(path, error) from None
     finally:
         plt.close(figure)

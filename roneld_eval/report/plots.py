@@ -79,7 +79,7 @@ def save_figure(figure, png: Path, svg: Path | None = None) -> None:
                 try:
                     figure.savefig(path, metadata=metadata)
                 except OSError as error:  # disk full, quota: name the picture, not matplotlib's internals
-                    raise InputError(path, f"cannot write: {error.strerror or error}") from None
+                    raise InputError.unwritable(path, error) from None
     finally:
         plt.close(figure)
 

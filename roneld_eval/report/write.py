@@ -44,7 +44,7 @@ class LaneWriter:
                 handle = self.handles[name] = self.staging.file(name).open("w", encoding="utf-8")
             handle.write(lane_file.text)
         except OSError as error:  # a full disk: a write names no file of its own
-            raise InputError(self.staging.out_dir / name, f"cannot write: {error.strerror or error}") from None
+            raise InputError.unwritable(self.staging.out_dir / name, error) from None
 
     def close(self) -> None:
         failed = None
@@ -52,7 +52,7 @@ class LaneWriter:
             try:
                 handle.close()  # every one, even after one fails (its buffer could not be written)
             except OSError as error:
-                failed = failed or InputError(self.staging.out_dir / name, f"cannot write: {error.strerror or error}")
+                failed = failed or InputError.unwritable(self.staging.out_dir / name, error)
         if failed is not None:
             raise failed
 
