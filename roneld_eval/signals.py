@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import signal
 import threading
+from typing import Iterator
 
 from .errors import RunInterrupted
 
@@ -63,6 +64,14 @@ def interruption_name(error: BaseException) -> tuple[str, int]:
 
 
 @contextlib.contextmanager
+def _noted() -> Iterator[list[int]]:
+    """Within the block, Ctrl-C, SIGTERM and SIGHUP are only appended to the list it gives."""
+    received: list[int] = []
+    with _handling(_HELD, lambda number, frame: received.append(number)):
+        yield received
+
+
+@contextlib.contextmanager
 def held_signals():
     """Hold Ctrl-C, SIGTERM and SIGHUP during the block, then act on the first one received.
 
@@ -70,8 +79,7 @@ def held_signals():
     interruption is reported as such (RunInterrupted, exit 128 + signal), not as a run that
     wrote nothing.
     """
-    received: list[int] = []
-    with _handling(_HELD, lambda number, frame: received.append(number)):
+    with _noted() as received:
         yield
     if received:
         name = signal.Signals(received[0]).name
@@ -91,8 +99,7 @@ def deferred_signals():
     forking thread alone cannot prevent it: any other thread (tqdm's monitor, a library's) may
     take the signal, and its handler then runs in the main thread all the same.
     """
-    received: list[int] = []
-    with _handling(_HELD, lambda number, frame: received.append(number)):
+    with _noted() as received:
         yield
     if received:
         signal.raise_signal(received[0])
