@@ -288,22 +288,34 @@ def read_all(folder: Path) -> int:
     return total
 
 
-def against(revision: str, data: Path, maps: Path, folder: Path, frames: int, repeats: int = 3) -> None:
-    """The whole command of `revision` against this checkout's, alternating on the same set."""
-    workers = default_workers()
-    described = subprocess.run(["git", "-C", str(REPO), "log", "-1", "--format=%h %s", revision], check=True,
-                               capture_output=True, text=True).stdout.strip()
-    with worktree(revision) as old_tree, tempfile.TemporaryDirectory(prefix="roneld-bench-numba-") as numba_dir:
-        # The old code compiles into its own numba cache, removed with it: numba keys entries by
-        # source path, so it would not mix with ours, but it would leave dead entries behind.
-        old_env = dict(os.environ, NUMBA_CACHE_DIR=numba_dir)
-        trees = {"old": (old_tree, old_env), "new": (REPO, dict(os.environ))}
+@contextmanager
+def compared_trees(revision: str | None) -> Iterator[dict[str, tuple[Path, dict[str, str]]]]:
+    """{"old": (worktree of `revision`, its environment), "new": (this checkout, ...)}, "new"
+    alone without a revision; each checked to import its own code, not the editable install's."""
+    with contextlib.ExitStack() as stack:
+        trees = {"new": (REPO, dict(os.environ))}
+        if revision:
+            old_tree = stack.enter_context(worktree(revision))
+            # The old code compiles into its own numba cache, removed with it: numba keys entries by
+            # source path, so it would not mix with ours, but it would leave dead entries behind.
+            numba_dir = stack.enter_context(tempfile.TemporaryDirectory(prefix="roneld-bench-numba-"))
+            trees = {"old": (old_tree, dict(os.environ, NUMBA_CACHE_DIR=numba_dir)), **trees}
         for name, (tree, env) in trees.items():
             imported = subprocess.run([sys.executable, "-c", "import roneld_eval; print(roneld_eval.__file__)"],
                                       cwd=tree, env=dict(env, PYTHONPATH=str(tree)), check=True,
                                       capture_output=True, text=True).stdout.strip()
             if not Path(imported).resolve().is_relative_to(tree.resolve()):
                 sys.exit(f"the {name} run would import {imported}, not the code in {tree}")
+        yield trees
+
+
+def against(revision: str, data: Path, maps: Path, folder: Path, frames: int, repeats: int = 3) -> None:
+    """The whole command of `revision` against this checkout's, alternating on the same set."""
+    workers = default_workers()
+    described = subprocess.run(["git", "-C", str(REPO), "log", "-1", "--format=%h %s", revision], check=True,
+                               capture_output=True, text=True).stdout.strip()
+    with compared_trees(revision) as trees:
+        old_tree = trees["old"][0]
         print(f"  old: {described} (worktree {old_tree}); new: this checkout {REPO}")
         start = time.perf_counter()
         size = read_all(maps)
@@ -349,13 +361,9 @@ def memory(data: Path, maps: Path, folder: Path, revision: str | None, repeats: 
     sizes = sorted({min(max(len(videos) // part, workers), len(videos)) for part in (8, 2, 1)})
     per_video = collections.Counter(posixpath.dirname(line) for line in listed)
     frames_of = {size: sum(per_video[video] for video in videos[:size]) for size in sizes}
-    with contextlib.ExitStack() as stack:
-        trees = {"new (checkout)": (REPO, dict(os.environ))}
-        if revision:
-            old_tree = stack.enter_context(worktree(revision))
-            numba_dir = stack.enter_context(tempfile.TemporaryDirectory(prefix="roneld-bench-numba-"))
-            trees = {f"old ({revision})": (old_tree, dict(os.environ, NUMBA_CACHE_DIR=numba_dir)), **trees}
-        for name, (tree, env) in trees.items():
+    with compared_trees(revision) as trees:
+        for which, (tree, env) in trees.items():
+            name = f"old ({revision})" if which == "old" else "new (checkout)"
             try:
                 timed_run(data, maps, workers, 1, folder / "warm", tree=tree, env=env, maps_format="lanes")
             except subprocess.CalledProcessError:
