@@ -196,6 +196,21 @@ def test_disk_full_while_writing_leaves_earlier_results(sets, monkeypatch):
     assert sorted(p.name for p in out.iterdir()) == EARLIER
 
 
+def stage_on_full_disk(monkeypatch, name: str) -> None:
+    """The staged file `name` leads to a device that is always full (writes fail with ENOSPC)."""
+    from roneld_eval.report import write
+
+    original = write.Staging.file
+
+    def full_disk(self, wanted):
+        path = original(self, wanted)
+        if wanted == name:
+            path.symlink_to("/dev/full")
+        return path
+
+    monkeypatch.setattr(write.Staging, "file", full_disk)
+
+
 @pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (writes fail with ENOSPC)")
 @pytest.mark.parametrize("name, options", [
     ("accuracy_curve.svg", []),
@@ -204,17 +219,7 @@ def test_disk_full_while_writing_leaves_earlier_results(sets, monkeypatch):
 ])
 def test_disk_full_names_the_file_in_the_output_folder(sets, monkeypatch, name, options):
     _, out = sets
-    from roneld_eval.report import write
-
-    original = write.Staging.file
-
-    def full_disk(self, wanted):  # the staged file leads to a device that is always full
-        path = original(self, wanted)
-        if wanted == name:
-            path.symlink_to("/dev/full")
-        return path
-
-    monkeypatch.setattr(write.Staging, "file", full_disk)
+    stage_on_full_disk(monkeypatch, name)
     result = CliRunner().invoke(main, ["run", "--out", str(out), "--quiet", "--workers", "1", *options])
     assert result.exit_code == 2, result.output
     assert result.output == f"error: {out / name}: cannot write: No space left on device\n"
@@ -225,17 +230,7 @@ def test_disk_full_names_the_file_in_the_output_folder(sets, monkeypatch, name, 
 @pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (writes fail with ENOSPC)")
 def test_debug_shows_where_a_renamed_write_error_came_from(sets, monkeypatch):
     _, out = sets
-    from roneld_eval.report import write
-
-    original = write.Staging.file
-
-    def full_disk(self, wanted):
-        path = original(self, wanted)
-        if wanted == "accuracy_curve.svg":
-            path.symlink_to("/dev/full")
-        return path
-
-    monkeypatch.setattr(write.Staging, "file", full_disk)
+    stage_on_full_disk(monkeypatch, "accuracy_curve.svg")
     result = CliRunner().invoke(main, ["run", "--out", str(out), "--quiet", "--workers", "1", "--debug"])
     assert result.exit_code == 2
     assert "in save_figure" in result.output and ".staging-" not in result.output.splitlines()[-1]
