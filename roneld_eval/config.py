@@ -72,6 +72,9 @@ class Range:
         return f"in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
 
 
+# The thinnest line the rasteriser draws as OpenCV does (see RANGES).
+MIN_LINE_THICKNESS = 2
+
 # The range of every numeric setting, checked the same way for presets, TOML files, `--set`
 # and the library (each dataclass checks its fields when built). Sources of the defaults are
 # beside the fields; the bounds keep a typo from running for hours or drawing nonsense.
@@ -89,10 +92,12 @@ RANGES: dict[str, Range] = {
     "baseline.existence_threshold": Range(0, 1),
     "roneld.center_ratio": Range(0, 1, low_open=True, high_open=True),
     "roneld.lane_ratio": Range(0, 1, high_open=True),
-    "paper.gt_thickness_px": Range(1, 1000),
-    "paper.pred_thickness_px": Range(1, 1000),
+    # OpenCV draws thickness 1 as a thin 8-connected line, not as the thick polyline drawn
+    # here for 2 and more: 1 is refused rather than scored differently from the official tools.
+    "paper.gt_thickness_px": Range(MIN_LINE_THICKNESS, 1000),
+    "paper.pred_thickness_px": Range(MIN_LINE_THICKNESS, 1000),
     "official.iou_threshold": Range(0, 1, high_open=True),  # TP when IoU > threshold
-    "official.lane_width_px": Range(1, 1000),
+    "official.lane_width_px": Range(MIN_LINE_THICKNESS, 1000),
     "workers": Range(1, 1024),
 }
 # IoU thresholds (paper.thresholds, `score --iou`): at most this many in a sweep, each with at
@@ -292,7 +297,12 @@ class PaperMetricParams:
             value = int(Decimal(base_px * map_width) / Decimal(800) + Decimal("0.5"))
         else:
             value = (base_px * map_height) // 288
-        return max(1, value)
+        if value < MIN_LINE_THICKNESS:
+            raise ConfigError(
+                f"a {base_px} px line at the 800x288 reference is {value} px on {map_width}x{map_height} maps; "
+                f"lines thinner than {MIN_LINE_THICKNESS} px are not drawn as OpenCV draws them (raise "
+                f"paper.gt_thickness_px / paper.pred_thickness_px, or use larger maps)")
+        return value
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Callable, Union
 
 import numpy as np
 
-from .config import IMAGE_SIZES, Thresholds, parse_thresholds
+from .config import IMAGE_SIZES, MIN_LINE_THICKNESS, Thresholds, parse_thresholds
 from .datasets import read_culane
 from .datasets._paths import under_root
 from .datasets.culane import labels_path, read_frame_labels
@@ -296,6 +296,24 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
 # ---- scoring lane files ----------------------------------------------------------------------
 
 
+# The farthest a predicted coordinate may lie from the origin: beyond float32's integers the
+# C++ evaluator's spline and cvRound saturate in ways not emulated here (off by a few pixels
+# at +-2^31); no detector's lane reaches 16.7 million pixels, so refusing loses nothing real.
+MAX_PREDICTED_COORDINATE = float(1 << 24)
+
+
+def check_scorable(lanes, path) -> None:
+    """Refuse predicted lanes with a coordinate the official evaluator cannot be matched on."""
+    for number, lane in enumerate(lanes, start=1):
+        points = lane.points
+        with np.errstate(invalid="ignore"):
+            bad = np.abs(points) > MAX_PREDICTED_COORDINATE
+        if bad.any():
+            x, y = points[int(np.argmax(bad.any(axis=1)))]
+            raise InputError(path, f"point ({x:g}, {y:g}) lies more than 2^24 px from the image origin: "
+                                   "not a lane coordinate", line=number)
+
+
 def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One chunk of frames against every method: (n_gt, n_pred per method, matched IoUs per method)."""
     relpaths, data_root, pred_roots, width, height, lane_width = args
@@ -307,7 +325,9 @@ def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         n_gt[k] = len(truth)
         gt_masks = official_masks(truth, width, height, lane_width) if truth else None  # drawn once, for all
         for m, pred_root in enumerate(pred_roots):
-            predictions = read_culane_lines(labels_path(pred_root, relpath))
+            path = labels_path(pred_root, relpath)
+            predictions = read_culane_lines(path)
+            check_scorable(predictions, path)
             result = evaluate_culane_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
             n_pred[m, k] = result.n_pred
             ious[m].append(result.matched_iou)
@@ -343,8 +363,9 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     summary.csv and summary.md.
     """
     thresholds, highlighted = _thresholds(iou, preset)
-    if width < 1:
-        raise ConfigError(f"lane width must be positive, got {width}")
+    if width < MIN_LINE_THICKNESS:
+        raise ConfigError(f"lane width must be at least {MIN_LINE_THICKNESS}, got {width}: the C++ evaluator draws "
+                          "width 1 as a thin 8-connected line, which is not emulated here")
     dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
     relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
     trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)

@@ -78,6 +78,18 @@ def test_thickness_rules():
     assert width_rule.thickness(30, 976, 351) == 37  # round(36.6)
     assert height_rule.thickness(30, 976, 351) == 36  # int(36.56), the RONELD reference
     assert height_rule.thickness(16, 976, 351) == 19
+    assert width_rule.thickness(16, 75, 27) == 2  # 1.5 rounds up
+
+
+def test_lines_thinner_than_two_pixels_are_refused():
+    # OpenCV draws thickness 1 as a thin 8-connected line, which the rasteriser does not emulate.
+    with pytest.raises(ConfigError, match="is 1 px on 74x27 maps"):
+        PaperMetricParams(thickness_rule="width").thickness(16, 74, 27)
+    with pytest.raises(ConfigError, match="is 1 px on 976x35 maps"):
+        PaperMetricParams(thickness_rule="height").thickness(16, 976, 35)
+    for key in ("paper.gt_thickness_px", "paper.pred_thickness_px", "official.lane_width_px"):
+        with pytest.raises(ConfigError, match=key.split(".")[1]):
+            EvalConfig().with_overrides(**{key: 1})
 
 
 def test_rows_parse():
