@@ -183,6 +183,31 @@ def test_fewer_than_half_is_a_warning_and_strict_an_error(lanes, tmp_path):
         score_culane(gt, pred, workers=1, strict=True)
 
 
+def test_width_one_is_refused_not_scored_as_width_two(lanes):
+    # The C++ evaluator draws width 1 as a thin 8-connected line (291 px for a real lane where
+    # the thick-line rasteriser gives 843): a width the rasteriser does not draw as OpenCV does
+    # must not give a number.
+    gt, pred = lanes
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", pred, "--width", 1, "--quiet")
+    assert result.exit_code == 2 and "--width" in result.output
+    with pytest.raises(ConfigError, match="lane width must be at least 2, got 1"):
+        score_culane(gt, pred, width=1, workers=1)
+    assert score_culane(gt, pred, width=2, workers=1).official["tp"].sum() > 0
+
+
+def test_a_predicted_coordinate_beyond_float32_integers_is_named(lanes, tmp_path):
+    gt, pred = lanes
+    copy = tmp_path / "pred"
+    shutil.copytree(pred, copy)
+    target = sorted(copy.rglob("*.lines.txt"))[3]
+    target.write_text("100 590 200 400 300 300 \n410 590 3000000000 400 420 300 \n")
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", copy, "--quiet", "--workers", 1)
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert f"{target}:2: point (3e+09, 400) lies more than 2^24 px from the image origin" in result.output
+    target.write_text("100 590 200 400 300 300 \n410 590 16777216 400 420 300 \n")  # the bound itself is scored
+    assert invoke("score", "culane", "--data-root", gt, "--pred-root", copy, "--quiet", "--workers", 1).exit_code == 0
+
+
 # ---- the command line ------------------------------------------------------------------------
 
 
