@@ -254,17 +254,10 @@ def check_official_tables(out: Path, groups):
                 assert row[0] == names[method].format(label) + suffix(len(paths))
                 fp = [o.loc[method, "fp"] for o in official]
                 fn = [o.loc[method, "fn"] for o in official]
-                f1 = [f1_from_rates(p, n) for p, n in zip(fp, fn)]
+                f1 = [o.loc[method, "f1_clrnet"] for o in official]  # the run's own, never recomputed
                 assert row[1:] == [stat([o.loc[method, "accuracy"] for o in official], 2, 100), stat(fp, 4),
                                    stat(fn, 4), stat(f1, 2, 100)]
         assert next(rows, None) is None
-
-
-def f1_from_rates(fp: float, fn: float) -> float:
-    """lane.py's FP and FN rates -> F1 as later lane papers compute it (tp = 1 - FP)."""
-    tp = 1 - fp
-    precision, recall = tp / (tp + fp), tp / (tp + fn)
-    return 0.0 if precision + recall == 0 else 2 * precision * recall / (precision + recall)
 
 
 def check_comparison_csv(out: Path, groups):
@@ -423,6 +416,21 @@ def test_other_method_names_are_rows_and_curves_of_their_own(runs, tmp_path):
 
 
 # ---- what is not comparable --------------------------------------------------------------------
+
+def test_tusimple_f1_is_the_runs_own_even_where_it_is_n_a(runs, tmp_path):
+    # fp = 1, fn = 0.5: CLRNet's script divides by zero (tp = 0), so the run writes an empty
+    # f1_clrnet; recomputing it gave 0.0 beside the run's n/a.
+    run = tmp_path / "run"
+    shutil.copytree(runs["ts_scnn"], run)
+    official = pd.read_csv(run / "official.csv", dtype=str, keep_default_na=False)
+    assert official.loc[0, "method"] == "baseline"
+    official.loc[0, ["fp", "fn", "f1_clrnet"]] = ["1", "0.5", ""]
+    official.to_csv(run / "official.csv", index=False)
+    compare([run], tmp_path / "out")
+    text = (tmp_path / "out" / "table_official.md").read_text()
+    cells = next(line for line in text.splitlines() if line.startswith("| SCNN |")).split("|")[1:-1]
+    assert [cell.strip() for cell in cells[2:]] == ["1.0000", "0.5000", "n/a"]
+
 
 def test_different_frames_are_refused(runs, data, tmp_path):
     fewer = evaluate(tmp_path / "fewer", *data["culane"], "culane", **{"dataset.limit": 3})

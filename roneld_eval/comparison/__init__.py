@@ -563,19 +563,6 @@ def _runtime_files(groups: Sequence[Group], notes) -> dict[str, str]:
     return {"table_runtime.md": markdown, "table_runtime.tex": grid.to_latex(text, "tab:compare-runtime", list(notes))}
 
 
-def tusimple_f1(fp: float, fn: float) -> float:
-    """F1 from lane.py's FP and FN rates, as later lane papers compute it: tp = 1 - FP,
-    precision = tp / (tp + FP), recall = tp / (tp + FN)."""
-    tp = 1 - fp
-    precision = tp / (tp + fp) if tp + fp else math.nan
-    recall = tp / (tp + fn) if tp + fn else math.nan
-    if math.isnan(precision) or math.isnan(recall):
-        return math.nan
-    if precision + recall == 0:
-        return 0.0  # nothing found and nothing right
-    return 2 * precision * recall / (precision + recall)
-
-
 def culane_official_grid(groups: Sequence[Group]) -> Grid:
     """Official CULane F1 (%) per category (rows) for every model and method (columns); 'cross' as FP."""
     categories = list(dict.fromkeys(c for g in groups for r in g.runs for c in r.official["category"]))
@@ -606,6 +593,12 @@ def culane_official_grid(groups: Sequence[Group]) -> Grid:
     return Grid((Column("Category", ("Category",)),), tuple(columns), tuple(rows))
 
 
+def _run_f1(row: pd.Series) -> float:
+    """The run's own f1_clrnet (n/a where its official.csv predates that column): never recomputed
+    here, so the table cannot disagree with the run's."""
+    return float(row["f1_clrnet"]) if "f1_clrnet" in row.index else math.nan
+
+
 def tusimple_official_grid(groups: Sequence[Group]) -> Grid:
     """TuSimple Accuracy (%), FP, FN and F1 (%) per model and method."""
     rows: list[tuple[Cell, ...]] = []
@@ -624,8 +617,7 @@ def tusimple_official_grid(groups: Sequence[Group]) -> Grid:
                          Stat(tuple(float(f["accuracy"]) for f in found), decimals=2, scale=100),
                          Stat(tuple(float(f["fp"]) for f in found), decimals=4),
                          Stat(tuple(float(f["fn"]) for f in found), decimals=4),
-                         Stat(tuple(tusimple_f1(float(f["fp"]), float(f["fn"])) for f in found), decimals=2,
-                              scale=100)))
+                         Stat(tuple(_run_f1(f) for f in found), decimals=2, scale=100)))
     columns = (Column("Accuracy (%)", ("Acc. (%)",)), Column("FP", ("FP",)), Column("FN", ("FN",)),
                Column("F1 (%)", ("F1 (%)",)))
     return Grid((Column("Method", ("Method",)),), columns, tuple(rows))
@@ -639,8 +631,9 @@ def _official_files(groups: Sequence[Group], notes) -> dict[str, str]:
         name = dataset_name(dataset)
         if dataset == "tusimple":
             grid = tusimple_official_grid(members)
-            text = ("Official TuSimple scores (evaluate/lane.py): accuracy, FP and FN rates; F1 from them as later "
-                    "lane papers compute it (tp = 1 - FP, precision = tp / (tp + FP), recall = tp / (tp + FN)).")
+            text = ("Official TuSimple scores (evaluate/lane.py): accuracy, FP and FN rates; F1 as each run's "
+                    "official.csv gives it (f1_clrnet: CLRNet's tusimple_metric.py, tp = 1 - FP, precision = "
+                    "tp / (tp + FP), recall = tp / (tp + FN); n/a where that script divides by zero).")
         else:
             grid = culane_official_grid(members)
             geometry = members[0].runs[0].protocol

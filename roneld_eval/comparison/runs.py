@@ -114,7 +114,8 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
     _unique(folder / "runtime.csv", runtime, ["method"])
     if dataset == "tusimple":
         official = read_csv(folder / "official.csv", {"method": "text", "accuracy": "optional number",
-                                                      "fp": "optional number", "fn": "optional number"})
+                                                      "fp": "optional number", "fn": "optional number"},
+                            {"f1_clrnet": "optional number"})
         _unique(folder / "official.csv", official, ["method"])
     else:
         official = read_csv(folder / "official.csv", {"method": "text", "category": "text", "tp": "count",
