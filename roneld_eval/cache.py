@@ -11,6 +11,7 @@ and never a traceback.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import hmac
 import json
@@ -60,7 +61,7 @@ class ResultCache:
         self.note = note or (lambda message: None)
         self.reasons: Counter[str] = Counter()
         self.reused = 0
-        self._secret = _secret_key()
+        self._secret = _secret_key(self.note)
         if self.folder.is_symlink():
             self.folder.unlink()  # never write through a link to somewhere else
         if not resume:
@@ -184,27 +185,75 @@ def _digest(text: str) -> str:
     return hashlib.sha256(text.encode("utf-8", "surrogateescape")).hexdigest()
 
 
-def _secret_key() -> bytes:
-    """This user's secret for the cache checksums (created once, readable by the user only)."""
+KEY_BYTES = 32
+
+
+def key_path() -> Path:
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    path = Path(base) / "roneld-eval" / "cache-key"
+    return Path(base) / "roneld-eval" / "cache-key"
+
+
+def _read_key(path: Path) -> tuple[bytes | None, str | None]:
+    """(key, None) for a sound key file, else (None, why it is not used); (None, None) when absent.
+
+    Opened without following links and without blocking (a FIFO or a link to /dev/zero must
+    not stall a run), read only up to one byte past a key's size.
+    """
     try:
-        return bytes.fromhex(path.read_text(encoding="ascii").strip())
-    except (OSError, ValueError):
-        pass
-    key = secrets.token_bytes(32)
+        descriptor = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except FileNotFoundError:
+        return None, None
+    except OSError as error:
+        return None, "a link" if error.errno == errno.ELOOP else f"unreadable ({error.strerror or error})"
+    try:
+        info = os.fstat(descriptor)
+        if not stat.S_ISREG(info.st_mode):
+            return None, "not a regular file"
+        if hasattr(os, "getuid") and (info.st_uid != os.getuid() or info.st_mode & 0o077):
+            return None, f"readable or writable by others (mode {stat.S_IMODE(info.st_mode):o})"
+        text = os.read(descriptor, 2 * KEY_BYTES + 2)
+    except OSError as error:
+        return None, f"unreadable ({error.strerror or error})"
+    finally:
+        os.close(descriptor)
+    try:
+        key = bytes.fromhex(text.decode("ascii").strip())
+    except (UnicodeDecodeError, ValueError):
+        key = b""
+    if len(key) != KEY_BYTES:
+        return None, f"not a {KEY_BYTES}-byte key ({len(text)} bytes)"
+    return key, None
+
+
+def _secret_key(note: Callable[[str], None]) -> bytes:
+    """This user's secret for the cache checksums (created once, readable by the user only).
+
+    A key file that is empty, short, not a regular file, a link or open to others is replaced
+    with a new key, with a note: entries signed with it are then recomputed, never trusted
+    (an empty key would let anyone sign entries).
+    """
+    path = key_path()
+    key, problem = _read_key(path)
+    if key is not None:
+        return key
+    key = secrets.token_bytes(KEY_BYTES)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         temporary = path.with_name(f"cache-key.{os.getpid()}.tmp")
-        descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o600)
         with os.fdopen(descriptor, "w") as handle:
             handle.write(key.hex())
+            handle.flush()
+            os.fsync(handle.fileno())  # a crash must not leave an empty key behind the rename
         os.replace(temporary, path)
-        return bytes.fromhex(path.read_text(encoding="ascii").strip())
-    except (OSError, ValueError):
+    except OSError:
         # No writable home: entries are still checked, against a key of this process only,
         # so --resume recomputes everything rather than trust what it cannot check.
         return key
+    if problem is not None:
+        note(f"note: {path}: cache key replaced ({problem}); finished clips signed with it are recomputed")
+    stored, _ = _read_key(path)  # another run may have written its key at the same moment
+    return stored if stored is not None else key
 
 
 # ---- plain-data form of a clip's results ------------------------------------------------

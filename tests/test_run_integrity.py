@@ -7,11 +7,15 @@ dataset and checks what is on disk afterwards, byte for byte.
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 import json
 import os
 import pickle
+import re
 import shutil
 import signal
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -298,6 +302,59 @@ def test_an_invalid_cache_entry_is_recomputed_with_a_note(dataset, tmp_path, mon
     notes: list[str] = []
     assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
     assert any("cache entry ignored" in n for n in notes) and "1 invalid cache entry" in notes[-1]
+
+
+def forge(entry: Path, key: bytes) -> None:
+    """Rewrite a cache entry with every IoU 1.0, signed with `key`."""
+    document = json.loads(entry.read_text())
+    body = re.sub(r'"(left|right)":(-?[0-9.e+-]+|"nan")', r'"\1":1.0', document["body"])
+    assert body != document["body"]
+    entry.write_text(json.dumps({"body": body, "mac": hmac.new(key, body.encode(), hashlib.sha256).hexdigest()}))
+
+
+def empty_key(path: Path) -> bytes:
+    path.write_bytes(b"")  # a crash between creating the key and writing it
+    return b""
+
+
+def short_key(path: Path) -> bytes:
+    path.write_text("00")
+    return b"\0"
+
+
+def shared_key(path: Path) -> bytes:
+    path.chmod(0o644)  # another user read it and signs entries with it
+    return bytes.fromhex(path.read_text())
+
+
+def fifo_key(path: Path) -> bytes:
+    path.unlink()
+    os.mkfifo(path, 0o600)  # must not block the run
+    return b""
+
+
+def zero_key(path: Path) -> bytes:
+    path.unlink()
+    path.symlink_to("/dev/zero")
+    return bytes(32)
+
+
+@pytest.mark.parametrize("spoil", [empty_key, short_key, shared_key, fifo_key, zero_key])
+def test_a_bad_cache_key_is_replaced_and_nothing_signed_with_it_is_reused(dataset, tmp_path, monkeypatch, spoil):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "user-cache"))
+    out = tmp_path / "out"
+    interrupted_run(monkeypatch, dataset, out, 2)
+    key_file = tmp_path / "user-cache" / "roneld-eval" / "cache-key"
+    assert stat.S_IMODE(key_file.stat().st_mode) == 0o600
+    forged_with = spoil(key_file)
+    for entry in cache_entries(out):
+        forge(entry, forged_with)
+    notes: list[str] = []
+    assert resumed(dataset, out, notes) == clean_numbers(dataset, tmp_path)
+    assert any(n.startswith(f"note: {key_file}: cache key replaced (") for n in notes), notes
+    assert "reused 0 finished clips" in notes[-1]
+    assert key_file.is_file() and not key_file.is_symlink() and len(bytes.fromhex(key_file.read_text())) == 32
+    assert stat.S_IMODE(key_file.stat().st_mode) == 0o600
 
 
 def test_a_crafted_pickle_in_the_cache_runs_no_code(dataset, tmp_path, monkeypatch):
