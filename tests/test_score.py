@@ -374,6 +374,29 @@ def test_tusimple_f1_equals_both_tools_on_the_full_test_labels(shared_data, tmp_
         assert score.n_frames == 2782
 
 
+def test_tusimple_angle_thresholds_are_numpys_as_lane_py_computes_them(shared_data, tmp_path):
+    # Rows of the 9 real lanes whose threshold differs in the last bits between numpy's arctan
+    # and cos (lane.py's) and the math module's, moved between the two thresholds.
+    labels_gz = shared_data / "tusimple" / "test_label.json.gz"
+    if not labels_gz.is_file():
+        pytest.skip("tusimple/test_label.json.gz is not available")
+    golden = json.loads((GOLDEN / "tusimple_angle.json").read_text())
+    labels = tmp_path / "test_label.json"
+    labels.write_bytes(gzip.decompress(labels_gz.read_bytes()))
+    records = [json.loads(line) for line in labels.read_text().splitlines()]
+    for i, j, k, value in golden["edits"]:
+        records[i]["lanes"][j][k] = value
+    text = "".join(json.dumps({"raw_file": r["raw_file"], "lanes": r["lanes"], "h_samples": r["h_samples"],
+                               "run_time": 10}) + "\n" for r in records)
+    assert digest(text) == golden["predictions_sha256"]
+    pred = tmp_path / "pred.json"
+    pred.write_text(text)
+    score = score_tusimple(labels, pred)
+    ufld, clrnet = golden["lane2"], golden["tusimple_metric"]
+    assert (score.accuracy, score.fp, score.fn, score.f1_ufld, score.f1_clrnet) == \
+        (ufld["Accuracy"], ufld["FP"], ufld["FN"], ufld["F1"], clrnet["F1_score"])
+
+
 def test_score_tusimple_writes_and_prints_both_f1s(tmp_path):
     rows = list(range(160, 720, 10))
     labels = [{"lanes": [[500] * 56, [800] * 56], "h_samples": rows, "raw_file": f"clips/{k}/20.jpg"} for k in "ab"]
