@@ -249,7 +249,12 @@ def check_h_samples(rows, path, line: int, image_height: int) -> None:
 
 
 def _is_number(value) -> bool:
-    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer beyond a float's range (JSON allows 400 digits)
+        return False
 
 
 def read_tusimple_records(path: Path, predictions: bool = False,

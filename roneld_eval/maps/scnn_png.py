@@ -145,13 +145,27 @@ def png_size(path: Path) -> tuple[int, int] | None:
     return width, height
 
 
+# The most pixels a map image may claim: 8192 x 8192, about 50 times a CULane or TuSimple map.
+# Checked on the header before anything is inflated, so a small file that claims a huge image
+# (a decompression bomb, or a header OpenCV's own cap turns into an exception) is one line.
+MAX_MAP_PIXELS = 1 << 26
+
+
 def _read_png(path: Path, data: bytes) -> np.ndarray:
     check_png(data, path)
+    if data[12:16] == b"IHDR":
+        width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+        if width * height > MAX_MAP_PIXELS:
+            raise InputError(path, f"its header claims {width}x{height} pixels; maps of more than "
+                                   f"{MAX_MAP_PIXELS:,} pixels are refused (8192 x 8192)")
     # Without libdeflate, zlib would inflate no faster than OpenCV decodes the whole PNG.
     plain = _decode_plain_png(data) if _libdeflate is not None else None
     if plain is not None:
         return plain
-    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    try:
+        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    except cv2.error as error:  # OpenCV refuses what libpng would not decode sensibly
+        raise InputError(path, f"not a readable image ({str(error).strip().splitlines()[-1]})") from None
     if image is None:
         raise InputError(path, "not a readable image (truncated or not a PNG?)")
     if image.dtype != np.uint8:
