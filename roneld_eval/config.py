@@ -553,6 +553,8 @@ class EvalConfig:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as error:
             raise ConfigError(f"{source}: not valid TOML: {error}") from None
+        except RecursionError:  # tomllib recurses once per nested array
+            raise ConfigError(f"{source}: not a configuration: nested too deeply") from None
         return cls.from_dict(data, source=source)
 
     @classmethod
@@ -670,7 +672,7 @@ def parse_setting(text: str) -> tuple[str, Any]:
     try:
         parsed = tomllib.loads(f"v = {raw}")
         value, understood = parsed.get("v"), len(parsed) == 1 and "v" in parsed
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):
         value, understood = None, False
     if base == "str":
         return key, value if understood and isinstance(value, str) else raw

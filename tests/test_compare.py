@@ -522,6 +522,7 @@ def test_out_may_not_be_a_run_folder(runs, tmp_path):
      "official.csv:2: column f1: 'inf' is not a number or empty"),
     ("config.toml", "model = \n", "config.toml: not valid TOML"),
     ("config.toml", "model = 3\n", "config.toml: `model` is missing or not a str"),
+    ("config.toml", "a = " + "[" * 100_000 + "]" * 100_000 + "\n", "config.toml: not TOML this tool wrote: nested too deeply"),
     ("summary.json", "{\"counts\": ", "summary.json: not valid JSON"),
     ("summary.json", "[]", "summary.json: must hold a JSON object"),
     ("summary.json", "{\"counts\": {\"clips\": -1}}", "summary.json: `counts` must hold clips"),

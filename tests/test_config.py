@@ -97,3 +97,10 @@ def test_rows_parse():
     assert len(parse_rows("249:590:20")) == 18
     with pytest.raises(ConfigError):
         parse_rows("a:b")
+
+
+def test_a_deeply_nested_toml_file_is_one_error(tmp_path):
+    path = tmp_path / "deep.toml"
+    path.write_text("a = " + "[" * 100_000 + "]" * 100_000 + "\n")
+    with pytest.raises(ConfigError, match="deep.toml: not a configuration: nested too deeply"):
+        EvalConfig.from_toml(path)

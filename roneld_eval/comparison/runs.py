@@ -149,6 +149,8 @@ def _read_toml(path: Path) -> dict:
         raise InputError(path, "not UTF-8 text") from None
     except tomllib.TOMLDecodeError as error:
         raise InputError(path, f"not valid TOML: {error}") from None
+    except RecursionError:  # tomllib recurses once per nested array
+        raise InputError(path, "not TOML this tool wrote: nested too deeply") from None
 
 
 def _read_json(path: Path) -> dict:
