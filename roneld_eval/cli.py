@@ -38,9 +38,25 @@ def _fail(error: BaseException, debug: bool):
     raise UsageProblem(str(error), getattr(error, "exit_code", 2)) from None
 
 
+def _check_path_text(value) -> None:
+    """A folder, file or name given on the command line must be text the files written can hold
+    (a non-UTF-8 name otherwise fails only when the path is recorded, after all the work)."""
+    if isinstance(value, (list, tuple)):
+        for item in value:
+            _check_path_text(item)
+    elif isinstance(value, (str, Path)):
+        try:
+            str(value).encode("utf-8")
+        except UnicodeEncodeError:
+            raise ConfigError(f"{str(value)!a} is not valid Unicode text (a name that is not UTF-8); rename it, "
+                              "or run under a UTF-8 locale such as LC_ALL=C.UTF-8") from None
+
+
 def _guard(function, debug: bool, *args, **kwargs):
     """Call the library; bad input becomes one line and exit 2, Ctrl-C a short note and 130."""
     try:
+        for value in (*args, *kwargs.values()):
+            _check_path_text(value)
         return function(*args, **kwargs)
     except RoneldEvalError as error:
         _fail(error, debug)

@@ -277,6 +277,11 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
         trees += children
     seen: dict[str, Path] = {}
     for tree in trees:
+        try:
+            tree.method.encode("utf-8")
+        except UnicodeEncodeError:  # the method's name goes into every table
+            raise InputError(tree.root, "the folder's name is not valid Unicode text (not UTF-8): rename it, "
+                                        "or name the method with --pred-root NAME=DIR") from None
         if tree.method in seen:
             raise ConfigError(f"two prediction trees are named {tree.method!r} ({seen[tree.method]} and {tree.root}): "
                               "name them with --pred-root NAME=DIR")

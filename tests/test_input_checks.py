@@ -251,6 +251,24 @@ def test_text_that_config_toml_cannot_hold_is_refused():
         EvalConfig().with_overrides(**{"maps.root": "/maps\0x"})
 
 
+def test_names_that_are_not_utf8_are_refused_by_score_compare_and_show_before_any_work(tmp_path):
+    # They failed with UnicodeEncodeError when the path was recorded, after all the work.
+    odd = os.fsdecode(b"s\xff")
+    synth_culane(tmp_path / odd, clips=1, frames=2, seed=1)
+    data = tmp_path / odd / "data"
+    one_line(run_cli("score", "culane", "--data-root", str(data), "--pred-root", str(data),
+                     "--out", str(tmp_path / "o")), "\\udcff/data' is not valid Unicode text")
+    assert not (tmp_path / "o").exists()
+    one_line(run_cli("compare", str(tmp_path / odd), "--out", str(tmp_path / "c")), "is not valid Unicode text")
+    one_line(run_cli("show", "--run", str(tmp_path / odd), "--worst", "1"), "is not valid Unicode text")
+    methods = tmp_path / "methods"
+    shutil.copytree(data, methods / os.fsdecode(b"m\xff"))
+    shutil.copytree(data, methods / "fine")
+    one_line(run_cli("score", "culane", "--data-root", str(methods / "fine"), "--pred-root", str(methods),
+                     "--out", str(tmp_path / "o")), "folder's name is not valid Unicode text")
+    assert not (tmp_path / "o").exists()
+
+
 AWKWARD = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\0"), max_size=24)
 
 
