@@ -155,12 +155,12 @@ def test_a_sweep_of_a_thousand_thresholds_is_the_limit():
 
 # (setting, --set value, the same value in TOML, expected text)
 RANGE_CASES = [
-    ("paper.gt_thickness_px", "0", "0", "paper.gt_thickness_px must be in [1, 1000], got 0"),
-    ("paper.pred_thickness_px", "-3", "-3", "paper.pred_thickness_px must be in [1, 1000], got -3"),
+    ("paper.gt_thickness_px", "0", "0", "paper.gt_thickness_px must be in [2, 1000], got 0"),
+    ("paper.pred_thickness_px", "-3", "-3", "paper.pred_thickness_px must be in [2, 1000], got -3"),
     ("paper.thresholds", "0.3:0.5:-0.1", '"0.3:0.5:-0.1"', "positive step"),
     ("official.iou_threshold", "1", "1", "official.iou_threshold must be in [0, 1), got 1"),
     ("official.iou_threshold", "nan", "nan", "official.iou_threshold must be a finite number, got nan"),
-    ("official.lane_width_px", "0", "0", "official.lane_width_px must be in [1, 1000], got 0"),
+    ("official.lane_width_px", "1", "1", "official.lane_width_px must be in [2, 1000], got 1"),
     ("maps.width", "0", "0", "maps.width must be in [1, 10000], got 0"),
     ("maps.height", "-1", "-1", "maps.height must be in [1, 10000], got -1"),
     ("maps.lane_channels", "1000000000", "1000000000", "maps.lane_channels must be in [1, 32]"),
