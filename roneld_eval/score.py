@@ -14,6 +14,7 @@ imported only when a DataFrame is asked for (CulaneScore.official, .summary, .ta
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
@@ -23,7 +24,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Union
+from typing import TYPE_CHECKING, Callable, Iterator, Union
 
 import numpy as np
 
@@ -354,6 +355,18 @@ def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds
     return thresholds, highlighted or thresholds.labels[:1]
 
 
+@contextlib.contextmanager
+def _taking(out: str | Path | None, command: str) -> Iterator[OutputFolder | None]:
+    """The whole command with SIGTERM and SIGHUP ending it as Ctrl-C does, and OUT (when given)
+    checked and locked before any work, not refused after it."""
+    with terminate_as_interrupt():
+        if out is None:
+            yield None
+            return
+        with OutputFolder(out, command) as folder:
+            yield folder
+
+
 def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
                  iou: str | float | None = None, width: int = 30, out: str | Path | None = None,
                  workers: int | None = None, progress: bool = False,
@@ -371,55 +384,55 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     if width < MIN_LINE_THICKNESS:
         raise ConfigError(f"lane width must be at least {MIN_LINE_THICKNESS}, got {width}: the C++ evaluator draws "
                           "width 1 as a thin 8-connected line, which is not emulated here")
-    dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
-    relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
-    trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
-    image_width, image_height = IMAGE_SIZES["culane"]
-    roots = tuple(tree.root for tree in trees)
-    chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
-    tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]
-    if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
-        from .workers import default_workers
+    with _taking(out, "score culane") as folder:
+        dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
+        relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
+        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
+        image_width, image_height = IMAGE_SIZES["culane"]
+        roots = tuple(tree.root for tree in trees)
+        chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
+        tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]
+        if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
+            from .workers import default_workers
 
-        workers = min(workers or default_workers(), len(chunks))
-    else:
-        workers = 1
-    from . import kernels
+            workers = min(workers or default_workers(), len(chunks))
+        else:
+            workers = 1
+        from . import kernels
 
-    kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
-    if workers == 1:
-        kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
-    from tqdm import tqdm
+        kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
+        if workers == 1:
+            kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
+        from tqdm import tqdm
 
-    pieces = []
-    with tqdm(total=len(relpaths), unit="frame", desc="scoring", disable=not progress) as bar:
-        if workers > 1:
-            from .workers import process_pool, stopping
+        pieces = []
+        with tqdm(total=len(relpaths), unit="frame", desc="scoring", disable=not progress) as bar:
+            if workers > 1:
+                from .workers import process_pool, stopping
 
-            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
-            with stopping(process_pool(workers), lambda: died) as pool:
-                for piece in pool.map(_score_frames, tasks):
+                died = "a worker process died (killed, or out of memory) while scoring: no result was written"
+                with stopping(process_pool(workers), lambda: died) as pool:
+                    for piece in pool.map(_score_frames, tasks):
+                        pieces.append(piece)
+                        bar.update(len(piece[0]))
+            else:
+                for piece in map(_score_frames, tasks):
                     pieces.append(piece)
                     bar.update(len(piece[0]))
-        else:
-            for piece in map(_score_frames, tasks):
-                pieces.append(piece)
-                bar.update(len(piece[0]))
-    n_methods = len(trees)
-    scored = ScoredFrames(
-        tuple(relpaths),
-        np.concatenate([p[0] for p in pieces]) if pieces else np.zeros(0, np.int64),
-        np.concatenate([p[1] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0), np.int64),
-        np.concatenate([p[2] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
-    )
-    methods = [tree.method for tree in trees]
-    official = sweep_records(scored, methods, dataset.categories, thresholds.values, thresholds.labels)
-    summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
-    score = CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
-                        PlainTable(tuple(summary_columns), tuple(summary)),
-                        thresholds, highlighted, tuple(trees), len(relpaths), tuple(warnings))
-    if out is not None:
-        with terminate_as_interrupt(), OutputFolder(out, "score culane") as folder:
+        n_methods = len(trees)
+        scored = ScoredFrames(
+            tuple(relpaths),
+            np.concatenate([p[0] for p in pieces]) if pieces else np.zeros(0, np.int64),
+            np.concatenate([p[1] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0), np.int64),
+            np.concatenate([p[2] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
+        )
+        methods = [tree.method for tree in trees]
+        official = sweep_records(scored, methods, dataset.categories, thresholds.values, thresholds.labels)
+        summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
+        score = CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
+                            PlainTable(tuple(summary_columns), tuple(summary)),
+                            thresholds, highlighted, tuple(trees), len(relpaths), tuple(warnings))
+        if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.official_rows.to_csv())
             staging.write_text("summary.csv", score.summary_rows.to_csv())
@@ -476,11 +489,11 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
     with F1 under UFLD-v2's and CLRNet's formulas (f1_ufld, f1_clrnet)."""
     from .metrics.tusimple_official import score_tusimple_files
 
-    score = score_tusimple_files(labels, pred)
-    if out is not None:
-        import pandas as pd
+    with _taking(out, "score tusimple") as folder:
+        score = score_tusimple_files(labels, pred)
+        if folder is not None:
+            import pandas as pd
 
-        with terminate_as_interrupt(), OutputFolder(out, "score tusimple") as folder:
             table = pd.DataFrame([score.as_row()])
             Staging(folder).write_text("official.csv", table.to_csv(index=False, float_format="%.10g",
                                                                     lineterminator="\n"))

@@ -230,6 +230,32 @@ def test_the_console_shows_the_summary_and_the_files_hold_everything(lanes, tmp_
         ["official.csv", "summary.csv", "summary.md"]
 
 
+@pytest.mark.parametrize("command", ["culane", "tusimple"])
+def test_a_foreign_out_is_refused_before_any_scoring(lanes, tmp_path, monkeypatch, command):
+    import roneld_eval.metrics.tusimple_official as tusimple_official
+    import roneld_eval.score as scoring
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("scored before the output folder was checked")
+
+    monkeypatch.setattr(scoring, "_score_frames", no_work)
+    monkeypatch.setattr(tusimple_official, "score_tusimple_files", no_work)
+    out = tmp_path / "thesis"
+    out.mkdir()
+    (out / "thesis.tex").write_text("mine")
+    gt, pred = lanes
+    if command == "culane":
+        args = ["score", "culane", "--data-root", gt, "--pred-root", pred, "--workers", 1, "--out", out]
+    else:
+        (tmp_path / "labels.json").write_text("")
+        args = ["score", "tusimple", "--labels", tmp_path / "labels.json", "--pred", tmp_path / "labels.json",
+                "--out", out]
+    result = invoke(*args)
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert "holds files roneld-eval did not write (thesis.tex)" in result.output
+    assert [p.name for p in out.iterdir()] == ["thesis.tex"]
+
+
 def test_the_cli_presets_are_the_librarys():
     command = main.commands["score"].commands["culane"]
     preset = next(p for p in command.params if p.name == "preset")
