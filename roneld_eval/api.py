@@ -158,6 +158,19 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
     """
     run_dir = Path(run_dir)
     check_finished_run(run_dir)
+    target = Path(out) if out is not None else run_dir / SHOW_FOLDER
+    if target.resolve() == run_dir.resolve():
+        raise InputError(target, "pictures go to their own folder, not over the run's files: choose another --out")
+    # The output folder is taken before any work: a folder that cannot be used is refused at once.
+    with terminate_as_interrupt(), OutputFolder(target, "show") as folder:
+        pictures = _show_pictures(run_dir, frames, worst, methods)
+        from .report.write import write_pictures
+
+        write_pictures(Staging(folder), pictures)
+        return folder.commit()
+
+
+def _show_pictures(run_dir: Path, frames: Sequence[str], worst: int | None, methods: Sequence[str]):
     requested = EvalConfig.from_toml(run_dir / "config.toml")
     config = with_fixture(requested)
     try:
@@ -184,15 +197,7 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
         recorded = None
     from .report.pictures import frame_pictures
 
-    pictures = frame_pictures(config, dataset, chosen, methods, recorded.paper_short() if recorded else "")
-    target = Path(out) if out is not None else run_dir / SHOW_FOLDER
-    if target.resolve() == run_dir.resolve():
-        raise InputError(target, "pictures go to their own folder, not over the run's files: choose another --out")
-    from .report.write import write_pictures
-
-    with terminate_as_interrupt(), OutputFolder(target, "show") as folder:
-        write_pictures(Staging(folder), pictures)
-        return folder.commit()
+    return frame_pictures(config, dataset, chosen, methods, recorded.paper_short() if recorded else "")
 
 
 SHOW_FOLDER = "show"

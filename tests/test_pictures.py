@@ -110,6 +110,21 @@ def test_show_draws_frames_into_its_own_folder(fixture_run, tmp_path):
     assert result.exit_code == 2 and "not a folder written by `roneld-eval run`" in result.output
 
 
+def test_show_refuses_a_foreign_out_before_drawing_anything(fixture_run, tmp_path, monkeypatch):
+    def no_work(*args, **kwargs):
+        raise AssertionError("drew before the output folder was checked")
+
+    monkeypatch.setattr(api, "_show_pictures", no_work)
+    _, run_dir = fixture_run
+    out = tmp_path / "thesis"
+    out.mkdir()
+    (out / "thesis.tex").write_text("mine")
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--worst", "2", "--out", str(out)])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert "holds files roneld-eval did not write (thesis.tex)" in result.output
+    assert [p.name for p in out.iterdir()] == ["thesis.tex"]
+
+
 def test_run_with_overlays_and_categories(tmp_path):
     api.run(api.default_config("culane").with_overrides(workers=1), tmp_path, progress=False, overlays=3)
     assert len(list((tmp_path / "overlays").glob("*.png"))) == 3
