@@ -16,8 +16,9 @@ import multiprocessing
 import os
 import signal
 import sys
+import threading
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import InvalidStateError, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
 
@@ -123,6 +124,30 @@ def process_pool(workers: int, initializer: Callable[..., Any] | None = None,
     return executor
 
 
+def _quiet_about_cancelled_futures() -> None:
+    """Make threading.excepthook drop one known exception of Python 3.11's pool manager thread.
+
+    When workers are ended while some futures are cancelled (Ctrl-C in `pool.map`, whose
+    generator cancels what is left), 3.11's terminate_broken sets an exception on those
+    cancelled futures and its thread dies with InvalidStateError, printing a traceback under
+    the interruption's one line (3.12 checks first). Nothing is lost by it.
+    """
+    previous = threading.excepthook
+    if previous in _QUIET_HOOKS:
+        return
+
+    def hook(args) -> None:
+        if issubclass(args.exc_type, InvalidStateError) and type(args.thread).__name__ == "_ExecutorManagerThread":
+            return
+        previous(args)
+
+    _QUIET_HOOKS.add(hook)
+    threading.excepthook = hook
+
+
+_QUIET_HOOKS: set[Callable[..., None]] = set()
+
+
 def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished: bool = False) -> None:
     """End every worker: SIGTERM (or, when `finished`, a polite request to exit), then SIGKILL
     for any still there after `grace_s`, so a stopped or stuck worker cannot hold us up."""
@@ -130,6 +155,7 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
     if finished:
         executor.shutdown(wait=False)
     else:
+        _quiet_about_cancelled_futures()
         for process in processes:
             with contextlib.suppress(Exception):
                 process.terminate()

@@ -405,6 +405,40 @@ def test_a_killed_worker_ends_scoring_clearly(tmp_path, monkeypatch):
     assert not (tmp_path / "out" / "official.csv").exists()
 
 
+@pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")  # pytest's own hook sees it
+def test_a_signal_while_scoring_leaves_no_pool_traceback(tmp_path, monkeypatch, capfd):
+    # Python 3.11's pool manager thread died with InvalidStateError on the futures that
+    # pool.map had cancelled, printing a traceback under the interruption's one line.
+    import signal
+    import threading
+    import time
+
+    from roneld_eval import score
+    from roneld_eval.signals import Terminated
+    from roneld_eval.synth import synth_lane_files
+
+    gt, pred = synth_lane_files(tmp_path / "lanes", frames=1200, seed=1)
+    original = score.evaluate_culane_frame
+    parent = os.getpid()
+
+    def slow(*args, **kwargs):
+        if os.getpid() != parent:
+            time.sleep(0.005)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(score, "evaluate_culane_frame", slow)
+    timer = threading.Timer(1.0, os.kill, (parent, signal.SIGTERM))
+    timer.start()
+    try:
+        with pytest.raises(Terminated):
+            api.score_culane(gt, pred, workers=2, out=tmp_path / "out")
+    finally:
+        timer.cancel()
+    time.sleep(1.0)  # the pool's manager thread ends after the workers
+    assert "Traceback" not in capfd.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_first_map_that_does_not_decode_is_skipped_whatever_its_header_claims(sets):
     # The run's main process takes the maps' size from the first PNG's header; a header that
     # disagrees with the configuration must not stop a run that skips unreadable frames.
