@@ -1,0 +1,106 @@
+"""The README as a newcomer pastes it: its numbers are those in results/, and every roneld-eval
+command in its shell blocks parses against the command line as written."""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+import warnings
+
+import click
+import pytest
+from conftest import REPO
+
+from roneld_eval.cli import main
+
+README = (REPO / "README.md").read_text(encoding="utf-8")
+
+
+def shell_blocks(text: str) -> list[str]:
+    return re.findall(r"^```sh\n(.*?)^```", text, flags=re.S | re.M)
+
+
+def commands(block: str) -> list[list[str]]:
+    """The roneld-eval invocations of a shell block, continuation lines joined, as argv lists."""
+    joined = block.replace("\\\n", " ")
+    found = []
+    for line in joined.splitlines():
+        line = line.split("  #")[0]  # a comment after the command
+        for part in re.split(r"&&|;|\|\|", line):
+            words = shlex.split(part)
+            for start, word in enumerate(words):
+                if word.endswith("roneld-eval"):
+                    found.append(words[start + 1:])
+                    break
+    return found
+
+
+def table_rows(text: str, header: str) -> list[str]:
+    lines = text.splitlines()
+    start = lines.index(header)
+    rows = []
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append(line)
+    return rows
+
+
+def test_the_fixture_table_is_results_accuracy_md():
+    header = "| IoU threshold | SCNN | SCNN + RONELD | Acc. Inc. | SCNN + RONELD w/o PFT | SCNN + RONELD | Acc. Inc. |"
+    committed = (REPO / "results" / "accuracy.md").read_text(encoding="utf-8")
+    assert table_rows(README, header) == table_rows(committed, header)
+
+
+def test_the_fixture_counts_are_results_summary_json():
+    counts = json.loads((REPO / "results" / "summary.json").read_text(encoding="utf-8"))["counts"]
+    stated = re.search(r"On the fixture's (\d+) clips, (\d+)\s+frames, (\d+) ego lanes", README)
+    assert stated is not None
+    assert tuple(map(int, stated.groups())) == (counts["clips"], counts["frames"], counts["ego_lanes"])
+
+
+def _remaining(context: click.Context) -> list[str]:
+    with warnings.catch_warnings():  # click 8.2 keeps a group's subcommand in protected_args, 9.0 in args
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return [*getattr(context, "protected_args", []), *context.args]
+
+
+def _parse(argv: list[str]) -> None:
+    """Parse `roneld-eval ARGV` as click would run it, without running anything."""
+    context = main.make_context("roneld-eval", list(argv), resilient_parsing=False)
+    command: click.Command = main
+    while isinstance(command, click.Group) and _remaining(context):
+        name, sub, rest = command.resolve_command(context, _remaining(context))
+        assert sub is not None, name
+        context = sub.make_context(name, rest, parent=context)
+        command = sub
+
+
+INVOCATIONS = [argv for block in shell_blocks(README) for argv in commands(block)]
+
+
+def test_the_readme_has_commands_to_check():
+    assert len(INVOCATIONS) >= 20
+    assert {argv[0] for argv in INVOCATIONS if argv} >= {"run", "score", "compare", "show", "synth"}
+    for wrong in (["run", "--no-such-option"], ["score", "culane", "--pred", "x"], ["scor"]):
+        with pytest.raises(click.UsageError):
+            _parse(wrong)
+
+
+@pytest.mark.parametrize("argv", INVOCATIONS, ids=[" ".join(argv)[:60] for argv in INVOCATIONS])
+def test_every_readme_command_parses(argv):
+    try:
+        _parse(argv)
+    except click.exceptions.Exit:  # --version, --help
+        pass
+    except click.UsageError as error:
+        pytest.fail(f"roneld-eval {' '.join(argv)}: {error.format_message()}")
+
+
+def test_the_examples_say_how_to_reach_the_command():
+    # After the two commands roneld-eval is inside .venv, not on PATH: the README must say so
+    # before its first example that calls it bare.
+    first_bare = min(README.index(block) for block in shell_blocks(README)
+                     if any(line.lstrip().startswith("roneld-eval") for line in block.splitlines()))
+    assert "source .venv/bin/activate" in README[:first_bare]
