@@ -22,7 +22,7 @@ from .errors import ConfigError, InputError, RunInterrupted
 from .benchmarks import benchmark_for
 from .cache import ResultCache
 from .evaluation import RunResult, evaluate
-from .output import JOURNAL, OutputFolder, Staging, read_manifest
+from .output import DEFAULT_OUT, JOURNAL, OutputFolder, Staging, read_manifest
 from .signals import interruption_name, terminate_as_interrupt
 from .report.tables import Protocol
 from .report.write import LaneWriter, stage_report
@@ -75,7 +75,7 @@ def with_absolute_paths(config: EvalConfig) -> EvalConfig:
     return replace(config, plugins=tuple(plugins)) if plugins else config
 
 
-def run(config: EvalConfig | None = None, out: str | Path = "results", progress: bool = True,
+def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progress: bool = True,
         resume: bool = False, overlays: int = 0, announce: Callable[[str], None] | None = None) -> RunResult:
     """Evaluate every configured method and write the report to `out` (see the README).
 

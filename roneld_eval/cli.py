@@ -16,6 +16,7 @@ import click
 from .version import __version__
 from .config import DEFAULT_PRESETS, MAP_FORMATS, METHODS, EvalConfig, parse_setting, preset_names
 from .errors import ConfigError, RoneldEvalError
+from .output import DEFAULT_OUT
 
 
 class UsageProblem(click.ClickException):
@@ -143,8 +144,8 @@ def main():
                    "summary.json and on screen.")
 @click.option("--resume", is_flag=True,
               help="Continue an interrupted run into the same --out: reuse its finished clips (same numbers).")
-@click.option("--out", type=click.Path(path_type=Path), default=Path("results"), show_default=True,
-              help="Folder for the results.")
+@click.option("--out", type=click.Path(path_type=Path), default=Path(DEFAULT_OUT), show_default=True,
+              help="Folder for the results (the default is ignored by this repository's git, never results/).")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
 def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, plugins, pft_ablation, no_pft,

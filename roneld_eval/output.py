@@ -28,6 +28,9 @@ from typing import Callable
 from .errors import InputError
 from .signals import held_signals
 
+# Where `run` writes without --out: a folder this repository's git ignores (out/), so a run in
+# a clone never rewrites the committed results/.
+DEFAULT_OUT = "out/run"
 MANIFEST = ".roneld-run.json"
 LOCK = ".roneld-lock"
 JOURNAL = ".roneld-commit.json"

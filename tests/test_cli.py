@@ -2,6 +2,7 @@
 
 import hashlib
 import json
+import subprocess
 
 import click
 import pytest
@@ -103,3 +104,23 @@ def test_score_tusimple(tmp_path):
     result = CliRunner().invoke(main, ["score", "tusimple", "--labels", str(tmp_path / "labels.json"),
                                        "--pred", str(tmp_path / "pred.json")])
     assert result.exit_code == 2 and "no prediction for 1 of 1 labelled frames" in result.output
+
+
+def test_run_without_out_writes_where_git_ignores_it(tmp_path, monkeypatch):
+    # The default was results/, the committed copy: `roneld-eval run` in a clone rewrote 23
+    # tracked files.
+    from conftest import REPO
+
+    from roneld_eval.output import DEFAULT_OUT
+
+    ignored = subprocess.run(["git", "check-ignore", "-q", DEFAULT_OUT], cwd=REPO)
+    if ignored.returncode == 128:
+        pytest.skip("not a git checkout")
+    assert ignored.returncode == 0, f"{DEFAULT_OUT} is not ignored by git"
+    assert subprocess.run(["git", "ls-files", "--error-unmatch", DEFAULT_OUT], cwd=REPO,
+                          capture_output=True).returncode != 0, f"{DEFAULT_OUT} holds tracked files"
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["run", "--quiet", "--workers", "1"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / DEFAULT_OUT / "accuracy.csv").is_file()
+    assert not (tmp_path / "results").exists()
