@@ -99,6 +99,9 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
                 raise RunInterrupted(_unfinished(str(error), cache), exit_code=error.exit_code) from None
             if resume:
                 say(f"resume: {cache.summary()}")
+            if not result.counts["labelled_frames"]:
+                raise InputError(config.maps.root or config.dataset.data_root,
+                                 _nothing_scored(result.counts["clips"], result.skipped))
             if writer is not None:
                 writer.close()
             if config is not requested:
@@ -126,6 +129,14 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
             cache.discard()  # bad input or a bug: nothing to resume from
             raise
     return result
+
+
+def _nothing_scored(clips: int, skipped: list[str]) -> str:
+    """Why a run that scored no frame writes no result (tables of n/a would read as results)."""
+    if skipped:
+        return (f"nothing was scored: every labelled frame was skipped ({len(skipped):,} skipped, first: "
+                f"{skipped[0]}); no result was written")
+    return f"nothing was scored: the {clips:,} clips hold no labelled frame; no result was written"
 
 
 def _unfinished(reason: str, cache: ResultCache) -> str:

@@ -703,12 +703,13 @@ def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tu
 def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
     """'maps missing for N frames of K clips: ...' naming the first files, why where it is not
     plain absence, maps found in another format (use --maps-format), and TuSimple's 20 frames."""
-    from .maps import found_in_other_format, missing_reason
+    from .maps import found_in_other_format, missing_reason, pngs_without_existence
 
     clips = {clip_id for clip_id, _ in missing}
     shown = []
     for index, (_, path) in enumerate(missing[:3]):
-        found = [missing_reason(path)] + ([found_in_other_format(path)] if index == 0 else [])
+        found = [missing_reason(path)] + ([found_in_other_format(path), pngs_without_existence(path)]
+                                          if index == 0 else [])
         notes = [note for note in found if note]
         shown.append(f"{path} ({'; '.join(notes)})" if notes else str(path))
     listing = "; ".join(shown)

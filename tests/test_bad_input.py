@@ -278,6 +278,31 @@ def test_skip_mode_skips_clips_without_all_maps(sets):
     assert summary["counts"]["clips"] == 1 and "clip skipped" in summary["skipped"][0]
 
 
+def test_a_run_that_scores_nothing_fails_and_keeps_the_earlier_results(sets):
+    # Every clip skipped gave "0 clips, 0 frames", tables of n/a and exit 0.
+    root_all, out = sets
+    root = root_all / "culane"
+    for path in (root / "maps").rglob("00000.npy"):
+        path.unlink()  # every clip lacks a map: every clip is skipped
+    result = CliRunner().invoke(main, ["run", "--data-root", str(root / "data"), "--maps-root", str(root / "maps"),
+                                       "--on-error", "skip", "--workers", "1", "--quiet", "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert result.output.count("\n") == 1 and "nothing was scored: every labelled frame was skipped (2 skipped, " \
+        "first: " in result.output
+    assert (out / "accuracy.csv").read_text() == SENTINEL
+
+
+def test_pngs_without_their_existence_file_are_named_as_such(sets):
+    root_all, out = sets
+    root = root_all / "culane-png"
+    for path in (root / "maps").rglob("*.exist.txt"):
+        path.unlink()
+    result = CliRunner().invoke(main, ["run", "--data-root", str(root / "data"), "--maps-root", str(root / "maps"),
+                                       "--maps-format", "scnn-png", "--workers", "1", "--quiet", "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert "00000.exist.txt (00000_1_avg.png is there, its existence file is not" in result.output
+
+
 # ---- interruptions -------------------------------------------------------------------------
 
 

@@ -296,12 +296,13 @@ def test_on_error_skip_leaves_the_frames_out_for_every_method(dataset, tmp_path)
     out = tmp_path / "out"
     result = invoke(run_args(dataset, out, "--method", f"bad={entry('nan_lanes')}", "--workers", "1",
                              "--on-error", "skip"))
-    assert result.exit_code == 0, result.output
+    # The plug-in failed on every frame, so none is scored for anyone: a run that scores
+    # nothing is an error, not tables of n/a.
+    assert result.exit_code == 2, result.output
+    assert "nothing was scored: every labelled frame was skipped (20 skipped, first: method 'bad', frame " \
+        in result.output
     assert "NaN or infinite coordinates (frame skipped)" in result.output
-    per_frame = pd.read_csv(out / "per_frame.csv")
-    assert per_frame.empty  # the plug-in failed on every frame: none is scored for anyone
-    summary = json.loads((out / "summary.json").read_text())
-    assert len(summary["skipped"]) == 20
+    assert not (out / "per_frame.csv").exists()
 
 
 # ---- the protocol's records -----------------------------------------------------------------

@@ -73,6 +73,23 @@ def missing_reason(path: Path) -> str:
     return ""
 
 
+def pngs_without_existence(exist: Path) -> str:
+    """For a missing SCNN existence file whose probability PNGs are there: say so (the maps are
+    not missing, the file that says which lanes exist is)."""
+    exist = Path(exist)
+    if not exist.name.endswith(".exist.txt"):
+        return ""
+    stem = exist.with_name(exist.name[: -len(".exist.txt")])
+    pngs, _ = scnn_png_paths(stem, 1)
+    try:
+        if stat.S_ISREG(os.stat(pngs[0]).st_mode):
+            return (f"{pngs[0].name} is there, its existence file is not: SCNN's and ENet-SAD's test "
+                    "scripts write <frame>.exist.txt beside the PNGs")
+    except (OSError, ValueError):
+        pass
+    return ""
+
+
 def required_paths(root: Path, relpath: str, config: MapsConfig) -> list[Path]:
     """Files that must exist for a frame's maps to load (PNGs of absent lanes may be missing)."""
     stem = map_stem(root, relpath)
