@@ -461,10 +461,17 @@ def summary_table(score: CulaneScore) -> Table:
     return Table(score.summary_rows.columns, rows)
 
 
+_RATIOS = {"precision": "precision (%)", "recall": "recall (%)", "f1": "F1 (%)"}
+
+
 def first_threshold_table(score: CulaneScore) -> Table:
-    """The counts and ratios at the first threshold, as the console shows them (ratios to 3 decimals)."""
+    """The counts, and precision, recall and F1 in percent as summary.md and papers print them,
+    at the first threshold, as the console shows them."""
     first = score.first_rows
-    return Table(first.columns, tuple(tuple(v if isinstance(v, float) else str(v) for v in row) for row in first.rows))
+    columns = tuple(_RATIOS.get(column, column) for column in first.columns)
+    rows = tuple(tuple(_percent(v) if column in _RATIOS else str(v) for column, v in zip(first.columns, row))
+                 for row in first.rows)
+    return Table(columns, rows)
 
 
 def summary_markdown(score: CulaneScore, width: int) -> str:

@@ -290,11 +290,14 @@ def test_the_files_are_what_pandas_wrote_and_the_frames_what_it_held(tmp_path):
     for frame, plain in ((score.official, score.official_rows), (score.summary, score.summary_rows)):
         as_before = pd.DataFrame([dict(zip(plain.columns, row)) for row in plain.rows], columns=list(plain.columns))
         pd.testing.assert_frame_equal(frame, as_before)  # built from dicts, as sweep_rows and f1_summary did
-    # The console's table at the first threshold: what the DataFrame gave, cell for cell.
+    # The console's table at the first threshold: what the DataFrame gave, cell for cell, its
+    # ratios in percent as summary.md gives them.
     table = score.table
-    cells = tuple(tuple(float(v) if isinstance(v, float) else str(v) for v in row)
-                  for row in table.itertuples(index=False))
-    assert first_threshold_table(score).to_markdown() == Table(tuple(table.columns), cells).to_markdown()
+    ratios = {"precision": "precision (%)", "recall": "recall (%)", "f1": "F1 (%)"}
+    cells = tuple(tuple(("n/a" if math.isnan(v) else f"{100 * v:.2f}") if c in ratios else str(v)
+                        for c, v in zip(table.columns, row)) for row in table.itertuples(index=False))
+    columns = tuple(ratios.get(c, c) for c in table.columns)
+    assert first_threshold_table(score).to_markdown() == Table(columns, cells).to_markdown()
 
 
 cell_text = st.text(st.characters(codec="utf-8"), max_size=6) | \
