@@ -45,8 +45,9 @@ from .metrics.bootstrap import paired_bootstrap
 from .metrics.paper import ego_masks, side_ious
 from .metrics.sweep import sweep_accuracy
 from .model import Clip, Dataset, Frame, FrameMaps, Lane, read_only
+from .plugin_calls import PluginCalls
 from .signals import TimeLimitExceeded, time_limit
-from .workers import default_workers, process_pool, stopping
+from .workers import default_workers, pool_context, process_pool, stopping
 
 
 @dataclass(frozen=True)
@@ -390,6 +391,8 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
     # it see (npy maps are read-only memory maps already; the other formats are arrays).
     maps = replace(maps, probabilities=read_only(maps.probabilities),
                    existence=None if maps.existence is None else read_only(maps.existence))
+    if _PLUGIN_CALLS is not None:
+        _PLUGIN_CALLS.enter(method.name, frame.relpath)
     try:
         with time_limit(method.time_limit_s):
             start = time.perf_counter()
@@ -404,6 +407,9 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
             problem = too_slow  # it caught or blocked the alarm
         else:
             problem = prediction_problem(prediction, config.dataset.image_width, config.dataset.image_height)
+    finally:
+        if _PLUGIN_CALLS is not None:
+            _PLUGIN_CALLS.leave()
     if problem is not None:
         raise ExtractorError(method.name, frame.relpath, problem)
     extract_ms[method.name].append(elapsed * 1e3)
@@ -441,11 +447,15 @@ def _score_frame(frame: Frame, predictions: dict[str, Prediction], geometry: Map
 # ---- many clips ----------------------------------------------------------------------------
 
 _WORKER_CONTEXT: RunContext | None = None
+_PLUGIN_CALLS: PluginCalls | None = None  # in a worker of a run with plug-ins
 
 
-def _init_worker(context: RunContext) -> None:
-    global _WORKER_CONTEXT
+def _init_worker(context: RunContext, calls: PluginCalls | None = None) -> None:
+    global _WORKER_CONTEXT, _PLUGIN_CALLS
     _WORKER_CONTEXT = context
+    if calls is not None:
+        calls.claim()
+        _PLUGIN_CALLS = calls
     kernels.warm_up(context.kernel_groups())  # loaded already (prepared before the fork): runs each path once
 
 
@@ -515,7 +525,10 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
             cache.store(clips[index], clip_inputs(clips[index], context), result)
         return result
 
-    if workers <= 1 or work_units([clips[index] for index in todo], context) <= 1:
+    # A plug-in always runs in a worker process, so that one which ends its process (os._exit,
+    # a crash) ends a worker the run can name, not the run itself with exit status 0.
+    plugins = not all(method.built_in for method in context.methods)
+    if not todo or (not plugins and (workers <= 1 or work_units([clips[index] for index in todo], context) <= 1)):
         if todo:
             kernels.warm_up(context.kernel_groups())
         for index, clip in enumerate(clips):
@@ -527,10 +540,19 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
             yield result
         return
     plotting: threading.Thread | None = None
-    schedule = _Schedule(process_pool(workers, initializer=_init_worker, initargs=(context,)),
-                         clips, todo, context, workers, advance)
+    workers = max(workers, 1)
+    calls = PluginCalls(workers, pool_context()) if plugins else None
+    pool = process_pool(workers, initializer=_init_worker, initargs=(context, calls))
+    exit_codes = {pid: process for pid, process in (getattr(pool, "_processes", None) or {}).items()}
+    schedule = _Schedule(pool, clips, todo, context, workers, advance)
 
-    def died() -> str:
+    def died() -> str | ExtractorError:
+        inside = None if calls is None else calls.died_in({pid: process.exitcode
+                                                            for pid, process in exit_codes.items()})
+        if inside is not None:
+            method, frame, code = inside
+            how = f"exit status {code}" if code is not None and code >= 0 else f"signal {-(code or 0)}"
+            return ExtractorError(method, frame, f"its process ended inside the plug-in ({how})")
         return f"a worker process died (killed, or out of memory) while evaluating clip {schedule.current}"
 
     with stopping(schedule.executor, died):

@@ -97,12 +97,18 @@ def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, inita
         os._exit(3)
 
 
+def pool_context():
+    """The multiprocessing context of the pools: fork where the platform allows, for the
+    shared memory and kernels made before the workers start."""
+    return multiprocessing.get_context("fork" if sys.platform == "linux" else "spawn")
+
+
 def process_pool(workers: int, initializer: Callable[..., Any] | None = None,
                  initargs: tuple = ()) -> WorkerPool:
     """Worker processes (forked where the platform allows). Unlike multiprocessing.Pool, a
     worker that dies makes its pending results raise BrokenProcessPool instead of hanging."""
-    method = "fork" if sys.platform == "linux" else "spawn"
-    context = multiprocessing.get_context(method)
+    context = pool_context()
+    method = context.get_start_method()
     failures = context.SimpleQueue()
     executor = WorkerPool(workers, mp_context=context, initializer=_start_worker,
                           initargs=(os.getpid(), initializer, initargs, failures))
@@ -172,15 +178,22 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
 
 
 @contextlib.contextmanager
-def stopping(executor: ProcessPoolExecutor, died: Callable[[], str]) -> Iterator[ProcessPoolExecutor]:
+def stopping(executor: ProcessPoolExecutor,
+             died: Callable[[], str | RoneldEvalError]) -> Iterator[ProcessPoolExecutor]:
     """Use a pool and always end its workers: politely when the block finishes, at once when it
-    fails. A worker that died makes the block end in RunInterrupted(`died()`), not a traceback."""
+    fails. A worker that died makes the block end in RunInterrupted(`died()`), not a traceback,
+    or in the error `died()` gives (one that names what the worker was doing)."""
     try:
         yield executor
     except BrokenProcessPool:
         stop_pool(executor)
         failure = executor.start_failure() if isinstance(executor, WorkerPool) else None
-        raise RunInterrupted(died() if failure is None else f"a worker process could not start: {failure}") from None
+        if failure is not None:
+            raise RunInterrupted(f"a worker process could not start: {failure}") from None
+        reason = died()
+        if isinstance(reason, RoneldEvalError):
+            raise reason from None
+        raise RunInterrupted(reason) from None
     except BaseException:
         stop_pool(executor)
         raise

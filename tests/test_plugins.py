@@ -292,6 +292,25 @@ def test_a_plugin_slower_than_its_limit_stops_the_run_in_a_worker_too(dataset, t
     assert "took longer than 0.5 s (time_limit_s in [methods.slow])" in result.output
 
 
+@pytest.mark.parametrize("workers", ["1", "2"])
+@pytest.mark.parametrize("how, status, says", [("exit", 0, "exit status 0"), ("exit", 3, "exit status 3"),
+                                               ("kill", 0, "signal 9")])
+def test_a_plugin_that_ends_its_process_is_an_error_naming_method_and_frame(dataset, tmp_path, workers, how,
+                                                                            status, says):
+    # With --workers 1 the plug-in ran in the main process: os._exit(0) ended the run with exit
+    # status 0, no message, and left the lock, staging and cache behind.
+    config = config_with_methods(tmp_path / "ends.toml", f'[methods.baseline]\n[methods.ends]\n'
+                                 f'entry = "{entry("ends_process")}"\nhow = "{how}"\nstatus = {status}\n')
+    out = tmp_path / "out"
+    result = invoke(run_args(dataset, out, "--config", str(config), "--workers", workers))
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1, result.output
+    assert lines[0].startswith("error: method 'ends', frame ") and lines[0].endswith(
+        f"00030.jpg: its process ended inside the plug-in ({says})")
+    assert not out.exists() or not [p.name for p in out.iterdir()]  # no lock, staging or cache behind
+
+
 def test_on_error_skip_leaves_the_frames_out_for_every_method(dataset, tmp_path):
     out = tmp_path / "out"
     result = invoke(run_args(dataset, out, "--method", f"bad={entry('nan_lanes')}", "--workers", "1",

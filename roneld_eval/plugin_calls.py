@@ -1,0 +1,71 @@
+"""Which plug-in call each worker process is in, in memory shared with the main process.
+
+A plug-in may end its process (os._exit, a signal it sends itself, a crash in a C extension):
+nothing in that process can report it. So each worker writes "pid, method, frame" into its own
+slot before calling a plug-in and clears it after; when a worker dies, the main process reads
+the slots and names the method and frame the worker died in.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import signal
+from typing import Any, Mapping
+
+SLOT_BYTES = 1024
+
+
+class PluginCalls:
+    """Made in the main process before the workers fork; `claim` once in each worker."""
+
+    def __init__(self, workers: int, context: Any):
+        self._slots = context.RawArray(ctypes.c_char, workers * SLOT_BYTES)
+        self._claimed = context.Value(ctypes.c_int, 0)
+        self._workers = workers
+        self._mine: int | None = None
+
+    def claim(self) -> None:
+        """Take this worker's slot."""
+        with self._claimed.get_lock():
+            number = self._claimed.value
+            self._claimed.value = number + 1
+        self._mine = number if number < self._workers else None
+
+    def enter(self, method: str, frame: str) -> None:
+        self._write(f"{os.getpid()}\t{method}\t{frame}".encode("utf-8", "surrogateescape"))
+
+    def leave(self) -> None:
+        self._write(b"")
+
+    def _write(self, text: bytes) -> None:
+        if self._mine is None:
+            return
+        text = text[:SLOT_BYTES - 1] + b"\0"
+        start = self._mine * SLOT_BYTES
+        self._slots[start:start + len(text)] = text
+
+    def open_calls(self) -> dict[int, tuple[str, str]]:
+        """pid -> (method, frame) of every worker inside a plug-in call now."""
+        calls = {}
+        raw = bytes(self._slots.raw)
+        for number in range(self._workers):
+            text = raw[number * SLOT_BYTES:(number + 1) * SLOT_BYTES].split(b"\0", 1)[0]
+            parts = text.decode("utf-8", "surrogateescape").split("\t", 2)
+            if len(parts) == 3 and parts[0].isdigit():
+                calls[int(parts[0])] = (parts[1], parts[2])
+        return calls
+
+    def died_in(self, exit_codes: Mapping[int, int | None]) -> tuple[str, str, int | None] | None:
+        """(method, frame, exit code) of a worker that ended inside a plug-in call, or None.
+
+        `exit_codes`: pid -> exit code of the pool's workers. The ones the pool or the run ended
+        afterwards (SIGTERM, SIGKILL) are taken only when no other died inside a call.
+        """
+        calls = self.open_calls()
+        ended = [(pid, code) for pid, code in exit_codes.items() if pid in calls and code is not None]
+        if not ended:
+            return None
+        by_us = (-signal.SIGTERM, -signal.SIGKILL)
+        pid, code = sorted(ended, key=lambda item: item[1] in by_us)[0]
+        return (*calls[pid], code)
