@@ -19,6 +19,8 @@ import pandas as pd
 from .version import __version__
 from .config import DEFAULT_PRESETS, EvalConfig
 from .errors import ConfigError, InputError, RunInterrupted
+from .lanes_io import check_regular_file
+from .limits import RUN_TABLE
 from .benchmarks import benchmark_for
 from .cache import ResultCache
 from .evaluation import RunResult, evaluate
@@ -184,6 +186,7 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
 def _show_pictures(run_dir: Path, frames: Sequence[str], worst: int | None, methods: Sequence[str]):
     requested = EvalConfig.from_toml(run_dir / "config.toml")
     config = with_fixture(requested)
+    check_regular_file(run_dir / "per_frame.csv", "missing from this run folder", RUN_TABLE)
     try:
         per_frame = pd.read_csv(run_dir / "per_frame.csv")
     except (OSError, ValueError, pd.errors.ParserError) as error:

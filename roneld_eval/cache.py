@@ -28,6 +28,7 @@ import numpy as np
 from .benchmarks import Benchmark, benchmark_for
 from .config import EvalConfig
 from .errors import InputError
+from .limits import CACHE_ENTRY
 from .evaluation import ClipResult, FrameOutcome
 from .json_fields import json_number, read_count, read_float, read_list, read_string
 from .model import Clip, Lane
@@ -35,7 +36,6 @@ from .output import CACHE
 
 FORMAT = "roneld-eval clip cache"
 FORMAT_VERSION = 1
-MAX_ENTRY_BYTES = 1 << 31
 
 
 class ResultCache:
@@ -86,12 +86,15 @@ class ResultCache:
         except OSError as error:
             self._invalid(path, error.strerror or str(error))
             return None
-        if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_ENTRY_BYTES:
-            self._invalid(path, "not a regular file of sensible size")
+        if not stat.S_ISREG(info.st_mode):
+            self._invalid(path, "not a regular file")
+            return None
+        if info.st_size > CACHE_ENTRY.bytes:
+            self._invalid(path, CACHE_ENTRY.problem(info.st_size))
             return None
         try:
             with open(path, "rb") as handle:
-                document = json.loads(handle.read())
+                document = json.loads(handle.read(CACHE_ENTRY.bytes + 1))
             if not isinstance(document, dict) or set(document) != {"body", "mac"}:
                 raise ValueError("not a cache entry")
             body = document["body"]

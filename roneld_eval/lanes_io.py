@@ -21,6 +21,7 @@ from typing import Any, Iterable, Literal, overload
 import numpy as np
 
 from .errors import InputError
+from .limits import JSON_LINES, TEXT, SizeLimit
 from .model import Lane
 
 # A decimal number as C++'s `istream >> double` reads it (no Python-only spellings such
@@ -56,8 +57,9 @@ def _os_problem(error: OSError) -> str:
     return f"cannot read: {error.strerror or error}"
 
 
-def check_regular_file(path: Path, missing: str = "file not found") -> None:
-    """Refuse, naming the file, anything but a readable regular file (before a library opens it).
+def check_regular_file(path: Path, missing: str = "file not found", limit: SizeLimit | None = None) -> None:
+    """Refuse, naming the file, anything but a readable regular file (before a library opens it),
+    and one larger than `limit`.
 
     A FIFO or a device is refused without being opened, so it cannot hang a run.
     """
@@ -70,23 +72,26 @@ def check_regular_file(path: Path, missing: str = "file not found") -> None:
     except ValueError:  # a NUL character in the name
         raise InputError(path, "not a usable file name") from None
     problem = _not_regular(info.st_mode)
+    if problem is None and limit is not None and info.st_size > limit.bytes:
+        problem = limit.problem(info.st_size)
     if problem is not None:
         raise InputError(path, problem)
 
 
 @overload
-def read_bytes(path: Path, missing_ok: Literal[False] = False) -> bytes: ...
+def read_bytes(path: Path, missing_ok: Literal[False] = False, limit: SizeLimit = TEXT) -> bytes: ...
 
 
 @overload
-def read_bytes(path: Path, missing_ok: bool) -> bytes | None: ...
+def read_bytes(path: Path, missing_ok: bool, limit: SizeLimit = TEXT) -> bytes | None: ...
 
 
-def read_bytes(path: Path, missing_ok: bool = False) -> bytes | None:
+def read_bytes(path: Path, missing_ok: bool = False, limit: SizeLimit = TEXT) -> bytes | None:
     """A regular file's bytes, or an InputError naming it (None for a missing file if `missing_ok`).
 
     Opened without blocking and checked before reading, so a FIFO or a device given as an
-    input is one clear error, never a hang. Every OSError becomes an InputError.
+    input is one clear error, never a hang, and a file larger than `limit` is refused unread.
+    Every OSError becomes an InputError.
     """
     try:
         descriptor = os.open(path, _OPEN_FLAGS)
@@ -100,9 +105,13 @@ def read_bytes(path: Path, missing_ok: bool = False) -> bytes | None:
         raise InputError(path, _os_problem(error)) from None
     except ValueError:  # a NUL character in the name
         raise InputError(path, "not a usable file name") from None
+    most = limit.bytes
     try:
         # Checked before fdopen, which refuses a folder with an error naming the descriptor.
-        problem = _not_regular(os.fstat(descriptor).st_mode)
+        info = os.fstat(descriptor)
+        problem = _not_regular(info.st_mode)
+        if problem is None and info.st_size > most:
+            problem = limit.problem(info.st_size)
     except OSError as error:
         os.close(descriptor)
         raise InputError(path, _os_problem(error)) from None
@@ -111,9 +120,12 @@ def read_bytes(path: Path, missing_ok: bool = False) -> bytes | None:
         raise InputError(path, problem)
     with os.fdopen(descriptor, "rb") as handle:
         try:
-            return handle.read()
+            data = handle.read(most + 1)  # a file that grew since its size was looked at
         except OSError as error:
             raise InputError(path, _os_problem(error)) from None
+    if len(data) > most:
+        raise InputError(path, limit.problem(len(data)))
+    return data
 
 
 def decode_text(data: bytes, path) -> str:
@@ -127,9 +139,9 @@ def decode_text(data: bytes, path) -> str:
     return text[1:] if text.startswith("\ufeff") else text
 
 
-def read_text(path: Path) -> str:
+def read_text(path: Path, limit: SizeLimit = TEXT) -> str:
     """A text file's content (UTF-8, BOM dropped), or an InputError saying why it cannot be read."""
-    return decode_text(read_bytes(path), path)
+    return decode_text(read_bytes(path, limit=limit), path)
 
 
 def split_lines(text: str) -> list[str]:
@@ -263,7 +275,7 @@ def read_tusimple_records(path: Path, predictions: bool = False,
 
     With an `errors` list, bad lines are left out and their errors appended.
     """
-    text = read_text(path)
+    text = read_text(path, JSON_LINES)
     records = []
     for number, line in enumerate(split_lines(text), start=1):
         if line.strip():

@@ -303,6 +303,73 @@ def test_pngs_without_their_existence_file_are_named_as_such(sets):
     assert "00000.exist.txt (00000_1_avg.png is there, its existence file is not" in result.output
 
 
+def sparse(path: Path, size: int) -> None:
+    """Make `path` a sparse file of `size` bytes (nothing written: reading it would take minutes)."""
+    with open(path, "wb") as handle:
+        handle.truncate(size)
+
+
+TEN_GB = 10 * 10**9
+
+
+@pytest.mark.parametrize("folder, extra, target, expected", [
+    ("culane", [], first_labels, "a label, lane, existence or list file may have at most 16,777,216 bytes"),
+    ("culane", [], first_map, "a map file (.npy, .npz or one of its members, .png) may have at most"),
+    ("culane-png", ["--maps-format", "scnn-png"], lambda r: first_map(r, "_1_avg.png"), "a map file"),
+    ("culane-png", ["--maps-format", "scnn-png"], lambda r: first_map(r, ".exist.txt"), "a label, lane"),
+    ("tusimple", [], tusimple_labels, "a TuSimple label or prediction file may have at most 268,435,456 bytes"),
+])
+def test_a_huge_input_file_is_refused_unread(sets, folder, extra, target, expected):
+    # A 10 GB sparse .lines.txt reached 23 GB of memory before it was killed.
+    root_all, out = sets
+    root = root_all / folder
+    path = target(root)
+    sparse(path, TEN_GB)
+    dataset = ["--dataset", "tusimple", "--maps-format", "npz"] if folder == "tusimple" else []
+    result = CliRunner().invoke(main, ["run", *dataset, "--data-root", str(root / "data"), "--maps-root",
+                                       str(root / "maps"), "--workers", "1", "--quiet", "--out", str(out), *extra])
+    assert result.exit_code == 2, result.output
+    assert result.output.count("\n") == 1 and f"{path}: too large (10,000,000,000 bytes): {expected}" in result.output
+    assert "RONELD_EVAL_MAX_" in result.output
+    assert (out / "accuracy.csv").read_text() == SENTINEL
+
+
+def test_a_size_limit_can_be_raised_and_a_bad_one_is_named(sets, monkeypatch):
+    root_all, out = sets
+    root = root_all / "culane"
+    args = ["run", "--data-root", str(root / "data"), "--maps-root", str(root / "maps"), "--workers", "1",
+            "--quiet", "--out", str(out)]
+    monkeypatch.setenv("RONELD_EVAL_MAX_MAP_MIB", "0.5")  # below one 4x288x800 map (921,728 bytes)
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and "may have at most 524,288 bytes" in result.output, result.output
+    monkeypatch.setenv("RONELD_EVAL_MAX_MAP_MIB", "lots")
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and "RONELD_EVAL_MAX_MAP_MIB='lots': give the largest size in MiB" in result.output
+    monkeypatch.setenv("RONELD_EVAL_MAX_MAP_MIB", "1")
+    assert CliRunner().invoke(main, args).exit_code == 0
+
+
+def test_an_npz_member_that_inflates_past_the_bound_is_refused_before_inflating(sets, monkeypatch):
+    root_all, out = sets
+    root = root_all / "tusimple"
+    path = sorted((root / "maps").rglob("*.npz"))[0]
+    np.savez_compressed(path, probs=np.zeros((4, 1024, 1024), np.uint8))  # 4 MiB inflated, a few kB stored
+    monkeypatch.setenv("RONELD_EVAL_MAX_MAP_MIB", "2")
+    result = CliRunner().invoke(main, ["run", "--dataset", "tusimple", "--data-root", str(root / "data"),
+                                       "--maps-root", str(root / "maps"), "--maps-format", "npz", "--workers", "1",
+                                       "--quiet", "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert f"{path}: its member 'probs.npy' inflates to 4,194,432 bytes: a map file" in result.output
+
+
+def test_score_tusimple_refuses_a_huge_prediction_file(tmp_path):
+    labels, pred = tmp_path / "labels.json", tmp_path / "pred.json"
+    labels.write_text("")
+    sparse(pred, TEN_GB)
+    result = CliRunner().invoke(main, ["score", "tusimple", "--labels", str(labels), "--pred", str(pred)])
+    assert result.exit_code == 2 and f"{pred}: too large (10,000,000,000 bytes)" in result.output, result.output
+
+
 # ---- interruptions -------------------------------------------------------------------------
 
 

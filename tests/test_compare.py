@@ -543,6 +543,21 @@ def test_a_malformed_file_is_one_line_naming_it(name, content, message, runs, tm
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("name", ["per_frame.csv", "accuracy.csv"])
+def test_a_huge_run_table_is_refused_unread(name, runs, tmp_path):
+    # compare of a run whose per_frame.csv is 4 GB gave no answer in 120 s.
+    broken = tmp_path / "broken"
+    shutil.copytree(runs["cu_scnn"], broken)
+    with open(broken / name, "wb") as handle:
+        handle.truncate(4 * 10**9)
+    result = CliRunner().invoke(main, ["compare", str(broken), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert f"{broken / name}: too large (4,000,000,000 bytes): a run's table" in result.output
+    if name == "per_frame.csv":  # what show reads
+        result = CliRunner().invoke(main, ["show", "--run", str(broken), "--out", str(tmp_path / "pictures")])
+        assert result.exit_code == 2 and "too large" in result.output, result.output
+
+
 @pytest.fixture(scope="module")
 def pristine(runs, tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("pristine") / "run"

@@ -22,6 +22,8 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..lanes_io import check_regular_file
+from ..limits import RUN_TABLE
 
 # The files compare reads; `run` always writes all of them.
 RUN_FILES = ("config.toml", "summary.json", "accuracy.csv", "per_frame.csv", "runtime.csv", "official.csv")
@@ -185,6 +187,7 @@ def read_csv(path: Path, columns: dict[str, str], optional: dict[str, str] | Non
     """A CSV file with the named columns, each checked: 'text', 'count' (integer >= 0), 'number'
     (finite) or 'optional number' (empty is NaN). Extra columns are ignored."""
     try:
+        check_regular_file(path, "missing from this run folder", RUN_TABLE)
         table = pd.read_csv(path, dtype=object, keep_default_na=False, na_filter=False, encoding="utf-8")
     except FileNotFoundError:
         raise InputError(path, "missing from this run folder") from None

@@ -19,6 +19,7 @@ except ImportError:  # pragma: no cover - without it every .npz goes through np.
 from ..config import MapsConfig
 from ..errors import InputError
 from ..lanes_io import check_regular_file
+from ..limits import MAP
 from ..model import FrameMaps
 from ._checks import canonical_existence, canonical_probabilities
 
@@ -65,7 +66,7 @@ def _holds_objects(handle) -> bool:
 
 def load_npy(path: Path, config: MapsConfig) -> FrameMaps:
     """A (C, H, W) array from `.npy`; uint8 files stay memory-mapped."""
-    check_regular_file(path, "maps file not found")
+    check_regular_file(path, "maps file not found", MAP)
     try:
         array = _map_simple_npy(path)
         if array is None:
@@ -132,6 +133,7 @@ def _read_plain_npz(path: Path, config: MapsConfig) -> tuple[np.ndarray, np.ndar
             return None
         with zipfile.ZipFile(io.BytesIO(data)) as archive:
             infos = {info.filename: info for info in archive.infolist()}
+        _check_members(path, infos.values())
         if not infos or any(not name.endswith(".npy") for name in infos):
             return None
         names = [name[:-4] for name in infos]
@@ -144,14 +146,23 @@ def _read_plain_npz(path: Path, config: MapsConfig) -> tuple[np.ndarray, np.ndar
             if raw is None:
                 return None
             arrays.append(_member_array(raw))
+    except InputError:
+        raise
     except Exception:  # whatever it is, np.load meets it again and reports it
         return None
     return arrays[0], arrays[1] if len(arrays) > 1 else None
 
 
+def _check_members(path: Path, infos) -> None:
+    """Refuse an archive whose members inflate beyond the map bound (a zip bomb), before inflating."""
+    for info in infos:
+        if info.file_size > MAP.bytes:
+            raise InputError(path, f"its member {info.filename!r} inflates to {info.file_size:,} bytes: {MAP.rule()}")
+
+
 def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
     """Maps under `config.npz_key` (or the only array) and `exist` when present."""
-    check_regular_file(path, "maps file not found")
+    check_regular_file(path, "maps file not found", MAP)
     plain = _read_plain_npz(path, config) if _libdeflate is not None else None
     if plain is not None:
         array, existence = plain
@@ -161,6 +172,7 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
         return FrameMaps(probabilities=probabilities, existence=existence)
     try:
         with np.load(path, allow_pickle=False) as archive:
+            _check_members(path, archive.zip.infolist())
             names = list(archive.files)
             key = config.npz_key if config.npz_key in names else (names[0] if len(names) == 1 else None)
             if key is None:

@@ -20,6 +20,7 @@ except ImportError:  # pragma: no cover - without it every PNG goes to OpenCV, a
 from ..config import MapsConfig
 from ..errors import InputError
 from ..lanes_io import decode_text, parse_number, read_bytes
+from ..limits import MAP
 from ..model import FrameMaps
 from ._checks import canonical_existence
 from ._kernels import unfilter_stream
@@ -133,7 +134,7 @@ def png_size(path: Path) -> tuple[int, int] | None:
     """(width, height) from the header of a PNG that passes check_png, or None (missing, not a
     regular file, broken, or a size no map has): loading it then says what is wrong."""
     try:
-        data = read_bytes(path, missing_ok=True)
+        data = read_bytes(path, missing_ok=True, limit=MAP)
         if data is None:
             return None
         check_png(data, path)
@@ -185,7 +186,7 @@ def load_scnn_png(stem: Path, config: MapsConfig) -> FrameMaps:
     existence = None if exist_data is None else read_existence(exist_path, config, exist_data)
     maps: list[np.ndarray | None] = []
     for channel, path in enumerate(pngs):
-        data = read_bytes(path, missing_ok=True)
+        data = read_bytes(path, missing_ok=True, limit=MAP)
         if data is not None:
             maps.append(_read_png(path, data))
         elif existence is not None and existence[channel] <= 0:

@@ -1,0 +1,53 @@
+"""The largest file of each kind the tool reads, checked on its size before it is read.
+
+Every input is untrusted: a 10 GB sparse label file, or a cache entry of 1.5 GB, must be one
+clear line, not a process that reads until the machine runs out of memory. Each bound is some
+100 times what the benchmarks' real files hold, and keeps the memory one such file can take
+under about 2 GB (JSON lines take some 8 bytes of Python objects per byte). Each can be raised
+through its environment variable, in MiB (README, "Bad input").
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+from .errors import ConfigError
+
+
+@dataclass(frozen=True)
+class SizeLimit:
+    """The bound on one kind of input file."""
+
+    what: str  # "a label, lane or list file"
+    variable: str  # the environment variable that raises it, in MiB
+    default_mib: int
+
+    @property
+    def bytes(self) -> int:
+        raw = os.environ.get(self.variable, "").strip()
+        if not raw:
+            return self.default_mib << 20
+        try:
+            mib = float(raw)
+        except ValueError:
+            mib = -1.0
+        if not 0 < mib < 1 << 40:
+            raise ConfigError(f"{self.variable}={raw!r}: give the largest size in MiB, a positive number")
+        return int(mib * (1 << 20))
+
+    def rule(self) -> str:
+        return f"{self.what} may have at most {self.bytes:,} bytes (raise it with {self.variable}=MiB)"
+
+    def problem(self, size: int) -> str:
+        """Why a file of `size` bytes is refused."""
+        return f"too large ({size:,} bytes): {self.rule()}"
+
+
+TEXT = SizeLimit("a label, lane, existence or list file", "RONELD_EVAL_MAX_TEXT_MIB", 16)
+JSON_LINES = SizeLimit("a TuSimple label or prediction file", "RONELD_EVAL_MAX_JSON_MIB", 256)
+MAP = SizeLimit("a map file (.npy, .npz or one of its members, .png)", "RONELD_EVAL_MAX_MAP_MIB", 256)
+RUN_TABLE = SizeLimit("a run's table (per_frame.csv, accuracy.csv, ...)", "RONELD_EVAL_MAX_TABLE_MIB", 256)
+CACHE_ENTRY = SizeLimit("a resume cache entry", "RONELD_EVAL_MAX_CACHE_ENTRY_MIB", 64)
+
+ALL = (TEXT, JSON_LINES, MAP, RUN_TABLE, CACHE_ENTRY)
