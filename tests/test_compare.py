@@ -495,6 +495,29 @@ def test_a_killed_run_and_another_commands_folder_are_refused(runs, data, tmp_pa
         compare([killed], tmp_path / "out")
 
 
+def test_out_may_not_lie_inside_a_compared_run(runs, tmp_path):
+    # compare --out RUN/cmp made the run's folder hold files `run` did not write.
+    copy = tmp_path / "copy"
+    shutil.copytree(runs["cu_scnn"], copy)
+    result = CliRunner().invoke(main, ["compare", str(copy), "--out", str(copy / "cmp")])
+    assert result.exit_code == 2 and "lies inside the run folder" in result.output, result.output
+    assert not (copy / "cmp").exists()
+
+
+def test_a_foreign_out_is_refused_before_any_run_is_read(runs, tmp_path, monkeypatch):
+    import roneld_eval.comparison as comparison
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("read a run before the output folder was checked")
+
+    monkeypatch.setattr(comparison, "read_run", no_work)
+    out = tmp_path / "thesis"
+    out.mkdir()
+    (out / "thesis.tex").write_text("mine")
+    result = CliRunner().invoke(main, ["compare", str(runs["cu_scnn"]), "--out", str(out)])
+    assert result.exit_code == 2 and "did not write (thesis.tex)" in result.output, result.output
+
+
 def test_out_may_not_be_a_run_folder(runs, tmp_path):
     copy = tmp_path / "copy"
     shutil.copytree(runs["cu_scnn"], copy)

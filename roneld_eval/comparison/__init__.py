@@ -24,7 +24,7 @@ import pandas as pd
 
 from ..version import __version__
 from ..config import Thresholds, parse_thresholds
-from ..errors import ConfigError
+from ..errors import ConfigError, InputError
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, paired_bootstrap
 from ..report.tables import dataset_name, display_name
 from .runs import Run, frames_of, read_run
@@ -91,33 +91,36 @@ def compare(runs: Sequence[str | Path], out: str | Path = "comparison",
         runs = [runs]
     if not runs:
         raise ConfigError("give at least one run folder (written by `roneld-eval run`)")
-    chosen = _labels(runs, labels or {})
-    loaded = tuple(read_run(path, chosen.get(k)) for k, path in enumerate(runs))
-    notes = tuple(check_comparable(loaded, allow_mixed))
-    grid = loaded[0].thresholds
-    accuracy_rows = _table_rows(thresholds, grid, ACCURACY_ROWS)
-    ablation_rows = _table_rows(thresholds, grid, ABLATION_ROWS)
-    groups = _groups(loaded)
-    pair_runs = [_pair(loaded, pair) for pair in pairs]
-
-    comparison = comparison_table(loaded)
-    pair_table = pairs_table(pair_runs, grid)
-    files: dict[str, str] = {"comparison.csv": comparison.to_csv(index=False, float_format="%.10g",
-                                                                  lineterminator="\n")}
-    protocol = _protocol_text(loaded)
-    files.update(_accuracy_files(groups, accuracy_rows, notes))
-    files.update(_ablation_files(groups, ablation_rows, protocol, notes))
-    files.update(_runtime_files(groups, notes))
-    files.update(_official_files(groups, notes))
-    if pair_runs:
-        files["pairs.csv"] = pair_table.assign(threshold=pair_table["threshold"].map(_label)).to_csv(
-            index=False, float_format="%.10g", lineterminator="\n")
-        files.update(_pair_files(loaded, pair_runs, pair_table, accuracy_rows, protocol, notes))
-    files["summary.json"] = json.dumps(_summary(loaded, groups, accuracy_rows, ablation_rows, pair_runs, notes,
-                                                allow_mixed), indent=2) + "\n"
-    from .figure import curves_figure, save
-
+    _check_outside_runs(Path(out), runs)
+    # OUT is taken before any run is read: a folder that cannot be used is refused at once, and
+    # SIGTERM or SIGHUP anywhere end the command as Ctrl-C does, with nothing half-written.
     with terminate_as_interrupt(), OutputFolder(out, "compare") as folder:
+        chosen = _labels(runs, labels or {})
+        loaded = tuple(read_run(path, chosen.get(k)) for k, path in enumerate(runs))
+        notes = tuple(check_comparable(loaded, allow_mixed))
+        grid = loaded[0].thresholds
+        accuracy_rows = _table_rows(thresholds, grid, ACCURACY_ROWS)
+        ablation_rows = _table_rows(thresholds, grid, ABLATION_ROWS)
+        groups = _groups(loaded)
+        pair_runs = [_pair(loaded, pair) for pair in pairs]
+
+        comparison = comparison_table(loaded)
+        pair_table = pairs_table(pair_runs, grid)
+        files: dict[str, str] = {"comparison.csv": comparison.to_csv(index=False, float_format="%.10g",
+                                                                      lineterminator="\n")}
+        protocol = _protocol_text(loaded)
+        files.update(_accuracy_files(groups, accuracy_rows, notes))
+        files.update(_ablation_files(groups, ablation_rows, protocol, notes))
+        files.update(_runtime_files(groups, notes))
+        files.update(_official_files(groups, notes))
+        if pair_runs:
+            files["pairs.csv"] = pair_table.assign(threshold=pair_table["threshold"].map(_label)).to_csv(
+                index=False, float_format="%.10g", lineterminator="\n")
+            files.update(_pair_files(loaded, pair_runs, pair_table, accuracy_rows, protocol, notes))
+        files["summary.json"] = json.dumps(_summary(loaded, groups, accuracy_rows, ablation_rows, pair_runs, notes,
+                                                    allow_mixed), indent=2) + "\n"
+        from .figure import curves_figure, save
+
         staging = Staging(folder)
         for name, text in files.items():
             staging.write_text(name, text)
@@ -127,6 +130,18 @@ def compare(runs: Sequence[str | Path], out: str | Path = "comparison",
 
 
 # ---- which runs, under which names -----------------------------------------------------------
+
+def _check_outside_runs(out: Path, runs: Sequence[str | Path]) -> None:
+    """Refuse an OUT inside a compared run's folder: the run would then hold files it did not
+    write, and a later run into that folder would refuse it."""
+    try:
+        parents = out.resolve().parents
+    except (OSError, RuntimeError):
+        return
+    for run in runs:
+        if any(_same_folder(parent, run) for parent in parents):
+            raise InputError(out, f"lies inside the run folder {run}: write the comparison outside it")
+
 
 def _same_folder(a: str | Path, b: str | Path) -> bool:
     if str(a) == str(b):
