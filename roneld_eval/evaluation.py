@@ -547,12 +547,17 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
     schedule = _Schedule(pool, clips, todo, context, workers, advance)
 
     def died() -> str | ExtractorError:
+        # Ended by now; the pool's own thread may be reaping one (its exit code is then None here
+        # until that thread has set it).
+        deadline = time.monotonic() + 2.0
+        while any(process.exitcode is None for process in exit_codes.values()) and time.monotonic() < deadline:
+            time.sleep(0.01)
         inside = None if calls is None else calls.died_in({pid: process.exitcode
                                                             for pid, process in exit_codes.items()})
         if inside is not None:
             method, frame, code = inside
-            how = f"exit status {code}" if code is not None and code >= 0 else f"signal {-(code or 0)}"
-            return ExtractorError(method, frame, f"its process ended inside the plug-in ({how})")
+            how = "" if code is None else f" (exit status {code})" if code >= 0 else f" (signal {-code})"
+            return ExtractorError(method, frame, f"its process ended inside the plug-in{how}")
         return f"a worker process died (killed, or out of memory) while evaluating clip {schedule.current}"
 
     with stopping(schedule.executor, died):

@@ -57,15 +57,17 @@ class PluginCalls:
         return calls
 
     def died_in(self, exit_codes: Mapping[int, int | None]) -> tuple[str, str, int | None] | None:
-        """(method, frame, exit code) of a worker that ended inside a plug-in call, or None.
+        """(method, frame, exit code or None) of a worker that ended inside a plug-in call, or None.
 
-        `exit_codes`: pid -> exit code of the pool's workers. The ones the pool or the run ended
-        afterwards (SIGTERM, SIGKILL) are taken only when no other died inside a call.
+        `exit_codes`: pid -> exit code of the pool's workers (all ended by now; None where it
+        cannot be told). The ones the pool or the run ended afterwards (SIGTERM, SIGKILL) are
+        taken only when no other died inside a call.
         """
         calls = self.open_calls()
-        ended = [(pid, code) for pid, code in exit_codes.items() if pid in calls and code is not None]
+        ended = [(pid, code) for pid, code in exit_codes.items() if pid in calls]
         if not ended:
             return None
         by_us = (-signal.SIGTERM, -signal.SIGKILL)
-        pid, code = sorted(ended, key=lambda item: item[1] in by_us)[0]
+        # An unknown code (the pool's thread reaped the process first) ranks between the two.
+        pid, code = sorted(ended, key=lambda item: 1 if item[1] is None else 2 if item[1] in by_us else 0)[0]
         return (*calls[pid], code)
