@@ -21,6 +21,7 @@ from .config import DEFAULT_PRESETS, EvalConfig
 from .errors import ConfigError, InputError, RunInterrupted
 from .lanes_io import check_regular_file
 from .limits import RUN_TABLE
+from .wording import counted
 from .benchmarks import benchmark_for
 from .cache import ResultCache
 from .evaluation import RunResult, evaluate
@@ -138,7 +139,7 @@ def _nothing_scored(clips: int, skipped: list[str]) -> str:
     if skipped:
         return (f"nothing was scored: every labelled frame was skipped ({len(skipped):,} skipped, first: "
                 f"{skipped[0]}); no result was written")
-    return f"nothing was scored: the {clips:,} clips hold no labelled frame; no result was written"
+    return f"nothing was scored: {counted(clips, 'clip')} and no labelled frame; no result was written"
 
 
 def _unfinished(reason: str, cache: ResultCache) -> str:

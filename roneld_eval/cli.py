@@ -14,6 +14,7 @@ from pathlib import Path
 import click
 
 from .version import __version__
+from .wording import counted
 from .config import DEFAULT_PRESETS, MAP_FORMATS, METHODS, EvalConfig, parse_setting, preset_names
 from .errors import ConfigError, RoneldEvalError
 from .output import DEFAULT_OUT
@@ -231,7 +232,7 @@ def _print_summary(result, out: Path) -> None:
 
     counts = result.counts
     protocol = tables.Protocol.of_run(result)
-    click.echo(f"\n{result.dataset.name}: {counts['clips']} clips, {counts['frames']} frames, "
+    click.echo(f"\n{result.dataset.name}: {counted(counts['clips'], 'clip')}, {counted(counts['frames'], 'frame')}, "
                f"{counts['labelled_frames']} scored, {counts['ego_lanes']} ego lanes; {result.wall_time_s:.1f} s")
     click.echo(f"paper's protocol: {protocol.paper()}; Acc. Inc.: {protocol.interval()}")
     click.echo(tables.comparison_table(result.accuracy, result.config.model, protocol.clips).to_markdown())
@@ -332,7 +333,7 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
         result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
     click.echo(f"data root: {result.data_root}")
     click.echo(f"maps root: {result.maps_root}")
-    click.echo(f"{result.n_clips} clips, {result.n_frames} frames. Evaluate them with:")
+    click.echo(f"{counted(result.n_clips, 'clip')}, {counted(result.n_frames, 'frame')}. Evaluate them with:")
     click.echo(f"  {result.command}")
 
 
@@ -394,4 +395,4 @@ def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
     result = _guard(compare_runs, debug, runs, out, chosen, thresholds, pairs, allow_mixed)
     if not quiet:
         click.echo((Path(out) / "table_accuracy.md").read_text(encoding="utf-8"))
-        click.echo(f"{len(result.runs)} runs compared; results in {out}/")
+        click.echo(f"{counted(len(result.runs), 'run')} compared; results in {out}/")

@@ -47,6 +47,7 @@ from .metrics.sweep import sweep_accuracy
 from .model import Clip, Dataset, Frame, FrameMaps, Lane, read_only
 from .plugin_calls import PluginCalls
 from .signals import TimeLimitExceeded, time_limit
+from .wording import counted
 from .workers import default_workers, pool_context, process_pool, stopping
 
 
@@ -742,7 +743,7 @@ def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
     listing = "; ".join(shown)
     more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
     hint = benchmark_for(dataset.name).missing_maps_hint
-    return f"maps missing for {len(missing)} frames of {len(clips)} clips{hint}: {listing}{more}"
+    return f"maps missing for {counted(len(missing), 'frame')} of {counted(len(clips), 'clip')}{hint}: {listing}{more}"
 
 
 def evaluate(
@@ -786,7 +787,8 @@ def evaluate(
         for clip_id, path in missing:
             by_clip.setdefault(clip_id, []).append(path)
         for clip_id, paths in by_clip.items():
-            skipped.append(f"{clip_id}: maps missing for {len(paths)} frames, first {paths[0]} (clip skipped)")
+            frames = counted(len(paths), "frame")
+            skipped.append(f"{clip_id}: maps missing for {frames}, first {paths[0]} (clip skipped)")
         clips = [clip for clip in clips if clip.clip_id not in by_clip]
 
     context = RunContext(config, maps_root, None if dataset.labels_loaded else dataset.root,

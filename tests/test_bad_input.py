@@ -104,7 +104,7 @@ CASES = [
      lambda r: (r / "data/list/test.txt").write_text((r / "data/list/test.txt").read_text() * 2), "listed twice",
      "test.txt"),
     ("maps missing for a frame", "culane", [],
-     lambda r: first_map(r).unlink(), "maps missing for 1 frames", "00000.npy"),
+     lambda r: first_map(r).unlink(), "maps missing for 1 frame", "00000.npy"),
     ("clip with maps for part of its frames", "culane", [],
      lambda r: [p.unlink() for p in sorted((r / "maps").rglob("*.npy"))[1:3]], "maps missing for 2 frames", ".npy"),
     ("truncated map", "culane", [],

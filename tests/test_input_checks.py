@@ -423,7 +423,7 @@ def test_entries_without_an_extension_find_their_files(sets, tmp_path):
     assert load_maps(root / "maps", frame.relpath, MapsConfig()).probabilities.shape == (4, 288, 800)
     next(root.joinpath("maps").rglob("00030.npy")).unlink()
     result = run_cli(*run_args(root, tmp_path / "o"))
-    one_line(result, "maps missing for 1 frames", "05181432_0203.MP4/00030.npy")
+    one_line(result, "maps missing for 1 frame", "05181432_0203.MP4/00030.npy")
 
 
 def test_entries_with_another_extension_give_the_same_numbers(sets, tmp_path):
@@ -637,13 +637,13 @@ def test_a_corrupt_png_prints_only_our_line(sets, tmp_path, capfd, corrupt, expe
 
 def test_maps_found_in_another_format_are_named(sets, tmp_path):
     result = run_cli(*run_args(sets / "culane-png", tmp_path / "o"))  # the presets' npy
-    one_line(result, "maps missing for 2 frames of 1 clips:",
+    one_line(result, "maps missing for 2 frames of 1 clip:",
              "00000.npy (found 00000_1_avg.png: use --maps-format scnn-png)")
     result = run_cli(*run_args(sets / "culane", tmp_path / "o", "--maps-format", "npz"))
     one_line(result, "00000.npz (found 00000.npy: use --maps-format npy)")
     shutil.rmtree(sets / "culane" / "maps" / "driver_100_30frame")
     result = run_cli(*run_args(sets / "culane", tmp_path / "o"))
-    line = one_line(result, "maps missing for 2 frames of 1 clips:")
+    line = one_line(result, "maps missing for 2 frames of 1 clip:")
     assert "(found" not in line
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from ..metrics.bootstrap import MIN_CLIPS
-from ..report.tables import fixed, latex_text
+from ..report.tables import clips_text, fixed, latex_text
 
 # Widths in TeX points of a \footnotesize booktabs table in a two-column article: \columnwidth
 # is 229.5 pt and \textwidth 469 pt (IEEEtran: 252 and 516). Blocks are packed to less, because
@@ -68,10 +68,6 @@ def latex(text: str) -> str:
 def latex_number(text: str) -> str:
     """A cell as LaTeX, with a typeset minus for negative numbers."""
     return re.sub(r"(?<![\w.])-(?=\d)", "$-$", latex(text))
-
-
-def clips_text(clips: int) -> str:
-    return "1 clip" if clips == 1 else f"{clips} clips"
 
 
 # ---- cells -----------------------------------------------------------------------------------

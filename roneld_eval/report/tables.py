@@ -19,6 +19,7 @@ from ..config import EvalConfig
 from ..errors import RoneldEvalError
 from ..geometry import EffectiveGeometry
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, count_clips
+from ..wording import counted
 
 if TYPE_CHECKING:  # only annotations use it: `score culane` renders its tables without pandas
     import pandas as pd
@@ -137,7 +138,7 @@ class Protocol:
 
 
 def clips_text(clips: int) -> str:
-    return "1 clip" if clips == 1 else f"{clips} clips"
+    return counted(clips, "clip")
 
 
 # ---- tables --------------------------------------------------------------------------------
