@@ -31,6 +31,7 @@ from roneld_eval.comparison import compare, read_run
 from roneld_eval.config import Thresholds
 from roneld_eval.errors import ConfigError, InputError, RoneldEvalError
 from roneld_eval.metrics.bootstrap import paired_bootstrap
+from roneld_eval.report.tables import latex_text
 
 EVERY_FILE = ("comparison.csv", "table_accuracy.md", "table_accuracy.tex", "table_ablation.md", "table_ablation.tex",
               "table_runtime.md", "table_runtime.tex", "table_official.md", "table_official.tex", "curves.png",
@@ -493,6 +494,18 @@ def test_a_killed_run_and_another_commands_folder_are_refused(runs, data, tmp_pa
     (killed / ".roneld-commit.json").write_text("{}")
     with pytest.raises(InputError, match="incomplete"):
         compare([killed], tmp_path / "out")
+
+
+def test_control_characters_in_a_label_are_refused_and_never_reach_latex(runs, tmp_path):
+    with pytest.raises(ConfigError, match="a label must not hold control characters"):
+        compare([runs["cu_scnn"]], tmp_path / "out", labels={runs["cu_scnn"]: "SCNN\x07\x1b[31m"})
+    copy = tmp_path / "copy"
+    shutil.copytree(runs["cu_scnn"], copy)
+    config = (copy / "config.toml").read_text()
+    (copy / "config.toml").write_text(config.replace('model = "SCNN"', 'model = "SCNN\\u001b[31m"', 1))
+    with pytest.raises(InputError, match="`model` holds control characters"):
+        compare([copy], tmp_path / "out")
+    assert latex_text("a\x07b\tc\x9b") == "a?b c?"
 
 
 def test_out_may_not_lie_inside_a_compared_run(runs, tmp_path):

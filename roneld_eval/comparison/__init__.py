@@ -158,6 +158,8 @@ def _labels(runs: Sequence[str | Path], labels: Mapping[str | Path, str]) -> dic
     for key, label in labels.items():
         if not isinstance(label, str) or not label.strip():
             raise ConfigError(f"--label {key}=: a label must not be empty")
+        if not label.isprintable():
+            raise ConfigError(f"--label {key}={label!a}: a label must not hold control characters")
         matches = [k for k, path in enumerate(runs) if _same_folder(path, key)]
         if not matches:
             raise ConfigError(f"--label {key}={label}: {key} is not one of the run folders compared")

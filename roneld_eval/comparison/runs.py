@@ -88,6 +88,8 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
     config = _read_toml(folder / "config.toml")
     summary = _read_json(folder / "summary.json")
     model = _setting(config, folder / "config.toml", (), "model", str)
+    if not model.isprintable():  # it names the run in every table and figure
+        raise InputError(folder / "config.toml", f"`model` holds control characters: {model!a}")
     dataset = _setting(config, folder / "config.toml", ("dataset",), "name", str)
     if not model.strip():
         raise InputError(folder / "config.toml", "`model` is empty")

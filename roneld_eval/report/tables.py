@@ -279,8 +279,13 @@ def _latex_number(text: str) -> str:
     return re.sub(r"(?<![\w.])-(?=\d)", "$-$", text)
 
 
+_CONTROLS = {code: " " if chr(code) in "\t\n\r" else "?" for code in [*range(32), *range(127, 160)]}
+
+
 def latex_text(text: str) -> str:
-    """Plain text as LaTeX: specials escaped, '>' and '<' in math, '800x288' with a times sign."""
+    """Plain text as LaTeX: specials escaped, '>' and '<' in math, '800x288' with a times sign,
+    control characters (which TeX reads as commands or rejects) as spaces or '?'."""
+    text = text.translate(_CONTROLS)
     text = (text.replace("\\", "\x00").replace("{", "\\{").replace("}", "\\}").replace("\x00", "\\textbackslash{}")
             .replace("%", "\\%").replace("&", "\\&").replace("_", "\\_").replace("#", "\\#")
             .replace("$", "\\$").replace("~", "\\textasciitilde{}").replace("^", "\\textasciicircum{}"))
