@@ -96,6 +96,8 @@ def read_bytes(path: Path, missing_ok: bool = False, limit: SizeLimit = TEXT) ->
     try:
         descriptor = os.open(path, _OPEN_FLAGS)
     except (FileNotFoundError, NotADirectoryError) as error:
+        if os.path.islink(path):  # not a missing file (no lanes) but a broken link: a mistake to name
+            raise InputError(path, "a link to nothing (its target does not exist)") from None
         if missing_ok:
             return None
         raise InputError(path, _os_problem(error)) from None

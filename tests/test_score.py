@@ -183,6 +183,18 @@ def test_fewer_than_half_is_a_warning_and_strict_an_error(lanes, tmp_path):
         score_culane(gt, pred, workers=1, strict=True)
 
 
+def test_a_dangling_link_in_a_prediction_root_is_named_not_scored_as_no_lanes(lanes, tmp_path):
+    gt, pred = lanes
+    copy = tmp_path / "pred"
+    shutil.copytree(pred, copy)
+    target = sorted(copy.rglob("*.lines.txt"))[5]
+    target.unlink()
+    target.symlink_to(tmp_path / "gone.lines.txt")
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", copy, "--quiet", "--workers", 1)
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert f"{target}: a link to nothing (its target does not exist)" in result.output
+
+
 def test_width_one_is_refused_not_scored_as_width_two(lanes):
     # The C++ evaluator draws width 1 as a thin 8-connected line (291 px for a real lane where
     # the thick-line rasteriser gives 843): a width the rasteriser does not draw as OpenCV does
