@@ -30,12 +30,13 @@ from .config import EvalConfig
 from .errors import InputError
 from .limits import CACHE_ENTRY
 from .evaluation import ClipResult, FrameOutcome
+from .extract.registry import file_digest
 from .json_fields import json_number, read_count, read_float, read_list, read_string
 from .model import Clip, Lane
 from .output import CACHE
 
 FORMAT = "roneld-eval clip cache"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: the plug-ins' loaded source files (plugin_code)
 
 
 class ResultCache:
@@ -116,6 +117,9 @@ class ResultCache:
                 self.reasons["maps or labels changed"] += 1
                 return None
             result = decode_result(entry["result"], self.benchmark)
+            if any(file_digest(Path(path)) != digest for path, digest in result.plugin_code.items()):
+                self.reasons["plug-in code changed"] += 1  # a module it imported on its way, too
+                return None
             if result.clip_id != clip.clip_id:
                 raise ValueError("it holds another clip")
         except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError, RecursionError,
@@ -297,6 +301,7 @@ def encode_result(result: ClipResult) -> dict:
         "n_frames": result.n_frames, "n_scored": result.n_scored, "n_gt_lanes": result.n_gt_lanes,
         "skipped": list(result.skipped),
         "map_size": None if result.map_size is None else list(result.map_size),
+        "plugin_code": dict(result.plugin_code),
     }
 
 
@@ -327,7 +332,11 @@ def decode_result(data: Any, benchmark: Benchmark) -> ClipResult:
         map_size = tuple(read_count(v) for v in read_list(map_size))
         if len(map_size) != 2:
             raise ValueError("map_size is not a pair")
+    plugin_code = data["plugin_code"]
+    if not isinstance(plugin_code, dict):
+        raise TypeError("plugin_code is not a record")
     return ClipResult(
+        plugin_code={read_string(path): read_string(digest) for path, digest in plugin_code.items()},
         clip_id=read_string(data["clip_id"]),
         outcomes=outcomes,
         extract_ms={read_string(m): [read_float(v) for v in read_list(values)] for m, values in extract_ms.items()},

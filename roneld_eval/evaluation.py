@@ -37,7 +37,7 @@ from .config import EvalConfig, parse_thresholds
 from .datasets import read_dataset, with_labels
 from .errors import ConfigError, ExtractorError, InputError
 from .extract.protocol import Extractor, Prediction, is_stateless, prediction_problem
-from .extract.registry import Method, methods_of
+from .extract.registry import Method, loaded_code, methods_of
 from .geometry import EffectiveGeometry, MapGeometry, check_map_shape
 from .maps import load_maps, map_size, map_stem, required_paths
 from .maps.scnn_png import scnn_png_paths
@@ -80,6 +80,8 @@ class ClipResult:
     n_gt_lanes: int = 0
     skipped: list[str] = field(default_factory=list)
     map_size: tuple[int, int] | None = None  # (width, height) of the clip's maps as found
+    # Source files of the plug-ins as loaded when the clip finished: path -> SHA-256 (resume).
+    plugin_code: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -168,7 +170,9 @@ def evaluate_clip(clip: Clip, context: RunContext,
         extractions.append(extraction.counts_only())  # the predictions are scored: let them go
         if advance is not None:
             advance(len(segment.frames))
-    return merged_clip(clip, extractions, scored)
+    result = merged_clip(clip, extractions, scored)
+    result.plugin_code = loaded_code(context.methods)
+    return result
 
 
 @dataclass

@@ -188,6 +188,69 @@ def test_a_changed_helper_beside_a_plugin_is_not_resumed_from(dataset, tmp_path,
     assert key() not in (first, second)
 
 
+LATE_PLUGIN = """
+import importlib
+import sys
+
+from roneld_eval import Lane, Prediction
+
+HELPER = {helper!r}
+
+
+def make(geometry, params):
+    if {where!r} == "factory":
+        import {helper}  # noqa: F401
+
+    def extract(maps):
+        if {where!r} == "first_frame":
+            import {helper}  # noqa: F401
+        elif {where!r} == "importlib":
+            importlib.import_module(HELPER)
+        x = 800 + sys.modules[HELPER].SHIFT
+        lane = Lane([[x, 590], [x, 300]])
+        return Prediction(lanes=[lane], active=(lane, None))
+
+    return extract
+"""
+
+
+@pytest.mark.parametrize("where", ["factory", "first_frame", "importlib"])
+def test_resume_sees_a_helper_the_plugin_imports_only_while_it_runs(dataset, tmp_path, monkeypatch, where):
+    # The key hashed the modules loaded when the run started: a helper imported inside make(),
+    # on the first frame or through importlib was not in it, and --resume reused stale clips.
+    import sys
+
+    from conftest import interrupt_after
+
+    from roneld_eval.errors import RunInterrupted
+
+    helper = f"late_{where}_{tmp_path.name.replace('-', '_')}"
+    home = tmp_path / "code"
+    home.mkdir()
+    (home / f"{helper}.py").write_text("SHIFT = 0\n")
+    plugin = home / "late.py"
+    plugin.write_text(LATE_PLUGIN.format(helper=helper, where=where))
+    monkeypatch.syspath_prepend(str(home))
+    config = api.default_config("culane").with_overrides(**{
+        "dataset.data_root": str(dataset / "data"), "maps.root": str(dataset / "maps"), "workers": 1,
+    }).with_plugin("late", f"{plugin}:make")
+    out = tmp_path / "out"
+    restore = interrupt_after(monkeypatch, 2)
+    with pytest.raises(RunInterrupted, match="2 finished clips kept"):
+        api.run(config, out, progress=False)
+    restore()
+    (home / f"{helper}.py").write_text("SHIFT = 40  # moves every lane\n")
+    monkeypatch.delitem(sys.modules, helper, raising=False)
+    notes: list[str] = []
+    api.run(config, out, progress=False, resume=True, announce=notes.append)
+    summary = [n for n in notes if n.startswith("resume:")][0]
+    assert "reused 0 finished clips" in summary and "2 plug-in code changed" in summary, summary
+    monkeypatch.delitem(sys.modules, helper, raising=False)
+    api.run(config, tmp_path / "clean", progress=False)
+    for name in ("accuracy.csv", "per_frame.csv", "official.csv"):
+        assert (out / name).read_bytes() == (tmp_path / "clean" / name).read_bytes(), name
+
+
 def test_a_stateful_plugin_sees_every_frame_and_a_stateless_one_only_scored_ones(tmp_path):
     from roneld_eval.synth import synth_tusimple
 

@@ -177,6 +177,39 @@ def source_fingerprint(method: Method) -> str:
     return digest.hexdigest()
 
 
+def loaded_code(methods) -> dict[str, str]:
+    """path -> SHA-256 of every source file of the plug-ins among `methods` as loaded in this
+    process now (`own_modules`): taken where a clip finished, after whatever the plug-in
+    imported on its way (in its factory, on its first frame, through importlib into
+    sys.modules), so that --resume can tell whether any of it changed since."""
+    code: dict[str, str] = {}
+    for method in methods:
+        if method.built_in:
+            continue
+        module = sys.modules.get(getattr(method.factory(), "__module__", "") or "")
+        if module is None or not isinstance(getattr(module, "__file__", None), str):
+            continue
+        for file in own_modules(module)[1]:
+            code[str(file)] = file_digest(file)
+    return code
+
+
+_DIGESTS: dict[tuple[str, int, int], str] = {}
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file's content ('' if it cannot be read), kept per (path, size, mtime)."""
+    try:
+        info = os.stat(path)
+        key = (str(path), info.st_size, info.st_mtime_ns)
+        if key not in _DIGESTS:
+            with open(path, "rb") as handle:
+                _DIGESTS[key] = hashlib.sha256(handle.read()).hexdigest()
+        return _DIGESTS[key]
+    except OSError:
+        return ""
+
+
 # Folders of installed libraries: a plug-in's code beside a virtual environment is not the
 # libraries in it (their versions are recorded apart).
 _LIBRARY_FOLDERS = frozenset({"site-packages", "dist-packages"})
@@ -225,4 +258,5 @@ def kernel_groups(methods: tuple[Method, ...] | list[Method]) -> tuple[str, ...]
     return tuple(dict.fromkeys(group for method in methods for group in method.kernel_groups))
 
 
-__all__ = ["BUILT_IN", "Method", "methods_of", "own_modules", "resolve_entry", "source_fingerprint", "kernel_groups"]
+__all__ = ["BUILT_IN", "Method", "methods_of", "own_modules", "resolve_entry", "source_fingerprint", "kernel_groups",
+           "loaded_code", "file_digest"]
