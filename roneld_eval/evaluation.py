@@ -12,11 +12,14 @@ so memory stays flat in the number of frames.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import itertools
+import os
 import pickle
 import platform
 import queue
+import signal
 import threading
 import time
 from array import array
@@ -391,7 +394,7 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
     """A plug-in's prediction, checked: whatever goes wrong is one ExtractorError naming the
     method, the frame and the problem, never a traceback from deep inside the runner."""
     problem = None
-    too_slow = f"took longer than {method.time_limit_s:g} s (time_limit_s in [methods.{method.name}])"
+    too_slow = too_slow_text(method.name, method.time_limit_s)
     # A read-only view: a plug-in that writes into the maps would change what the methods after
     # it see (npy maps are read-only memory maps already; the other formats are arrays).
     maps = replace(maps, probabilities=read_only(maps.probabilities),
@@ -419,6 +422,15 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
         raise ExtractorError(method.name, frame.relpath, problem)
     extract_ms[method.name].append(elapsed * 1e3)
     return prediction
+
+
+def too_slow_text(method: str, limit_s: float | None) -> str:
+    return f"took longer than {limit_s or 0:g} s (time_limit_s in [methods.{method}])"
+
+
+# How long past its time limit a plug-in call may run before the main process ends its worker:
+# SIGALRM stops it inside the worker, unless the plug-in blocks or ignores that signal.
+OVERDUE_GRACE_S = 2.0
 
 
 def _raised(error: BaseException) -> str:
@@ -551,12 +563,27 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
     exit_codes = {pid: process for pid, process in (getattr(pool, "_processes", None) or {}).items()}
     schedule = _Schedule(pool, clips, todo, context, workers, advance)
 
+    limits = {method.name: method.time_limit_s for method in context.methods}
+    stopped: dict[int, tuple[str, str]] = {}  # workers ended here for a plug-in past its limit
+
+    def watch() -> None:
+        assert calls is not None
+        for pid, call in calls.overdue(limits, OVERDUE_GRACE_S).items():
+            stopped[pid] = call
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
+
+    schedule.watch = watch if calls is not None and any(limits.values()) else None
+
     def died() -> str | ExtractorError:
         # Ended by now; the pool's own thread may be reaping one (its exit code is then None here
         # until that thread has set it).
         deadline = time.monotonic() + 2.0
         while any(process.exitcode is None for process in exit_codes.values()) and time.monotonic() < deadline:
             time.sleep(0.01)
+        if stopped:
+            pid, (method, frame) = next(iter(stopped.items()))
+            return ExtractorError(method, frame, too_slow_text(method, limits[method]))
         inside = None if calls is None else calls.died_in({pid: process.exitcode
                                                             for pid, process in exit_codes.items()})
         if inside is not None:
@@ -626,6 +653,7 @@ class _Schedule:
         self.chains: dict[int, _Chain] = {}
         self.done: dict[int, ClipResult | BaseException] = {}
         self.current = clips[todo[0]].clip_id if todo else ""
+        self.watch: Callable[[], None] | None = None  # called while waiting (plug-ins' time limits)
 
     def start_more(self) -> None:
         failed = min((index for index, done in self.done.items() if isinstance(done, BaseException)), default=None)
@@ -650,13 +678,22 @@ class _Schedule:
             self.start_more()
             if not self.tasks:  # cannot happen: clips start in order, so this one is under way
                 raise RuntimeError(f"clip {self.current} was never started")
-            future = self.finished.get()
+            future = self._next_finished()
             self.tasks.pop(future)(future)
         self.started.discard(index)
         done = self.done.pop(index)
         if isinstance(done, BaseException):
             raise done
         return done
+
+    def _next_finished(self) -> Future:
+        if self.watch is None:
+            return self.finished.get()
+        while True:
+            try:
+                return self.finished.get(timeout=0.25)
+            except queue.Empty:
+                self.watch()
 
     def _submit(self, then: Callable[[Future], None], function, *args) -> None:
         future = self.executor.submit(function, *args)

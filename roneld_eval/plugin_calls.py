@@ -11,6 +11,7 @@ from __future__ import annotations
 import ctypes
 import os
 import signal
+import time
 from typing import Any, Mapping
 
 SLOT_BYTES = 1024
@@ -33,7 +34,8 @@ class PluginCalls:
         self._mine = number if number < self._workers else None
 
     def enter(self, method: str, frame: str) -> None:
-        self._write(f"{os.getpid()}\t{method}\t{frame}".encode("utf-8", "surrogateescape"))
+        # CLOCK_MONOTONIC is one clock for every process of the machine.
+        self._write(f"{os.getpid()}\t{time.monotonic():.3f}\t{method}\t{frame}".encode("utf-8", "surrogateescape"))
 
     def leave(self) -> None:
         self._write(b"")
@@ -45,16 +47,30 @@ class PluginCalls:
         start = self._mine * SLOT_BYTES
         self._slots[start:start + len(text)] = text
 
-    def open_calls(self) -> dict[int, tuple[str, str]]:
-        """pid -> (method, frame) of every worker inside a plug-in call now."""
+    def open_calls(self) -> dict[int, tuple[str, str, float]]:
+        """pid -> (method, frame, monotonic time it started) of every worker in a plug-in call now."""
         calls = {}
         raw = bytes(self._slots.raw)
         for number in range(self._workers):
             text = raw[number * SLOT_BYTES:(number + 1) * SLOT_BYTES].split(b"\0", 1)[0]
-            parts = text.decode("utf-8", "surrogateescape").split("\t", 2)
-            if len(parts) == 3 and parts[0].isdigit():
-                calls[int(parts[0])] = (parts[1], parts[2])
+            parts = text.decode("utf-8", "surrogateescape").split("\t", 3)
+            if len(parts) == 4 and parts[0].isdigit():
+                try:
+                    calls[int(parts[0])] = (parts[2], parts[3], float(parts[1]))
+                except ValueError:
+                    continue
         return calls
+
+    def overdue(self, limits: Mapping[str, float | None], grace_s: float) -> dict[int, tuple[str, str]]:
+        """pid -> (method, frame) of the calls that have run `grace_s` past their method's limit:
+        a plug-in that blocks or ignores SIGALRM is not stopped inside its worker."""
+        now = time.monotonic()
+        late = {}
+        for pid, (method, frame, started) in self.open_calls().items():
+            limit = limits.get(method)
+            if limit is not None and now - started > limit + grace_s:
+                late[pid] = (method, frame)
+        return late
 
     def died_in(self, exit_codes: Mapping[int, int | None]) -> tuple[str, str, int | None] | None:
         """(method, frame, exit code or None) of a worker that ended inside a plug-in call, or None.
@@ -70,4 +86,5 @@ class PluginCalls:
         by_us = (-signal.SIGTERM, -signal.SIGKILL)
         # An unknown code (the pool's thread reaped the process first) ranks between the two.
         pid, code = sorted(ended, key=lambda item: 1 if item[1] is None else 2 if item[1] in by_us else 0)[0]
-        return (*calls[pid], code)
+        method, frame, _ = calls[pid]
+        return method, frame, code

@@ -111,6 +111,23 @@ def slow_once(geometry, params):
     return extract
 
 
+def spins_deaf(geometry, params):
+    """On its clip's second frame, ignores SIGALRM and spins: its worker cannot stop it."""
+    import signal
+
+    state = {"frames": 0}
+
+    def extract(maps):
+        state["frames"] += 1
+        if state["frames"] == 2:
+            signal.signal(signal.SIGALRM, signal.SIG_IGN)
+            while True:
+                pass
+        return Prediction()
+
+    return extract
+
+
 def factory_raises(geometry, params):
     raise KeyError("threshold")
 

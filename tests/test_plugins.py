@@ -374,6 +374,23 @@ def test_a_plugin_that_ends_its_process_is_an_error_naming_method_and_frame(data
     assert not out.exists() or not [p.name for p in out.iterdir()]  # no lock, staging or cache behind
 
 
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_plugin_that_ignores_its_alarm_is_stopped_by_the_main_process(dataset, tmp_path, workers):
+    # It escaped time_limit_s: the limit's SIGALRM is delivered inside the worker.
+    import time
+
+    config = config_with_methods(tmp_path / "deaf.toml", f'[methods.baseline]\n[methods.deaf]\n'
+                                 f'entry = "{entry("spins_deaf")}"\ntime_limit_s = 0.5\n')
+    out = tmp_path / "out"
+    start = time.monotonic()
+    result = invoke(run_args(dataset, out, "--config", str(config), "--workers", workers))
+    assert time.monotonic() - start < 60
+    assert result.exit_code == 2, result.output
+    assert result.output.strip().startswith("error: method 'deaf', frame ")
+    assert result.output.strip().endswith("00030.jpg: took longer than 0.5 s (time_limit_s in [methods.deaf])")
+    assert not out.exists() or not [p.name for p in out.iterdir()]
+
+
 def test_on_error_skip_leaves_the_frames_out_for_every_method(dataset, tmp_path):
     out = tmp_path / "out"
     result = invoke(run_args(dataset, out, "--method", f"bad={entry('nan_lanes')}", "--workers", "1",
