@@ -183,6 +183,27 @@ def parse_culane_lines(text: str, path) -> tuple[Lane, ...]:
     return tuple(lanes)
 
 
+# The farthest a predicted coordinate may lie from the origin: beyond float32's integers the
+# C++ evaluator's spline and cvRound saturate in ways not emulated (off by a few pixels at
+# +-2^31), and drawing such a lane overflows; no detector's lane reaches 16.7 million pixels.
+MAX_PREDICTED_COORDINATE = float(1 << 24)
+
+
+def check_coordinates(lanes, path, line: int | None = None) -> None:
+    """Refuse predicted lanes with a coordinate no lane can have (a unit mistake, an overflow):
+    named by the lane's line, or for lanes that share a `line` (TuSimple) by their index."""
+    for index, lane in enumerate(lanes):
+        points = lane.points
+        with np.errstate(invalid="ignore"):
+            bad = np.abs(points) > MAX_PREDICTED_COORDINATE
+        if bad.any():
+            x, y = points[int(np.argmax(bad.any(axis=1)))]
+            problem = f"point ({x:g}, {y:g}) lies more than 2^24 px from the image origin: not a lane coordinate"
+            if line is None:
+                raise InputError(path, problem, line=index + 1)
+            raise InputError(path, f"lane {index}: {problem}", line=line)
+
+
 def read_culane_lines(path: Path, missing_ok: bool = True) -> tuple[Lane, ...]:
     """Lanes of one `.lines.txt`; a missing file means no lanes when `missing_ok`."""
     path = Path(path)

@@ -33,7 +33,7 @@ from .datasets import read_culane
 from .datasets._paths import under_root
 from .datasets.culane import labels_path, read_frame_labels
 from .errors import ConfigError, InputError
-from .lanes_io import read_culane_lines
+from .lanes_io import check_coordinates, read_culane_lines
 from .metrics.culane_official import (
     OFFICIAL_COLUMNS,
     ScoredFrames,
@@ -302,24 +302,6 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
 # ---- scoring lane files ----------------------------------------------------------------------
 
 
-# The farthest a predicted coordinate may lie from the origin: beyond float32's integers the
-# C++ evaluator's spline and cvRound saturate in ways not emulated here (off by a few pixels
-# at +-2^31); no detector's lane reaches 16.7 million pixels, so refusing loses nothing real.
-MAX_PREDICTED_COORDINATE = float(1 << 24)
-
-
-def check_scorable(lanes, path) -> None:
-    """Refuse predicted lanes with a coordinate the official evaluator cannot be matched on."""
-    for number, lane in enumerate(lanes, start=1):
-        points = lane.points
-        with np.errstate(invalid="ignore"):
-            bad = np.abs(points) > MAX_PREDICTED_COORDINATE
-        if bad.any():
-            x, y = points[int(np.argmax(bad.any(axis=1)))]
-            raise InputError(path, f"point ({x:g}, {y:g}) lies more than 2^24 px from the image origin: "
-                                   "not a lane coordinate", line=number)
-
-
 def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One chunk of frames against every method: (n_gt, n_pred per method, matched IoUs per method)."""
     relpaths, data_root, pred_roots, width, height, lane_width = args
@@ -333,7 +315,7 @@ def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         for m, pred_root in enumerate(pred_roots):
             path = labels_path(pred_root, relpath)
             predictions = read_culane_lines(path)
-            check_scorable(predictions, path)
+            check_coordinates(predictions, path)
             result = evaluate_culane_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
             n_pred[m, k] = result.n_pred
             ious[m].append(result.matched_iou)

@@ -35,6 +35,7 @@ def base_sets(tmp_path_factory):
     root = tmp_path_factory.mktemp("base")
     synth_culane(root / "culane", clips=2, frames=3, seed=3)
     synth_culane(root / "culane-png", clips=1, frames=3, seed=3, maps_format="scnn-png")
+    synth_culane(root / "culane-lanes", clips=1, frames=3, seed=3, maps_format="lanes")
     synth_tusimple(root / "tusimple", clips=2, frames=20, seed=3, maps_format="npz")
     return root
 
@@ -139,6 +140,9 @@ CASES = [
      lambda r: first_labels(r).write_text("1 590 2\n"), "odd number of values", "00000.lines.txt:1"),
     ("labels that are not numbers", "culane", [],
      lambda r: first_labels(r).write_text("1 590 2 580\n3 x\n"), "'x' is not a number", "00000.lines.txt:2"),
+    ("detector lanes at 1e308", "culane-lanes", ["--maps-format", "lanes"],
+     lambda r: first_map(r, ".lines.txt").write_text("1e308 590 100 300\n"), "lies more than 2^24 px",
+     "00000.lines.txt:1"),
     ("labels far outside the image", "culane", [],
      lambda r: first_labels(r).write_text("1 590 90000 580\n"), "far outside the 1640x590 image", "00000.lines.txt:1"),
     ("TuSimple line that is not JSON", "tusimple", [],

@@ -541,7 +541,9 @@ def test_out_may_not_be_a_run_folder(runs, tmp_path):
 @pytest.mark.parametrize("name, content, message", [
     ("accuracy.csv", "method,threshold\nbaseline,0.30\n", "accuracy.csv: has no column n_tp, n_gt, accuracy"),
     ("accuracy.csv", "method,threshold,n_tp,n_gt,accuracy\nbaseline,0.30,3,x,0.5\n",
-     "accuracy.csv:2: column n_gt: 'x' is not a whole number >= 0"),
+     "accuracy.csv:2: column n_gt: 'x' is not a whole number in [0, 2^53]"),
+    ("accuracy.csv", "method,threshold,n_tp,n_gt,accuracy\nbaseline,0.30,1e308,1e308,1\n",
+     "accuracy.csv:2: column n_tp: '1e308' is not a whole number in [0, 2^53]"),
     ("accuracy.csv", "method,threshold,n_tp,n_gt,accuracy\nbaseline,0.30,3,4,0.5\n",
      "accuracy.csv:2: accuracy 0.5 is not n_tp / n_gt = 3 / 4"),
     ("accuracy.csv", "method,threshold,n_tp,n_gt,accuracy\nbaseline,1.5,3,4,0.75\n",

@@ -27,6 +27,7 @@ from ..limits import RUN_TABLE
 
 # The files compare reads; `run` always writes all of them.
 RUN_FILES = ("config.toml", "summary.json", "accuracy.csv", "per_frame.csv", "runtime.csv", "official.csv")
+MAX_COUNT = float(1 << 53)
 MAX_RECORD_BYTES = 16 << 20  # config.toml and summary.json are a few kB; a larger one is not ours
 # The RONELD paper's protocol: the settings that change what an accuracy means. Runs that differ
 # in any of them measure different things (see README, "The protocols, precisely").
@@ -227,11 +228,11 @@ def read_csv(path: Path, columns: dict[str, str], optional: dict[str, str] | Non
             except ValueError:
                 pass
         bad = ~np.isfinite(numbers) & ~allowed
-        if kind == "count":
-            bad |= (numbers < 0) | (numbers != np.floor(numbers))
+        if kind == "count":  # whole, and exact as a float (a count of 1e308 overflows the sums)
+            bad |= (numbers < 0) | (numbers != np.floor(numbers)) | (numbers > MAX_COUNT)
         if bad.any():
             first = int(np.flatnonzero(bad)[0])
-            expected = {"count": "a whole number >= 0", "number": "a finite number",
+            expected = {"count": "a whole number in [0, 2^53]", "number": "a finite number",
                         "optional number": "a number or empty"}[kind]
             raise InputError(path, f"column {name}: {raw[first]!r} is not {expected}", line=first + 2)
         out[name] = numbers.astype(np.int64) if kind == "count" else numbers

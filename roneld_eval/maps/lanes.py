@@ -33,7 +33,8 @@ from ..config import MapsConfig
 from ..datasets._paths import normalise_relpath
 from ..errors import InputError
 from ..geometry import MapGeometry
-from ..lanes_io import decode_text, lane_from_tusimple, parse_culane_lines, read_bytes, read_tusimple_records
+from ..lanes_io import (check_coordinates, decode_text, lane_from_tusimple, parse_culane_lines, read_bytes,
+                        read_tusimple_records)
 from ..model import EGO_CHANNELS, FrameMaps, Lane
 
 TUSIMPLE_FILE = "predictions.json"
@@ -59,6 +60,7 @@ def load_lane_maps(root: Path, relpath: str, stem: Path, config: MapsConfig, geo
     else:
         path = stem.with_name(stem.name + ".lines.txt")
         lanes = parse_culane_lines(decode_text(read_bytes(path), path), path)
+        check_coordinates(lanes, path)
         scores = _read_scores(stem.with_name(stem.name + SCORES_SUFFIX), len(lanes))
     return draw_lane_maps(lanes, scores, config, geometry, center_ratio)
 
@@ -190,6 +192,7 @@ def _tusimple_frames(path: Path) -> dict[str, tuple[tuple[Lane, ...], tuple[floa
         if rows is None:
             raise InputError(path, "missing key 'h_samples' (needed to place the lanes)", line=number)
         lanes = tuple(lane_from_tusimple(xs, rows) for xs in record["lanes"])
+        check_coordinates(lanes, path, number)
         scores = record.get("scores", [1.0] * len(lanes))
         if not isinstance(scores, list) or len(scores) != len(lanes):
             raise InputError(path, "scores must be a list with one number in [0, 1] per lane", line=number)
