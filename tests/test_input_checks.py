@@ -435,6 +435,29 @@ def test_entries_with_another_extension_give_the_same_numbers(sets, tmp_path):
     assert (tmp_path / "png" / "accuracy.csv").read_bytes() == (tmp_path / "jpg" / "accuracy.csv").read_bytes()
 
 
+def test_category_lists_match_a_test_list_without_extensions(sets, tmp_path):
+    # Category rows were empty, silently, when the test list and the category lists differed
+    # only in the images' extension.
+    root = sets / "culane"
+    listing = root / "data" / "list" / "test.txt"
+    relpaths = [line.strip().lstrip("/") for line in listing.read_text().splitlines()]
+    split = root / "data" / "list" / "test_split"
+    for old in split.iterdir():
+        old.unlink()
+    (split / "test0_normal.txt").write_text("".join(f"{r}\n" for r in relpaths[:4]))
+    assert run_cli(*run_args(root, tmp_path / "jpg")).exit_code == 0
+    listing.write_text("".join(f"/{r[:-4]}\n" for r in relpaths))
+    assert run_cli(*run_args(root, tmp_path / "bare")).exit_code == 0
+    assert (tmp_path / "bare" / "categories.csv").read_bytes() == (tmp_path / "jpg" / "categories.csv").read_bytes()
+    normal = [line for line in (tmp_path / "bare" / "categories.csv").read_text().splitlines()
+              if line.startswith("normal,")]
+    assert normal and all(int(line.split(",")[3]) > 0 for line in normal)
+    (split / "test1_other.txt").write_text("nowhere/00000.jpg\n")
+    one_line(run_cli(*run_args(root, tmp_path / "o")), "test1_other.txt: none of its 1 frames is in the test list")
+    (split / "test1_other.txt").rename(split / "test1_x")
+    one_line(run_cli(*run_args(root, tmp_path / "o")), "test1_x: a category list must end in .txt")
+
+
 # ---- 3e. byte-order marks --------------------------------------------------------------------------
 
 

@@ -61,13 +61,22 @@ def read_categories(root: Path, listed: Mapping[str, str] | None = None) -> dict
         match = _CATEGORY_FILE.match(name)
         if match:
             found.append((int(match.group(1)), match.group(2), folder / name))
+        elif _CATEGORY_FILE.match(name + ".txt"):  # its rows would be missing from every table, silently
+            raise InputError(folder / name, f"a category list must end in .txt: rename it {name}.txt")
+    # Matched by image stem, as every file of a frame is: a test list without extensions (or
+    # with .png) and category lists with .jpg name the same frames.
+    by_stem = {image_stem(relpath): relpath for relpath in listed.values()}
     categories = {}
     for _, name, path in sorted(found):
         if name in RESERVED_CATEGORIES:
             raise InputError(path, f"a category list cannot be called {name!r}: the tables have a row of that name "
                                    f"({RESERVED_CATEGORIES[name]}); rename the file")
         entries = read_list_file(path)
-        categories[name] = frozenset(listed.get(relpath, relpath) for _, relpath in entries)
+        members = [by_stem.get(image_stem(relpath)) for _, relpath in entries]
+        if listed and not any(members):
+            raise InputError(path, f"none of its {len(entries):,} frames is in the test list (first: "
+                                   f"{entries[0][1]}): its rows would be empty")
+        categories[name] = frozenset(member or relpath for member, (_, relpath) in zip(members, entries))
     return categories
 
 
