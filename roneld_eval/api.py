@@ -18,8 +18,8 @@ import pandas as pd
 
 from .version import __version__
 from .config import DEFAULT_PRESETS, EvalConfig
-from .errors import ConfigError, InputError, RunInterrupted
-from .lanes_io import check_regular_file
+from .errors import ConfigError, InputError, RoneldEvalError, RunInterrupted
+from .lanes_io import check_regular_file, read_text
 from .limits import RUN_TABLE
 from .wording import counted
 from .benchmarks import benchmark_for
@@ -207,8 +207,8 @@ def _show_pictures(run_dir: Path, frames: Sequence[str], worst: int | None, meth
     dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
                            config.dataset.limit)
     try:
-        recorded = Protocol.from_summary(json.loads((run_dir / "summary.json").read_text(encoding="utf-8")))
-    except (OSError, ValueError, AttributeError, TypeError):
+        recorded = Protocol.from_summary(json.loads(read_text(run_dir / "summary.json")))
+    except (RoneldEvalError, ValueError, AttributeError, TypeError, RecursionError):
         recorded = None
     from .report.pictures import frame_pictures
 

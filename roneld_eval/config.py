@@ -30,6 +30,7 @@ else:  # pragma: no cover - exercised on Python 3.10 only
     import tomli as tomllib
 
 from .errors import ConfigError
+from .limits import TEXT
 from .geometry import MapGeometry
 
 DATASETS = ("culane", "tusimple")
@@ -687,8 +688,10 @@ def _read_config_text(path: Path) -> str:
         info = os.stat(path)
         if not stat.S_ISREG(info.st_mode):
             raise ConfigError(f"{path}: not a regular file")
+        if info.st_size > TEXT.bytes:  # a configuration is a few kB
+            raise ConfigError(f"{path}: {TEXT.problem(info.st_size)}")
         with open(path, "rb") as handle:
-            data = handle.read()
+            data = handle.read(TEXT.bytes + 1)
     except OSError as error:
         raise ConfigError(f"{path}: cannot read: {error.strerror}") from None
     try:

@@ -104,3 +104,11 @@ def test_a_deeply_nested_toml_file_is_one_error(tmp_path):
     path.write_text("a = " + "[" * 100_000 + "]" * 100_000 + "\n")
     with pytest.raises(ConfigError, match="deep.toml: not a configuration: nested too deeply"):
         EvalConfig.from_toml(path)
+
+
+def test_a_huge_config_file_is_refused_unread(tmp_path):
+    path = tmp_path / "huge.toml"
+    with open(path, "wb") as handle:
+        handle.truncate(10 * 10**9)
+    with pytest.raises(ConfigError, match="huge.toml: too large \\(10,000,000,000 bytes\\)"):
+        EvalConfig.from_toml(path)
