@@ -725,3 +725,37 @@ def test_real_clip_as_two_models(real_clip_tree, tmp_path):
         assert (out / name).is_file(), name
     check_everything(out, [("culane", "SCNN", [runs["SCNN"]]), ("culane", "ENet-SAD", [runs["ENet-SAD"]])])
     assert "[n/a (1 clip)]" in (out / "table_accuracy.md").read_text()  # one video: no interval
+
+
+@pytest.mark.parametrize("command", ["compare", "show", "score"])
+def test_sigterm_while_working_is_one_line_and_leaves_nothing(command, runs, tmp_path, monkeypatch):
+    # score and compare handled SIGTERM only while writing their files: earlier, it ended the
+    # process at once, without the line run prints.
+    import os
+    import signal
+
+    import roneld_eval.api as api_module
+    import roneld_eval.comparison as comparison
+    import roneld_eval.score as scoring
+
+    def terminated(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise AssertionError("the signal did not interrupt")
+
+    out = tmp_path / "out"
+    run = runs["cu_scnn"]
+    if command == "compare":
+        monkeypatch.setattr(comparison, "read_run", terminated)
+        args = ["compare", str(run), "--out", str(out)]
+    elif command == "show":
+        monkeypatch.setattr(api_module, "_show_pictures", terminated)
+        args = ["show", "--run", str(run), "--out", str(out)]
+    else:
+        monkeypatch.setattr(scoring, "find_prediction_trees", terminated)
+        config = (run / "config.toml").read_text()
+        data_root = next(line for line in config.splitlines() if line.startswith("data_root")).split('"')[1]
+        args = ["score", "culane", "--data-root", data_root, "--pred-root", str(run / "lanes"), "--out", str(out)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 128 + signal.SIGTERM, result.output
+    assert result.output.strip() == "terminated (SIGTERM): no result was written"
+    assert not out.exists()
