@@ -26,10 +26,9 @@ from __future__ import annotations
 
 import contextlib
 import gc
-import math
-import sys
+import time
 from types import ModuleType
-from typing import Callable, Iterable
+from typing import Any, Callable, Iterable
 
 from ._numba_cache import cache_dir, compile_now, in_cache
 from .metrics import _kernels as metric_kernels
@@ -97,11 +96,15 @@ def _entries(groups: Iterable[str]) -> list[tuple[object, tuple]]:
     return entries
 
 
-def _compile_units(units: tuple[str, ...]) -> None:
-    """Compile (or load) every kernel of these units; in a compiling process, into the cache."""
+def _compile_units(units: tuple[str, ...], done: Any = None) -> None:
+    """Compile (or load) every kernel of these units; in a compiling process, into the cache.
+    `done`: a shared counter of compiled kernels, for the progress lines."""
     for unit in units:
         for kernel, signature in _entries(_UNITS[unit]):
             compile_now(kernel, signature)
+            if done is not None:
+                with done.get_lock():
+                    done.value += 1
 
 
 def _schedule(units: list[str], processes: int) -> list[list[str]]:
@@ -148,21 +151,28 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
         if cache_dir() is None:
             parallel = 1  # without a cache other processes cannot hand their work over
         bins = _schedule(units, parallel)
+        total = sum(len(_entries(_UNITS[unit])) for unit in units)
         if announce is not None:
-            seconds = max(sum(_UNIT_COMPILE_S[unit] for unit in b) for b in bins)
-            announce(f"compiling kernels for this installation (once; about {5 * math.ceil(seconds / 5):.0f} s)")
-        _compile_in_parallel(bins)
+            announce(f"compiling {total} numba kernels for this installation in {len(bins)} "
+                     f"process{'es' if len(bins) > 1 else ''} (once: later runs and installs of this version "
+                     f"load them from the cache); progress every {PROGRESS_EVERY_S:g} s")
+        _compile_in_parallel(bins, announce, total)
 
 
-def _compile_in_child(units: tuple[str, ...]) -> None:
+# How often a compile says how far it is: a first run must never look hung.
+PROGRESS_EVERY_S = 5.0
+
+
+def _compile_in_child(units: tuple[str, ...], done: Any = None) -> None:
     """A compiling process: the parent alone decides about Ctrl-C and termination."""
     from .workers import leave_signals_to_parent
 
     leave_signals_to_parent()
-    _compile_units(units)
+    _compile_units(units, done)
 
 
-def _compile_in_parallel(bins: list[list[str]]) -> None:
+def _compile_in_parallel(bins: list[list[str]], announce: Callable[[str], None] | None = None,
+                         total: int = 0) -> None:
     """Each bin in a process of its own; the results reach this process and the workers through
     numba's cache (`warm_up` loads them, and compiles whatever a failed one left).
 
@@ -174,18 +184,21 @@ def _compile_in_parallel(bins: list[list[str]]) -> None:
         for units in bins:
             _compile_units(tuple(units))
         return
-    import multiprocessing
+    from .workers import pool_context
 
-    if sys.platform == "linux":
-        context = multiprocessing.get_context("fork")
-    else:
-        context = multiprocessing.get_context("spawn")
-    helpers = [context.Process(target=_compile_in_child, args=(tuple(b),), daemon=True) for b in bins]
+    context = pool_context()
+    done = context.Value("i", 0)
+    helpers = [context.Process(target=_compile_in_child, args=(tuple(b), done), daemon=True) for b in bins]
+    start = time.monotonic()
     try:
         for helper in helpers:
             helper.start()
-        for helper in helpers:
-            helper.join()
+        while any(helper.is_alive() for helper in helpers):
+            deadline = time.monotonic() + PROGRESS_EVERY_S
+            for helper in helpers:
+                helper.join(max(0.0, deadline - time.monotonic()))
+            if announce is not None and any(helper.is_alive() for helper in helpers):
+                announce(f"compiling kernels: {done.value} of {total} done, {time.monotonic() - start:.0f} s")
     finally:
         for helper in helpers:
             if helper.is_alive():

@@ -200,17 +200,51 @@ def test_a_run_on_png_maps_decodes_them_in_the_workers_only(tmp_path):
 
 def test_prepare_announces_compiling_only_when_something_is_missing(monkeypatch):
     said, compiled_units = [], []
-    monkeypatch.setattr(kernels, "_compile_in_parallel", lambda bins: compiled_units.extend(bins))
+    monkeypatch.setattr(kernels, "_compile_in_parallel", lambda bins, announce, total: compiled_units.extend(bins))
     monkeypatch.setattr(kernels, "missing_units", lambda needed: ["scoring", "roneld"])
     kernels.prepare(announce=said.append, needed=("roneld", "paper"), processes=2)
-    assert len(said) == 1 and said[0].startswith("compiling kernels for this installation (once; about ")
-    assert said[0].endswith(" s)")
+    assert len(said) == 1 and said[0].startswith("compiling ") and " numba kernels for this installation in 2 " \
+        "processes (once: later runs and installs of this version load them from the cache)" in said[0]
+    assert " about " not in said[0]  # no duration it cannot keep
     assert sorted(compiled_units) == [["roneld"], ["scoring"]]  # two processes, one unit each
 
     said.clear()
     monkeypatch.setattr(kernels, "missing_units", lambda needed: [])
     kernels.prepare(announce=said.append)
     assert said == []
+
+
+_COMPILE_WITH_PROGRESS = """
+import sys
+from roneld_eval import kernels
+kernels.PROGRESS_EVERY_S = 0.2
+kernels.prepare(announce=print, needed=("baseline",), processes=1)
+print("missing", kernels.missing_units(("baseline",)))
+"""
+
+
+def test_a_compile_says_how_far_it_is_and_a_copy_elsewhere_reuses_it(tmp_path):
+    # The first run was silent for 95 s after promising 35; and every clone or virtual
+    # environment of the same version compiled everything again.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    first = subprocess.run([sys.executable, "-c", _COMPILE_WITH_PROGRESS], env=env, capture_output=True, text=True,
+                           timeout=300, cwd=REPO)
+    assert first.returncode == 0, first.stderr
+    lines = first.stdout.splitlines()
+    assert lines[0].startswith("compiling ") and "numba kernels for this installation in 1 process" in lines[0]
+    progress = [line for line in lines if line.startswith("compiling kernels: ")]
+    assert progress and all(" done, " in line for line in progress), lines
+    assert lines[-1] == "missing []"
+    copy = tmp_path / "elsewhere"
+    copy.mkdir()
+    import shutil
+
+    shutil.copytree(PACKAGE, copy / "roneld_eval", ignore=shutil.ignore_patterns("__pycache__"))
+    again = subprocess.run([sys.executable, "-c", "import roneld_eval, sys; from roneld_eval import kernels; "
+                            "print(roneld_eval.__file__); print(kernels.missing_units(('baseline',)))"],
+                           env=env, capture_output=True, text=True, timeout=120, cwd=copy)
+    assert again.returncode == 0, again.stderr
+    assert again.stdout.splitlines() == [str(copy / "roneld_eval" / "__init__.py"), "[]"]
 
 
 def test_what_this_process_holds_counts_as_cached(warm):
