@@ -438,6 +438,19 @@ def test_tusimple_angle_thresholds_are_numpys_as_lane_py_computes_them(shared_da
         (ufld["Accuracy"], ufld["FP"], ufld["FN"], ufld["F1"], clrnet["F1_score"])
 
 
+def test_score_tusimple_on_every_frame_of_a_clip_says_what_to_do(tmp_path):
+    from roneld_eval.synth import synth_tusimple
+
+    synth_tusimple(tmp_path / "t", clips=2, seed=1, maps_format="lanes")  # predictions for frames 1..20
+    labels, every = tmp_path / "t" / "data" / "test_label.json", tmp_path / "t" / "maps" / "predictions.json"
+    result = invoke("score", "tusimple", "--labels", labels, "--pred", every)
+    assert result.exit_code == 2 and "1.jpg is not in the labels (test_label.json); its clip is labelled on " \
+        "20.jpg only" in result.output, result.output
+    scored = tmp_path / "scored.json"
+    scored.write_text("".join(line + "\n" for line in every.read_text().splitlines() if '/20.jpg"' in line))
+    assert invoke("score", "tusimple", "--labels", labels, "--pred", scored).exit_code == 0
+
+
 def test_score_tusimple_writes_and_prints_both_f1s(tmp_path):
     rows = list(range(160, 720, 10))
     labels = [{"lanes": [[500] * 56, [800] * 56], "h_samples": rows, "raw_file": f"clips/{k}/20.jpg"} for k in "ab"]

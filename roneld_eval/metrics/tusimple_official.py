@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -156,6 +156,17 @@ def mean_scores(frame_scores: Sequence[tuple[float, float, float]], n_frames: in
     return TusimpleScore(accuracy / n_frames, fp / n_frames, fn / n_frames, n_frames)
 
 
+def _other_frame_hint(key: str, labelled: Mapping[str, object]) -> str:
+    """For a prediction of an unlabelled frame of a labelled clip: what to do about it."""
+    clip = key.rsplit("/", 1)[0]
+    frame = next((name for name in labelled if name.rsplit("/", 1)[0] == clip), None)
+    if frame is None:
+        return ""
+    return (f"; its clip is labelled on {frame.rsplit('/', 1)[1]} only. lane.py refuses predictions of other frames: "
+            f"keep one line per labelled frame (the file holds every frame of a clip, as `run --maps-format lanes` "
+            f"reads it? `grep '/{frame.rsplit('/', 1)[1]}\"' FILE` keeps the scored ones)")
+
+
 def score_tusimple_files(labels: str | Path, predictions: str | Path) -> TusimpleScore:
     """Score a TuSimple prediction file against a label file, as `lane.py pred label`."""
     labels, predictions = Path(labels), Path(predictions)
@@ -171,7 +182,8 @@ def score_tusimple_files(labels: str | Path, predictions: str | Path) -> Tusimpl
     for number, record in read_tusimple_records(predictions, predictions=True):
         key = normalise_relpath(record["raw_file"], predictions, number)
         if key not in gts:
-            raise InputError(predictions, f"{key} is not in the labels ({labels.name})", line=number)
+            raise InputError(predictions, f"{key} is not in the labels ({labels.name})"
+                                          + _other_frame_hint(key, gts), line=number)
         if key in seen:
             raise InputError(predictions, f"{key} is predicted twice (first on line {seen[key]})", line=number)
         seen[key] = number
