@@ -759,3 +759,24 @@ def test_sigterm_while_working_is_one_line_and_leaves_nothing(command, runs, tmp
     assert result.exit_code == 128 + signal.SIGTERM, result.output
     assert result.output.strip() == "terminated (SIGTERM): no result was written"
     assert not out.exists()
+
+
+@pytest.mark.parametrize("models", [1, 2, 4, 6])
+@pytest.mark.parametrize("datasets", [["CULane"], ["CULane", "TuSimple"]])
+def test_the_legend_lies_inside_the_figure(models, datasets, tmp_path):
+    # With one dataset the legend of three methods was wider than its one panel, cut off on
+    # both sides of curves.png.
+    from roneld_eval.comparison.figure import Curve, curves_figure
+
+    thresholds = tuple(k / 100 for k in range(30, 51))
+    suffix = {"baseline": "", "roneld": " + RONELD", "roneld-nopft": " + RONELD w/o PFT"}
+    curves = [Curve(dataset, f"Model-{m} ResNet-34", method, f"Model-{m} ResNet-34{suffix[method]}", thresholds,
+                    (tuple(0.4 + 0.1 * m for _ in thresholds),))
+              for dataset in datasets for m in range(models) for method in suffix]
+    figure = curves_figure(curves)
+    figure.savefig(tmp_path / "curves.png")  # as save() renders it
+    width, height = figure.canvas.get_width_height()
+    box = figure.legends[0].get_window_extent()
+    assert 0 <= box.x0 and box.x1 <= width and 0 <= box.y0 and box.y1 <= height, (box, width, height)
+    for ax in figure.axes:  # and below the panels, not over them
+        assert box.y1 <= ax.get_window_extent().y0

@@ -103,9 +103,14 @@ def curves_figure(curves: list[Curve]):
             handles.append(Line2D([], [], color=colour[model], linewidth=width[model], markersize=3.5,
                                   **method_style(method, others)))
             labels.append(shown.name + _runs_text(counts[(model, method)]))
-    figure.legend(handles, labels, loc="lower center", ncol=len(methods), fontsize=7.5, frameon=False,
-                  columnspacing=1.2, handlelength=2.6)
-    legend_in = len(models) * 0.17 + 0.12
+    legend = figure.legend(handles, labels, loc="lower center", ncol=len(methods), fontsize=7.5, frameon=False,
+                           columnspacing=1.2, handlelength=2.6)
+    # Measured, not guessed: one panel is narrower than a legend of three methods' names.
+    box = legend.get_window_extent(figure.canvas.get_renderer())
+    margin_in = 0.15
+    if box.width / figure.dpi + 2 * margin_in > figure.get_figwidth():
+        figure.set_figwidth(box.width / figure.dpi + 2 * margin_in)
+    legend_in = box.height / figure.dpi + 0.08
     figure.tight_layout(rect=(0, min(0.6, legend_in / figure.get_figheight()), 1, 1))
     return figure
 
