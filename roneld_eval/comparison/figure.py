@@ -106,7 +106,7 @@ def curves_figure(curves: list[Curve]):
     legend = figure.legend(handles, labels, loc="lower center", ncol=len(methods), fontsize=7.5, frameon=False,
                            columnspacing=1.2, handlelength=2.6)
     # Measured, not guessed: one panel is narrower than a legend of three methods' names.
-    box = legend.get_window_extent(figure.canvas.get_renderer())
+    box = legend.get_window_extent()
     margin_in = 0.15
     if box.width / figure.dpi + 2 * margin_in > figure.get_figwidth():
         figure.set_figwidth(box.width / figure.dpi + 2 * margin_in)
