@@ -38,6 +38,9 @@ DATASETS = ("culane", "tusimple")
 MAP_FORMATS = ("npy", "npz", "scnn-png", "lanes")
 # The built-in extractors (roneld_eval.extract.registry); plug-ins add their own names.
 METHODS = ("baseline", "roneld", "roneld-nopft")
+# Those that output the two ego lanes only (RONELD keeps the active lanes): their official F1
+# over all lanes counts the outer lanes as missed, which a reader must be told.
+EGO_LANES_ONLY = frozenset({"roneld", "roneld-nopft"})
 # A plug-in's name becomes a folder (lanes/NAME/) and a column value: letters, digits, - _ . +
 METHOD_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}")
 # Python's entry-point group where installed packages register extractors by name.

@@ -193,6 +193,14 @@ def test_figures_state_their_configuration(fixture_result):
     plt.close(figure)
     assert "IoU > 0.4" in text and "IoU > 0.5" not in text
     assert "30 px wide at 1640x590" in text and "976x208" in text
+    # RONELD's F1 over all lanes sits far below the baseline's because it keeps the two ego
+    # lanes only: the figure says so, not a reader's guess of a regression.
+    assert "SCNN + RONELD outputs the two ego lanes only: F1 over all lanes counts the outer lanes" in \
+        " ".join(text.split())
+    only_baseline = category_figure(categories[categories["method"] == "baseline"],
+                                    official[official["method"] == "baseline"], "SCNN", "0.4", protocol)
+    assert "ego lanes only" not in figure_texts(only_baseline)
+    plt.close(only_baseline)
 
 
 # ---- 3. no interval over fewer than MIN_CLIPS clips ----------------------------------------------

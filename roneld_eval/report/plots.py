@@ -21,6 +21,7 @@ matplotlib.rcParams["text.parse_math"] = False
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from ..config import EGO_LANES_ONLY  # noqa: E402
 from ..errors import InputError  # noqa: E402
 from .tables import Protocol, clips_text, dataset_name, display_name  # noqa: E402
 
@@ -123,6 +124,10 @@ def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, mod
         note.append(f"Accuracy: {protocol.paper()}.")
         if len(panels) > 1:
             note.append(f"F1: {protocol.official()}.")
+    ego_only = [display_name(method, model) for method in methods if method in EGO_LANES_ONLY]
+    if len(panels) > 1 and ego_only:
+        note.append(f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: "
+                    f"F1 over all lanes counts the outer lanes as missed (compare on the 'ego' row of official.csv).")
     bottom = _note(figure, note, 100 * len(panels))
     figure.tight_layout(rect=(0, bottom, 1, 0.92))
     return figure
