@@ -25,6 +25,7 @@ import time
 from array import array
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -361,11 +362,16 @@ def _built(method: Method, geometry: MapGeometry, frame: Frame) -> tuple[Method,
     if method.built_in:
         extractor = method.build(geometry)
     else:
+        if _PLUGIN_CALLS is not None:  # its factory may end the process too
+            _PLUGIN_CALLS.enter(method.name, frame.relpath)
         try:
             extractor = method.build(geometry)
         except (Exception, SystemExit) as error:  # a plug-in's own bug: name it, not the runner's frames
             problem = f"building the extractor raised {_raised(error)}"
             raise ExtractorError(method.name, frame.relpath, problem) from None
+        finally:
+            if _PLUGIN_CALLS is not None:
+                _PLUGIN_CALLS.leave()
         if not callable(extractor):
             raise ExtractorError(method.name, frame.relpath,
                                  f"the factory returned {type(extractor).__name__}, not a callable extractor")
@@ -572,8 +578,12 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
             stopped[pid] = call
             with contextlib.suppress(OSError):
                 os.kill(pid, signal.SIGKILL)
+        # A worker that ended while a process it forked holds its pipes open: the pool would
+        # wait for that process, so the worker's end is looked for here (exitcode reaps it).
+        if any(process.exitcode is not None for process in exit_codes.values()):
+            raise BrokenProcessPool("a worker process ended")
 
-    schedule.watch = watch if calls is not None and any(limits.values()) else None
+    schedule.watch = watch if calls is not None else None
 
     def died() -> str | ExtractorError:
         # Ended by now; the pool's own thread may be reaping one (its exit code is then None here

@@ -144,16 +144,29 @@ def exits(geometry, params):
 
 
 def ends_process(geometry, params):
-    """Ends its own process on the frame params['frame'] names (os._exit, or a signal)."""
+    """Ends its own process on its clip's second frame, or in the factory (params 'where'):
+    os._exit, a signal, or os._exit after forking a process that outlives it ('how')."""
     import os
     import signal
+
+    def end():
+        how = params.get("how", "exit")
+        if how == "fork":
+            if os.fork() == 0:  # holds the worker's pipes open for a while
+                time.sleep(20)
+                os._exit(0)
+            os._exit(params.get("status", 0))
+        if how == "exit":
+            os._exit(params.get("status", 0))
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    if params.get("where") == "factory":
+        end()
 
     def extract(maps):
         extract.calls += 1
         if extract.calls == params.get("on_call", 2):
-            if params.get("how", "exit") == "exit":
-                os._exit(params.get("status", 0))
-            os.kill(os.getpid(), signal.SIGKILL)
+            end()
         return Prediction()
 
     extract.calls = 0
