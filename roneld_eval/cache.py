@@ -31,6 +31,7 @@ from .errors import InputError
 from .limits import CACHE_ENTRY
 from .evaluation import ClipResult, FrameOutcome
 from .extract.registry import file_digest
+from .lanes_io import read_at_most
 from .json_fields import json_number, read_count, read_float, read_list, read_string
 from .model import Clip, Lane
 from .output import CACHE
@@ -95,7 +96,7 @@ class ResultCache:
             return None
         try:
             with open(path, "rb") as handle:
-                document = json.loads(handle.read(CACHE_ENTRY.bytes + 1))
+                document = json.loads(read_at_most(handle, CACHE_ENTRY.bytes, info.st_size))
             if not isinstance(document, dict) or set(document) != {"body", "mac"}:
                 raise ValueError("not a cache entry")
             body = document["body"]

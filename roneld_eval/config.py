@@ -694,7 +694,7 @@ def _read_config_text(path: Path) -> str:
         if info.st_size > TEXT.bytes:  # a configuration is a few kB
             raise ConfigError(f"{path}: {TEXT.problem(info.st_size)}")
         with open(path, "rb") as handle:
-            data = handle.read(TEXT.bytes + 1)
+            data = handle.read(info.st_size + 1)  # within the bound, checked above
     except OSError as error:
         raise ConfigError(f"{path}: cannot read: {error.strerror}") from None
     try:

@@ -122,12 +122,29 @@ def read_bytes(path: Path, missing_ok: bool = False, limit: SizeLimit = TEXT) ->
         raise InputError(path, problem)
     with os.fdopen(descriptor, "rb") as handle:
         try:
-            data = handle.read(most + 1)  # a file that grew since its size was looked at
+            data = read_at_most(handle, most, info.st_size)
         except OSError as error:
             raise InputError(path, _os_problem(error)) from None
     if len(data) > most:
         raise InputError(path, limit.problem(len(data)))
     return data
+
+
+def read_at_most(handle, most: int, size: int) -> bytes:
+    """Up to `most` + 1 bytes of a file whose size was `size`: read(n) allocates n bytes at once,
+    so the bound alone (which a user may raise past the machine's memory) is never asked for."""
+    data = handle.read(min(size, most) + 1)
+    if len(data) <= size or len(data) > most:
+        return data
+    parts = [data]  # the file grew since its size was looked at
+    total = len(data)
+    while total <= most:
+        part = handle.read(min(1 << 20, most + 1 - total))
+        if not part:
+            break
+        parts.append(part)
+        total += len(part)
+    return b"".join(parts)
 
 
 def decode_text(data: bytes, path) -> str:

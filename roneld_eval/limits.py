@@ -10,9 +10,12 @@ through its environment variable, in MiB (README, "Bad input").
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 
 from .errors import ConfigError
+
+_DECIMAL = re.compile(r"[0-9]+(\.[0-9]*)?|\.[0-9]+", re.ASCII)
 
 
 @dataclass(frozen=True)
@@ -28,12 +31,10 @@ class SizeLimit:
         raw = os.environ.get(self.variable, "").strip()
         if not raw:
             return self.default_mib << 20
-        try:
-            mib = float(raw)
-        except ValueError:
-            mib = -1.0
-        if not 0 < mib < 1 << 40:
-            raise ConfigError(f"{self.variable}={raw!r}: give the largest size in MiB, a positive number")
+        mib = float(raw) if _DECIMAL.fullmatch(raw) else -1.0
+        if not 1 / 1024 <= mib < 1 << 30:
+            raise ConfigError(f"{self.variable}={raw!r}: give the largest size in MiB, a number from 0.001 "
+                              "(1 KiB) up")
         return int(mib * (1 << 20))
 
     def rule(self) -> str:

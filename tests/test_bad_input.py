@@ -352,8 +352,16 @@ def test_a_size_limit_can_be_raised_and_a_bad_one_is_named(sets, monkeypatch):
     monkeypatch.setenv("RONELD_EVAL_MAX_MAP_MIB", "lots")
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 2 and "RONELD_EVAL_MAX_MAP_MIB='lots': give the largest size in MiB" in result.output
+    for odd in ("1e-9", "1_0", "-1", "nan"):
+        monkeypatch.setenv("RONELD_EVAL_MAX_MAP_MIB", odd)
+        assert "give the largest size in MiB" in CliRunner().invoke(main, args).output, odd
     monkeypatch.setenv("RONELD_EVAL_MAX_MAP_MIB", "1")
     assert CliRunner().invoke(main, args).exit_code == 0
+    # A bound far past the machine's memory is never allocated at once (read(n) would).
+    monkeypatch.setenv("RONELD_EVAL_MAX_MAP_MIB", "100000000")
+    monkeypatch.setenv("RONELD_EVAL_MAX_TEXT_MIB", "100000000")
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
 
 
 def test_an_npz_member_that_inflates_past_the_bound_is_refused_before_inflating(sets, monkeypatch):
