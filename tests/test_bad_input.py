@@ -377,6 +377,26 @@ def test_an_npz_member_that_inflates_past_the_bound_is_refused_before_inflating(
     assert f"{path}: its member 'probs.npy' inflates to 4,194,432 bytes: a map file" in result.output
 
 
+def test_an_npz_member_whose_header_claims_more_than_it_holds_is_named(sets):
+    # 191 bytes claiming 40 GB: np.load allocated the claim first ("out of memory", no file named).
+    import io
+    import zipfile
+
+    root_all, out = sets
+    root = root_all / "tusimple"
+    path = sorted((root / "maps").rglob("*.npz"))[0]
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "|u1", "fortran_order": False, "shape": (4, 10**5, 10**5)})
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("probs.npy", header.getvalue() + bytes(100))
+    result = CliRunner().invoke(main, ["run", "--dataset", "tusimple", "--data-root", str(root / "data"),
+                                       "--maps-root", str(root / "maps"), "--maps-format", "npz", "--workers", "1",
+                                       "--quiet", "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert f"{path}: its array 'probs' claims shape (4, 100000, 100000) (40,000,000,000 bytes) but holds 100" \
+        in result.output
+
+
 def test_score_tusimple_refuses_a_huge_prediction_file(tmp_path):
     labels, pred = tmp_path / "labels.json", tmp_path / "pred.json"
     labels.write_text("")

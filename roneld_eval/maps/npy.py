@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import math
 import mmap
 import re
 import zipfile
@@ -121,7 +122,14 @@ def _member_array(raw: bytes | bytearray) -> np.ndarray:
             size = shape[0] * shape[1] * shape[2]
             if size and len(raw) == 10 + header_length + size:
                 return np.frombuffer(raw, np.uint8, count=size, offset=10 + header_length).reshape(shape)
-    return np.lib.format.read_array(io.BytesIO(raw), allow_pickle=False)
+    stream = io.BytesIO(raw)
+    version = np.lib.format.read_magic(stream)
+    read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+    shape, _, dtype = read(stream)
+    if math.prod(shape) * dtype.itemsize > len(raw) - stream.tell():
+        raise ValueError("the header claims more data than the member holds")  # read_array would allocate it
+    stream.seek(0)
+    return np.lib.format.read_array(stream, allow_pickle=False)
 
 
 def _read_plain_npz(path: Path, config: MapsConfig) -> tuple[np.ndarray, np.ndarray | None] | None:
@@ -153,6 +161,24 @@ def _read_plain_npz(path: Path, config: MapsConfig) -> tuple[np.ndarray, np.ndar
     return arrays[0], arrays[1] if len(arrays) > 1 else None
 
 
+def _check_declared_size(path: Path, name: str, archive: zipfile.ZipFile) -> None:
+    """Refuse a member whose .npy header claims more data than the member holds: np.load would
+    allocate the claimed size first (a 191-byte archive claiming 40 GB)."""
+    try:
+        info = archive.getinfo(name + ".npy")
+        with archive.open(info) as member:
+            version = np.lib.format.read_magic(member)
+            read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            shape, _, dtype = read(member)
+            header = member.tell()
+    except (KeyError, OSError, ValueError, EOFError, zipfile.BadZipFile):
+        return  # np.load meets it and says what is wrong
+    claimed = math.prod(shape) * dtype.itemsize
+    if claimed > info.file_size - header:
+        raise InputError(path, f"its array {name!r} claims shape {tuple(shape)} ({claimed:,} bytes) but holds "
+                               f"{max(0, info.file_size - header):,}")
+
+
 def _check_members(path: Path, infos) -> None:
     """Refuse an archive whose members inflate beyond the map bound (a zip bomb), before inflating."""
     for info in infos:
@@ -180,8 +206,11 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
             with contextlib.suppress(KeyError, OSError, zipfile.BadZipFile), archive.zip.open(key + ".npy") as member:
                 if _holds_objects(member):
                     raise InputError(path, f"its array {key!r} {_PICKLED}")
+            wanted = [key] + (["exist"] if "exist" in names and key != "exist" else [])
+            for name in wanted:
+                _check_declared_size(path, name, archive.zip)
             array = archive[key]
-            existence = archive["exist"] if "exist" in names and key != "exist" else None
+            existence = archive["exist"] if "exist" in wanted else None
     except FileNotFoundError:
         raise InputError(path, "maps file not found") from None
     except InputError:
