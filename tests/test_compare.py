@@ -433,6 +433,17 @@ def test_tusimple_f1_is_the_runs_own_even_where_it_is_n_a(runs, tmp_path):
     assert [cell.strip() for cell in cells[2:]] == ["1.0000", "0.5000", "n/a"]
 
 
+@pytest.mark.parametrize("value", ["-1", "0.9"])
+def test_an_edited_tusimple_f1_is_refused(value, runs, tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(runs["ts_scnn"], run)
+    official = pd.read_csv(run / "official.csv", dtype=str, keep_default_na=False)
+    official.loc[0, "f1_clrnet"] = value
+    official.to_csv(run / "official.csv", index=False)
+    with pytest.raises(InputError, match=f"official.csv:2: f1_clrnet {value} is not CLRNet's F1 of fp "):
+        compare([run], tmp_path / "out")
+
+
 def test_different_frames_are_refused(runs, data, tmp_path):
     fewer = evaluate(tmp_path / "fewer", *data["culane"], "culane", **{"dataset.limit": 3})
     with pytest.raises(ConfigError, match="both are CULane runs but scored different frames"):
