@@ -11,6 +11,7 @@ and never a traceback.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import hmac
@@ -217,8 +218,12 @@ def _read_key(path: Path) -> tuple[bytes | None, str | None]:
         info = os.fstat(descriptor)
         if not stat.S_ISREG(info.st_mode):
             return None, "not a regular file"
-        if hasattr(os, "getuid") and (info.st_uid != os.getuid() or info.st_mode & 0o077):
+        if hasattr(os, "getuid") and info.st_uid != os.getuid():
+            return None, f"owned by another user (uid {info.st_uid})"
+        if info.st_mode & 0o077:
             return None, f"readable or writable by others (mode {stat.S_IMODE(info.st_mode):o})"
+        if info.st_size > 2 * KEY_BYTES + 1:  # the hex digits and a newline, nothing after them
+            return None, f"not a {KEY_BYTES}-byte key ({info.st_size} bytes)"
         text = os.read(descriptor, 2 * KEY_BYTES + 2)
     except OSError as error:
         return None, f"unreadable ({error.strerror or error})"
@@ -245,22 +250,34 @@ def _secret_key(note: Callable[[str], None]) -> bytes:
     if key is not None:
         return key
     key = secrets.token_bytes(KEY_BYTES)
+    temporary = path.with_name(f"cache-key.{os.getpid()}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(f"cache-key.{os.getpid()}.tmp")
         descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o600)
         with os.fdopen(descriptor, "w") as handle:
             handle.write(key.hex())
             handle.flush()
             os.fsync(handle.fileno())  # a crash must not leave an empty key behind the rename
-        os.replace(temporary, path)
-    except OSError:
-        # No writable home: entries are still checked, against a key of this process only,
-        # so --resume recomputes everything rather than trust what it cannot check.
+        if problem is None:
+            # No key yet: created only if still absent, so two runs starting at once keep one key.
+            with contextlib.suppress(FileExistsError):
+                os.link(temporary, path)
+        else:
+            os.replace(temporary, path)
+    except OSError as error:
+        # No writable home, or a key that cannot be replaced (a folder): entries are still
+        # checked, against a key of this process only, so --resume recomputes everything
+        # rather than trust what it cannot check.
+        if problem is not None:
+            note(f"note: {path}: the cache key is {problem} and cannot be replaced ({error.strerror or error}); "
+                 "this run's finished clips cannot be resumed")
         return key
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
     if problem is not None:
         note(f"note: {path}: cache key replaced ({problem}); finished clips signed with it are recomputed")
-    stored, _ = _read_key(path)  # another run may have written its key at the same moment
+    stored, _ = _read_key(path)  # the key of a run that created it at the same moment
     return stored if stored is not None else key
 
 
