@@ -92,7 +92,35 @@ def _announcer(quiet: bool):
 debug_option = click.option("--debug", is_flag=True, help="Show the full traceback of an error.")
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+class _Command(click.Group):
+    """The command group, with SIGTERM and SIGHUP ending any command as Ctrl-C does from the
+    moment click starts, and Ctrl-C outside a command's own handling one line and 128 + n,
+    not click's "Aborted!" and exit 1 (nor a process killed without a word)."""
+
+    def main(self, *args, **kwargs):
+        from .signals import interruption_name, terminate_as_interrupt
+
+        try:
+            with terminate_as_interrupt():
+                super().main(*args, **{**kwargs, "standalone_mode": False})
+            sys.exit(0)  # as click's standalone mode ends: never a command's return value as the status
+        except click.exceptions.Abort as abort:
+            interruption = abort.__cause__ if isinstance(abort.__cause__, KeyboardInterrupt) else KeyboardInterrupt()
+            reason, code = interruption_name(interruption)
+            click.echo(f"{reason}", err=True)
+            sys.exit(code)
+        except KeyboardInterrupt as error:
+            reason, code = interruption_name(error)
+            click.echo(f"{reason}", err=True)
+            sys.exit(code)
+        except click.exceptions.Exit as done:  # --help, --version
+            sys.exit(done.exit_code)
+        except click.ClickException as error:
+            error.show()
+            sys.exit(error.exit_code)
+
+
+@click.group(cls=_Command, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(__version__, prog_name="roneld-eval")
 def main():
     """Evaluate lane extractors on CULane and TuSimple from stored probability maps.

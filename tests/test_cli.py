@@ -124,3 +124,22 @@ def test_run_without_out_writes_where_git_ignores_it(tmp_path, monkeypatch):
     assert result.exit_code == 0, result.output
     assert (tmp_path / DEFAULT_OUT / "accuracy.csv").is_file()
     assert not (tmp_path / "results").exists()
+
+
+@pytest.mark.parametrize("number, said", [(2, "interrupted"), (15, "terminated (SIGTERM)"), (1, "terminated (SIGHUP)")])
+def test_a_signal_before_any_command_runs_is_one_line_and_128_plus_n(monkeypatch, number, said):
+    # Ctrl-C while click started gave "Aborted!" and exit 1; SIGTERM or SIGHUP then ended the
+    # process with no word.
+    import os
+    import signal
+
+    group = type(main)
+    original = group.resolve_command
+
+    def signalled(self, ctx, args):
+        os.kill(os.getpid(), number)
+        return original(self, ctx, args)
+
+    monkeypatch.setattr(group, "resolve_command", signalled)
+    result = CliRunner().invoke(main, ["score", "tusimple", "--labels", "x", "--pred", "y"])
+    assert result.output.strip() == said and result.exit_code == 128 + number, (result.output, result.exit_code)
