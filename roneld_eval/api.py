@@ -25,7 +25,7 @@ from .wording import counted
 from .benchmarks import benchmark_for
 from .cache import ResultCache
 from .evaluation import RunResult, evaluate
-from .output import DEFAULT_OUT, JOURNAL, OutputFolder, Staging, read_manifest
+from .output import DEFAULT_OUT, INPUT_RUN_REMEDY, JOURNAL, OutputFolder, Staging, read_manifest
 from .signals import interruption_name, terminate_as_interrupt
 from .report.tables import Protocol
 from .report.write import LaneWriter, stage_report
@@ -222,7 +222,7 @@ def check_finished_run(run_dir: Path) -> None:
     """Stop unless `run_dir` holds the complete results of `roneld-eval run`."""
     if not run_dir.is_dir():
         raise InputError(run_dir, "not found: give a folder written by `roneld-eval run`")
-    manifest = read_manifest(run_dir)
+    manifest = read_manifest(run_dir, INPUT_RUN_REMEDY)
     if manifest is None:
         raise InputError(run_dir, "not a folder written by `roneld-eval run` (it has no run manifest)")
     if manifest["command"] != "run":

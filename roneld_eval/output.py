@@ -63,8 +63,13 @@ def is_own_entry(name: str) -> bool:
     return name in _OWN_NAMES or name.startswith((STAGING_PREFIX, TRASH_PREFIX))
 
 
-def read_manifest(folder: Path) -> dict | None:
-    """The folder's manifest, or None when it has none; a manifest that is not ours is an error."""
+# What to do about a run folder given as input whose manifest is damaged.
+INPUT_RUN_REMEDY = "give a folder `roneld-eval run` wrote (run it again into this one)"
+
+
+def read_manifest(folder: Path, remedy: str = "remove the folder or choose another --out") -> dict | None:
+    """The folder's manifest, or None when it has none; a manifest that is not ours is an error
+    (`remedy`: what to do about it, for an output folder by default)."""
     path = Path(folder) / MANIFEST
     if not os.path.lexists(path):
         return None
@@ -77,7 +82,7 @@ def read_manifest(folder: Path) -> dict | None:
             raise ValueError("bad entry list")
     except (OSError, ValueError, AttributeError, UnicodeError, RecursionError) as error:
         raise InputError(
-            path, f"not a manifest this tool wrote ({error}); remove the folder or choose another --out"
+            path, f"not a manifest this tool wrote ({error}); {remedy}"
         ) from None
     return data
 

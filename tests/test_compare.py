@@ -519,6 +519,18 @@ def test_control_characters_in_a_label_are_refused_and_never_reach_latex(runs, t
     assert latex_text("a\x07b\tc\x9b") == "a?b c?"
 
 
+def test_a_damaged_manifest_of_an_input_run_names_the_right_remedy(runs, tmp_path):
+    # It said "remove the folder or choose another --out", of a run given as input.
+    broken = tmp_path / "broken"
+    shutil.copytree(runs["cu_scnn"], broken)
+    with open(broken / ".roneld-run.json", "wb") as handle:
+        handle.truncate(10 * 10**9)
+    for args in (["compare", str(broken), "--out", str(tmp_path / "out")], ["show", "--run", str(broken)]):
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 2 and "not a manifest this tool wrote" in result.output, result.output
+        assert "give a folder `roneld-eval run` wrote" in result.output and "--out" not in result.output
+
+
 def test_out_may_not_lie_inside_a_compared_run(runs, tmp_path):
     # compare --out RUN/cmp made the run's folder hold files `run` did not write.
     copy = tmp_path / "copy"

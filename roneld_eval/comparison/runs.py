@@ -76,11 +76,11 @@ class Run:
 def read_run(path: str | Path, label: str | None = None) -> Run:
     """Read and check a finished run folder; `label` overrides config.toml's model name."""
     from ..api import check_finished_run  # the one definition of "a finished run"
-    from ..output import read_manifest
+    from ..output import INPUT_RUN_REMEDY, read_manifest
 
     folder = Path(path)
     check_finished_run(folder)
-    manifest = read_manifest(folder)
+    manifest = read_manifest(folder, INPUT_RUN_REMEDY)
     assert manifest is not None  # check_finished_run refuses a folder without one
     entries = manifest["entries"]
     for name in RUN_FILES:
