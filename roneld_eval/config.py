@@ -30,7 +30,7 @@ else:  # pragma: no cover - exercised on Python 3.10 only
     import tomli as tomllib
 
 from .errors import ConfigError
-from .limits import TEXT
+from .limits import CONFIG
 from .geometry import MapGeometry
 
 DATASETS = ("culane", "tusimple")
@@ -691,8 +691,8 @@ def _read_config_text(path: Path) -> str:
         info = os.stat(path)
         if not stat.S_ISREG(info.st_mode):
             raise ConfigError(f"{path}: not a regular file")
-        if info.st_size > TEXT.bytes:  # a configuration is a few kB
-            raise ConfigError(f"{path}: {TEXT.problem(info.st_size)}")
+        if info.st_size > CONFIG.bytes:  # a configuration is a few kB
+            raise ConfigError(f"{path}: {CONFIG.problem(info.st_size)}")
         with open(path, "rb") as handle:
             data = handle.read(info.st_size + 1)  # within the bound, checked above
     except OSError as error:

@@ -215,7 +215,8 @@ def check_coordinates(lanes, path, line: int | None = None) -> None:
             bad = np.abs(points) > MAX_PREDICTED_COORDINATE
         if bad.any():
             x, y = points[int(np.argmax(bad.any(axis=1)))]
-            problem = f"point ({x:g}, {y:g}) lies more than 2^24 px from the image origin: not a lane coordinate"
+            problem = (f"point ({x:.10g}, {y:.10g}) lies more than 2^24 px (16,777,216) from the image origin: "
+                       "not a lane coordinate")
             if line is None:
                 raise InputError(path, problem, line=index + 1)
             raise InputError(path, f"lane {index}: {problem}", line=line)

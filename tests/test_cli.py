@@ -131,7 +131,6 @@ def test_a_signal_before_any_command_runs_is_one_line_and_128_plus_n(monkeypatch
     # Ctrl-C while click started gave "Aborted!" and exit 1; SIGTERM or SIGHUP then ended the
     # process with no word.
     import os
-    import signal
 
     group = type(main)
     original = group.resolve_command

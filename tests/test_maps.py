@@ -83,7 +83,7 @@ def test_truncated_and_foreign_files(tmp_path):
     with pytest.raises(InputError, match="truncated or corrupt"):
         load_maps(tmp_path, "f.jpg", MapsConfig())
     (tmp_path / "f.npy").write_text("hello")
-    with pytest.raises(InputError, match="not a readable .npy"):
+    with pytest.raises(InputError, match="not a .npy array .it does not start with numpy's magic bytes"):
         load_maps(tmp_path, "f.jpg", MapsConfig())
 
 

@@ -215,7 +215,8 @@ def test_a_predicted_coordinate_beyond_float32_integers_is_named(lanes, tmp_path
     target.write_text("100 590 200 400 300 300 \n410 590 3000000000 400 420 300 \n")
     result = invoke("score", "culane", "--data-root", gt, "--pred-root", copy, "--quiet", "--workers", 1)
     assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
-    assert f"{target}:2: point (3e+09, 400) lies more than 2^24 px from the image origin" in result.output
+    assert f"{target}:2: point (3000000000, 400) lies more than 2^24 px (16,777,216) from the image origin" \
+        in result.output
     target.write_text("100 590 200 400 300 300 \n410 590 16777216 400 420 300 \n")  # the bound itself is scored
     assert invoke("score", "culane", "--data-root", gt, "--pred-root", copy, "--quiet", "--workers", 1).exit_code == 0
 

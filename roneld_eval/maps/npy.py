@@ -78,6 +78,11 @@ def load_npy(path: Path, config: MapsConfig) -> FrameMaps:
         raise InputError(path, f"cannot read: {error.strerror}") from None
     except (ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
         with contextlib.suppress(OSError), open(path, "rb") as handle:
+            start = handle.read(6)
+            handle.seek(0)
+            if start != b"\x93NUMPY" and not start.startswith(b"PK"):
+                # np.load takes any other file for a pickle and says so: it is not an array at all.
+                raise InputError(path, "not a .npy array (it does not start with numpy's magic bytes)") from None
             if _holds_objects(handle):
                 raise InputError(path, _PICKLED) from None
         # np.load takes a file that starts like a zip archive for an .npz (BadZipFile if it is not one)
