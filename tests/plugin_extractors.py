@@ -128,6 +128,28 @@ def spins_deaf(geometry, params):
     return extract
 
 
+def swallows_everything(geometry, params):
+    """On its clip's second frame, ignores SIGALRM and SIGTERM and spins, swallowing every
+    exception (Ctrl-C's KeyboardInterrupt too)."""
+    import signal
+
+    state = {"frames": 0}
+
+    def extract(maps):
+        state["frames"] += 1
+        if state["frames"] == 2:
+            signal.signal(signal.SIGALRM, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            while True:
+                try:
+                    time.sleep(0.01)
+                except BaseException:
+                    pass
+        return Prediction()
+
+    return extract
+
+
 def factory_raises(geometry, params):
     raise KeyError("threshold")
 

@@ -401,6 +401,29 @@ def test_a_plugin_that_ignores_its_alarm_is_stopped_by_the_main_process(dataset,
     assert not out.exists() or not [p.name for p in out.iterdir()]
 
 
+def test_ctrl_c_ends_a_run_whose_plugin_swallows_every_signal(dataset, tmp_path):
+    # With --workers 1 such a plug-in ran in the main process and the run hung past Ctrl-C.
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    config = config_with_methods(tmp_path / "deaf.toml", f'[methods.baseline]\n[methods.deaf]\n'
+                                 f'entry = "{entry("swallows_everything")}"\ntime_limit_s = 600\n')
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "roneld_eval", *run_args(dataset, out, "--config", str(config),
+                                                                          "--workers", "1")],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    time.sleep(4.0)  # well into the spinning frame
+    process.send_signal(signal.SIGINT)
+    start = time.monotonic()
+    _, errors = process.communicate(timeout=60)
+    assert time.monotonic() - start < 30
+    assert process.returncode == 130, errors
+    assert "interrupted: no result was written" in errors.strip().splitlines()[-1], errors
+    assert not out.exists() or not [p.name for p in out.iterdir() if p.name != ".roneld-cache"]
+
+
 def test_on_error_skip_leaves_the_frames_out_for_every_method(dataset, tmp_path):
     out = tmp_path / "out"
     result = invoke(run_args(dataset, out, "--method", f"bad={entry('nan_lanes')}", "--workers", "1",
