@@ -355,6 +355,16 @@ def test_a_plugin_slower_than_its_limit_stops_the_run_in_a_worker_too(dataset, t
     assert "took longer than 0.5 s (time_limit_s in [methods.slow])" in result.output
 
 
+def timed_run(dataset: Path, out: Path, config: Path, workers: str, within_s: float):
+    """`run` with a config file, which must end within `within_s` (a hang is the defect)."""
+    import time
+
+    start = time.monotonic()
+    result = invoke(run_args(dataset, out, "--config", str(config), "--workers", workers))
+    assert time.monotonic() - start < within_s, result.output
+    return result
+
+
 @pytest.mark.parametrize("workers", ["1", "2"])
 @pytest.mark.parametrize("how, status, where, says", [
     ("exit", 0, "extract", "exit status 0"), ("exit", 3, "extract", "exit status 3"),
@@ -366,15 +376,11 @@ def test_a_plugin_that_ends_its_process_is_an_error_naming_method_and_frame(data
     # With --workers 1 the plug-in ran in the main process: os._exit(0) ended the run with exit
     # status 0, no message, and left the lock, staging and cache behind. One that forked first
     # held the pool's pipes open: the run waited out the time limit and blamed it.
-    import time
-
     config = config_with_methods(tmp_path / "ends.toml", f'[methods.baseline]\n[methods.ends]\n'
                                  f'entry = "{entry("ends_process")}"\nhow = "{how}"\nstatus = {status}\n'
                                  f'where = "{where}"\n')
     out = tmp_path / "out"
-    start = time.monotonic()
-    result = invoke(run_args(dataset, out, "--config", str(config), "--workers", workers))
-    assert time.monotonic() - start < 15
+    result = timed_run(dataset, out, config, workers, within_s=15)
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
     assert len(lines) == 1, result.output
@@ -387,14 +393,10 @@ def test_a_plugin_that_ends_its_process_is_an_error_naming_method_and_frame(data
 @pytest.mark.parametrize("workers", ["1", "2"])
 def test_a_plugin_that_ignores_its_alarm_is_stopped_by_the_main_process(dataset, tmp_path, workers):
     # It escaped time_limit_s: the limit's SIGALRM is delivered inside the worker.
-    import time
-
     config = config_with_methods(tmp_path / "deaf.toml", f'[methods.baseline]\n[methods.deaf]\n'
                                  f'entry = "{entry("spins_deaf")}"\ntime_limit_s = 0.5\n')
     out = tmp_path / "out"
-    start = time.monotonic()
-    result = invoke(run_args(dataset, out, "--config", str(config), "--workers", workers))
-    assert time.monotonic() - start < 60
+    result = timed_run(dataset, out, config, workers, within_s=60)
     assert result.exit_code == 2, result.output
     assert result.output.strip().startswith("error: method 'deaf', frame ")
     assert result.output.strip().endswith("00030.jpg: took longer than 0.5 s (time_limit_s in [methods.deaf])")

@@ -391,13 +391,19 @@ def test_the_two_f1_formulas_by_hand():
                                   f1_ufld=f1_ufld(0.1, 0.2), f1_clrnet=f1_clrnet(0.1, 0.2))
 
 
-def test_tusimple_f1_equals_both_tools_on_the_full_test_labels(shared_data, tmp_path):
+def real_tusimple_labels(shared_data: Path, tmp_path: Path) -> Path:
+    """The official TuSimple test labels, decompressed into tmp_path (or a clean skip)."""
     labels_gz = shared_data / "tusimple" / "test_label.json.gz"
     if not labels_gz.is_file():
         pytest.skip("tusimple/test_label.json.gz is not available")
-    golden = json.loads((GOLDEN / "tusimple_f1.json").read_text())
     labels = tmp_path / "test_label.json"
     labels.write_bytes(gzip.decompress(labels_gz.read_bytes()))
+    return labels
+
+
+def test_tusimple_f1_equals_both_tools_on_the_full_test_labels(shared_data, tmp_path):
+    labels = real_tusimple_labels(shared_data, tmp_path)
+    golden = json.loads((GOLDEN / "tusimple_f1.json").read_text())
     lines = labels.read_text().splitlines(keepends=True)
     for case in golden["cases"]:
         text = perturbed_predictions(lines, case["seed"], case["severity"])
@@ -419,12 +425,8 @@ def test_tusimple_f1_equals_both_tools_on_the_full_test_labels(shared_data, tmp_
 def test_tusimple_angle_thresholds_are_numpys_as_lane_py_computes_them(shared_data, tmp_path):
     # Rows of the 9 real lanes whose threshold differs in the last bits between numpy's arctan
     # and cos (lane.py's) and the math module's, moved between the two thresholds.
-    labels_gz = shared_data / "tusimple" / "test_label.json.gz"
-    if not labels_gz.is_file():
-        pytest.skip("tusimple/test_label.json.gz is not available")
+    labels = real_tusimple_labels(shared_data, tmp_path)
     golden = json.loads((GOLDEN / "tusimple_angle.json").read_text())
-    labels = tmp_path / "test_label.json"
-    labels.write_bytes(gzip.decompress(labels_gz.read_bytes()))
     records = [json.loads(line) for line in labels.read_text().splitlines()]
     for i, j, k, value in golden["edits"]:
         records[i]["lanes"][j][k] = value
