@@ -24,7 +24,7 @@ from .limits import RUN_TABLE
 from .wording import counted
 from .benchmarks import benchmark_for
 from .cache import ResultCache
-from .evaluation import RunResult, evaluate
+from .evaluation import RunPlan, RunResult, evaluate, plan
 from .output import DEFAULT_OUT, INPUT_RUN_REMEDY, JOURNAL, OutputFolder, Staging, read_manifest
 from .signals import interruption_name, terminate_as_interrupt
 from .report.tables import Protocol
@@ -132,6 +132,13 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
             cache.discard()  # bad input or a bug: nothing to resume from
             raise
     return result
+
+
+def plan_run(config: EvalConfig | None = None, announce: Callable[[str], None] | None = None) -> RunPlan:
+    """What `run` would evaluate, checked as a run checks it before any work, without
+    evaluating or writing anything (`run --dry-run`): the layout, every frame's maps, the
+    first map's geometry."""
+    return plan(with_fixture(with_absolute_paths(config or default_config())), announce=announce)
 
 
 def _nothing_scored(clips: int, skipped: list[str]) -> str:

@@ -84,6 +84,21 @@ def _no_collections_at_exit() -> None:
     atexit.register(gc.freeze)
 
 
+def _dry_run(config: EvalConfig, quiet: bool, debug: bool) -> None:
+    from . import api
+
+    planned = _guard(api.plan_run, debug, config, announce=_announcer(quiet))
+    frames = sum(len(clip.frames) for clip in planned.clips)
+    labelled = sum(frame.labelled for clip in planned.clips for frame in clip.frames)
+    click.echo(f"dry run: {planned.dataset.name}, {counted(len(planned.clips), 'clip')}, {counted(frames, 'frame')} "
+               f"({labelled} labelled, scored) with {', '.join(planned.context.config.methods)}; maps "
+               f"{planned.context.config.maps.format} in {planned.context.maps_root}; nothing evaluated or written")
+    for line in planned.skipped:
+        click.echo(f"  would skip: {line}")
+    if not labelled:
+        _fail(RoneldEvalError("nothing would be scored: no clip with all its maps holds a labelled frame"), debug)
+
+
 def _announcer(quiet: bool):
     """Where the library's one-line notes go: stderr, unless --quiet."""
     return None if quiet else (lambda message: click.echo(message, err=True))
@@ -173,12 +188,15 @@ def main():
                    "summary.json and on screen.")
 @click.option("--resume", is_flag=True,
               help="Continue an interrupted run into the same --out: reuse its finished clips (same numbers).")
+@click.option("--dry-run", is_flag=True,
+              help="Only check the dataset's layout and every frame's maps, and say what would be scored and "
+                   "at which geometry; evaluate and write nothing (exit 0, or 2 with the problem).")
 @click.option("--out", type=click.Path(path_type=Path), default=Path(DEFAULT_OUT), show_default=True,
               help="Folder for the results (the default is ignored by this repository's git, never results/).")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
 def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, plugins, pft_ablation, no_pft,
-        thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, out, quiet, debug):
+        thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, dry_run, out, quiet, debug):
     """Evaluate the baseline, RONELD and any plug-in on a dataset's stored maps; write tables and curves.
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
@@ -243,6 +261,9 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         return config
 
     config = _guard(build, debug)
+    if dry_run:
+        _dry_run(config, quiet, debug)
+        return
     result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume, overlays=overlays,
                     announce=_announcer(quiet))
     if not quiet:

@@ -797,21 +797,22 @@ def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
     return f"maps missing for {counted(len(missing), 'frame')} of {counted(len(clips), 'clip')}{hint}: {listing}{more}"
 
 
-def evaluate(
-    config: EvalConfig,
-    progress: bool = True,
-    lane_sink: Callable[[FrameOutcome, Frame], None] | None = None,
-    dataset: Dataset | None = None,
-    cache: ClipCache | None = None,
-    announce: Callable[[str], None] | None = None,
-) -> RunResult:
-    """Evaluate every configured method on a dataset's stored maps (the library `run`).
+@dataclass(frozen=True)
+class RunPlan:
+    """What a run will evaluate, found before any work: the clips with all their maps, where
+    everything lies, what is left out, and the first map's geometry (None without clips)."""
 
-    With on_error = "skip", bad label lines, bad map files and clips with missing maps are
-    left out and listed in `RunResult.skipped`; otherwise the first one raises InputError
-    before anything is computed (maps' contents are checked as they load).
-    """
-    started = time.perf_counter()
+    dataset: Dataset
+    clips: tuple[Clip, ...]
+    context: RunContext
+    skipped: tuple[str, ...]
+    geometry: EffectiveGeometry | None
+
+
+def plan(config: EvalConfig, dataset: Dataset | None = None,
+         announce: Callable[[str], None] | None = None) -> RunPlan:
+    """Read the dataset's layout and check every frame's maps are there (the first map is
+    read for its size): the checks a run makes before it starts, and `run --dry-run` alone."""
     if config.dataset.data_root is None or config.maps.root is None:
         raise ConfigError("a run needs both a data root and a maps root")
     maps_root = Path(config.maps.root)
@@ -853,6 +854,28 @@ def evaluate(
     geometry = _first_geometry(clips, context)
     if geometry is not None:
         say(f"geometry: {geometry.describe()}")
+    return RunPlan(dataset, tuple(clips), context, tuple(skipped), geometry)
+
+
+def evaluate(
+    config: EvalConfig,
+    progress: bool = True,
+    lane_sink: Callable[[FrameOutcome, Frame], None] | None = None,
+    dataset: Dataset | None = None,
+    cache: ClipCache | None = None,
+    announce: Callable[[str], None] | None = None,
+) -> RunResult:
+    """Evaluate every configured method on a dataset's stored maps (the library `run`).
+
+    With on_error = "skip", bad label lines, bad map files and clips with missing maps are
+    left out and listed in `RunResult.skipped`; otherwise the first one raises InputError
+    before anything is computed (maps' contents are checked as they load).
+    """
+    started = time.perf_counter()
+    planned = plan(config, dataset, announce)
+    dataset, clips, context, skipped, geometry = (planned.dataset, list(planned.clips), planned.context,
+                                                  list(planned.skipped), planned.geometry)
+    say = announce or (lambda message: None)
     workers = min(config.workers or default_workers(), max(work_units(clips, context), 1))
     # Compiled once here, before the workers fork, instead of in every worker at once.
     kernels.prepare(announce=say, needed=context.kernel_groups())

@@ -142,3 +142,24 @@ def test_a_signal_before_any_command_runs_is_one_line_and_128_plus_n(monkeypatch
     monkeypatch.setattr(group, "resolve_command", signalled)
     result = CliRunner().invoke(main, ["score", "tusimple", "--labels", "x", "--pred", "y"])
     assert result.output.strip() == said and result.exit_code == 128 + number, (result.output, result.exit_code)
+
+
+def test_a_dry_run_checks_and_says_what_would_be_scored_and_writes_nothing(tmp_path, monkeypatch):
+    from roneld_eval.synth import synth_culane
+
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["run", "--dry-run"])
+    assert result.exit_code == 0, result.output
+    assert "dry run: culane, 4 clips, 40 frames (40 labelled, scored) with baseline, roneld; maps npz in " in \
+        result.output and "nothing evaluated or written" in result.output
+    assert "geometry: maps 800x288" in result.output
+    assert list(tmp_path.iterdir()) == []
+    synth_culane(tmp_path / "set", clips=2, frames=2, seed=1)
+    next((tmp_path / "set" / "maps").rglob("00000.npy")).unlink()
+    args = ["run", "--dry-run", "--data-root", str(tmp_path / "set" / "data"), "--maps-root",
+            str(tmp_path / "set" / "maps")]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and "maps missing for 1 frame of 1 clip" in result.output, result.output
+    result = CliRunner().invoke(main, args + ["--on-error", "skip"])
+    assert result.exit_code == 0 and "1 clip, 2 frames" in result.output and "would skip: " in result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["set"]
