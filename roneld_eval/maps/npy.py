@@ -54,13 +54,20 @@ def _map_simple_npy(path: Path) -> np.ndarray | None:
 _PICKLED = "holds Python objects (a pickled array), not numbers: save the maps as a numeric (uint8 or float) array"
 
 
+def _header(stream) -> tuple[tuple[int, ...], np.dtype]:
+    """(shape, dtype) a .npy stream's header declares, the stream left where the data starts
+    (ValueError or EOFError where it has no readable header)."""
+    version = np.lib.format.read_magic(stream)
+    read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+    shape, _, dtype = read(stream)
+    return tuple(shape), dtype
+
+
 def _holds_objects(handle) -> bool:
     """Whether the .npy stream at `handle` declares a dtype of Python objects (which np.load
     refuses with advice about allow_pickle, an option this tool never sets)."""
     try:
-        version = np.lib.format.read_magic(handle)
-        read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
-        return bool(read(handle)[2].hasobject)
+        return bool(_header(handle)[1].hasobject)
     except Exception:  # not even a readable header: the caller's own error stands
         return False
 
@@ -128,9 +135,7 @@ def _member_array(raw: bytes | bytearray) -> np.ndarray:
             if size and len(raw) == 10 + header_length + size:
                 return np.frombuffer(raw, np.uint8, count=size, offset=10 + header_length).reshape(shape)
     stream = io.BytesIO(raw)
-    version = np.lib.format.read_magic(stream)
-    read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
-    shape, _, dtype = read(stream)
+    shape, dtype = _header(stream)
     if math.prod(shape) * dtype.itemsize > len(raw) - stream.tell():
         raise ValueError("the header claims more data than the member holds")  # read_array would allocate it
     stream.seek(0)
@@ -172,15 +177,13 @@ def _check_declared_size(path: Path, name: str, archive: zipfile.ZipFile) -> Non
     try:
         info = archive.getinfo(name + ".npy")
         with archive.open(info) as member:
-            version = np.lib.format.read_magic(member)
-            read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
-            shape, _, dtype = read(member)
+            shape, dtype = _header(member)
             header = member.tell()
     except (KeyError, OSError, ValueError, EOFError, zipfile.BadZipFile):
         return  # np.load meets it and says what is wrong
     claimed = math.prod(shape) * dtype.itemsize
     if claimed > info.file_size - header:
-        raise InputError(path, f"its array {name!r} claims shape {tuple(shape)} ({claimed:,} bytes) but holds "
+        raise InputError(path, f"its array {name!r} claims shape {shape} ({claimed:,} bytes) but holds "
                                f"{max(0, info.file_size - header):,}")
 
 
