@@ -362,16 +362,12 @@ def _built(method: Method, geometry: MapGeometry, frame: Frame) -> tuple[Method,
     if method.built_in:
         extractor = method.build(geometry)
     else:
-        if _PLUGIN_CALLS is not None:  # its factory may end the process too
-            _PLUGIN_CALLS.enter(method.name, frame.relpath)
         try:
-            extractor = method.build(geometry)
+            with _plugin_call(method, frame):  # its factory may end the process too
+                extractor = method.build(geometry)
         except (Exception, SystemExit) as error:  # a plug-in's own bug: name it, not the runner's frames
             problem = f"building the extractor raised {_raised(error)}"
             raise ExtractorError(method.name, frame.relpath, problem) from None
-        finally:
-            if _PLUGIN_CALLS is not None:
-                _PLUGIN_CALLS.leave()
         if not callable(extractor):
             raise ExtractorError(method.name, frame.relpath,
                                  f"the factory returned {type(extractor).__name__}, not a callable extractor")
@@ -405,10 +401,8 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
     # it see (npy maps are read-only memory maps already; the other formats are arrays).
     maps = replace(maps, probabilities=read_only(maps.probabilities),
                    existence=None if maps.existence is None else read_only(maps.existence))
-    if _PLUGIN_CALLS is not None:
-        _PLUGIN_CALLS.enter(method.name, frame.relpath)
     try:
-        with time_limit(method.time_limit_s):
+        with _plugin_call(method, frame), time_limit(method.time_limit_s):
             start = time.perf_counter()
             prediction = extractor(maps)
             elapsed = time.perf_counter() - start
@@ -421,13 +415,24 @@ def _plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fr
             problem = too_slow  # it caught or blocked the alarm
         else:
             problem = prediction_problem(prediction, config.dataset.image_width, config.dataset.image_height)
-    finally:
-        if _PLUGIN_CALLS is not None:
-            _PLUGIN_CALLS.leave()
     if problem is not None:
         raise ExtractorError(method.name, frame.relpath, problem)
     extract_ms[method.name].append(elapsed * 1e3)
     return prediction
+
+
+@contextlib.contextmanager
+def _plugin_call(method: Method, frame: Frame) -> Iterator[None]:
+    """Within the block, this worker's shared slot names the plug-in call (plugin_calls), so the
+    main process can name it if the process ends inside."""
+    if _PLUGIN_CALLS is None:
+        yield
+        return
+    _PLUGIN_CALLS.enter(method.name, frame.relpath)
+    try:
+        yield
+    finally:
+        _PLUGIN_CALLS.leave()
 
 
 def too_slow_text(method: str, limit_s: float | None) -> str:
@@ -566,7 +571,7 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
     workers = max(workers, 1)
     calls = PluginCalls(workers, pool_context()) if plugins else None
     pool = process_pool(workers, initializer=_init_worker, initargs=(context, calls))
-    exit_codes = {pid: process for pid, process in (getattr(pool, "_processes", None) or {}).items()}
+    processes = dict(getattr(pool, "_processes", None) or {})  # pid -> Process: their exit codes tell
     schedule = _Schedule(pool, clips, todo, context, workers, advance)
 
     limits = {method.name: method.time_limit_s for method in context.methods}
@@ -580,7 +585,7 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
                 os.kill(pid, signal.SIGKILL)
         # A worker that ended while a process it forked holds its pipes open: the pool would
         # wait for that process, so the worker's end is looked for here (exitcode reaps it).
-        if any(process.exitcode is not None for process in exit_codes.values()):
+        if any(process.exitcode is not None for process in processes.values()):
             raise BrokenProcessPool("a worker process ended")
 
     schedule.watch = watch if calls is not None else None
@@ -589,13 +594,13 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
         # Ended by now; the pool's own thread may be reaping one (its exit code is then None here
         # until that thread has set it).
         deadline = time.monotonic() + 2.0
-        while any(process.exitcode is None for process in exit_codes.values()) and time.monotonic() < deadline:
+        while any(process.exitcode is None for process in processes.values()) and time.monotonic() < deadline:
             time.sleep(0.01)
         if stopped:
             pid, (method, frame) = next(iter(stopped.items()))
             return ExtractorError(method, frame, too_slow_text(method, limits[method]))
         inside = None if calls is None else calls.died_in({pid: process.exitcode
-                                                            for pid, process in exit_codes.items()})
+                                                            for pid, process in processes.items()})
         if inside is not None:
             method, frame, code = inside
             how = "" if code is None else f" (exit status {code})" if code >= 0 else f" (signal {-code})"
