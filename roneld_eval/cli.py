@@ -10,6 +10,7 @@ import gc
 import sys
 import traceback
 from pathlib import Path
+from typing import NoReturn
 
 import click
 
@@ -63,17 +64,22 @@ def _guard(function, debug: bool, *args, **kwargs):
     except RoneldEvalError as error:
         _fail(error, debug)
     except KeyboardInterrupt as error:
-        from .signals import interruption_name
-
-        reason, code = interruption_name(error)
-        click.echo(f"{reason}: no result was written", err=True)
-        sys.exit(code)
+        _interrupted(error, ": no result was written")
     except MemoryError:
         _fail(RoneldEvalError("out of memory (try fewer --workers)"), debug)
     except OSError as error:
         where = getattr(error, "filename", None)
         message = f"{where}: {error.strerror}" if where else str(error)
         _fail(RoneldEvalError(message), debug)
+
+
+def _interrupted(error: KeyboardInterrupt, said: str = "") -> NoReturn:
+    """'interrupted' or 'terminated (SIGTERM)' and what it means, then exit 130 or 128 + n."""
+    from .signals import interruption_name
+
+    reason, code = interruption_name(error)
+    click.echo(f"{reason}{said}", err=True)
+    sys.exit(code)
 
 
 def _no_collections_at_exit() -> None:
@@ -113,21 +119,15 @@ class _Command(click.Group):
     not click's "Aborted!" and exit 1 (nor a process killed without a word)."""
 
     def main(self, *args, **kwargs):
-        from .signals import interruption_name, terminate_as_interrupt
+        from .signals import terminate_as_interrupt
 
         try:
             with terminate_as_interrupt():
                 super().main(*args, **{**kwargs, "standalone_mode": False})
             sys.exit(0)  # as click's standalone mode ends: never a command's return value as the status
-        except click.exceptions.Abort as abort:
-            interruption = abort.__cause__ if isinstance(abort.__cause__, KeyboardInterrupt) else KeyboardInterrupt()
-            reason, code = interruption_name(interruption)
-            click.echo(f"{reason}", err=True)
-            sys.exit(code)
-        except KeyboardInterrupt as error:
-            reason, code = interruption_name(error)
-            click.echo(f"{reason}", err=True)
-            sys.exit(code)
+        except (click.exceptions.Abort, KeyboardInterrupt) as stop:  # click wraps Ctrl-C in Abort
+            cause = stop.__cause__ if isinstance(stop, click.exceptions.Abort) else stop
+            _interrupted(cause if isinstance(cause, KeyboardInterrupt) else KeyboardInterrupt())
         except click.exceptions.Exit as done:  # --help, --version
             sys.exit(done.exit_code)
         except click.ClickException as error:
