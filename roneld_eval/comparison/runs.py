@@ -243,7 +243,7 @@ def read_csv(path: Path, columns: dict[str, str], optional: dict[str, str] | Non
 
 def _check_f1(path: Path, official: pd.DataFrame) -> None:
     """A TuSimple run's f1_clrnet is shown as it is, so it must be what CLRNet's formula gives
-    for the row's FP and FN (to the 10 digits official.csv holds): an edited one is refused."""
+    for the row's FP and FN (to the 6 decimals official.csv holds): an edited one is refused."""
     if "f1_clrnet" not in official.columns:
         return
     from ..metrics.tusimple_official import f1_clrnet

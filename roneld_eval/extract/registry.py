@@ -164,8 +164,7 @@ def source_fingerprint(method: Method) -> str:
     "" for built-ins, which the tool's version covers."""
     if method.built_in:
         return ""
-    factory = method.factory()
-    module = sys.modules.get(getattr(factory, "__module__", "") or "")
+    module = _module_of(method)
     path = getattr(module, "__file__", None)
     if module is None or not path or not os.path.isfile(path):
         return f"{method.entry} (no source file)"
@@ -177,6 +176,11 @@ def source_fingerprint(method: Method) -> str:
     return digest.hexdigest()
 
 
+def _module_of(method: Method):
+    """The loaded module that defines a plug-in's factory (None if it cannot be told)."""
+    return sys.modules.get(getattr(method.factory(), "__module__", "") or "")
+
+
 def loaded_code(methods) -> dict[str, str]:
     """path -> SHA-256 of every source file of the plug-ins among `methods` as loaded in this
     process now (`own_modules`): taken where a clip finished, after whatever the plug-in
@@ -186,7 +190,7 @@ def loaded_code(methods) -> dict[str, str]:
     for method in methods:
         if method.built_in:
             continue
-        module = sys.modules.get(getattr(method.factory(), "__module__", "") or "")
+        module = _module_of(method)
         if module is None or not isinstance(getattr(module, "__file__", None), str):
             continue
         for file in own_modules(module)[1]:
