@@ -3,10 +3,7 @@ score them, and return one `RunResult`. Writes nothing itself (see report.write)
 
 A clip is the unit of state (RONELD's tracking) and of parallel work: `evaluate_clip` runs in
 worker processes and returns plain per-frame records; they are merged in clip order, so any
-number of workers gives the same result. A long clip is cut into segments (`segments_of`):
-each is extracted in frame order from the tracking state the one before left (`Tracking`,
-pickled between workers), and scored in whichever worker is free, so one long video uses every
-core. How a clip is cut never changes a result. Lanes to save stream to a `lane_sink` as clips finish,
+number of workers gives the same result. Lanes to save stream to a `lane_sink` as clips finish,
 so memory stays flat in the number of frames.
 """
 
@@ -16,7 +13,6 @@ import contextlib
 import functools
 import itertools
 import os
-import pickle
 import platform
 import queue
 import signal
@@ -29,7 +25,7 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Callable, Iterator, Mapping, Protocol, Sequence
+from typing import Callable, Iterator, Mapping, Protocol, Sequence, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -137,6 +133,9 @@ class RunResult:
     gains: pd.DataFrame | None = None
 
 
+_T = TypeVar("_T")
+
+
 # ---- one clip ------------------------------------------------------------------------------
 
 
@@ -164,155 +163,68 @@ def effective_geometry(config: EvalConfig, map_width: int, map_height: int) -> E
 
 def evaluate_clip(clip: Clip, context: RunContext,
                   advance: Callable[[int], object] | None = None) -> ClipResult:
-    """Run every method over one clip in frame order and score its labelled frames, segment by
-    segment as the workers do, so that errors and progress do not depend on --workers."""
-    tracking = Tracking()
-    extractions, scored = [], []
-    for segment in segments_of(clip, context):
-        extraction = extract_segment(segment, context, tracking)
-        scored.append(score_segment(extraction, context))
-        extractions.append(extraction.counts_only())  # the predictions are scored: let them go
-        if advance is not None:
-            advance(len(segment.frames))
-    result = merged_clip(clip, extractions, scored)
-    result.plugin_code = loaded_code(context.methods)
-    return result
-
-
-@dataclass
-class Tracking:
-    """What extraction carries from one frame of a clip to the next: each method's extractor
-    (RONELD's tracking state inside), the clip's map shape and geometry. Pickled between the
-    segments of a long clip, so the segments may run in any worker, one after the other."""
-
+    """Run every method over one clip in frame order (RONELD's tracking carries from frame to
+    frame) and score its labelled frames."""
+    config = context.config
+    result = ClipResult(clip_id=clip.clip_id, n_frames=len(clip.frames))
+    listed = len(clip.frames)
+    if context.labels_root is not None:
+        errors: list[InputError] | None = [] if config.on_error == "skip" else None
+        clip = with_labels(config.dataset.name, clip, context.labels_root, errors)
+        result.skipped = [f"{error} (labels skipped)" for error in errors or ()]
+        result.n_frames = len(clip.frames)
+    result.extract_ms = {method.name: [] for method in context.methods}
+    skip = config.on_error == "skip"
     extractors: list[tuple[Method, Extractor, bool]] | None = None
     map_shape: tuple[int, ...] | None = None
     geometry: MapGeometry | None = None
-
-
-@dataclass
-class SegmentExtraction:
-    """One run of a clip's frames through every method: the predictions of its labelled
-    frames (to score anywhere) and what the clip's result counts of them."""
-
-    frames: int  # frames of the segment evaluated (skipped ones not counted)
-    labelled: list[tuple[Frame, dict[str, Prediction]]] = field(default_factory=list)
-    geometry: MapGeometry | None = None
-    map_size: tuple[int, int] | None = None
-    extract_ms: dict[str, list[float]] = field(default_factory=dict)
-    load_ms: list[float] = field(default_factory=list)
-    label_skips: list[str] = field(default_factory=list)
-    frame_skips: list[str] = field(default_factory=list)
-    # The tracking state after the segment, pickled, for the next segment (None: not wanted).
-    tracking: bytes | None = None
-    n_scored: int = 0  # labelled frames, and their ground-truth lanes: what the clip counts
-    n_gt_lanes: int = 0
-
-    # `labelled`, pickled, while it travels from an extracting worker to a scoring one.
-    labelled_bytes: bytes | None = None
-
-    def counts_only(self) -> "SegmentExtraction":
-        """The segment without its predictions: what merging needs once it is scored."""
-        return replace(self, labelled=[], labelled_bytes=None)
-
-
-def extract_segment(segment: Clip, context: RunContext, tracking: Tracking) -> SegmentExtraction:
-    """Load and extract a clip's frames in order, continuing from `tracking` (which it updates)."""
-    config = context.config
-    out = SegmentExtraction(frames=len(segment.frames))
-    if context.labels_root is not None:
-        errors: list[InputError] | None = [] if config.on_error == "skip" else None
-        segment = with_labels(config.dataset.name, segment, context.labels_root, errors)
-        out.label_skips = [f"{error} (labels skipped)" for error in errors or ()]
-        out.frames = len(segment.frames)
-    out.extract_ms = {method.name: [] for method in context.methods}
-    skip = config.on_error == "skip"
-    for frame, loaded, load_ms in _prefetched(segment.frames, context):
+    for frame, loaded, load_ms in _told(_prefetched(clip.frames, context), advance):
         try:
             if isinstance(loaded, InputError):
                 raise loaded
             maps = loaded
-            if tracking.map_shape is not None and maps.probabilities.shape != tracking.map_shape:
+            if map_shape is not None and maps.probabilities.shape != map_shape:
                 raise InputError(
                     frame_map_path(context, frame),
-                    f"maps of shape {maps.probabilities.shape} differ from the clip's first frame "
-                    f"{tracking.map_shape}",
+                    f"maps of shape {maps.probabilities.shape} differ from the clip's first frame {map_shape}",
                 )
         except InputError as error:
             if not skip:
                 raise
-            _leave_out(out, error)  # neither scored nor seen by RONELD (as a dropped frame)
+            _leave_out(result, error)  # neither scored nor seen by RONELD (as a dropped frame)
             continue
-        out.load_ms.append(load_ms)
-        if tracking.extractors is None:
-            tracking.map_shape = maps.probabilities.shape
-            tracking.geometry = _geometry_for(context, maps, frame_map_path(context, frame))
-            tracking.extractors = [_built(method, tracking.geometry, frame) for method in context.methods]
-        if out.map_size is None:
-            out.map_size = (maps.width, maps.height)
+        result.load_ms.append(load_ms)
+        if extractors is None:
+            map_shape = maps.probabilities.shape
+            geometry = _geometry_for(context, maps, frame_map_path(context, frame))
+            extractors = [_built(method, geometry, frame) for method in context.methods]
+            result.map_size = (maps.width, maps.height)
         try:
-            predictions = _predictions(tracking.extractors, maps, frame, out.extract_ms, config)
+            predictions = _predictions(extractors, maps, frame, result.extract_ms, config)
         except ExtractorError as error:
             if not skip:
                 raise
-            _leave_out(out, error)  # for every method, so that all are scored on the same frames
+            _leave_out(result, error)  # for every method, so that all are scored on the same frames
             continue
         if frame.labelled:
-            out.labelled.append((frame, predictions))
-            out.n_scored += 1
-            out.n_gt_lanes += len(frame.lanes)
-    out.geometry = tracking.geometry
-    return out
-
-
-def score_segment(extraction: SegmentExtraction, context: RunContext) -> list[FrameOutcome]:
-    """Every method's outcome on each labelled frame of an extracted segment, in frame order.
-    Lanes are kept only when they are to be saved: they travel back to the main process."""
-    outcomes: list[FrameOutcome] = []
-    if extraction.geometry is None:
-        return outcomes
-    for frame, predictions in extraction.labelled:
-        outcomes.extend(_score_frame(frame, predictions, extraction.geometry, context))
-    if not context.config.save_lanes:
-        outcomes = [outcome.without_lanes() for outcome in outcomes]
-    return outcomes
-
-
-def merged_clip(clip: Clip, extractions: Sequence[SegmentExtraction],
-                scored: Sequence[list[FrameOutcome]]) -> ClipResult:
-    """One clip's result from its segments in frame order; the same whatever the segments were."""
-    result = ClipResult(clip_id=clip.clip_id, n_frames=sum(part.frames for part in extractions))
-    result.extract_ms = {name: [] for name in (extractions[0].extract_ms if extractions else ())}
-    for part, outcomes in zip(extractions, scored):
-        for name, values in part.extract_ms.items():
-            result.extract_ms[name] += values
-        result.load_ms += part.load_ms
-        result.outcomes += outcomes
-        result.n_scored += part.n_scored
-        result.n_gt_lanes += part.n_gt_lanes
-        if result.map_size is None:
-            result.map_size = part.map_size
-    # Label problems first, as when a clip's labels were read before its frames.
-    result.skipped = [skip for part in extractions for skip in part.label_skips]
-    result.skipped += [skip for part in extractions for skip in part.frame_skips]
+            assert geometry is not None
+            outcomes = _score_frame(frame, predictions, geometry, context)
+            # Lanes travel back to the main process only when they are to be saved.
+            result.outcomes += outcomes if config.save_lanes else [outcome.without_lanes() for outcome in outcomes]
+            result.n_scored += 1
+            result.n_gt_lanes += len(frame.lanes)
+    if advance is not None and listed > len(clip.frames):
+        advance(listed - len(clip.frames))  # frames whose labels were left out
+    result.plugin_code = loaded_code(context.methods)
     return result
 
 
-# A clip longer than this is extracted in segments of SEGMENT_FRAMES, each continuing the
-# tracking state of the one before, so its loading and scoring can spread over every worker.
-# Fixed, not derived from --workers: the segments never change a result, but they should not
-# change how the work is cut either. CULane test clips have at most 180 frames.
-SEGMENT_FRAMES = 128
-
-
-def segments_of(clip: Clip, context: RunContext) -> list[Clip]:
-    """The clip cut into consecutive parts for extraction: itself, unless it is long and every
-    method's tracking state can travel between processes (see `segmentable`)."""
-    frames = clip.frames
-    if len(frames) <= 2 * SEGMENT_FRAMES or not segmentable(context):
-        return [clip]
-    return [replace(clip, frames=frames[start:start + SEGMENT_FRAMES])
-            for start in range(0, len(frames), SEGMENT_FRAMES)]
+def _told(items: Iterator[_T], advance: Callable[[int], object] | None) -> Iterator[_T]:
+    """The items, telling `advance` of each once the caller is done with it (skipped or not)."""
+    for item in items:
+        yield item
+        if advance is not None:
+            advance(1)
 
 
 # Frames whose maps are read ahead of the one being extracted and scored, in a thread of the
@@ -351,10 +263,10 @@ def _prefetched(frames: Sequence[Frame], context: RunContext) -> Iterator[tuple[
                 future.cancel()
 
 
-def _leave_out(extraction: SegmentExtraction, error: Exception) -> None:
+def _leave_out(result: ClipResult, error: Exception) -> None:
     """A frame skipped under --on-error skip: listed, and not counted as evaluated."""
-    extraction.frame_skips.append(f"{error} (frame skipped)")
-    extraction.frames -= 1
+    result.skipped.append(f"{error} (frame skipped)")
+    result.n_frames -= 1
 
 
 def _built(method: Method, geometry: MapGeometry, frame: Frame) -> tuple[Method, Extractor, bool]:
@@ -492,26 +404,6 @@ def _evaluate_in_worker(clip: Clip) -> ClipResult:
     return evaluate_clip(clip, _WORKER_CONTEXT)
 
 
-def _extract_in_worker(segment: Clip, tracking: bytes | None) -> SegmentExtraction:
-    """One segment of a long clip, continuing the tracking state the segment before left."""
-    assert _WORKER_CONTEXT is not None
-    # The bytes come from _extract_in_worker in this run's own pool, never from a file.
-    state = Tracking() if tracking is None else pickle.loads(tracking)
-    extraction = extract_segment(segment, _WORKER_CONTEXT, state)
-    extraction.tracking = pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
-    # The predictions pass through the main process on their way to a scoring worker: as bytes,
-    # so that the main process (which shares the cores) neither unpickles nor pickles them again.
-    labelled = pickle.dumps(extraction.labelled, protocol=pickle.HIGHEST_PROTOCOL)
-    return replace(extraction, labelled=[], labelled_bytes=labelled)
-
-
-def _score_in_worker(extraction: SegmentExtraction) -> list[FrameOutcome]:
-    assert _WORKER_CONTEXT is not None
-    if extraction.labelled_bytes is not None:  # from _extract_in_worker, in this run's own pool
-        extraction = replace(extraction, labelled=pickle.loads(extraction.labelled_bytes), labelled_bytes=None)
-    return score_segment(extraction, _WORKER_CONTEXT)
-
-
 class ClipCache(Protocol):
     """Where finished clips are kept so an interrupted run can resume (see roneld_eval.cache)."""
 
@@ -534,7 +426,7 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
     """Results in clip order: cached ones, then from `workers` processes (in-process for 1).
 
     Each finished clip is stored in the cache before it is yielded; `advance(frames)` is told
-    of every clip or segment of a long clip as it finishes. A worker that dies (killed, out of
+    of every frame as its clip finishes (in-process: as it is done). A worker that dies (killed, out of
     memory) ends the run with RunInterrupted instead of a hang.
     """
     cached: dict[int, ClipResult] = {}
@@ -556,7 +448,7 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
     # A plug-in always runs in a worker process, so that one which ends its process (os._exit,
     # a crash) ends a worker the run can name, not the run itself with exit status 0.
     plugins = not all(method.built_in for method in context.methods)
-    if not todo or (not plugins and (workers <= 1 or work_units([clips[index] for index in todo], context) <= 1)):
+    if not todo or (not plugins and (workers <= 1 or len(todo) <= 1)):
         if todo:
             kernels.warm_up(context.kernel_groups())
         for index, clip in enumerate(clips):
@@ -624,29 +516,8 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
         plotting.join()  # the report must not use matplotlib while that thread is still importing it
 
 
-def segmentable(context: RunContext) -> bool:
-    """Whether long clips may be cut into segments: only built-in extractors are known to carry
-    their tracking state from one process to another (a plug-in's may not pickle)."""
-    return all(method.built_in for method in context.methods)
-
-
-def work_units(clips: Sequence[Clip], context: RunContext) -> int:
-    """Tasks the clips make for the workers: one per clip, one per segment of a long one."""
-    return sum(len(segments_of(clip, context)) for clip in clips)
-
-
-@dataclass
-class _Chain:
-    """A long clip in flight: its segments extracted one after another, each scored as soon as
-    it is extracted, in any worker."""
-
-    segments: list[Clip]
-    extractions: dict[int, SegmentExtraction] = field(default_factory=dict)
-    scored: dict[int, list[FrameOutcome]] = field(default_factory=dict)
-
-
 class _Schedule:
-    """Clips, and the segments of long clips, in flight in a process pool: they finish in any
+    """Clips in flight in a process pool: they finish in any
     order and are handed out in clip order. Work is started only while few clips wait to be
     handed out, so results wait in memory briefly; a clip's error is raised when its turn
     comes, so which error a run reports does not depend on the number of workers."""
@@ -665,7 +536,6 @@ class _Schedule:
         # twice, as it can within concurrent.futures.wait (RuntimeError, or a hang at exit).
         self.finished: queue.SimpleQueue[Future] = queue.SimpleQueue()
         self.started: set[int] = set()  # clips started and not yet handed out
-        self.chains: dict[int, _Chain] = {}
         self.done: dict[int, ClipResult | BaseException] = {}
         self.current = clips[todo[0]].clip_id if todo else ""
         self.watch: Callable[[], None] | None = None  # called while waiting (plug-ins' time limits)
@@ -678,13 +548,7 @@ class _Schedule:
                 break  # the run stops at that clip's error: nothing after it is wanted
             self.waiting.popleft()
             self.started.add(index)
-            clip = self.clips[index]
-            segments = segments_of(clip, self.context)
-            if len(segments) == 1:
-                self._submit(functools.partial(self._clip_done, index), _evaluate_in_worker, clip)
-            else:
-                self.chains[index] = _Chain(segments)
-                self._extract(index, 0, None)
+            self._submit(functools.partial(self._clip_done, index), _evaluate_in_worker, self.clips[index])
 
     def result(self, index: int) -> ClipResult:
         """Clip `index`'s result, waiting for it while the other work goes on."""
@@ -715,41 +579,6 @@ class _Schedule:
         self.tasks[future] = then
         future.add_done_callback(self.finished.put)
 
-    def _extract(self, index: int, number: int, tracking: bytes | None) -> None:
-        segment = self.chains[index].segments[number]
-        self._submit(functools.partial(self._extracted, index, number), _extract_in_worker, segment, tracking)
-
-    def _extracted(self, index: int, number: int, future: Future) -> None:
-        chain = self.chains.get(index)
-        if chain is None:
-            return  # the clip failed already
-        try:
-            extraction = future.result()
-        except BaseException as error:
-            self._fail(index, error)
-            return
-        tracking, extraction.tracking = extraction.tracking, None
-        if number + 1 < len(chain.segments):  # first, so the chain waits least
-            self._extract(index, number + 1, tracking)
-        self._submit(functools.partial(self._scored, index, number), _score_in_worker, extraction)
-        chain.extractions[number] = extraction.counts_only()  # the predictions travel on, not kept here
-
-    def _scored(self, index: int, number: int, future: Future) -> None:
-        chain = self.chains.get(index)
-        if chain is None:
-            return
-        try:
-            chain.scored[number] = future.result()
-        except BaseException as error:
-            self._fail(index, error)
-            return
-        self.advance(len(chain.segments[number].frames))
-        if len(chain.scored) == len(chain.segments):
-            order = range(len(chain.segments))
-            self.done[index] = merged_clip(self.clips[index], [chain.extractions[k] for k in order],
-                                           [chain.scored[k] for k in order])
-            del self.chains[index]
-
     def _clip_done(self, index: int, future: Future) -> None:
         try:
             self.done[index] = future.result()
@@ -757,10 +586,6 @@ class _Schedule:
             self.done[index] = error
             return
         self.advance(len(self.clips[index].frames))
-
-    def _fail(self, index: int, error: BaseException) -> None:
-        self.done[index] = error
-        del self.chains[index]
 
 
 def _import_plotting() -> None:
@@ -881,7 +706,7 @@ def evaluate(
     dataset, clips, context, skipped, geometry = (planned.dataset, list(planned.clips), planned.context,
                                                   list(planned.skipped), planned.geometry)
     say = announce or (lambda message: None)
-    workers = min(config.workers or default_workers(), max(work_units(clips, context), 1))
+    workers = min(config.workers or default_workers(), max(len(clips), 1))
     # Compiled once here, before the workers fork, instead of in every worker at once.
     kernels.prepare(announce=say, needed=context.kernel_groups())
     # Kept compact, not as the workers' records: the main process stays small however long the run.

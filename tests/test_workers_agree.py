@@ -1,9 +1,8 @@
-"""Attacks on long clips cut into segments (a4491c2, 961861c): what --workers must not change.
+"""Nothing a run reports depends on --workers: results, skips, the error that stops it and the
+progress it shows are the same with one worker (in-process) and several (a process pool).
 
-Four tests reproduce bugs that attack pass found (and that are fixed): an error or the progress
-bar that depended on --workers, a long clip's predictions kept in the main process, and Ctrl-C
-twice while the main process waited on the workers (a traceback, or a hang).
-Segments are lowered to a few frames, as in test_long_clips.py, so a set runs in seconds.
+The set has clips of each synthetic style (normal, curve, lane change, vanishing ego lanes), a
+30-frame one among them, so RONELD's tracking runs through curve mode and lost lanes.
 """
 
 from __future__ import annotations
@@ -23,22 +22,19 @@ from roneld_eval.datasets import read_dataset
 from roneld_eval.errors import InputError
 from roneld_eval.synth import synth_culane
 
-SEGMENT = 4
-CLIP = "driver_1_30frame/long.MP4"
-LENGTH = 30  # segments of 4: frames 8..11 are the third segment, 20..23 the sixth
 OUTPUTS = ("accuracy.csv", "per_frame.csv", "official.csv", "gains.csv")
+LENGTHS = [30, 23, 26, 19, 5]
 
 
 def structure() -> list[tuple[str, list[str]]]:
-    short = "driver_9_30frame/short.MP4"
-    return [(CLIP, [f"{CLIP}/{30 * i:05d}.jpg" for i in range(LENGTH)]),
-            (short, [f"{short}/{30 * i:05d}.jpg" for i in range(5)])]
+    clips = [f"driver_1_30frame/clip{k}.MP4" for k in range(len(LENGTHS))]
+    return [(clip, [f"{clip}/{30 * i:05d}.jpg" for i in range(n)]) for clip, n in zip(clips, LENGTHS)]
 
 
 @pytest.fixture(scope="module")
 def base(tmp_path_factory):
-    root = tmp_path_factory.mktemp("long-clip-attacks") / "set"
-    synth_culane(root, structure=structure(), seed=7)
+    root = tmp_path_factory.mktemp("workers-agree") / "set"
+    synth_culane(root, structure=structure(), seed=5)
     return root
 
 
@@ -48,20 +44,30 @@ def dataset(base, tmp_path):
     return tmp_path / "set"
 
 
-@pytest.fixture(autouse=True)
-def short_segments(monkeypatch):
-    monkeypatch.setattr(evaluation, "SEGMENT_FRAMES", SEGMENT)
-
-
-def stem(index: int) -> str:
-    return f"{CLIP}/{30 * index:05d}"
+def stem(index: int, clip: int = 0) -> str:
+    return structure()[clip][1][index][:-4]
 
 
 def config_for(root: Path, workers: int, **overrides):
     values = {"dataset.data_root": str(root / "data"), "maps.root": str(root / "maps"), "workers": workers,
-              "methods": "baseline,roneld,roneld-nopft"}
+              "methods": "baseline,roneld,roneld-nopft", "save_lanes": True}
     values.update(overrides)
     return api.default_config("culane").with_overrides(**values)
+
+
+def files(folder: Path) -> dict[str, bytes]:
+    kept = [path for path in sorted(folder.rglob("*")) if path.is_file()
+            and (path.name in OUTPUTS or "lanes" in path.relative_to(folder).parts)]
+    return {str(path.relative_to(folder)): path.read_bytes() for path in kept}
+
+
+def runs(root: Path, tmp_path: Path, **overrides) -> dict[int, tuple]:
+    out = {}
+    for workers in (1, 2, 3):
+        folder = tmp_path / f"out{workers}"
+        result = api.run(config_for(root, workers, **overrides), folder, progress=False)
+        out[workers] = (files(folder), result.counts, result.skipped, list(result.runtime["frames"]))
+    return out
 
 
 def error_of(root: Path, tmp_path: Path, workers: int) -> str:
@@ -71,41 +77,56 @@ def error_of(root: Path, tmp_path: Path, workers: int) -> str:
 
 
 def context_for(root: Path, workers: int) -> evaluation.RunContext:
-    config = config_for(root, workers)
-    return evaluation.RunContext(config, root / "maps", root / "data", data_root=root / "data")
+    return evaluation.RunContext(config_for(root, workers, save_lanes=False), root / "maps", root / "data",
+                                 data_root=root / "data")
 
 
 def clips_of(root: Path):
     return list(read_dataset("culane", root / "data", None, None, labels=False).clips)
 
 
-def test_the_same_error_for_any_workers_when_two_segments_are_bad(dataset, tmp_path):
-    (dataset / "maps" / f"{stem(9)}.npy").write_bytes(b"not a map")  # third segment
-    (dataset / "data" / f"{stem(21)}.lines.txt").write_text("1 2 three\n")  # sixth segment
+def test_workers_change_no_byte(base, tmp_path):
+    found = runs(base, tmp_path)
+    assert any("lanes" in name for name in found[1][0]) and "per_frame.csv" in found[1][0]
+    assert found[1] == found[2] == found[3]
+
+
+def test_skipped_frames_and_labels_are_listed_alike_for_any_workers(dataset, tmp_path):
+    (dataset / "maps" / f"{stem(0)}.npy").write_bytes(b"not a map")  # the clip's first frame
+    (dataset / "maps" / f"{stem(9)}.npy").write_bytes(b"not a map")
+    (dataset / "data" / f"{stem(10)}.lines.txt").write_text("1 2 three\n")
+    (dataset / "data" / f"{stem(21)}.lines.txt").write_text("1 2 three\n")
+    found = runs(dataset, tmp_path, on_error="skip")
+    assert found[1] == found[2] == found[3]
+    assert [entry.split(": ")[0].rsplit("/", 1)[-1] for entry in found[1][2]] == [
+        "00300.lines.txt:1", "00630.lines.txt:1", "00000.npy", "00270.npy"]
+
+
+def test_the_same_error_for_any_workers_when_two_clips_are_bad(dataset, tmp_path):
+    (dataset / "maps" / f"{stem(9, clip=1)}.npy").write_bytes(b"not a map")
+    (dataset / "data" / f"{stem(21, clip=2)}.lines.txt").write_text("1 2 three\n")
     messages = {workers: error_of(dataset, tmp_path, workers) for workers in (1, 2, 3)}
     assert messages[1] == messages[2] == messages[3], messages
+    assert str(dataset / "maps" / f"{stem(9, clip=1)}.npy") in messages[1]
 
 
-def test_progress_moves_within_a_long_clip_with_one_worker(base):
-    told: list[int] = []
-    context = context_for(base, 1)
-    list(evaluation._clip_results(clips_of(base), context, 1, advance=told.append))
-    assert len(told) == len(evaluation.segments_of(clips_of(base)[0], context)) + 1 and sum(told) == LENGTH + 5
+def test_a_size_change_within_a_clip_names_its_file(dataset, tmp_path):
+    path = dataset / "maps" / f"{stem(17)}.npy"
+    np.save(path, np.load(path)[:, ::2, ::2].copy())
+    for workers in (1, 2):
+        message = error_of(dataset, tmp_path, workers)
+        assert message.startswith(f"{path}: maps of shape") and "differ from the clip's first frame" in message
 
 
-def test_the_main_process_keeps_no_predictions_of_a_long_clip(base, monkeypatch):
-    kept = []
-    merged = evaluation.merged_clip
-
-    def recording(clip, extractions, scored):
-        kept.extend(extractions)
-        return merged(clip, extractions, scored)
-
-    monkeypatch.setattr(evaluation, "merged_clip", recording)
-    results = list(evaluation._clip_results(clips_of(base), context_for(base, 2), 2))
-    assert results[0].n_scored == LENGTH and results[0].n_gt_lanes > 0
-    assert len(kept) == len(evaluation.segments_of(clips_of(base)[0], context_for(base, 2)))
-    assert all(not part.labelled for part in kept)
+def test_progress_counts_every_frame_once(base):
+    for workers in (1, 2):
+        told: list[int] = []
+        results = list(evaluation._clip_results(clips_of(base), context_for(base, workers), workers,
+                                                advance=told.append))
+        assert [result.clip_id for result in results] == [clip.clip_id for clip in clips_of(base)]
+        assert sum(told) == sum(LENGTHS), workers
+        if workers == 1:  # in-process, the bar moves within a clip
+            assert len(told) == sum(LENGTHS)
 
 
 class _InterruptedLock:
@@ -185,29 +206,3 @@ def test_ctrl_c_twice_while_waiting_is_an_interruption(base, monkeypatch):
             raise KeyboardInterrupt  # not trapped at all: no Python-level wait in the main thread
     finally:
         _Trap.armed = _Trap.second = False
-
-
-# ---- guards: these pass -------------------------------------------------------------------
-
-
-def test_skips_in_several_segments_are_listed_alike_for_any_workers(dataset, tmp_path):
-    (dataset / "maps" / f"{stem(0)}.npy").write_bytes(b"not a map")  # the clip's first frame
-    (dataset / "maps" / f"{stem(9)}.npy").write_bytes(b"not a map")
-    (dataset / "data" / f"{stem(10)}.lines.txt").write_text("1 2 three\n")
-    (dataset / "data" / f"{stem(21)}.lines.txt").write_text("1 2 three\n")
-    found = []
-    for workers in (1, 2, 3):
-        folder = tmp_path / f"out{workers}"
-        result = api.run(config_for(dataset, workers, on_error="skip"), folder, progress=False)
-        found.append((result.skipped, result.counts, {name: (folder / name).read_bytes() for name in OUTPUTS}))
-    assert found[0] == found[1] == found[2]
-    assert [entry.split(": ")[0].rsplit("/", 1)[-1] for entry in found[0][0]] == [
-        "00300.lines.txt:1", "00630.lines.txt:1", "00000.npy", "00270.npy"]
-
-
-def test_a_size_change_in_a_later_segment_names_its_file(dataset, tmp_path):
-    path = dataset / "maps" / f"{stem(17)}.npy"
-    np.save(path, np.load(path)[:, ::2, ::2].copy())
-    for workers in (1, 2):
-        message = error_of(dataset, tmp_path, workers)
-        assert message.startswith(f"{path}: maps of shape") and "differ from the clip's first frame" in message
