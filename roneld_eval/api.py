@@ -17,12 +17,12 @@ from typing import Callable, Sequence
 import pandas as pd
 
 from .version import __version__
-from .config import DEFAULT_PRESETS, EvalConfig
+from .benchmarks import benchmark_for, default_name
+from .config import EvalConfig
 from .errors import ConfigError, InputError, RoneldEvalError, RunInterrupted
 from .lanes_io import check_regular_file, read_text
 from .limits import RUN_TABLE
 from .wording import counted
-from .benchmarks import benchmark_for
 from .cache import ResultCache
 from .evaluation import RunPlan, RunResult, evaluate, plan
 from .output import DEFAULT_OUT, INPUT_RUN_REMEDY, JOURNAL, OutputFolder, Staging, read_manifest
@@ -36,18 +36,20 @@ FIXTURE_MAPS_FORMAT = "npz"
 
 def fixture_roots(dataset: str) -> tuple[Path, Path]:
     """(data root, maps root) of the bundled fixture of a dataset."""
-    base = Path(str(resources.files("roneld_eval._fixture"))) / dataset
+    folder = benchmark_for(dataset).fixture
+    if folder is None:
+        raise ConfigError(f"{benchmark_for(dataset).display_name} has no bundled fixture: give --data-root and "
+                          "--maps-root")
+    base = Path(str(resources.files("roneld_eval._fixture"))) / folder
     data, maps = base / "data", base / "maps"
     if not data.is_dir() or not maps.is_dir():
         raise InputError(base, "the bundled fixture is missing from this installation")
     return data, maps
 
 
-def default_config(dataset: str = "culane") -> EvalConfig:
-    """The preset for a dataset's default model (SCNN)."""
-    if dataset not in DEFAULT_PRESETS:
-        raise ConfigError(f"unknown dataset {dataset!r}")
-    return EvalConfig.preset(DEFAULT_PRESETS[dataset])
+def default_config(dataset: str | None = None) -> EvalConfig:
+    """The preset of a dataset's default model (SCNN); without one, the fixture's benchmark."""
+    return EvalConfig.from_toml(benchmark_for(dataset or default_name()).default_preset)  # a preset name or a file
 
 
 def with_fixture(config: EvalConfig) -> EvalConfig:

@@ -16,7 +16,8 @@ import click
 
 from .version import __version__
 from .wording import counted
-from .config import DEFAULT_PRESETS, MAP_FORMATS, METHODS, EvalConfig, parse_setting, preset_names
+from .benchmarks import names as benchmark_names
+from .config import MAP_FORMATS, METHODS, EvalConfig, parse_setting, preset_names
 from .errors import ConfigError, RoneldEvalError
 from .output import DEFAULT_OUT
 
@@ -150,8 +151,8 @@ def main():
 @click.option("--config", "config_file", metavar="FILE|PRESET",
               help=f"Configuration TOML file or preset name ({', '.join(preset_names())}). "
                    "Default: the SCNN preset of the dataset.")
-@click.option("--dataset", type=click.Choice(list(DEFAULT_PRESETS)),
-              help="Benchmark layout of --data-root. Default: the config's, else culane.")
+@click.option("--dataset", type=click.Choice(benchmark_names()),
+              help="Benchmark layout of --data-root. Default: the config's, else the bundled fixture's.")
 @click.option("--data-root", type=click.Path(path_type=Path),
               help="Dataset root (CULane: holds list/test.txt; TuSimple: holds test_label.json). "
                    "Without it and --maps-root, the bundled fixture is evaluated.")
@@ -217,7 +218,7 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
             if dataset is not None and dataset != config.dataset.name:
                 raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
         else:
-            config = api.default_config(dataset or "culane")
+            config = api.default_config(dataset)
         overrides = {
             "dataset.data_root": None if data_root is None else str(data_root),
             "maps.root": None if maps_root is None else str(maps_root),
@@ -288,85 +289,33 @@ def _print_summary(result, out: Path) -> None:
     click.echo(f"results in {out}/")
 
 
-@main.group()
+class _BenchmarkCommands(click.Group):
+    """`score BENCHMARK`: each installed benchmark brings its own command (Benchmark.score_command),
+    imported only when it is the one asked for."""
+
+    def list_commands(self, ctx):
+        from .benchmarks import benchmark_for
+
+        return [name for name in benchmark_names() if benchmark_for(name).score_command() is not None]
+
+    def get_command(self, ctx, name):
+        from .benchmarks import benchmark_for
+
+        return benchmark_for(name).score_command() if name in benchmark_names() else None
+
+
+@main.group(cls=_BenchmarkCommands)
 def score():
     """Score lane files in the official formats (no maps, any method's output)."""
 
 
-@score.command("culane")
-@click.option("--data-root", required=True, type=click.Path(path_type=Path),
-              help="CULane root with the ground-truth .lines.txt files and list/test.txt.")
-@click.option("--pred-root", "pred_roots", required=True, multiple=True, metavar="DIR|NAME=DIR",
-              help="Predicted .lines.txt files mirrored under DIR (one method, named by the folder or NAME), or "
-                   "a folder whose subfolders each mirror the list (one method each, as run --save-lanes writes "
-                   "OUT/lanes/). Repeatable; all are scored in one pass. A missing file means no lanes.")
-@click.option("--list", "list_file", type=click.Path(path_type=Path),
-              help="List file (default <data-root>/list/test.txt).")
-@click.option("--iou", metavar="T|START:STOP:STEP",
-              help="IoU threshold, or a grid scored in one pass (e.g. 0.50:0.95:0.05 for mF1). Default: 0.5.")
-@click.option("--preset", type=click.Choice(["clrnet"]),  # score.SCORE_PRESETS (a test keeps them equal)
-              help="A paper family's grid: clrnet is --iou 0.50:0.95:0.05 with F1@50, F1@75 and mF1.")
-@click.option("--width", default=30, show_default=True, type=click.IntRange(min=2),
-              help="Lane width in pixels at 1640x590.")
-@click.option("--strict", is_flag=True, help="Stop when any listed frame has no prediction file (default: no lanes).")
-@click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
-@click.option("--out", type=click.Path(path_type=Path),
-              help="Folder for official.csv (every method, category and threshold), summary.csv and summary.md.")
-@click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
-@debug_option
-def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, strict, workers, out, quiet, debug):
-    """Official CULane precision, recall and F1 per method and category, as SCNN's lane_evaluation
-    computes them; with a grid, F1@50, F1@75 and mF1 as CLRNet reports them."""
-    from . import score as scoring  # not api: scoring needs none of the evaluation's imports
-
-    _no_collections_at_exit()
-    score = _guard(scoring.score_culane, debug, data_root, list(pred_roots), list_file=list_file, iou=iou, width=width,
-                   out=out, workers=workers, progress=not quiet, announce=_announcer(quiet), preset=preset,
-                   strict=strict)
-    for warning in score.warnings:  # never silently, --quiet or not
-        click.echo(warning, err=True)
-    if not quiet:
-        _print_culane_score(score, width)
-
-
-def _print_culane_score(score, width: int) -> None:
-    from .score import first_threshold_table, grid_text, summary_table
-
-    grid = grid_text(score.thresholds)
-    click.echo(f"{score.n_frames:,} frames, {len(score.trees)} method{'s' if len(score.trees) > 1 else ''}, "
-               f"{f'IoU > {grid}' if len(score.thresholds) == 1 else f'IoU thresholds {grid}'}, width {width}")
-    if len(score.thresholds) > 1:
-        click.echo("F1 in percent; mF1 = mean F1 over the thresholds")
-        click.echo(summary_table(score).to_markdown())
-    else:
-        click.echo(first_threshold_table(score).to_markdown())
-
-
-@score.command("tusimple")
-@click.option("--labels", required=True, type=click.Path(path_type=Path), help="TuSimple label file (test_label.json).")
-@click.option("--pred", required=True, type=click.Path(path_type=Path),
-              help="Predictions, one JSON object per line: raw_file, lanes, h_samples, optional run_time (ms).")
-@click.option("--out", type=click.Path(path_type=Path),
-              help="Folder for official.csv: accuracy, fp, fn, f1_ufld, f1_clrnet.")
-@click.option("--quiet", is_flag=True, help="Print nothing.")
-@debug_option
-def score_tusimple_command(labels, pred, out, quiet, debug):
-    """Official TuSimple accuracy, FP and FN, as tusimple-benchmark's evaluate/lane.py computes them, and F1
-    as UFLD-v2's lane2.py (f1_ufld) and CLRNet's tusimple_metric.py (f1_clrnet) compute it."""
-    from . import score as scoring
-
-    score = _guard(scoring.score_tusimple, debug, labels, pred, out)
-    if not quiet:
-        click.echo(f"{score.n_frames} frames: Accuracy {score.accuracy:.10g}  FP {score.fp:.10g}  FN {score.fn:.10g}  "
-                   f"F1 {score.f1_ufld:.10g} (UFLD-v2 lane2.py)  {score.f1_clrnet:.10g} (CLRNet tusimple_metric.py)")
-
-
 @main.command()
-@click.option("--dataset", required=True, type=click.Choice(list(DEFAULT_PRESETS)), help="Layout to generate.")
+@click.option("--dataset", required=True, type=click.Choice(benchmark_names()), help="Layout to generate.")
 @click.option("--out", required=True, type=click.Path(path_type=Path),
               help="Folder to write: OUT/data is the dataset root, OUT/maps the maps root.")
 @click.option("--clips", default=3, show_default=True, type=click.IntRange(min=1), help="Number of clips.")
-@click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: 12 (CULane), 20 (TuSimple).")
+@click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: the benchmark's (CULane 12, "
+              "TuSimple 20: a labelled frame and the 19 before it).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed; the same seed gives the same bytes.")
 @click.option("--maps-format", default="npy", show_default=True, type=click.Choice(MAP_FORMATS),
               help="How to store maps; lanes: a lane detector's output files instead of maps.")
@@ -377,7 +326,9 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
 
     from . import api
 
-    total = clips * (frames or (12 if dataset == "culane" else 20))
+    from .benchmarks import benchmark_for
+
+    total = clips * (frames or benchmark_for(dataset).frames_per_clip)
     with tqdm(total=total, unit="frame", desc="generating", disable=total < 200) as bar:
         result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
     click.echo(f"data root: {result.data_root}")

@@ -32,15 +32,15 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 from .errors import ConfigError
 from .limits import CONFIG
 from .geometry import MapGeometry
+from .methods import METHOD_TABLE
 
-DATASETS = ("culane", "tusimple")
 # "lanes": another detector's lane files, rendered into maps (roneld_eval.maps.lanes).
 MAP_FORMATS = ("npy", "npz", "scnn-png", "lanes")
 # The built-in extractors (roneld_eval.extract.registry); plug-ins add their own names.
-METHODS = ("baseline", "roneld", "roneld-nopft")
+METHODS = tuple(METHOD_TABLE)
 # Those that output the two ego lanes only (RONELD keeps the active lanes): their official F1
 # over all lanes counts the outer lanes as missed, which a reader must be told.
-EGO_LANES_ONLY = frozenset({"roneld", "roneld-nopft"})
+EGO_LANES_ONLY = frozenset(name for name, facts in METHOD_TABLE.items() if facts.ego_lanes_only)
 # A plug-in's name becomes a folder (lanes/NAME/) and a column value: letters, digits, - _ . +
 METHOD_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}")
 # Python's entry-point group where installed packages register extractors by name.
@@ -49,9 +49,6 @@ ENTRY_POINT_GROUP = "roneld_eval.extractors"
 PLUGIN_TIME_LIMIT_S = 60.0
 ON_ERROR = ("fail", "skip")
 
-# Image sizes of the benchmarks (CULane: Pan et al. 2018; TuSimple: tusimple-benchmark).
-IMAGE_SIZES = {"culane": (1640, 590), "tusimple": (1280, 720)}
-DEFAULT_PRESETS = {"culane": "scnn-culane", "tusimple": "scnn-tusimple"}
 
 
 @dataclass(frozen=True)
@@ -204,19 +201,27 @@ def _check_fields(record, section: str) -> None:
 class DatasetConfig:
     """Which benchmark, where it lies, and how much of it to read."""
 
-    name: str = "culane"
-    image_width: int = IMAGE_SIZES["culane"][0]
-    image_height: int = IMAGE_SIZES["culane"][1]
+    name: str = ""  # a registered benchmark (roneld_eval.benchmarks); "" = the one bundling the fixture
+    image_width: int = 0  # 0 = the benchmark's image size
+    image_height: int = 0
     data_root: str | None = None
-    # CULane: a list file of image paths (default <root>/list/test.txt);
-    # TuSimple: the label file (default <root>/test_label.json).
-    list_file: str | None = None
+    list_file: str | None = None  # what lists the frames, as the benchmark reads it (its own default)
     limit: int | None = None  # at most this many clips, in dataset order
 
     def __post_init__(self):
+        from .benchmarks import benchmark_for, default_name, names
+
+        if self.name == "":
+            object.__setattr__(self, "name", default_name())
+        if isinstance(self.name, str) and self.name in names():
+            width, height = benchmark_for(self.name).image_size
+            if self.image_width == 0:
+                object.__setattr__(self, "image_width", width)
+            if self.image_height == 0:
+                object.__setattr__(self, "image_height", height)
         _check_fields(self, "dataset")
-        if self.name not in DATASETS:
-            raise ConfigError(f"dataset must be one of {', '.join(DATASETS)}, got {self.name!r}")
+        if self.name not in names():
+            raise ConfigError(f"dataset must be one of {', '.join(names())}, got {self.name!r}")
 
 
 @dataclass(frozen=True)

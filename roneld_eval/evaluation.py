@@ -44,6 +44,7 @@ from .maps.scnn_png import scnn_png_paths
 from .metrics.bootstrap import paired_bootstrap
 from .metrics.paper import ego_masks, side_ious
 from .metrics.sweep import sweep_accuracy
+from .methods import GAIN_REFERENCES, RONELD
 from .model import Clip, Dataset, Frame, FrameMaps, Lane, read_only
 from .plugin_calls import PluginCalls
 from .signals import TimeLimitExceeded, time_limit
@@ -739,6 +740,7 @@ def evaluate(
                     lane_sink(outcome, frame)
                 rows.add(frame.relpath, outcome)
                 tally.add(outcome.method, frame.relpath, outcome.official)
+            tally.end_clip(clip.clip_id)
             del result, listed
     finally:
         bar.close()
@@ -746,8 +748,9 @@ def evaluate(
     per_frame = rows.take_table()
     del rows
     thresholds = parse_thresholds(config.paper.thresholds)
-    accuracy = with_intervals(sweep_accuracy(per_frame, thresholds, methods=config.methods), per_frame, thresholds)
-    gains = pairwise_gains(per_frame, thresholds, config.methods)
+    paired = PairedGains(per_frame, thresholds)
+    accuracy = with_intervals(sweep_accuracy(per_frame, thresholds, methods=config.methods), paired)
+    gains = pairwise_gains(paired, config.methods)
     official = tally.table()
     runtime = _runtime_table(extract_ms, load_ms)
     totals["ego_lanes"] = int(len(per_frame) // max(len(config.methods), 1))
@@ -798,39 +801,50 @@ def _first_geometry(clips: Sequence[Clip], context: RunContext) -> EffectiveGeom
     return None
 
 
-def with_intervals(accuracy: pd.DataFrame, per_frame: pd.DataFrame, thresholds) -> pd.DataFrame:
+class PairedGains:
+    """Accuracy gains with their 95% paired-bootstrap intervals over clips, each pair bootstrapped
+    once however many tables show it (accuracy.csv's RONELD gain and gains.csv share some)."""
+
+    def __init__(self, per_frame: pd.DataFrame, thresholds):
+        self.per_frame, self.thresholds = per_frame, thresholds
+        self._done: dict[tuple[str, str], pd.DataFrame] = {}
+
+    def of(self, method: str, over: str) -> pd.DataFrame:
+        """threshold, difference (`method` - `over` accuracy), ci_low, ci_high."""
+        key = (method, over)
+        if key not in self._done:
+            self._done[key] = paired_bootstrap(self.per_frame, self.thresholds, over, reference=method)
+        return self._done[key]
+
+
+def with_intervals(accuracy: pd.DataFrame, gains: PairedGains) -> pd.DataFrame:
     """Add RONELD's gain over each other method with its 95% paired-bootstrap interval over clips."""
     accuracy = accuracy.copy()
     for column in ("roneld_gain", "roneld_gain_ci_low", "roneld_gain_ci_high"):
         accuracy[column] = np.nan
     methods = set(accuracy["method"])
-    if "roneld" not in methods or per_frame.empty:
+    if RONELD.name not in methods or gains.per_frame.empty:
         return accuracy
-    for method in sorted(methods - {"roneld"}):
-        gains = paired_bootstrap(per_frame, thresholds, method)
+    for method in sorted(methods - {RONELD.name}):
+        gain = gains.of(RONELD.name, over=method)
         rows = (accuracy["method"] == method).to_numpy()
-        accuracy.loc[rows, "roneld_gain"] = gains["difference"].to_numpy()
-        accuracy.loc[rows, "roneld_gain_ci_low"] = gains["ci_low"].to_numpy()
-        accuracy.loc[rows, "roneld_gain_ci_high"] = gains["ci_high"].to_numpy()
+        accuracy.loc[rows, "roneld_gain"] = gain["difference"].to_numpy()
+        accuracy.loc[rows, "roneld_gain_ci_low"] = gain["ci_low"].to_numpy()
+        accuracy.loc[rows, "roneld_gain_ci_high"] = gain["ci_high"].to_numpy()
     return accuracy
 
 
-# The methods every other one is compared with, when the run has them.
-GAIN_REFERENCES = ("baseline", "roneld")
-
-
-def pairwise_gains(per_frame: pd.DataFrame, thresholds, methods: Sequence[str]) -> pd.DataFrame:
+def pairwise_gains(gains: PairedGains, methods: Sequence[str]) -> pd.DataFrame:
     """method, reference, threshold, gain (method - reference accuracy), ci_low, ci_high: every
-    method against the baseline and against RONELD, 95% paired bootstrap over clips."""
+    method against each of GAIN_REFERENCES the run has."""
     tables = []
     for reference in GAIN_REFERENCES:
-        if reference not in methods or per_frame.empty:
+        if reference not in methods or gains.per_frame.empty:
             continue
         for method in methods:
             if method == reference:
                 continue
-            table = paired_bootstrap(per_frame, thresholds, reference, reference=method)
-            table = table.rename(columns={"difference": "gain"})
+            table = gains.of(method, over=reference).rename(columns={"difference": "gain"})
             table.insert(0, "reference", reference)
             table.insert(0, "method", method)
             tables.append(table)

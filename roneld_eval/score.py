@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING, Callable, Iterator, Union
 
 import numpy as np
 
-from .config import IMAGE_SIZES, MIN_LINE_THICKNESS, Thresholds, parse_thresholds
-from .datasets import read_culane
+from .config import MIN_LINE_THICKNESS, Thresholds, parse_thresholds
+from .datasets.culane import read_culane
 from .datasets._paths import under_root
 from .datasets.culane import labels_path, read_frame_labels
 from .errors import ConfigError, InputError
@@ -370,7 +370,7 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
         relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
-        image_width, image_height = IMAGE_SIZES["culane"]
+        image_width, image_height = dataset.image_width, dataset.image_height
         roots = tuple(tree.root for tree in trees)
         chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
         tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]

@@ -1,4 +1,5 @@
-"""A deterministic generator of small, realistic CULane and TuSimple datasets with stored maps.
+"""A deterministic generator of small, realistic lane datasets with stored maps: the roads, the
+maps and the detector's lanes; each benchmark writes them in its own layout (`synthesize`).
 
 A clip is a road seen from a car: lane boundaries converge to a vanishing point, may curve,
 and shift when the car changes lanes. Ground truth is the true boundaries in the benchmark's
@@ -11,26 +12,17 @@ bytes: every clip draws from its own generator seeded by (seed, clip index).
 
 from __future__ import annotations
 
-import json
 import math
-import posixpath
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable
 
 import cv2
 import numpy as np
 
-from .config import IMAGE_SIZES
 from .errors import InputError
-from .model import image_stem
 
 CHANNELS = 4
 MAP_WIDTH, MAP_HEIGHT = 800, 288
-CULANE_SIZE = IMAGE_SIZES["culane"]
-TUSIMPLE_SIZE = IMAGE_SIZES["tusimple"]
-TUSIMPLE_ROWS = tuple(range(160, 720, 10))
-CULANE_CATEGORIES = ("normal", "crowd", "hlight", "shadow", "noline", "arrow", "curve", "cross", "night")
 
 
 @dataclass(frozen=True)
@@ -50,6 +42,17 @@ class Scene:
         """Image x of a boundary at rows ys (lateral position in lane widths, car at 0)."""
         t = (ys - self.vanish_y) / (self.height - self.vanish_y)
         return self.vanish_x + t * lateral * self.lane_width_px + self.curvature_px * (1 - t) ** 2
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Where the road lies in a benchmark's frames: ranges the clip's camera is drawn from."""
+
+    width: int
+    height: int
+    vanish_y: tuple[float, float]  # row of the vanishing point
+    lane_width_px: tuple[float, float]  # between two boundaries at the bottom row
+    top_margin_px: tuple[float, float]  # highest visible lane row, below the vanishing point
 
 
 @dataclass(frozen=True)
@@ -152,14 +155,13 @@ def render_maps(scene: Scene, style: ClipStyle, frame_index: int, rng: np.random
     return np.rint(np.clip(maps, 0, 1) * 255).astype(np.uint8)
 
 
-def scene_sequence(size: tuple[int, int], n_frames: int, style: ClipStyle, rng: np.random.Generator,
+def scene_sequence(camera: Camera, n_frames: int, style: ClipStyle, rng: np.random.Generator,
                    frames_apart: int) -> list[Scene]:
     """A clip's scenes; `frames_apart` video frames between two stored frames (30 for CULane)."""
-    width, height = size
-    tusimple = height == TUSIMPLE_SIZE[1]
+    width, height = camera.width, camera.height
     vanish_x = width / 2 + rng.normal(0, width * 0.02)
-    vanish_y = rng.uniform(265, 300) if tusimple else rng.uniform(245, 275)
-    lane_width = rng.uniform(620, 780) if tusimple else rng.uniform(820, 980)
+    vanish_y = rng.uniform(*camera.vanish_y)
+    lane_width = rng.uniform(*camera.lane_width_px)
     bend = rng.uniform(150, 320) * rng.choice([-1, 1]) if style.curved else rng.normal(0, 15)
     drift = rng.normal(0, 0.06)
     change_start = int(rng.integers(1, max(n_frames // 3, 2)))
@@ -177,39 +179,9 @@ def scene_sequence(size: tuple[int, int], n_frames: int, style: ClipStyle, rng: 
             width=width, height=height,
             vanish_x=vanish_x + 10 * math.sin(k * frames_apart / 120.0),
             vanish_y=vanish_y, lane_width_px=lane_width, offset=float(offset), curvature_px=float(curvature),
-            top_y=vanish_y + (rng.uniform(10, 25) if tusimple else rng.uniform(12, 45)),
+            top_y=vanish_y + rng.uniform(*camera.top_margin_px),
         ))
     return scenes
-
-
-def culane_lines(scene: Scene) -> str:
-    """The frame's ground truth as a raw CULane `.lines.txt`: up to 4 lanes, left to right.
-
-    Points every 10 px from the bottom row up, x may leave the image a little (as in CULane).
-    """
-    ys = np.arange(scene.height, scene.top_y, -10.0)
-    lines = []
-    for _, lateral in sorted(channel_lanes(scene).items()):
-        xs = scene.boundary_x(lateral, ys)
-        keep = (xs > -60) & (xs < scene.width + 60)
-        if keep.sum() < 4:
-            continue
-        lines.append("".join(f"{x:.3f} {int(y)} " for x, y in zip(xs[keep], ys[keep])))
-    return "".join(line + "\n" for line in lines)
-
-
-def tusimple_lanes(scene: Scene, rng: np.random.Generator) -> list[list[int]]:
-    """The frame's ground truth as TuSimple lanes: x per h_samples row, -2 outside; unordered."""
-    ys = np.array(TUSIMPLE_ROWS, np.float64)
-    lanes = []
-    for _, lateral in sorted(channel_lanes(scene).items()):
-        xs = scene.boundary_x(lateral, ys)
-        valid = (ys >= scene.top_y) & (xs >= 0) & (xs < scene.width)
-        if valid.sum() < 4:
-            continue
-        lanes.append([int(round(x)) if ok else -2 for x, ok in zip(xs, valid)])
-    order = rng.permutation(len(lanes))
-    return [lanes[i] for i in order]
 
 
 def detector_lanes(scene: Scene, style: ClipStyle, frame_index: int, rng: np.random.Generator,
@@ -237,20 +209,14 @@ def detector_lanes(scene: Scene, style: ClipStyle, frame_index: int, rng: np.ran
     return out
 
 
-def _write_lane_files(stem: Path, lanes: list[tuple[np.ndarray, float]]) -> None:
-    """A detector's CULane output: <stem>.lines.txt, and <stem>.scores.txt with its lane scores."""
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    stem.with_name(stem.name + ".lines.txt").write_text(
-        "".join(" ".join(f"{x:.2f} {int(y)}" for x, y in points[::-1]) + "\n" for points, _ in lanes))
-    stem.with_name(stem.name + ".scores.txt").write_text("".join(f"{score:.3f}\n" for _, score in lanes))
-
-
-def _clip_style(dataset: str, index: int, rng: np.random.Generator, n_frames: int) -> tuple[ClipStyle, str]:
-    """A varied but deterministic mix: plain, curved, lane change, and vanishing ego lanes."""
+def clip_style(index: int, rng: np.random.Generator, n_frames: int, quality: float = 1.0,
+               noise_blobs: float = 3.0, false_positive_rate: float = 0.3,
+               vanish_every_other: bool = False) -> tuple[ClipStyle, str]:
+    """A varied but deterministic mix: plain, curved, lane change, and vanishing ego lanes; the
+    clip's kind as a CULane category name. The keywords set a benchmark's own mix."""
     kind = ("normal", "curve", "lane-change", "vanish")[index % 4]
-    quality = 1.0 if dataset == "culane" else 0.8
     vanish: tuple[int, ...] = ()
-    if kind == "vanish" or (dataset == "tusimple" and index % 2 == 1):
+    if kind == "vanish" or (vanish_every_other and index % 2 == 1):
         start = int(rng.integers(1, max(n_frames - 3, 2)))
         vanish = tuple(range(start, min(start + 3, n_frames)))
     style = ClipStyle(
@@ -259,8 +225,8 @@ def _clip_style(dataset: str, index: int, rng: np.random.Generator, n_frames: in
         lane_change=kind == "lane-change",
         vanish_frames=vanish,
         vanish_channel=int(rng.choice([1, 2])),
-        noise_blobs=3.0 if dataset == "culane" else 5.0,
-        false_positive_rate=0.3 if dataset == "culane" else 0.4,
+        noise_blobs=noise_blobs,
+        false_positive_rate=false_positive_rate,
     )
     category = {"normal": "normal", "curve": "curve", "lane-change": "crowd", "vanish": "shadow"}[kind]
     return style, category
@@ -316,168 +282,10 @@ class SynthResult:
         )
 
 
-def synth_culane(out: str | Path, clips: int = 3, frames: int = 12, seed: int = 0, maps_format: str = "npy",
-                 structure: Iterable[tuple[str, list[str]]] | None = None, progress=None) -> SynthResult:
-    """Write a CULane-layout dataset (`out/data`) and its maps (`out/maps`).
-
-    `structure` gives (clip id, frame relpaths) to imitate a real list (e.g. the official
-    test list); else clips are named like CULane's and hold `frames` frames 30 apart.
-    """
-    out = Path(out)
-    data_root, maps_root = out / "data", out / "maps"
-    if structure is not None:
-        structure = list(structure)
-    else:
-        clip_ids = [f"driver_{100 + k}_30frame/{5181432 + 317 * k:08d}_{203 + k:04d}.MP4" for k in range(clips)]
-        structure = [(clip, [f"{clip}/{30 * i:05d}.jpg" for i in range(frames)]) for clip in clip_ids]
-    listing: list[str] = []
-    categories: dict[str, list[str]] = {name: [] for name in CULANE_CATEGORIES}
-    total = 0
-    for index, (_clip_id, relpaths) in enumerate(structure):
-        rng = np.random.default_rng([seed, index])
-        style, category = _clip_style("culane", index, rng, len(relpaths))
-        scenes = scene_sequence(CULANE_SIZE, len(relpaths), style, rng, frames_apart=30)
-        detector = np.random.default_rng([seed, index, 1])  # lane files: the detector's own noise
-        for k, (relpath, scene) in enumerate(zip(relpaths, scenes)):
-            stem = image_stem(relpath)
-            label_path = data_root / f"{stem}.lines.txt"
-            label_path.parent.mkdir(parents=True, exist_ok=True)
-            label_path.write_text(culane_lines(scene))
-            if maps_format == "lanes":
-                rows = np.arange(scene.height - 1, 0, -10)[::-1]
-                _write_lane_files(maps_root / stem, detector_lanes(scene, style, k, detector, rows))
-            else:
-                _write_maps(maps_root / stem, render_maps(scene, style, k, rng), maps_format)
-            listing.append("/" + relpath)
-            categories[category].append(relpath)
-            total += 1
-            if progress is not None:
-                progress(1)
-    (data_root / "list" / "test_split").mkdir(parents=True, exist_ok=True)
-    (data_root / "list" / "test.txt").write_text("".join(line + "\n" for line in listing))
-    for number, name in enumerate(CULANE_CATEGORIES):
-        if categories[name]:
-            (data_root / "list" / "test_split" / f"test{number}_{name}.txt").write_text(
-                "".join(line + "\n" for line in categories[name])
-            )
-    return SynthResult(data_root, maps_root, "culane", maps_format, len(structure), total)
-
-
-def synth_tusimple(out: str | Path, clips: int = 3, frames: int = 20, seed: int = 0, maps_format: str = "npy",
-                   progress=None) -> SynthResult:
-    """Write a TuSimple-layout dataset (`out/data/test_label.json`) and its maps (`out/maps`)."""
-    out = Path(out)
-    data_root, maps_root = out / "data", out / "maps"
-    data_root.mkdir(parents=True, exist_ok=True)
-    records, predictions = [], []
-    rows = np.array(TUSIMPLE_ROWS)
-    total = 0
-    for index in range(clips):
-        rng = np.random.default_rng([seed, index])
-        style, _ = _clip_style("tusimple", index, rng, frames)
-        scenes = scene_sequence(TUSIMPLE_SIZE, frames, style, rng, frames_apart=1)
-        clip_id = posixpath.join("clips", f"05{30 + index % 2:02d}", f"{1492626760788443246 + 7919 * index}_0")
-        detector = np.random.default_rng([seed, index, 1])  # lane files: the detector's own noise
-        for k, scene in enumerate(scenes):
-            if maps_format == "lanes":
-                predictions.append(_tusimple_prediction(posixpath.join(clip_id, f"{k + 1}.jpg"),
-                                                        detector_lanes(scene, style, k, detector, rows)))
-            else:
-                _write_maps(maps_root / clip_id / str(k + 1), render_maps(scene, style, k, rng), maps_format)
-            total += 1
-            if progress is not None:
-                progress(1)
-        # The key order and spacing of TuSimple's own label files.
-        records.append(json.dumps({
-            "lanes": tusimple_lanes(scenes[-1], rng),
-            "h_samples": list(TUSIMPLE_ROWS),
-            "raw_file": posixpath.join(clip_id, f"{frames}.jpg"),
-        }))
-    (data_root / "test_label.json").write_text("".join(record + "\n" for record in records))
-    if maps_format == "lanes":
-        maps_root.mkdir(parents=True, exist_ok=True)
-        (maps_root / "predictions.json").write_text("".join(line + "\n" for line in predictions))
-    return SynthResult(data_root, maps_root, "tusimple", maps_format, clips, total)
-
-
-def _tusimple_prediction(raw_file: str, lanes: list[tuple[np.ndarray, float]]) -> str:
-    """A detector's TuSimple output line: x per h_samples row (-2 where the lane is not), scores."""
-    lanes_xs = []
-    for points, _ in lanes:
-        at_row = {int(y): x for x, y in points}
-        lanes_xs.append([round(float(at_row[y]), 2) if y in at_row else -2 for y in TUSIMPLE_ROWS])
-    return json.dumps({"raw_file": raw_file, "lanes": lanes_xs, "h_samples": list(TUSIMPLE_ROWS), "run_time": 0,
-                       "scores": [round(score, 3) for _, score in lanes]})
-
-
 def synthesize(dataset: str, out: str | Path, clips: int = 3, frames: int | None = None, seed: int = 0,
                maps_format: str = "npy", progress=None) -> SynthResult:
-    """Generate a dataset by name (the library twin of `roneld-eval synth`)."""
-    if dataset == "culane":
-        return synth_culane(out, clips, frames or 12, seed, maps_format, progress=progress)
-    if dataset == "tusimple":
-        return synth_tusimple(out, clips, frames or 20, seed, maps_format, progress=progress)
-    raise InputError(None, f"unknown dataset {dataset!r}")
+    """Generate a dataset of a registered benchmark (the library twin of `roneld-eval synth`)."""
+    from .benchmarks import benchmark_for
 
-
-def synth_lane_files(out: str | Path, frames: int = 2000, seed: int = 0) -> tuple[Path, Path]:
-    """Ground-truth and predicted `.lines.txt` trees for checking and timing a CULane scorer.
-
-    `out/gt` is a CULane root (with list/test.txt), `out/pred` mirrors it. Predictions are
-    noisy copies of the ground truth with the awkward cases the official evaluator must
-    handle: missed and extra lanes, 2-point, 1-point and empty lanes, repeated points,
-    reversed point order, lanes outside the image and missing files. Returns (gt, pred).
-    """
-    rng = np.random.default_rng([seed, 590])
-    out = Path(out)
-    gt_root, pred_root = out / "gt", out / "pred"
-    width, height = CULANE_SIZE
-    listing = []
-
-    def lane(x_bottom: float, step: int = 10) -> np.ndarray:
-        top = rng.integers(255, 330)
-        ys = np.arange(height, top, -step, dtype=float)
-        t = (height - ys) / (height - 250)
-        xs = x_bottom + (width / 2 - x_bottom) * t + rng.normal(0, 60) * t**2
-        return np.stack([xs, ys], 1)
-
-    def text(lanes: list[np.ndarray]) -> str:
-        return "".join(" ".join(f"{v:.3f}" for v in points.ravel()) + " \n" for points in lanes)
-
-    for index in range(frames):
-        relpath = f"driver_x_30frame/{index // 50:05d}.MP4/{(index % 50) * 30:05d}.jpg"
-        listing.append("/" + relpath)
-        truth = [lane(x) for x in np.sort(rng.uniform(-300, width + 260, int(rng.integers(0, 5))))]
-        predicted = []
-        for points in truth:
-            if rng.random() < 0.15:
-                continue
-            points = points.copy()
-            points[:, 0] += rng.normal(0, rng.choice([2, 8, 20, 40]), len(points)).cumsum() * 0.3 + rng.normal(0, 15)
-            if rng.random() < 0.5:
-                points = points[::2]
-            if rng.random() < 0.3:
-                points = points[::-1]
-            if rng.random() < 0.1:
-                points = points[[0, -1]]
-            if rng.random() < 0.05:
-                points = points[:1]
-            if rng.random() < 0.03 and len(points) > 3:
-                points[2] = points[1]
-            predicted.append(points)
-        if rng.random() < 0.2:
-            predicted.append(lane(rng.uniform(0, width), step=20))
-        if rng.random() < 0.03:
-            predicted.append(np.zeros((0, 2)))
-        if rng.random() < 0.02:
-            predicted.append(np.array([[-900.0, 700.0], [-500.0, 800.0]]))
-        stem = image_stem(relpath)
-        for root, lanes in ((gt_root, truth), (pred_root, predicted)):
-            path = root / f"{stem}.lines.txt"
-            path.parent.mkdir(parents=True, exist_ok=True)
-            if root is pred_root and rng.random() < 0.04:
-                continue
-            path.write_text(text(lanes))
-    (gt_root / "list").mkdir(parents=True, exist_ok=True)
-    (gt_root / "list" / "test.txt").write_text("".join(line + "\n" for line in listing))
-    return gt_root, pred_root
+    benchmark = benchmark_for(dataset)
+    return benchmark.synthesize(Path(out), clips, frames or benchmark.frames_per_clip, seed, maps_format, progress)

@@ -29,6 +29,7 @@ from roneld_eval.config import BaselineParams, MapsConfig, RoneldParams  # noqa:
 from roneld_eval.extract import RoneldTracker, baseline_lanes, sample_rows, warm_up  # noqa: E402
 from roneld_eval.geometry import MapGeometry  # noqa: E402
 from roneld_eval.maps import load_maps  # noqa: E402
+from roneld_eval.datasets.culane_synth import CAMERA  # noqa: E402
 from roneld_eval.synth import ClipStyle, render_maps, scene_sequence  # noqa: E402
 
 REAL_CLIP = REPO.parent / "shared" / "data" / "culane-scnn-clip"
@@ -46,7 +47,7 @@ def synthetic_maps(height: int, width: int, frames: int = 90) -> list[np.ndarray
     import cv2
 
     rng = np.random.default_rng(0)
-    scenes = scene_sequence((1640, 590), frames, ClipStyle(curved=True), rng, frames_apart=30)
+    scenes = scene_sequence(CAMERA, frames, ClipStyle(curved=True), rng, frames_apart=30)
     out = []
     for k, scene in enumerate(scenes):
         maps = render_maps(scene, ClipStyle(), k, rng)

@@ -60,7 +60,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from roneld_eval.evaluation import default_workers  # noqa: E402
-from roneld_eval.synth import synth_culane  # noqa: E402
+from roneld_eval.datasets.culane_synth import synth_culane  # noqa: E402
 
 TEST_LIST = REPO.parent / "shared" / "data" / "culane-lists" / "test.txt"
 

@@ -33,7 +33,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from roneld_eval.synth import synth_lane_files  # noqa: E402
+from roneld_eval.datasets.culane_synth import synth_lane_files  # noqa: E402
 
 WIDTH, HEIGHT = 1640, 590
 VIDEOS = 419

@@ -99,7 +99,7 @@ def median_pair(samples: list[tuple[float, float]]) -> tuple[float, float]:
 
 def one_frame_set(folder: Path) -> tuple[Path, Path]:
     """A CULane root with one listed frame (4 ground-truth lanes) and a prediction tree for it."""
-    from roneld_eval.synth import synth_lane_files
+    from roneld_eval.datasets.culane_synth import synth_lane_files
 
     return synth_lane_files(folder, frames=1, seed=0)
 

@@ -145,7 +145,7 @@ def test_a_signal_before_any_command_runs_is_one_line_and_128_plus_n(monkeypatch
 
 
 def test_a_dry_run_checks_and_says_what_would_be_scored_and_writes_nothing(tmp_path, monkeypatch):
-    from roneld_eval.synth import synth_culane
+    from roneld_eval.datasets.culane_synth import synth_culane
 
     monkeypatch.chdir(tmp_path)
     result = CliRunner().invoke(main, ["run", "--dry-run"])

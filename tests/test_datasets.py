@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 from conftest import write_culane_tree
 
-from roneld_eval.datasets import read_culane, read_dataset, read_tusimple
+from roneld_eval.datasets import read_dataset
+from roneld_eval.datasets.culane import read_culane
+from roneld_eval.datasets.tusimple import read_tusimple
 from roneld_eval.errors import InputError
 from roneld_eval.lanes_io import parse_culane_lines, tusimple_xs
 

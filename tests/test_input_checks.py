@@ -35,13 +35,16 @@ from roneld_eval.config import (
     parse_thresholds,
     preset_names,
 )
-from roneld_eval.datasets import read_culane, read_dataset, read_tusimple
+from roneld_eval.datasets import read_dataset
+from roneld_eval.datasets.culane import read_culane
+from roneld_eval.datasets.tusimple import read_tusimple
 from roneld_eval.errors import ConfigError, InputError
 from roneld_eval.extract.roneld import RoneldTracker
 from roneld_eval.lanes_io import read_culane_lines, read_text
 from roneld_eval.maps import load_maps, required_paths
 from roneld_eval.model import Frame, image_stem
-from roneld_eval.synth import synth_culane, synth_tusimple
+from roneld_eval.datasets.culane_synth import synth_culane
+from roneld_eval.datasets.tusimple_synth import synth_tusimple
 
 ROWS = list(range(160, 720, 10))
 

@@ -25,7 +25,7 @@ from roneld_eval.maps import load_maps
 from roneld_eval.metrics.culane_official import evaluate_culane_frame
 from roneld_eval.metrics.paper import ego_masks, side_ious
 from roneld_eval.model import Lane
-from roneld_eval.synth import synth_culane
+from roneld_eval.datasets.culane_synth import synth_culane
 
 
 PLUGINS = Path(__file__).with_name("plugin_extractors.py")
@@ -252,7 +252,7 @@ def test_resume_sees_a_helper_the_plugin_imports_only_while_it_runs(dataset, tmp
 
 
 def test_a_stateful_plugin_sees_every_frame_and_a_stateless_one_only_scored_ones(tmp_path):
-    from roneld_eval.synth import synth_tusimple
+    from roneld_eval.datasets.tusimple_synth import synth_tusimple
 
     synth_tusimple(tmp_path / "t", clips=1, frames=20, seed=1)  # only the 20th frame is labelled
     config = api.default_config("tusimple").with_overrides(**{

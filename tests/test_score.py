@@ -25,7 +25,7 @@ from roneld_eval.metrics.culane_official import CulaneFrameResult, ScoredFrames,
 from roneld_eval.metrics.tusimple_official import TusimpleScore, f1_clrnet, f1_ufld
 from roneld_eval.report.tables import Table
 from roneld_eval.score import SCORE_PRESETS, PlainTable, first_threshold_table, score_culane, score_tusimple
-from roneld_eval.synth import synth_lane_files
+from roneld_eval.datasets.culane_synth import synth_lane_files
 
 GRID = "0.50:0.95:0.05"
 LABELS = ["0.50", "0.55", "0.60", "0.65", "0.70", "0.75", "0.80", "0.85", "0.90", "0.95"]
@@ -270,7 +270,7 @@ def test_a_foreign_out_is_refused_before_any_scoring(lanes, tmp_path, monkeypatc
 
 
 def test_the_cli_presets_are_the_librarys():
-    command = main.commands["score"].commands["culane"]
+    command = main.commands["score"].get_command(None, "culane")
     preset = next(p for p in command.params if p.name == "preset")
     assert sorted(preset.type.choices) == sorted(SCORE_PRESETS)
 
@@ -442,7 +442,7 @@ def test_tusimple_angle_thresholds_are_numpys_as_lane_py_computes_them(shared_da
 
 
 def test_score_tusimple_on_every_frame_of_a_clip_says_what_to_do(tmp_path):
-    from roneld_eval.synth import synth_tusimple
+    from roneld_eval.datasets.tusimple_synth import synth_tusimple
 
     synth_tusimple(tmp_path / "t", clips=2, seed=1, maps_format="lanes")  # predictions for frames 1..20
     labels, every = tmp_path / "t" / "data" / "test_label.json", tmp_path / "t" / "maps" / "predictions.json"

@@ -187,7 +187,7 @@ print(len(unfilter_grey.signatures))
 def test_a_run_on_png_maps_decodes_them_in_the_workers_only(tmp_path):
     # The main process checks the first frame's map size from a PNG header: it loads no decoding
     # kernel, nor numba's machinery with it (0.3 s and 50 MB before the workers could start).
-    from roneld_eval.synth import synth_culane
+    from roneld_eval.datasets.culane_synth import synth_culane
 
     made = synth_culane(tmp_path / "set", clips=2, frames=3, maps_format="scnn-png")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))

@@ -20,7 +20,7 @@ import pytest
 from roneld_eval import api, evaluation
 from roneld_eval.datasets import read_dataset
 from roneld_eval.errors import InputError
-from roneld_eval.synth import synth_culane
+from roneld_eval.datasets.culane_synth import synth_culane
 
 OUTPUTS = ("accuracy.csv", "per_frame.csv", "official.csv", "gains.csv")
 LENGTHS = [30, 23, 26, 19, 5]

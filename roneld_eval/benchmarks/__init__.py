@@ -1,22 +1,28 @@
-"""The benchmarks a run can score against, one module each: how a frame is scored the official
-way, how the official table is built, where a clip's labels lie, and how lanes are written.
+"""The benchmarks a run can score against, each one object implementing `Benchmark`: how its
+dataset is read, how a frame is scored the official way, how the official table is built and
+shown, where a clip's labels lie, and how lanes are written.
 
-The runner asks `benchmark_for(dataset name)` and knows no benchmark by name; adding one
-(VIL-100, LLAMAS, CurveLanes) means adding a module here and a reader in `datasets`.
+Benchmarks register under the entry-point group `roneld_eval.benchmarks` (name = module:object),
+CULane and TuSimple as any third party's package would (pyproject.toml). The rest of the tool
+asks `benchmark_for(name)` and `names()`, and knows no benchmark by name.
 """
 
 from __future__ import annotations
 
-import importlib
+import functools
+import importlib.metadata
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol, Sequence
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
 
 from ..config import EvalConfig
-from ..extract.protocol import Prediction
+from ..errors import ConfigError
 from ..model import Clip, Dataset, Frame, Lane
+
+if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors' kernels
+    import pandas as pd
+
+    from ..extract.protocol import Prediction
 
 
 class OfficialRecord(Protocol):
@@ -29,7 +35,12 @@ class OfficialTally(Protocol):
     """The official table gathered one frame record at a time, kept compact: what a run's main
     process holds instead of every record."""
 
-    def add(self, method: str, relpath: str, record: Any) -> None: ...
+    def add(self, method: str, relpath: str, record: Any) -> None:
+        """One frame's record: the frames of a clip come in frame order, every method's in turn."""
+
+    def end_clip(self, clip_id: str) -> None:
+        """Every frame of the clip has been added: where clip-level metrics (temporal ones, over
+        consecutive frames) finish the clip."""
 
     def table(self) -> pd.DataFrame:
         """The official table: one row per method (and category), methods in the given order."""
@@ -46,13 +57,29 @@ class LaneFile:
 
 
 class Benchmark(Protocol):
-    """What the runner needs of a benchmark."""
+    """What the tool needs of a benchmark."""
 
-    name: str
+    name: str  # as configurations and the command line name it (the entry point's name)
+    display_name: str  # as tables and titles print it
+    image_size: tuple[int, int]  # (width, height) of its frames
+    default_preset: str  # the configuration of its default model: a bundled preset name or a TOML file
+    frames_per_clip: int  # what `synth` generates by default
+    fixture: str | None  # folder of roneld_eval._fixture holding its bundled fixture, if any
     # numba kernel groups its official scoring runs (compiled before the workers start)
     kernel_groups: tuple[str, ...]
     # said after "maps missing for N frames of K clips" (what a clip needs), or ""
     missing_maps_hint: str
+
+    def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
+             labels: bool) -> Dataset:
+        """The dataset under `root`, clips in order; see `datasets.read_dataset`. With
+        `labels=False` a benchmark may leave each clip's labels to `with_labels`."""
+
+    def with_labels(self, clip: Clip, root: Path, errors: list | None) -> Clip:
+        """The clip with its labels read (called only where `read` left them out)."""
+
+    def synthesize(self, out: Path, clips: int, frames: int, seed: int, maps_format: str, progress) -> Any:
+        """Write a synthetic set (`synth.SynthResult`): OUT/data in the benchmark's layout, OUT/maps."""
 
     def label_paths(self, clip: Clip, data_root: Path | None, label_file: Path | None) -> list[Path]:
         """Every file holding this clip's labels (what resume must see unchanged)."""
@@ -72,13 +99,69 @@ class Benchmark(Protocol):
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         """One frame's lanes in the benchmark's official prediction format."""
 
+    def score_command(self) -> Any:
+        """`roneld-eval score NAME`: a click command scoring lane files, or None."""
 
-# dataset name -> module of this package whose BENCHMARK it is (imported when first needed)
-MODULES = {"culane": "culane", "tusimple": "tusimple"}
+    # ---- how its official scores are shown and read back ----
+
+    # official.csv's columns as compare reads it back (see comparison.runs.read_csv for the kinds),
+    # those it may lack (written by older versions), and the columns naming a row
+    official_columns: Mapping[str, str]
+    official_optional: Mapping[str, str]
+    official_key: tuple[str, ...]
+
+    def official_protocol(self, protocol: Any) -> str | None:
+        """The run's settings behind its official scores (report.tables.Protocol), or None."""
+
+    def official_note(self, protocol: Any) -> str:
+        """What report.html says of the official table (`protocol` may be None)."""
+
+    def check_official(self, path: Path, table: "pd.DataFrame") -> None:
+        """Refuse (InputError) an official.csv read back whose numbers cannot be this benchmark's."""
+
+    def official_comparison(self, groups: Sequence[Any]) -> tuple[Any, str]:
+        """compare's official table of run groups of this benchmark (a comparison Grid), and its text."""
 
 
+ENTRY_POINT_GROUP = "roneld_eval.benchmarks"
+
+
+@functools.cache
+def _entry_points() -> dict[str, importlib.metadata.EntryPoint]:
+    found: dict[str, importlib.metadata.EntryPoint] = {}
+    for point in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        found.setdefault(point.name, point)  # the first on sys.path wins, as for console scripts
+    return dict(sorted(found.items()))
+
+
+def names() -> tuple[str, ...]:
+    """Every registered benchmark's name, without importing any of them."""
+    return tuple(_entry_points())
+
+
+@functools.cache
 def benchmark_for(name: str) -> Benchmark:
-    """The benchmark of a dataset name (as `DatasetConfig.name` gives it)."""
-    if name not in MODULES:
-        raise ValueError(f"no benchmark named {name!r}; known: {', '.join(MODULES)}")
-    return importlib.import_module(f".{MODULES[name]}", __name__).BENCHMARK
+    """The benchmark registered under `name` (as `DatasetConfig.name` gives it)."""
+    points = _entry_points()
+    if name not in points:
+        known = ", ".join(points) or "none (is roneld-eval installed?)"
+        raise ConfigError(f"unknown dataset {name!r}; choose from {known}")
+    try:
+        benchmark = points[name].load()
+    except Exception as error:  # a third party's package: say which, not a traceback
+        raise ConfigError(f"benchmark {name!r} ({points[name].value}) cannot be loaded: "
+                          f"{type(error).__name__}: {error}") from None
+    if getattr(benchmark, "name", None) != name:
+        raise ConfigError(f"benchmark {name!r} ({points[name].value}) calls itself "
+                          f"{getattr(benchmark, 'name', None)!r}")
+    return benchmark
+
+
+def default_name() -> str:
+    """The benchmark `run` evaluates when told none: the first of this package's own that bundles
+    a fixture (an installed package cannot change what the bare command does)."""
+    own = __name__.split(".")[0] + "."
+    for name, point in _entry_points().items():
+        if point.value.startswith(own) and benchmark_for(name).fixture is not None:
+            return name
+    raise ConfigError("no installed benchmark bundles a fixture: give --dataset, --data-root and --maps-root")

@@ -6,15 +6,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
-import pandas as pd
-
 from ..config import EvalConfig
 from . import LaneFile
-from ..datasets.culane import labels_path
-from ..extract.protocol import Prediction
+from ..datasets.culane import IMAGE_HEIGHT, IMAGE_WIDTH, labels_path, read_culane, with_labels
 from ..json_fields import json_number, read_count, read_float, read_list
 from ..lanes_io import format_culane_lines
 from ..metrics.culane_official import (OFFICIAL_COLUMNS, CulaneFrameResult, f_measure, matched_result,
@@ -22,6 +19,11 @@ from ..metrics.culane_official import (OFFICIAL_COLUMNS, CulaneFrameResult, f_me
 from ..metrics.paper import ego_lanes
 from ..metrics.raster import MaskSet
 from ..model import Clip, Dataset, Frame, Lane
+
+if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors
+    import pandas as pd
+
+    from ..extract.protocol import Prediction
 
 
 @dataclass(frozen=True)
@@ -49,8 +51,25 @@ class _Truth:
 
 class CulaneBenchmark:
     name = "culane"
+    display_name = "CULane"
+    image_size = (IMAGE_WIDTH, IMAGE_HEIGHT)
+    default_preset = "scnn-culane"
+    frames_per_clip = 12
+    fixture: str | None = "culane"
     kernel_groups = ("official",)
     missing_maps_hint = ""
+
+    def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
+             labels: bool) -> Dataset:
+        return read_culane(root, list_file, limit, errors, labels, require_labels=True)
+
+    def with_labels(self, clip: Clip, root: Path, errors: list | None) -> Clip:
+        return with_labels(clip, root, errors)
+
+    def synthesize(self, out: Path, clips: int, frames: int, seed: int, maps_format: str, progress) -> Any:
+        from ..datasets.culane_synth import synth_culane
+
+        return synth_culane(out, clips, frames, seed, maps_format, progress=progress)
 
     def label_paths(self, clip: Clip, data_root: Path | None, label_file: Path | None) -> list[Path]:
         if data_root is None:
@@ -93,6 +112,69 @@ class CulaneBenchmark:
 
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         return LaneFile(f"{method}/{frame.stem}.lines.txt", format_culane_lines(lanes))
+
+    def score_command(self):
+        from .culane_cli import score_culane_command
+
+        return score_culane_command
+
+    def official_protocol(self, protocol) -> str | None:
+        return protocol.official()
+
+    def official_note(self, protocol) -> str:
+        return ("SCNN's CULane evaluator per category, and 'ego': the two ego lanes only"
+                + (f"; {protocol.official()}." if protocol is not None else "."))
+
+    # official.csv as compare reads it back: required and optional columns, and its key
+    official_columns = {"method": "text", "category": "text", "tp": "count", "fp": "count", "fn": "count",
+                        "f1": "optional number"}
+    official_optional: dict[str, str] = {}
+    official_key = ("method", "category")
+
+    def check_official(self, path: Path, table: pd.DataFrame) -> None:
+        pass
+
+    def official_comparison(self, groups) -> tuple[Any, str]:
+        """compare's official table of these run groups (one dataset), and the text above it."""
+        settings = dict(groups[0].runs[0].protocol)
+        text = (f"Official {self.display_name} F1 (%) per category (all lanes, "
+                f"{settings.get('official.lane_width_px')} px wide, a match counts when IoU > "
+                f"{settings.get('official.iou_threshold')}); for 'cross', which has no lanes, the number of false "
+                f"positives. 'ego': the same protocol on the two ego lanes and each method's two active lanes.")
+        return _official_grid(groups), text
+
+
+def _official_grid(groups):
+    """Official CULane F1 (%) per category (rows) for every model and method (columns); 'cross' as FP."""
+    from ..comparison import all_found, method_header, method_name, ordered_methods
+    from ..comparison.tables import EMPTY, Cell, Column, Grid, Stat, Text
+
+    categories = list(dict.fromkeys(c for g in groups for r in g.runs for c in r.official["category"]))
+    categories = [c for c in categories if c not in ("all", "ego")] + [c for c in ("all", "ego") if c in categories]
+    columns, makers = [], []
+    for group in groups:
+        for method in ordered_methods(group.methods):
+            columns.append(Column(method_name(method, group.label) + ("" if group.n == 1 else f" (n = {group.n})"),
+                                  method_header(method, group.label), group.title()))
+            makers.append((group, method))
+    rows = []
+    for category in categories:
+        cells: list[Cell] = []
+        for group, method in makers:
+            hits = []
+            for run in group.runs:
+                table = run.official
+                hit = table[(table["method"] == method) & (table["category"] == category)]
+                hits.append(None if hit.empty else hit.iloc[0])
+            found = all_found(hits)
+            if found is None:
+                cells.append(EMPTY)
+            elif category == "cross":  # no lanes to find: the field reports its false positives
+                cells.append(Stat(tuple(float(f["fp"]) for f in found), decimals=0))
+            else:
+                cells.append(Stat(tuple(float(f["f1"]) for f in found), decimals=1, scale=100))
+        rows.append((Text("cross (FP)" if category == "cross" else category), *cells))
+    return Grid((Column("Category", ("Category",)),), tuple(columns), tuple(rows))
 
 
 class _Counts:
@@ -141,11 +223,16 @@ class CulaneTally:
         every.add(relpath, record.all_lanes)
         ego.add(relpath, record.ego)
 
+    def end_clip(self, clip_id: str) -> None:
+        pass  # frame metrics only
+
     def table(self) -> pd.DataFrame:
         rows = []
         for method, (every, ego) in self.counts.items():
             rows += every.rows(method) + ego.rows(method, every_frame="ego")
         columns = [column for column in OFFICIAL_COLUMNS if column != "threshold"]
+        import pandas as pd
+
         return pd.DataFrame(rows, columns=columns)
 
 

@@ -26,16 +26,17 @@ from ..version import __version__
 from ..config import Thresholds, parse_thresholds
 from ..errors import ConfigError, InputError
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, paired_bootstrap
+from ..benchmarks import benchmark_for, names as benchmark_names
+from ..methods import ABLATION_PAIR, METHOD_TABLE, PAPER_PAIR, facts_of
 from ..report.tables import dataset_name, display_name
 from .runs import Run, frames_of, read_run
 from .tables import EMPTY, Cell, Column, Gain, Grid, Stat, Text, clips_text, wrap_words
 
-PAPER_METHODS = ("baseline", "roneld")  # the paper's pair: the model's own extraction, and RONELD
-ABLATION_METHOD = "roneld-nopft"  # RONELD without preceding-frame tracking (Table IV)
+PAPER_METHODS = PAPER_PAIR  # the paper's pair: the model's own extraction, and RONELD
+ABLATION_METHOD = ABLATION_PAIR[0]  # RONELD without preceding-frame tracking (Table IV)
 ACCURACY_ROWS = ("0.3", "0.4", "0.5")  # Tables II/III
 ABLATION_ROWS = ("0.3", "0.5")  # Table IV
-KNOWN_METHODS = PAPER_METHODS + (ABLATION_METHOD,)
-METHOD_WORDS = {"baseline": "baseline", "roneld": "RONELD", "roneld-nopft": "RONELD w/o PFT"}
+KNOWN_METHODS = tuple(METHOD_TABLE)
 
 __all__ = ["compare", "Comparison", "read_run", "Run"]
 
@@ -310,10 +311,11 @@ def _table_rows(spec, grid: tuple[Decimal, ...], default: tuple[str, ...]) -> li
 
 
 def _groups(runs: Sequence[Run]) -> list[Group]:
-    """Runs grouped by dataset (CULane, TuSimple, then others) and label, in the order given."""
-    order = {"culane": 0, "tusimple": 1}
-    datasets = sorted(dict.fromkeys(r.dataset for r in runs), key=lambda d: (order.get(d, 2),
-                                                                              [r.dataset for r in runs].index(d)))
+    """Runs grouped by dataset (the installed benchmarks in their order, then others) and label,
+    in the order given."""
+    order = {name: index for index, name in enumerate(benchmark_names())}
+    datasets = sorted(dict.fromkeys(r.dataset for r in runs),
+                      key=lambda d: (order.get(d, len(order)), [r.dataset for r in runs].index(d)))
     groups = []
     for dataset in datasets:
         members = [r for r in runs if r.dataset == dataset]
@@ -322,7 +324,7 @@ def _groups(runs: Sequence[Run]) -> list[Group]:
     return groups
 
 
-def _ordered_methods(methods: Iterable[str]) -> list[str]:
+def ordered_methods(methods: Iterable[str]) -> list[str]:
     methods = list(dict.fromkeys(methods))
     return [m for m in KNOWN_METHODS if m in methods] + [m for m in methods if m not in KNOWN_METHODS]
 
@@ -410,13 +412,13 @@ def _seeds_note(groups: Sequence[Group]) -> str:
             "deviation over the n runs.")
 
 
-def _method_header(method: str, label: str) -> tuple[str, ...]:
+def method_header(method: str, label: str) -> tuple[str, ...]:
     """A method's header lines under its model's spanning header."""
-    return {"baseline": ("baseline",), "roneld": ("+ RONELD",),
-            "roneld-nopft": ("+ RONELD", "w/o PFT")}.get(method) or wrap_words(method)
+    facts = facts_of(method)
+    return wrap_words(method) if facts is None else facts.header
 
 
-def _method_name(method: str, label: str) -> str:
+def method_name(method: str, label: str) -> str:
     """A method's name in Markdown headers and legends: 'SCNN + RONELD', 'SCNN polyfit'."""
     name = display_name(method, label)
     return name if method in KNOWN_METHODS or name.startswith(label) else f"{label} {name}"
@@ -432,7 +434,7 @@ def _accuracy_columns(group: Group) -> list[tuple[str, str]]:
         columns += [("value", m) for m in PAPER_METHODS if m in methods]
     if ABLATION_METHOD in methods and "roneld" not in methods:
         columns.append(("value", ABLATION_METHOD))  # else Table IV shows it
-    columns += [("value", m) for m in _ordered_methods(methods) if m not in KNOWN_METHODS]
+    columns += [("value", m) for m in ordered_methods(methods) if m not in KNOWN_METHODS]
     return columns
 
 
@@ -478,9 +480,9 @@ def accuracy_grid(groups: Sequence[Group], rows: Sequence[Decimal]) -> Grid:
                                       group.title()))
                 makers.append(partial(_gain, group, method, interval=_group_interval(group, method)))
             else:
-                columns.append(Column(_method_name(method, group.label) + ("" if group.n == 1 else
+                columns.append(Column(method_name(method, group.label) + ("" if group.n == 1 else
                                                                            f" (n = {group.n})"),
-                                      _method_header(method, group.label), group.title()))
+                                      method_header(method, group.label), group.title()))
                 makers.append(partial(group.accuracy, method))
     table_rows = tuple((Text(_short(t)),) + tuple(make(t) for make in makers) for t in rows)
     return Grid((Column("IoU threshold", ("IoU", "threshold")),), tuple(columns), table_rows)
@@ -532,7 +534,7 @@ def _ablation_files(groups: Sequence[Group], rows, protocol: str, notes) -> dict
 Found = TypeVar("Found")
 
 
-def _all_found(found: Sequence[Found | None]) -> list[Found] | None:
+def all_found(found: Sequence[Found | None]) -> list[Found] | None:
     """`found` when every run has the value, else None (the table shows a dash)."""
     present = [f for f in found if f is not None]
     return present if len(present) == len(found) else None
@@ -544,17 +546,17 @@ def _runtime_of(run: Run) -> dict[str, float]:
 
 def runtime_grid(groups: Sequence[Group]) -> Grid:
     """Table V: mean ms per frame of extraction per dataset and model (RONELD first), and a mean row."""
-    methods = _ordered_methods(m for g in groups for r in g.runs for m in r.runtime["method"] if m != "map loading")
+    methods = ordered_methods(m for g in groups for r in g.runs for m in r.runtime["method"] if m != "map loading")
     first = ("roneld", ABLATION_METHOD)  # Table V is RONELD's runtime; the others beside it
     methods = [m for m in first if m in methods] + [m for m in methods if m not in first]
-    names = {"roneld": ("RONELD",), "roneld-nopft": ("RONELD", "w/o PFT"), "baseline": ("baseline",)}
-    columns = tuple(Column(" ".join(names.get(m) or (m,)) + " (ms)", names.get(m) or wrap_words(m)) for m in methods)
+    columns = tuple(Column((METHOD_TABLE[m].words if m in METHOD_TABLE else m) + " (ms)",
+                           METHOD_TABLE[m].word_parts if m in METHOD_TABLE else wrap_words(m)) for m in methods)
     rows = []
     means: dict[str, list[float]] = {m: [] for m in methods}
     for group in groups:
         cells: list[Cell] = []
         for method in methods:
-            values = _all_found([_runtime_of(run).get(method) for run in group.runs])
+            values = all_found([_runtime_of(run).get(method) for run in group.runs])
             if values is None:
                 cells.append(EMPTY)
                 continue
@@ -580,85 +582,13 @@ def _runtime_files(groups: Sequence[Group], notes) -> dict[str, str]:
     return {"table_runtime.md": markdown, "table_runtime.tex": grid.to_latex(text, "tab:compare-runtime", list(notes))}
 
 
-def culane_official_grid(groups: Sequence[Group]) -> Grid:
-    """Official CULane F1 (%) per category (rows) for every model and method (columns); 'cross' as FP."""
-    categories = list(dict.fromkeys(c for g in groups for r in g.runs for c in r.official["category"]))
-    categories = [c for c in categories if c not in ("all", "ego")] + [c for c in ("all", "ego") if c in categories]
-    columns, makers = [], []
-    for group in groups:
-        for method in _ordered_methods(group.methods):
-            columns.append(Column(_method_name(method, group.label) + ("" if group.n == 1 else f" (n = {group.n})"),
-                                  _method_header(method, group.label), group.title()))
-            makers.append((group, method))
-    rows = []
-    for category in categories:
-        cells: list[Cell] = []
-        for group, method in makers:
-            hits = []
-            for run in group.runs:
-                table = run.official
-                hit = table[(table["method"] == method) & (table["category"] == category)]
-                hits.append(None if hit.empty else hit.iloc[0])
-            found = _all_found(hits)
-            if found is None:
-                cells.append(EMPTY)
-            elif category == "cross":  # no lanes to find: the field reports its false positives
-                cells.append(Stat(tuple(float(f["fp"]) for f in found), decimals=0))
-            else:
-                cells.append(Stat(tuple(float(f["f1"]) for f in found), decimals=1, scale=100))
-        rows.append((Text("cross (FP)" if category == "cross" else category), *cells))
-    return Grid((Column("Category", ("Category",)),), tuple(columns), tuple(rows))
-
-
-def _run_f1(row: pd.Series) -> float:
-    """The run's own f1_clrnet (n/a where its official.csv predates that column): never recomputed
-    here, so the table cannot disagree with the run's."""
-    return float(row["f1_clrnet"]) if "f1_clrnet" in row.index else math.nan
-
-
-def tusimple_official_grid(groups: Sequence[Group]) -> Grid:
-    """TuSimple Accuracy (%), FP, FN and F1 (%) per model and method."""
-    rows: list[tuple[Cell, ...]] = []
-    for group in groups:
-        for method in _ordered_methods(group.methods):
-            hits = []
-            for run in group.runs:
-                hit = run.official[run.official["method"] == method]
-                hits.append(None if hit.empty else hit.iloc[0])
-            title = _method_name(method, group.label) + ("" if group.n == 1 else f" (n = {group.n})")
-            found = _all_found(hits)
-            if found is None:
-                rows.append((Text(title), EMPTY, EMPTY, EMPTY, EMPTY))
-                continue
-            rows.append((Text(title),
-                         Stat(tuple(float(f["accuracy"]) for f in found), decimals=2, scale=100),
-                         Stat(tuple(float(f["fp"]) for f in found), decimals=4),
-                         Stat(tuple(float(f["fn"]) for f in found), decimals=4),
-                         Stat(tuple(_run_f1(f) for f in found), decimals=2, scale=100)))
-    columns = (Column("Accuracy (%)", ("Acc. (%)",)), Column("FP", ("FP",)), Column("FN", ("FN",)),
-               Column("F1 (%)", ("F1 (%)",)))
-    return Grid((Column("Method", ("Method",)),), columns, tuple(rows))
-
-
 def _official_files(groups: Sequence[Group], notes) -> dict[str, str]:
     markdown, latex = ["# Official scores\n"], []
     seeds = _seeds_note(groups)
     for dataset in dict.fromkeys(g.dataset for g in groups):
         members = [g for g in groups if g.dataset == dataset]
         name = dataset_name(dataset)
-        if dataset == "tusimple":
-            grid = tusimple_official_grid(members)
-            text = ("Official TuSimple scores (evaluate/lane.py): accuracy, FP and FN rates; F1 as each run's "
-                    "official.csv gives it (f1_clrnet: CLRNet's tusimple_metric.py, tp = 1 - FP, precision = "
-                    "tp / (tp + FP), recall = tp / (tp + FN); n/a where that script divides by zero).")
-        else:
-            grid = culane_official_grid(members)
-            geometry = members[0].runs[0].protocol
-            settings = dict(geometry)
-            text = (f"Official {name} F1 (%) per category (all lanes, {settings.get('official.lane_width_px')} px "
-                    f"wide, a match counts when IoU > {settings.get('official.iou_threshold')}); for 'cross', "
-                    f"which has no lanes, the number of false positives. 'ego': the same protocol on the two ego "
-                    f"lanes and each method's two active lanes.")
+        grid, text = benchmark_for(dataset).official_comparison(members)
         text = " ".join(filter(None, [text, seeds]))
         markdown += [f"## {name}\n", text + "\n", grid.to_markdown()] + [f"\n{note}\n" for note in notes]
         latex.append(grid.to_latex(text, f"tab:compare-official-{dataset}", list(notes)))
@@ -677,7 +607,8 @@ def _pair_files(everyone: Sequence[Run], pairs: Sequence[tuple[Run, Run]], table
                             & (table["threshold"] == threshold)].iloc[0]
                 cells.append(Gain(Stat((float(hit.difference),)), float(hit.accuracy_a), float(hit.ci_low),
                                   float(hit.ci_high), int(hit.clips)))
-            grid_rows.append((Text(title), Text(METHOD_WORDS.get(method, method)), *cells))
+            words = METHOD_TABLE[method].words if method in METHOD_TABLE else method
+            grid_rows.append((Text(title), Text(words), *cells))
     columns = tuple(Column(f"IoU > {_short(t)}", (f"IoU > {_short(t)}",)) for t in rows)
     grid = Grid((Column("Runs", ("Runs",)), Column("Method", ("Method",))), columns, tuple(grid_rows))
     text = " ".join(filter(None, [
@@ -696,12 +627,12 @@ def _curves(groups: Sequence[Group]):
 
     curves = []
     for group in groups:
-        for method in _ordered_methods(group.methods):
+        for method in ordered_methods(group.methods):
             per_run = []
             for run in group.runs:
                 values = _accuracy_of(run, method)
                 per_run.append(tuple(values[t] for t in run.thresholds))
-            curves.append(Curve(dataset_name(group.dataset), group.label, method, _method_name(method, group.label),
+            curves.append(Curve(dataset_name(group.dataset), group.label, method, method_name(method, group.label),
                                 tuple(float(t) for t in group.runs[0].thresholds), tuple(per_run)))
     return curves
 

@@ -22,15 +22,12 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
 from ..errors import InputError  # noqa: E402
+from ..methods import METHOD_TABLE  # noqa: E402
 
 # Colour-blind-safe (Okabe-Ito), then matplotlib's tab10 for more models.
 COLOURS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442",
            "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f")
-METHOD_STYLES = {
-    "baseline": dict(linestyle="--", marker="o"),
-    "roneld": dict(linestyle="-", marker="s"),
-    "roneld-nopft": dict(linestyle=":", marker="^"),
-}
+METHOD_STYLES = {name: dict(linestyle=facts.linestyle, marker=facts.marker) for name, facts in METHOD_TABLE.items()}
 OTHER_STYLES = (dict(linestyle="-.", marker="D"), dict(linestyle=(0, (5, 1, 1, 1, 1, 1)), marker="v"),
                 dict(linestyle=(0, (1, 1)), marker="P"), dict(linestyle=(0, (8, 2)), marker="X"))
 

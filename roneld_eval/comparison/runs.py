@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import stat
 import tomllib
@@ -118,20 +117,23 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
     runtime = read_csv(folder / "runtime.csv", {"method": "text", "frames": "count", "mean_ms": "optional number",
                                                 "median_ms": "optional number", "p95_ms": "optional number"})
     _unique(folder / "runtime.csv", runtime, ["method"])
-    if dataset == "tusimple":
-        official = read_csv(folder / "official.csv", {"method": "text", "accuracy": "optional number",
-                                                      "fp": "optional number", "fn": "optional number"},
-                            {"f1_clrnet": "optional number"})
-        _unique(folder / "official.csv", official, ["method"])
-        _check_f1(folder / "official.csv", official)
-    else:
-        official = read_csv(folder / "official.csv", {"method": "text", "category": "text", "tp": "count",
-                                                      "fp": "count", "fn": "count", "f1": "optional number"})
-        _unique(folder / "official.csv", official, ["method", "category"])
+    benchmark = _benchmark_of(folder, dataset)
+    official = read_csv(folder / "official.csv", benchmark.official_columns, benchmark.official_optional)
+    _unique(folder / "official.csv", official, list(benchmark.official_key))
+    benchmark.check_official(folder / "official.csv", official)
     return Run(path=folder, label=label if label is not None else model, model=model, dataset=dataset,
                methods=methods, thresholds=thresholds, protocol=protocol, accuracy=accuracy, per_frame=per_frame,
                runtime=runtime, official=official, counts=dict(counts), clips=clips, frames_key=frames_key,
                truth_key=truth_key, columns=_columns(accuracy))
+
+
+def _benchmark_of(folder: Path, dataset: str):
+    from ..benchmarks import benchmark_for, names
+
+    if dataset not in names():
+        raise InputError(folder / "config.toml", f"names dataset {dataset!r}, which no installed benchmark provides "
+                                                 f"(installed: {', '.join(names())})")
+    return benchmark_for(dataset)
 
 
 # ---- files ------------------------------------------------------------------------------------
@@ -239,29 +241,6 @@ def read_csv(path: Path, columns: dict[str, str], optional: dict[str, str] | Non
             raise InputError(path, f"column {name}: {raw[first]!r} is not {expected}", line=first + 2)
         out[name] = numbers.astype(np.int64) if kind == "count" else numbers
     return pd.DataFrame(out, columns=list(wanted))
-
-
-def _check_f1(path: Path, official: pd.DataFrame) -> None:
-    """A TuSimple run's f1_clrnet is shown as it is, so it must be what CLRNet's formula gives
-    for the row's FP and FN (to the 6 decimals official.csv holds): an edited one is refused."""
-    if "f1_clrnet" not in official.columns:
-        return
-    from ..metrics.tusimple_official import f1_clrnet
-
-    half = 0.5e-6  # official.csv holds 6 decimals; F1 falls as FP or FN grows, so the corners bound it
-    for row, (fp, fn, f1) in enumerate(zip(official["fp"], official["fn"], official["f1_clrnet"])):
-        finite = math.isfinite(fp) and math.isfinite(fn)
-        values = [f1_clrnet(fp, fn)] + [f1_clrnet(fp + dx, fn + dy) for dx in (-half, half)
-                                        for dy in (-half, half)] if finite else [math.nan]
-        possible = [value for value in values if not math.isnan(value)]
-        if math.isnan(f1):
-            if len(possible) < len(values):  # where the script divides by zero, or may
-                continue
-        elif possible and min(possible) - 2 * half <= f1 <= max(possible) + 2 * half:
-            continue
-        expected = f"{f1_clrnet(fp, fn):.6f}" if math.isfinite(fp) and math.isfinite(fn) else "n/a"
-        raise InputError(path, f"f1_clrnet {f1:g} is not CLRNet's F1 of fp {fp:g} and fn {fn:g} ({expected}): "
-                               "not what `roneld-eval run` wrote", line=row + 2)
 
 
 def _unique(path: Path, table: pd.DataFrame, keys: list[str]) -> None:

@@ -16,13 +16,12 @@ from typing import Mapping
 
 import numpy as np
 
-from ..config import IMAGE_SIZES
 from ..errors import InputError
 from ..lanes_io import check_regular_file, read_culane_lines, read_text, split_lines
 from ..model import Clip, Dataset, Frame, image_stem
 from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
 
-IMAGE_WIDTH, IMAGE_HEIGHT = IMAGE_SIZES["culane"]
+IMAGE_WIDTH, IMAGE_HEIGHT = 1640, 590  # every CULane frame (Pan et al., AAAI 2018)
 _CATEGORY_FILE = re.compile(r"test(\d+)_(\w+)\.txt\Z")
 # Names of the official and accuracy tables' own rows, which a category list would be confused with.
 RESERVED_CATEGORIES = {"all": "every frame", "ego": "the two ego lanes"}

@@ -10,13 +10,12 @@ from __future__ import annotations
 import posixpath
 from pathlib import Path
 
-from ..config import IMAGE_SIZES
 from ..errors import InputError
 from ..lanes_io import check_h_samples, check_regular_file, lane_from_tusimple, read_tusimple_records
 from ..model import Clip, Dataset, Frame, image_stem
 from ._paths import check_folder, normalise_relpath
 
-IMAGE_WIDTH, IMAGE_HEIGHT = IMAGE_SIZES["tusimple"]
+IMAGE_WIDTH, IMAGE_HEIGHT = 1280, 720  # every TuSimple frame (tusimple-benchmark)
 # A label names the last frame N of its clip and the clip is read as frames 1..N: a larger N
 # is a mistake in the label file (TuSimple's clips hold 20 frames), not thousands of frames.
 MAX_FRAME_NUMBER = 1000

@@ -3,7 +3,7 @@
 import numpy as np
 
 from .._numba_cache import compile_now
-from ..config import IMAGE_SIZES, BaselineParams, RoneldParams
+from ..config import BaselineParams, RoneldParams
 from ..geometry import MapGeometry
 from ..model import FrameMaps, read_only
 from . import _kernels
@@ -34,7 +34,7 @@ def warm_up(groups=("roneld", "baseline")) -> None:
         RoneldTracker(RoneldParams(), pft=False)(clip[0])
     if "baseline" in groups:
         height, width = clip[0].shape[1:]
-        geometry = MapGeometry(*IMAGE_SIZES["culane"], width, height)
+        geometry = MapGeometry(1640, 590, width, height)  # any frame size compiles the kernels
         for maps in (clip[0], read_only(clip[0])):
             baseline_lanes(FrameMaps(maps), BaselineParams(), geometry)
 

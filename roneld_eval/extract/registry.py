@@ -18,20 +18,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from ..config import METHODS, EvalConfig, PluginMethod
+from ..config import EvalConfig, PluginMethod
 from ..errors import ConfigError
 from ..geometry import MapGeometry
+from ..methods import METHOD_TABLE
 from .protocol import Extractor, ExtractorFactory
-
-
-@dataclass(frozen=True)
-class BuiltIn:
-    """A built-in method: its factory's entry, its parameters from a configuration, the numba
-    kernel groups it runs (compiled before the workers start)."""
-
-    entry: str
-    params: Callable[[EvalConfig], dict[str, Any]]
-    kernel_groups: tuple[str, ...]
 
 
 def _baseline_params(config: EvalConfig) -> dict[str, Any]:
@@ -43,12 +34,11 @@ def _roneld_params(config: EvalConfig) -> dict[str, Any]:
     return dataclasses.asdict(config.roneld)
 
 
-BUILT_IN: dict[str, BuiltIn] = {
-    "baseline": BuiltIn("roneld_eval.extract.baseline:BaselineExtractor", _baseline_params, ("baseline",)),
-    "roneld": BuiltIn("roneld_eval.extract.roneld:with_pft", _roneld_params, ("roneld",)),
-    "roneld-nopft": BuiltIn("roneld_eval.extract.roneld:without_pft", _roneld_params, ("roneld",)),
+# A built-in method's parameters, by the configuration section its facts name.
+SECTION_PARAMS: dict[str, Callable[[EvalConfig], dict[str, Any]]] = {
+    "baseline": _baseline_params,
+    "roneld": _roneld_params,
 }
-assert tuple(BUILT_IN) == METHODS
 
 
 @dataclass(frozen=True)
@@ -76,10 +66,10 @@ def methods_of(config: EvalConfig) -> tuple[Method, ...]:
     plugins = {plugin.name: plugin for plugin in config.plugins}
     out = []
     for name in config.methods:
-        built_in = BUILT_IN.get(name)
-        if built_in is not None:
-            out.append(Method(name, built_in.entry, tuple(built_in.params(config).items()), True,
-                              built_in.kernel_groups))
+        facts = METHOD_TABLE.get(name)
+        if facts is not None:
+            params = SECTION_PARAMS[facts.section](config)
+            out.append(Method(name, facts.entry, tuple(params.items()), True, facts.kernel_groups))
         else:
             plugin: PluginMethod = plugins[name]
             out.append(Method(name, plugin.entry, plugin.params, False, (), plugin.time_limit_s))
@@ -262,5 +252,5 @@ def kernel_groups(methods: tuple[Method, ...] | list[Method]) -> tuple[str, ...]
     return tuple(dict.fromkeys(group for method in methods for group in method.kernel_groups))
 
 
-__all__ = ["BUILT_IN", "Method", "methods_of", "own_modules", "resolve_entry", "source_fingerprint", "kernel_groups",
+__all__ = ["Method", "methods_of", "own_modules", "resolve_entry", "source_fingerprint", "kernel_groups",
            "loaded_code", "file_digest"]

@@ -17,7 +17,6 @@ from typing import Sequence
 import numpy as np
 
 from .._numba_cache import compile_now
-from ..config import IMAGE_SIZES
 from ..geometry import MapGeometry
 from ..model import Lane
 from . import _kernels
@@ -288,13 +287,15 @@ def warm_up(groups=("tables", "official", "paper")) -> None:
     for group in groups:
         for kernel, signature in _kernels.ENTRY_SIGNATURES[group]:
             compile_now(kernel, signature)
+    # Any frame size compiles the kernels; a CULane-sized one draws them as scoring does.
+    width, height = 1640, 590
     lane = Lane(np.array([[700.0, 589.0], [760.0, 450.0], [800.0, 330.0], [815.0, 260.0]]))
     line = Lane(np.array([[650.0, 589.0], [790.0, 270.0]]))
     sets: list = []
     if "official" in groups:
-        sets.append(official_mask_set([lane, line], *IMAGE_SIZES["culane"], 30))
+        sets.append(official_mask_set([lane, line], width, height, 30))
     if "paper" in groups:
-        geometry = MapGeometry(*IMAGE_SIZES["culane"], 800, 288)
+        geometry = MapGeometry(width, height, 800, 288)
         sets += [map_mask_set([lane, None], geometry, 16, spline, rounding) for spline in (False, True)
                  for rounding in ("nearest", "truncate")]
     if sets:

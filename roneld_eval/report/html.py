@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..metrics.tusimple_official import PIXEL_THRESHOLD, POINT_THRESHOLD
+from ..methods import METHOD_TABLE
 from .tables import Protocol, dataset_name, display_name
 
 STYLE = """
@@ -71,6 +71,13 @@ def _present(folder: Path, name: str | None) -> Path | None:
     return folder / name
 
 
+def _benchmark(name):
+    """The run's benchmark, or None where it is not installed here (its page then says less)."""
+    from ..benchmarks import benchmark_for, names
+
+    return benchmark_for(name) if isinstance(name, str) and name in names() else None
+
+
 def build_html(folder: Path) -> str:
     """The page for the run in `folder`."""
     folder = Path(folder)
@@ -89,20 +96,16 @@ def build_html(folder: Path) -> str:
                  f"data: {summary.get('data_root', '?')}; "
                  f"roneld-eval {summary.get('versions', {}).get('roneld-eval', '?')}")
              + "</p>"]
+    benchmark = _benchmark(summary.get("dataset"))
     if protocol is not None:
         line = f"Paper's protocol: {protocol.paper()}."
-        if summary.get("dataset") != "tusimple":
-            line += f" Official CULane protocol: {protocol.official()}."
+        official = None if benchmark is None else benchmark.official_protocol(protocol)
+        if benchmark is not None and official:
+            line += f" Official {benchmark.display_name} protocol: {official}."
         parts.append(f'<p class="meta">{html.escape(line, quote=False)}</p>')
-    if summary.get("dataset") == "tusimple":
-        official_note = (f"TuSimple's evaluate/lane.py: a point matches within {PIXEL_THRESHOLD} px (slope-corrected), "
-                         f"a lane when {POINT_THRESHOLD:.0%} of its points match.")
-    else:
-        official_note = ("SCNN's CULane evaluator per category, and 'ego': the two ego lanes only"
-                         + (f"; {protocol.official()}." if protocol is not None else "."))
-    colours = {"baseline": "baseline red (dashed)", "roneld": "RONELD green",
-               "roneld-nopft": "RONELD w/o PFT cyan (dashed)"}
-    drawn = [colours[m] for m in config.get("methods", colours) if m in colours]
+    official_note = None if benchmark is None else benchmark.official_note(protocol)
+    drawn = [f"{METHOD_TABLE[m].words} {METHOD_TABLE[m].overlay_colour}" for m in config.get("methods", METHOD_TABLE)
+             if m in METHOD_TABLE]
     picture_note = (", ".join(["Ground truth blue", *drawn])
                     + "; numbers are each lane's IoU under the paper's protocol"
                     + (f" ({protocol.paper()})." if protocol is not None else "."))

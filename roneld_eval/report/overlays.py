@@ -16,16 +16,16 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from ..methods import METHOD_TABLE
 from ..model import Lane
 from .tables import display_name
 
 OUTPUT_WIDTH = 1000  # pixels of one picture
-BLUE, RED, GREEN, CYAN = (200, 90, 20), (40, 40, 230), (90, 235, 120), (235, 200, 60)  # BGR
+BLUE, CYAN = (200, 90, 20), (235, 200, 60)  # BGR: ground truth, and plug-in methods
 STYLES = {  # colour, thickness at OUTPUT_WIDTH, dashed
     "ground truth": (BLUE, 9, False),
-    "baseline": (RED, 4, True),
-    "roneld": (GREEN, 3, False),
-    "roneld-nopft": (CYAN, 3, True),
+    **{name: (facts.overlay_bgr, facts.overlay_thickness, facts.overlay_dashed)
+       for name, facts in METHOD_TABLE.items()},
 }
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 

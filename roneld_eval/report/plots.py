@@ -22,13 +22,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from ..config import EGO_LANES_ONLY  # noqa: E402
+from ..methods import METHOD_TABLE  # noqa: E402
 from ..errors import InputError  # noqa: E402
 from .tables import Protocol, clips_text, dataset_name, display_name  # noqa: E402
 
 STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
-    "baseline": dict(color="#d62728", marker="o", linestyle="--"),
-    "roneld": dict(color="#2ca02c", marker="s", linestyle="-"),
-    "roneld-nopft": dict(color="#1f77b4", marker="^", linestyle=":"),
+    name: dict(color=facts.colour, marker=facts.marker, linestyle=facts.linestyle)
+    for name, facts in METHOD_TABLE.items()
 }
 
 
@@ -85,7 +85,7 @@ def save_figure(figure, png: Path, svg: Path | None = None) -> None:
         plt.close(figure)
 
 
-HATCHES = {"baseline": "//", "roneld": "", "roneld-nopft": ".."}
+HATCHES = {name: facts.hatch for name, facts in METHOD_TABLE.items()}
 
 
 def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, model: str, threshold_label: str,

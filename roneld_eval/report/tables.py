@@ -19,6 +19,7 @@ from ..config import EvalConfig
 from ..errors import RoneldEvalError
 from ..geometry import EffectiveGeometry
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, count_clips
+from ..methods import ABLATION_PAIR, facts_of
 from ..wording import counted
 
 if TYPE_CHECKING:  # only annotations use it: `score culane` renders its tables without pandas
@@ -26,21 +27,14 @@ if TYPE_CHECKING:  # only annotations use it: `score culane` renders its tables 
 
 PAPER_THRESHOLDS = ("0.30", "0.40", "0.50")
 ABLATION_THRESHOLDS = ("0.30", "0.50")
-DATASET_NAMES = {"culane": "CULane", "tusimple": "TuSimple"}
-PFT_LABELS = {"roneld": "w/ PFT", "roneld-nopft": "w/o PFT"}  # the method is the PFT switch
 
 
 # ---- names -------------------------------------------------------------------------------
 
 def name_parts(method: str, model: str) -> tuple[str, ...]:
     """A method's display name in the pieces a stacked table header puts on separate lines."""
-    if method == "baseline":
-        return (model,)
-    if method == "roneld":
-        return (model, "+ RONELD")
-    if method == "roneld-nopft":
-        return (model, "+ RONELD", "w/o PFT")
-    return (method,)
+    facts = facts_of(method)
+    return (method,) if facts is None else (model, *facts.after_model)
 
 
 def display_name(method: str, model: str) -> str:
@@ -49,7 +43,11 @@ def display_name(method: str, model: str) -> str:
 
 
 def dataset_name(name: str) -> str:
-    return DATASET_NAMES.get(name, name)
+    """How tables and titles name a dataset: its benchmark's display name (the name itself for
+    a benchmark that is not installed here)."""
+    from ..benchmarks import benchmark_for, names
+
+    return benchmark_for(name).display_name if name in names() else name
 
 
 # ---- the configuration behind the numbers ---------------------------------------------------
@@ -363,7 +361,7 @@ def ablation_table(accuracy: pd.DataFrame, dataset: str, model: str | None = Non
 
     None without both methods. Column labels come from the method names, never from a flag.
     """
-    methods = ("roneld-nopft", "roneld")
+    methods = ABLATION_PAIR
     if not set(methods) <= set(accuracy["method"]):
         return None
     labels = list(dict.fromkeys(accuracy["threshold"]))
@@ -374,8 +372,15 @@ def ablation_table(accuracy: pd.DataFrame, dataset: str, model: str | None = Non
         for label in table_thresholds(labels, ABLATION_THRESHOLDS)
     )
     group_name = name if model is None else f"{name}, {display_name('roneld', model)}"
-    return Table(("IoU threshold", *(f"{name} {PFT_LABELS[m]}" for m in methods)), rows,
-                 (("IoU", "threshold"), *((PFT_LABELS[m],) for m in methods)), ((group_name, 1, 3),))
+    labels = [_pft_label(m) for m in methods]
+    return Table(("IoU threshold", *(f"{name} {label}" for label in labels)), rows,
+                 (("IoU", "threshold"), *((label,) for label in labels)), ((group_name, 1, 3),))
+
+
+def _pft_label(method: str) -> str:
+    facts = facts_of(method)
+    assert facts is not None and facts.pft_label is not None
+    return facts.pft_label
 
 
 def runtime_table(runtime: pd.DataFrame, model: str) -> Table:

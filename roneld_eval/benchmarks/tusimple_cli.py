@@ -1,0 +1,28 @@
+"""`roneld-eval score tusimple`: the command-line face of score.score_tusimple."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from ..cli import _guard, debug_option
+
+
+@click.command("tusimple")
+@click.option("--labels", required=True, type=click.Path(path_type=Path), help="TuSimple label file (test_label.json).")
+@click.option("--pred", required=True, type=click.Path(path_type=Path),
+              help="Predictions, one JSON object per line: raw_file, lanes, h_samples, optional run_time (ms).")
+@click.option("--out", type=click.Path(path_type=Path),
+              help="Folder for official.csv: accuracy, fp, fn, f1_ufld, f1_clrnet.")
+@click.option("--quiet", is_flag=True, help="Print nothing.")
+@debug_option
+def score_tusimple_command(labels, pred, out, quiet, debug):
+    """Official TuSimple accuracy, FP and FN, as tusimple-benchmark's evaluate/lane.py computes them, and F1
+    as UFLD-v2's lane2.py (f1_ufld) and CLRNet's tusimple_metric.py (f1_clrnet) compute it."""
+    from .. import score as scoring
+
+    score = _guard(scoring.score_tusimple, debug, labels, pred, out)
+    if not quiet:
+        click.echo(f"{score.n_frames} frames: Accuracy {score.accuracy:.10g}  FP {score.fp:.10g}  FN {score.fn:.10g}  "
+                   f"F1 {score.f1_ufld:.10g} (UFLD-v2 lane2.py)  {score.f1_clrnet:.10g} (CLRNet tusimple_metric.py)")

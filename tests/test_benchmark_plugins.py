@@ -1,0 +1,111 @@
+"""A benchmark is one module behind `roneld_eval.benchmarks.Benchmark`, registered under the
+entry-point group `roneld_eval.benchmarks`: the toy benchmark in tests/toy_benchmark, outside
+the package and installed as a third party's would be, runs through synth, run, score, compare
+and report.html; and no code outside a benchmark's own modules names a benchmark."""
+
+from __future__ import annotations
+
+import ast
+import csv
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from roneld_eval import benchmarks
+
+PACKAGE = Path(benchmarks.__file__).parents[2]  # the folder holding roneld_eval
+TOY = Path(__file__).parent / "toy_benchmark"
+
+
+def cli(*args: str, path: Path = TOY, check: bool = True) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(path), os.environ.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, "-m", "roneld_eval", *args], capture_output=True, text=True, env=env,
+                          timeout=300)
+    if check:
+        assert done.returncode == 0, done.stderr
+    return done
+
+
+@pytest.fixture(scope="module")
+def toy_runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("toy")
+    cli("synth", "--dataset", "toy", "--out", str(root / "set"), "--clips", "5", "--seed", "3")
+    data, maps = root / "set" / "data", root / "set" / "maps"
+    for name, model in (("run1", "ToyNet"), ("run2", "Other")):
+        cli("run", "--dataset", "toy", "--data-root", str(data), "--maps-root", str(maps), "--pft-ablation",
+            "--save-lanes", "--set", f"model={model}", "--out", str(root / name), "--quiet", "--workers", "2")
+    return root
+
+
+def test_the_built_in_benchmarks_register_as_entry_points():
+    assert {"culane", "tusimple"} <= set(benchmarks.names())
+    assert benchmarks.benchmark_for("culane").display_name == "CULane"
+    assert benchmarks.default_name() == "culane"
+
+
+def test_a_third_party_benchmark_runs_and_scores_as_a_built_in_one(toy_runs):
+    with open(toy_runs / "run1" / "official.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [row["method"] for row in rows] == ["baseline", "roneld", "roneld-nopft"]
+    # 5 clips of 6 frames; `clips` is counted by the clip-level hook (end_clip)
+    assert {(row["frames"], row["clips"]) for row in rows} == {("30", "5")}
+    assert len(list((toy_runs / "run1" / "lanes" / "baseline").rglob("*.lanes.txt"))) == 30
+    page = (toy_runs / "run1" / "report.html").read_text()
+    assert "ToyNet on ToyLanes" in page and "ToyLanes counts lanes" in page
+    predicted = sum(int(row["pred_lanes"]) for row in rows if row["method"] == "baseline")
+    scored = cli("score", "toy", "--data-root", str(toy_runs / "set" / "data"),
+                 "--pred-root", str(toy_runs / "run1" / "lanes" / "baseline"))
+    assert scored.stdout.strip().endswith(f"{predicted} predicted")
+
+
+def test_compare_shows_a_third_party_benchmarks_official_table(toy_runs, tmp_path):
+    cli("compare", str(toy_runs / "run1"), str(toy_runs / "run2"), "--out", str(tmp_path / "cmp"), "--quiet")
+    table = (tmp_path / "cmp" / "table_official.md").read_text()
+    assert "## ToyLanes" in table and "| ToyNet + RONELD w/o PFT |" in table and "| Other |" in table
+
+
+def test_an_official_table_a_benchmark_refuses_stops_compare(toy_runs, tmp_path):
+    run = tmp_path / "run"
+    subprocess.run(["cp", "-r", str(toy_runs / "run1"), str(run)], check=True)
+    text = (run / "official.csv").read_text().replace(",30,117,", ",30,117,", 1)
+    lines = text.splitlines()
+    fields = lines[1].split(",")
+    fields[-1] = "9"  # more clips predicted exactly than there are
+    (run / "official.csv").write_text("\n".join([lines[0], ",".join(fields), *lines[2:]]) + "\n")
+    done = cli("compare", str(run), "--out", str(tmp_path / "cmp"), check=False)
+    assert done.returncode == 2 and done.stderr.strip() == f"error: {run / 'official.csv'}: more exact clips than clips"
+
+
+def test_a_benchmark_that_cannot_be_loaded_is_one_line(tmp_path):
+    info = tmp_path / "broken-0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: broken\nVersion: 0\n")
+    (info / "entry_points.txt").write_text("[roneld_eval.benchmarks]\nbroken = no_such_module:BENCHMARK\n")
+    done = cli("run", "--dataset", "broken", "--out", str(tmp_path / "out"), path=tmp_path, check=False)
+    assert done.returncode == 2
+    assert done.stderr.strip() == ("error: benchmark 'broken' (no_such_module:BENCHMARK) cannot be loaded: "
+                                   "ModuleNotFoundError: No module named 'no_such_module'")
+
+
+def _named_constants(path: Path, names: set[str]) -> list[str]:
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names:
+            found.append(f"{path.relative_to(PACKAGE)}:{node.lineno}: {node.value!r}")
+    return found
+
+
+def test_no_code_outside_a_benchmarks_own_modules_names_it():
+    """A benchmark's own modules carry its name in their file name (benchmarks/culane_cli.py,
+    datasets/culane_synth.py, metrics/culane_official.py); everywhere else a string equal to a
+    benchmark's name would be a branch on which benchmark runs."""
+    names = {name for name in benchmarks.names()
+             if (PACKAGE / "roneld_eval" / "benchmarks" / f"{name}.py").is_file()}
+    assert {"culane", "tusimple"} <= names
+    found = []
+    for path in sorted((PACKAGE / "roneld_eval").rglob("*.py")):
+        found += _named_constants(path, {name for name in names if name not in path.name})
+    assert found == []
