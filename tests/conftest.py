@@ -105,5 +105,5 @@ def interrupt_after(monkeypatch, finished: int):
             raise KeyboardInterrupt
         return original(clip, context, *rest)
 
-    monkeypatch.setattr(evaluation, "evaluate_clip", interrupting)
-    return lambda: monkeypatch.setattr(evaluation, "evaluate_clip", original)
+    monkeypatch.setattr(evaluation.one_clip, "evaluate_clip", interrupting)
+    return lambda: monkeypatch.setattr(evaluation.one_clip, "evaluate_clip", original)

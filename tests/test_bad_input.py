@@ -437,7 +437,7 @@ def test_interrupted_run_writes_nothing_and_resume_gives_the_same_numbers(sets, 
     assert (out / "accuracy.csv").read_text() == SENTINEL
 
     calls: list[str] = []
-    monkeypatch.setattr(evaluation, "evaluate_clip",
+    monkeypatch.setattr(evaluation.one_clip, "evaluate_clip",
                         lambda clip, context, *rest: calls.append(clip.clip_id) or original(clip, context, *rest))
     api.run(_config(root), out, progress=False, resume=True)
     assert len(calls) == 3  # only the clips that had not finished
@@ -470,7 +470,7 @@ def test_a_killed_worker_ends_the_run_clearly(sets, monkeypatch):
             os._exit(9)  # as if killed
         return original(clip, context, *rest)
 
-    monkeypatch.setattr(evaluation, "evaluate_clip", dying)
+    monkeypatch.setattr(evaluation.one_clip, "evaluate_clip", dying)
     with pytest.raises(RunInterrupted) as caught:
         api.run(_config(root, workers=2), out, progress=False)
     message = str(caught.value)

@@ -41,13 +41,13 @@ def test_no_other_module_keeps_a_table_of_the_built_in_methods():
 
 def test_each_gain_is_bootstrapped_once(tmp_path, monkeypatch):
     calls = []
-    real = evaluation.paired_bootstrap
+    real = evaluation.tables.paired_bootstrap
 
     def counted(per_frame, thresholds, method, reference="roneld", **kwargs):
         calls.append((method, reference))
         return real(per_frame, thresholds, method, reference=reference, **kwargs)
 
-    monkeypatch.setattr(evaluation, "paired_bootstrap", counted)
+    monkeypatch.setattr(evaluation.tables, "paired_bootstrap", counted)
     config = api.default_config().with_overrides(methods="baseline,roneld,roneld-nopft", workers=1)
     result = api.run(config, tmp_path / "out", progress=False)
     assert len(calls) == len(set(calls)) == 5  # roneld over both others; every method over baseline and roneld

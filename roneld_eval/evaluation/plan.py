@@ -1,0 +1,147 @@
+"""What a run will evaluate, found before any work: the dataset's layout, every frame's maps,
+the first map's geometry (`run --dry-run` is this alone)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+from ..benchmarks import benchmark_for
+from ..config import EvalConfig
+from ..datasets import read_dataset
+from ..errors import ConfigError, InputError
+from ..geometry import EffectiveGeometry, check_map_shape
+from ..maps import map_size, required_paths
+from ..model import Clip, Dataset
+from ..wording import counted
+from .one_clip import effective_geometry, frame_map_path
+from .records import RunContext
+
+
+def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tuple[str, Path]]:
+    """(clip id, missing file) for every frame whose maps are missing, or cannot even be looked
+    at (a folder without permission). A map that is there but unreadable is refused on loading."""
+    missing = []
+    for clip in dataset.clips:
+        for frame in clip.frames:
+            for path in required_paths(maps_root, frame.relpath, config.maps):
+                try:
+                    path.stat()
+                except (OSError, ValueError):
+                    missing.append((clip.clip_id, path))
+    return missing
+
+
+def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
+    """'maps missing for N frames of K clips: ...' naming the first files, why where it is not
+    plain absence, maps found in another format (use --maps-format), and TuSimple's 20 frames."""
+    from ..maps import found_in_other_format, missing_reason, pngs_without_existence
+
+    clips = {clip_id for clip_id, _ in missing}
+    shown = []
+    for index, (_, path) in enumerate(missing[:3]):
+        found = [missing_reason(path)] + ([found_in_other_format(path), pngs_without_existence(path)]
+                                          if index == 0 else [])
+        notes = [note for note in found if note]
+        shown.append(f"{path} ({'; '.join(notes)})" if notes else str(path))
+    listing = "; ".join(shown)
+    more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+    hint = benchmark_for(dataset.name).missing_maps_hint
+    return f"maps missing for {counted(len(missing), 'frame')} of {counted(len(clips), 'clip')}{hint}: {listing}{more}"
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    """What a run will evaluate, found before any work: the clips with all their maps, where
+    everything lies, what is left out, and the first map's geometry (None without clips)."""
+
+    dataset: Dataset
+    clips: tuple[Clip, ...]
+    context: RunContext
+    skipped: tuple[str, ...]
+    geometry: EffectiveGeometry | None
+
+
+def plan(config: EvalConfig, dataset: Dataset | None = None,
+         announce: Callable[[str], None] | None = None) -> RunPlan:
+    """Read the dataset's layout and check every frame's maps are there (the first map is
+    read for its size): the checks a run makes before it starts, and `run --dry-run` alone."""
+    if config.dataset.data_root is None or config.maps.root is None:
+        raise ConfigError("a run needs both a data root and a maps root")
+    maps_root = Path(config.maps.root)
+    if not maps_root.is_dir():
+        raise InputError(maps_root, "maps root not found")
+    skipped: list[str] = []
+    if dataset is None:
+        dataset = _read(config, skipped)
+    if (dataset.image_width, dataset.image_height) != (config.dataset.image_width, config.dataset.image_height):
+        raise ConfigError(
+            f"the configuration's image size {config.dataset.image_width}x{config.dataset.image_height} does not "
+            f"match {dataset.name}'s {dataset.image_width}x{dataset.image_height}"
+        )
+    clips = _clips_with_maps(dataset, maps_root, config, skipped)
+    context = RunContext(config, maps_root, None if dataset.labels_loaded else dataset.root,
+                         data_root=Path(dataset.root),
+                         label_file=None if dataset.source_file is None else Path(dataset.source_file))
+    say = announce or (lambda message: None)
+    if config.maps.format == "lanes":
+        from ..maps.lanes import check_coverage
+
+        check_coverage(maps_root, [f.relpath for clip in clips for f in clip.frames if f.labelled], say)
+    geometry = _first_geometry(clips, context)
+    if geometry is not None:
+        say(f"geometry: {geometry.describe()}")
+    return RunPlan(dataset, tuple(clips), context, tuple(skipped), geometry)
+
+
+def _read(config: EvalConfig, skipped: list[str]) -> Dataset:
+    """The configured dataset; its bad labels listed in `skipped` under on_error = "skip"."""
+    assert config.dataset.data_root is not None
+    errors: list[InputError] | None = [] if config.on_error == "skip" else None
+    # A benchmark may leave each clip's labels to the workers, read clip by clip in parallel.
+    dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
+                           config.dataset.limit, errors, labels=False)
+    skipped += [f"{error} (labels skipped)" for error in errors or ()]
+    return dataset
+
+
+def _clips_with_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, skipped: list[str]) -> list[Clip]:
+    """The clips whose every frame has its maps; the others stop the run, or are listed in
+    `skipped` and left out under on_error = "skip"."""
+    missing = check_maps(dataset, maps_root, config)
+    if not missing:
+        return list(dataset.clips)
+    if config.on_error != "skip":
+        raise InputError(maps_root, describe_missing(missing, dataset))
+    by_clip: dict[str, list[Path]] = {}
+    for clip_id, path in missing:
+        by_clip.setdefault(clip_id, []).append(path)
+    for clip_id, paths in by_clip.items():
+        skipped.append(f"{clip_id}: maps missing for {counted(len(paths), 'frame')}, first {paths[0]} (clip skipped)")
+    return [clip for clip in dataset.clips if clip.clip_id not in by_clip]
+
+
+def _first_geometry(clips: Sequence[Clip], context: RunContext) -> EffectiveGeometry | None:
+    """The geometry of the first clip's maps, checked before any work starts (None if unreadable)."""
+    for clip in clips[:1]:
+        for frame in clip.frames[:1]:
+            config = context.config
+            where = str(frame_map_path(context, frame))
+            try:
+                width, height = map_size(context.maps_root, frame.relpath, config.maps, config.geometry,
+                                         config.roneld.center_ratio)
+                check_map_shape(config.geometry, width, height, where)
+            except InputError:
+                return None  # reported, or skipped, where the clip is evaluated
+            except ConfigError:
+                # A header alone does not stop the run: its file may not decode at all, and then
+                # the frame is reported (or, with on_error = "skip", skipped) as unreadable.
+                try:
+                    maps = context.load(frame)
+                except InputError:
+                    return None
+                width, height = maps.width, maps.height
+                check_map_shape(config.geometry, width, height, where)
+            return effective_geometry(config, width, height)
+    return None

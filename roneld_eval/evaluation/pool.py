@@ -1,0 +1,256 @@
+"""Many clips: in-process for one worker, else in a process pool whose results are handed out
+in clip order (so any --workers gives the same bytes), cached ones first (--resume); a worker
+that dies, or a plug-in past its time limit, ends the run with one line instead of a hang."""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import os
+import queue
+import signal
+import threading
+import time
+from collections import deque
+from concurrent.futures import Future
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+from typing import Callable, Iterator, Protocol, Sequence
+
+from .. import kernels
+from ..errors import ExtractorError
+from ..maps import required_paths
+from ..model import Clip
+from ..plugin_calls import PluginCalls
+from ..workers import pool_context, process_pool, stopping
+from . import one_clip, plugin_call
+from .plugin_call import OVERDUE_GRACE_S, too_slow_text
+from .records import ClipResult, RunContext
+
+# ---- many clips ----------------------------------------------------------------------------
+
+_WORKER_CONTEXT: RunContext | None = None
+
+
+def _init_worker(context: RunContext, calls: PluginCalls | None = None) -> None:
+    global _WORKER_CONTEXT
+    _WORKER_CONTEXT = context
+    if calls is not None:
+        calls.claim()
+        plugin_call.SLOTS = calls
+    kernels.warm_up(context.kernel_groups())  # loaded already (prepared before the fork): runs each path once
+
+
+def _evaluate_in_worker(clip: Clip) -> ClipResult:
+    assert _WORKER_CONTEXT is not None
+    return one_clip.evaluate_clip(clip, _WORKER_CONTEXT)
+
+
+class ClipCache(Protocol):
+    """Where finished clips are kept so an interrupted run can resume (see roneld_eval.cache)."""
+
+    def load(self, clip: Clip, inputs: Callable[[], Sequence[Path]]) -> ClipResult | None: ...
+
+    def store(self, clip: Clip, inputs: Sequence[Path], result: ClipResult) -> None: ...
+
+
+def clip_inputs(clip: Clip, context: RunContext) -> list[Path]:
+    """Every file evaluating this clip reads: its maps and its labels (what resume must check)."""
+    paths = []
+    for frame in clip.frames:
+        paths += required_paths(context.maps_root, frame.relpath, context.config.maps)
+    return paths + context.benchmark.label_paths(clip, context.data_root, context.label_file)
+
+
+def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
+                  cache: ClipCache | None = None,
+                  advance: Callable[[int], object] | None = None) -> Iterator[ClipResult]:
+    """Results in clip order: cached ones, then from `workers` processes (in-process for 1).
+
+    Each finished clip is stored in the cache before it is yielded; `advance(frames)` is told
+    of every frame as its clip finishes (in-process: as it is done). A worker that dies (killed,
+    out of memory) ends the run with RunInterrupted instead of a hang.
+    """
+    cached = _cached(clips, context, cache)
+    todo = [index for index in range(len(clips)) if index not in cached]
+    advance = advance or (lambda frames: None)
+
+    def keep(index: int, result: ClipResult) -> ClipResult:
+        if cache is not None:
+            cache.store(clips[index], clip_inputs(clips[index], context), result)
+        return result
+
+    # A plug-in always runs in a worker process, so that one which ends its process (os._exit,
+    # a crash) ends a worker the run can name, not the run itself with exit status 0.
+    plugins = not all(method.built_in for method in context.methods)
+    if not todo or (not plugins and (workers <= 1 or len(todo) <= 1)):
+        if todo:
+            kernels.warm_up(context.kernel_groups())
+        for index, clip in enumerate(clips):
+            result = cached.get(index)
+            if result is None:
+                result = keep(index, one_clip.evaluate_clip(clip, context, advance))
+            else:
+                advance(len(clip.frames))
+            yield result
+        return
+    yield from _pooled(clips, context, max(workers, 1), cached, todo, keep, advance, plugins)
+
+
+def _cached(clips: Sequence[Clip], context: RunContext, cache: ClipCache | None) -> dict[int, ClipResult]:
+    """The clips (by index) whose results the cache holds and still match their inputs."""
+    cached: dict[int, ClipResult] = {}
+    if cache is not None:
+        # Input files are listed only where an entry is there to check, and for a finished clip
+        # as it is kept: not all at once before any work starts (0.1 s per 6,000 frames).
+        for index, clip in enumerate(clips):
+            found = cache.load(clip, functools.partial(clip_inputs, clip, context))
+            if found is not None:
+                cached[index] = found
+    return cached
+
+
+def _pooled(clips: Sequence[Clip], context: RunContext, workers: int, cached: dict[int, ClipResult],
+            todo: Sequence[int], keep: Callable[[int, ClipResult], ClipResult],
+            advance: Callable[[int], object], plugins: bool) -> Iterator[ClipResult]:
+    """_clip_results in a process pool of `workers`."""
+    plotting: threading.Thread | None = None
+    calls = PluginCalls(workers, pool_context()) if plugins else None
+    pool = process_pool(workers, initializer=_init_worker, initargs=(context, calls))
+    schedule = _Schedule(pool, clips, todo, context, workers, advance)
+    guard = _PoolGuard(pool, calls, context, schedule)
+    schedule.watch = guard.watch if calls is not None else None
+    with stopping(schedule.executor, guard.died):
+        for index, clip in enumerate(clips):
+            if index in cached:
+                yield cached[index]
+                advance(len(clip.frames))
+                continue
+            schedule.start_more()
+            if plotting is None:
+                # The workers exist now (none forks later); the idle main process meanwhile
+                # imports the plotting library the report needs.
+                plotting = threading.Thread(target=_import_plotting, daemon=True)
+                plotting.start()
+            yield keep(index, schedule.result(index))
+    if plotting is not None:
+        plotting.join()  # the report must not use matplotlib while that thread is still importing it
+
+
+class _PoolGuard:
+    """What ends a pooled run early: a plug-in call past its time limit (its worker is killed)
+    and a worker that ended; and the one line that says which."""
+
+    def __init__(self, pool, calls: PluginCalls | None, context: RunContext, schedule: "_Schedule"):
+        self.processes = dict(getattr(pool, "_processes", None) or {})  # pid -> Process: their exit codes tell
+        self.calls = calls
+        self.schedule = schedule
+        self.limits = {method.name: method.time_limit_s for method in context.methods}
+        self.stopped: dict[int, tuple[str, str]] = {}  # workers ended here for a plug-in past its limit
+
+    def watch(self) -> None:
+        assert self.calls is not None
+        for pid, call in self.calls.overdue(self.limits, OVERDUE_GRACE_S).items():
+            self.stopped[pid] = call
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
+        # A worker that ended while a process it forked holds its pipes open: the pool would
+        # wait for that process, so the worker's end is looked for here (exitcode reaps it).
+        if any(process.exitcode is not None for process in self.processes.values()):
+            raise BrokenProcessPool("a worker process ended")
+
+    def died(self) -> str | ExtractorError:
+        # Ended by now; the pool's own thread may be reaping one (its exit code is then None here
+        # until that thread has set it).
+        deadline = time.monotonic() + 2.0
+        while any(process.exitcode is None for process in self.processes.values()) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        if self.stopped:
+            pid, (method, frame) = next(iter(self.stopped.items()))
+            return ExtractorError(method, frame, too_slow_text(method, self.limits[method]))
+        inside = None if self.calls is None else self.calls.died_in(
+            {pid: process.exitcode for pid, process in self.processes.items()})
+        if inside is not None:
+            method, frame, code = inside
+            how = "" if code is None else f" (exit status {code})" if code >= 0 else f" (signal {-code})"
+            return ExtractorError(method, frame, f"its process ended inside the plug-in{how}")
+        return f"a worker process died (killed, or out of memory) while evaluating clip {self.schedule.current}"
+
+
+class _Schedule:
+    """Clips in flight in a process pool: they finish in any
+    order and are handed out in clip order. Work is started only while few clips wait to be
+    handed out, so results wait in memory briefly; a clip's error is raised when its turn
+    comes, so which error a run reports does not depend on the number of workers."""
+
+    def __init__(self, executor, clips: Sequence[Clip], todo: Sequence[int], context: RunContext,
+                 workers: int, advance: Callable[[int], object]):
+        self.executor = executor
+        self.clips = clips
+        self.waiting = deque(todo)
+        self.context = context
+        self.limit = 2 * workers
+        self.advance = advance
+        self.tasks: dict[Future, Callable[[Future], None]] = {}  # what to do when each finishes
+        # Finished futures, put by their done-callbacks. A C queue: Ctrl-C (twice) while the main
+        # process waits on it cannot leave a lock of threading's Python code taken or released
+        # twice, as it can within concurrent.futures.wait (RuntimeError, or a hang at exit).
+        self.finished: queue.SimpleQueue[Future] = queue.SimpleQueue()
+        self.started: set[int] = set()  # clips started and not yet handed out
+        self.done: dict[int, ClipResult | BaseException] = {}
+        self.current = clips[todo[0]].clip_id if todo else ""
+        self.watch: Callable[[], None] | None = None  # called while waiting (plug-ins' time limits)
+
+    def start_more(self) -> None:
+        failed = min((index for index, done in self.done.items() if isinstance(done, BaseException)), default=None)
+        while self.waiting and len(self.started) < self.limit and len(self.tasks) < self.limit:
+            index = self.waiting[0]
+            if failed is not None and index > failed:
+                break  # the run stops at that clip's error: nothing after it is wanted
+            self.waiting.popleft()
+            self.started.add(index)
+            self._submit(functools.partial(self._clip_done, index), _evaluate_in_worker, self.clips[index])
+
+    def result(self, index: int) -> ClipResult:
+        """Clip `index`'s result, waiting for it while the other work goes on."""
+        self.current = self.clips[index].clip_id
+        while index not in self.done:
+            self.start_more()
+            if not self.tasks:  # cannot happen: clips start in order, so this one is under way
+                raise RuntimeError(f"clip {self.current} was never started")
+            future = self._next_finished()
+            self.tasks.pop(future)(future)
+        self.started.discard(index)
+        done = self.done.pop(index)
+        if isinstance(done, BaseException):
+            raise done
+        return done
+
+    def _next_finished(self) -> Future:
+        if self.watch is None:
+            return self.finished.get()
+        while True:
+            try:
+                return self.finished.get(timeout=0.25)
+            except queue.Empty:
+                self.watch()
+
+    def _submit(self, then: Callable[[Future], None], function, *args) -> None:
+        future = self.executor.submit(function, *args)
+        self.tasks[future] = then
+        future.add_done_callback(self.finished.put)
+
+    def _clip_done(self, index: int, future: Future) -> None:
+        try:
+            self.done[index] = future.result()
+        except BaseException as error:
+            self.done[index] = error
+            return
+        self.advance(len(self.clips[index].frames))
+
+
+def _import_plotting() -> None:
+    try:
+        import matplotlib.pyplot  # noqa: F401
+    except Exception:  # pragma: no cover - the report raises it properly later
+        pass
