@@ -49,7 +49,11 @@ def fixture_roots(dataset: str) -> tuple[Path, Path]:
 
 def default_config(dataset: str | None = None) -> EvalConfig:
     """The preset of a dataset's default model (SCNN); without one, the fixture's benchmark."""
-    return EvalConfig.from_toml(benchmark_for(dataset or default_name()).default_preset)  # a preset name or a file
+    benchmark = benchmark_for(dataset or default_name())
+    if benchmark.default_preset is None:
+        raise ConfigError(f"{benchmark.display_name} is scored from lane files only: "
+                          f"`roneld-eval score {benchmark.name}`")
+    return EvalConfig.from_toml(benchmark.default_preset)  # a preset name or a file
 
 
 def with_fixture(config: EvalConfig) -> EvalConfig:

@@ -62,7 +62,9 @@ class Benchmark(Protocol):
     name: str  # as configurations and the command line name it (the entry point's name)
     display_name: str  # as tables and titles print it
     image_size: tuple[int, int]  # (width, height) of its frames
-    default_preset: str  # the configuration of its default model: a bundled preset name or a TOML file
+    # the configuration of its default model: a bundled preset name or a TOML file; None for a
+    # benchmark scored from lane files alone (`score NAME`; its `read` says why `run` is not offered)
+    default_preset: str | None
     frames_per_clip: int  # what `synth` generates by default
     fixture: str | None  # folder of roneld_eval._fixture holding its bundled fixture, if any
     # numba kernel groups its official scoring runs (compiled before the workers start)

@@ -1,0 +1,229 @@
+"""`score vil100`: predicted `.lines.txt` files scored as MMA-Net's evaluation/evaluate_iou.py and
+its modified CULane evaluator score them (yujun0-0/MMA-Net 8f95908), every method in one pass
+over the ground truth, every threshold at once (the C++ tool needs one run per sequence and
+threshold). Sequences are scored at their own size, in parallel.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+from ..config import MIN_LINE_THICKNESS, Thresholds, parse_thresholds
+from ..datasets.culane import check_inside
+from ..datasets.vil100 import SCENARIOS, Vil100Set, labels_path, read_vil100, scenarios_of
+from ..errors import ConfigError
+from ..lanes_io import check_coordinates, read_culane_lines
+from ..metrics.culane_official import CulaneFrameResult, evaluate_culane_frame, f_measure, official_masks
+from ..metrics.vil100_official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
+from ..metrics.vil100_temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
+from ..output import Staging
+from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees
+
+DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers report both
+LANE_WIDTH = 30  # evaluate_iou.py:22, for every sequence whatever its size
+COLUMNS = ("method", "category", "threshold", "tp", "fp", "fn", "precision", "recall", "f1", "miou", "sequences")
+TEMPORAL_COLUMNS = ("method", "category", "tau", "pairs", "stable", "jump", "missing", "rs", "rj", "rm")
+
+
+@dataclass(frozen=True)
+class Vil100Score:
+    """Official VIL-100 scores of one or more methods: `rows` as official.csv holds them (per
+    sequence, per scenario, then 'all', at each threshold)."""
+
+    rows: PlainTable
+    temporal_rows: PlainTable | None  # RVLD's Rs, Rj, Rm per sequence and over all, at each threshold as tau
+    thresholds: Thresholds
+    methods: tuple[str, ...]
+    n_frames: int
+    n_sequences: int
+    overall: dict  # (method, threshold label) -> PooledScore
+    temporal_overall: dict  # (method, threshold label) -> TemporalCounts (empty without the temporal metrics)
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass
+class _ScoredSequence:
+    """One sequence against every method: per method, each frame's matched result and mIoU;
+    with the temporal metrics, the ground truth's links between consecutive frames and, per
+    method, each frame's assigned IoUs (RVLD's own IoU)."""
+
+    frames: list[list[tuple[CulaneFrameResult, float]]]
+    links: list[list[tuple[int, int]]] = field(default_factory=list)
+    assigned: list[list[np.ndarray]] = field(default_factory=list)
+
+
+def _score_sequence(args) -> _ScoredSequence:
+    relpaths, labels, pred_roots, width, height, lane_width, temporal = args
+    out = _ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots])
+    previous: list | None = None
+    for relpath in relpaths:
+        path = labels_path(labels, relpath)
+        truth = read_culane_lines(path)  # a missing file: no lanes, as the C++ reader ("fail")
+        check_inside(truth, path, width, height)
+        gt_masks = official_masks(truth, width, height, lane_width) if truth else None
+        if temporal:
+            linked = [lane_mask(lane, width, height) for lane in usable(truth)]
+            out.links.append([] if previous is None else links(linked, previous))
+            previous = linked
+        for m, root in enumerate(pred_roots):
+            pred_path = labels_path(root, relpath)
+            predictions = read_culane_lines(pred_path)
+            check_coordinates(predictions, pred_path)
+            result = evaluate_culane_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
+            out.frames[m].append((result, frame_miou(result)))
+            if temporal:
+                drawn = [lane_mask(lane, width, height) for lane in usable(predictions)]
+                out.assigned[m].append(assigned_ious(linked, drawn))
+    return out
+
+
+def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
+                 image_root: str | Path | None = None, json_root: str | Path | None = None,
+                 sizes_file: str | Path | None = None, iou: str | None = None, width: int = LANE_WIDTH,
+                 out: str | Path | None = None, workers: int | None = None, progress: bool = False,
+                 announce: Callable[[str], None] | None = None, strict: bool = False,
+                 temporal: bool = True) -> Vil100Score:
+    """Score `.lines.txt` predictions mirroring `labels` (`<sequence>/<frame>.lines.txt`).
+
+    Sizes come from exactly one of `image_root`, `json_root` and `sizes_file`. `iou`: one
+    threshold, a comma list or a grid (default 0.5 and 0.8). `temporal`: also RVLD's Rs, Rj and
+    Rm with each threshold as tau. `out` gets official.csv, temporal.csv and summary.md.
+    """
+    thresholds = parse_thresholds(iou or DEFAULT_IOU)
+    if width < MIN_LINE_THICKNESS:
+        raise ConfigError(f"lane width must be at least {MIN_LINE_THICKNESS}, got {width}")
+    with _taking(out, "score vil100") as folder:
+        dataset = read_vil100(labels, list_file, image_root, json_root, sizes_file)
+        relpaths = [relpath for frames in dataset.sequences.values() for relpath in frames]
+        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
+        roots = tuple(tree.root for tree in trees)
+        tasks = [(frames, dataset.labels, roots, *dataset.sizes[name], width, temporal)
+                 for name, frames in dataset.sequences.items()]
+        scored = _run(tasks, workers, progress, len(relpaths), announce)
+        methods = tuple(tree.method for tree in trees)
+        rows, overall = _rows(dataset, methods, scored, thresholds)
+        temporal_rows, temporal_overall = _temporal_rows(dataset, methods, scored, thresholds) if temporal else ([], {})
+        score = Vil100Score(PlainTable(COLUMNS, tuple(rows)),
+                            PlainTable(TEMPORAL_COLUMNS, tuple(temporal_rows)) if temporal else None,
+                            thresholds, methods, len(relpaths), len(dataset.sequences), overall, temporal_overall,
+                            tuple(warnings))
+        if folder is not None:
+            staging = Staging(folder)
+            staging.write_text("official.csv", score.rows.to_csv())
+            if score.temporal_rows is not None:
+                staging.write_text("temporal.csv", score.temporal_rows.to_csv())
+            staging.write_text("summary.md", summary_markdown(score, width))
+            folder.commit()
+    return score
+
+
+def _run(tasks: list, workers: int | None, progress: bool, n_frames: int, announce) -> list:
+    from tqdm import tqdm
+
+    from .. import kernels
+
+    kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
+    pieces = []
+    with tqdm(total=n_frames, unit="frame", desc="scoring", disable=not progress) as bar:
+        if len(tasks) > 1 and workers != 1:
+            from ..workers import default_workers, process_pool, stopping
+
+            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
+            with stopping(process_pool(min(workers or default_workers(), len(tasks))), lambda: died) as pool:
+                for task, piece in zip(tasks, pool.map(_score_sequence, tasks)):
+                    pieces.append(piece)
+                    bar.update(len(task[0]))
+        else:
+            kernels.warm_up(("official",))
+            for task in tasks:
+                pieces.append(_score_sequence(task))
+                bar.update(len(task[0]))
+    return pieces
+
+
+def _rows(dataset: Vil100Set, methods: Sequence[str], scored: list, thresholds: Thresholds):
+    rows, overall = [], {}
+    names = list(dataset.sequences)
+    for m, method in enumerate(methods):
+        for value, label in zip(thresholds.values, thresholds.labels):
+            per_sequence = []
+            for name, piece in zip(names, scored):
+                frames = piece.frames[m]
+                per_sequence.append(sequence_score(name, [r for r, _ in frames], [v for _, v in frames], value))
+            for score in per_sequence:
+                rows.append(_row(method, score.sequence, label, score.tp, score.fp, score.fn, score.miou, 1))
+            for code, scenario in enumerate(SCENARIOS):
+                members = [s for s in per_sequence if code in scenarios_of(s.sequence)]
+                if members:
+                    group = pooled(members)
+                    rows.append(_row(method, f"scenario {code} ({scenario})", label, group.tp, group.fp, group.fn,
+                                     group.miou, group.sequences))
+            every = pooled(per_sequence)
+            overall[(method, label)] = every
+            rows.append(_row(method, "all", label, every.tp, every.fp, every.fn, every.miou, every.sequences))
+    return rows, overall
+
+
+def _temporal_rows(dataset: Vil100Set, methods: Sequence[str], scored: list, thresholds: Thresholds):
+    rows, overall = [], {}
+    for m, method in enumerate(methods):
+        for value, label in zip(thresholds.values, thresholds.labels):
+            every = TemporalCounts()
+            for name, piece in zip(dataset.sequences, scored):
+                counts = sequence_counts(piece.links, piece.assigned[m], value)
+                rows.append(_temporal_row(method, name, label, counts))
+                every = every + counts
+            overall[(method, label)] = every
+            rows.append(_temporal_row(method, "all", label, every))
+    return rows, overall
+
+
+def _temporal_row(method: str, category: str, label: str, counts: TemporalCounts) -> tuple:
+    return (method, category, label, counts.pairs, counts.stable, counts.jump, counts.missing, *counts.rates)
+
+
+def _row(method: str, category: str, label: str, tp: int, fp: int, fn: int, miou: float, sequences: int) -> tuple:
+    return (method, category, label, tp, fp, fn, *f_measure(tp, fp, fn), float(miou), sequences)
+
+
+def _percent(value: float) -> str:
+    return "n/a" if math.isnan(value) else f"{100 * value:.2f}"
+
+
+def summary_table(score: Vil100Score) -> str:
+    """Markdown: per method, F1 (%) at each threshold and mIoU (%), over every sequence."""
+    labels = score.thresholds.labels
+    temporal = [(label, name) for label in labels for name in ("Rs", "Rj", "Rm")] if score.temporal_overall else []
+    lines = ["| method | " + " | ".join(f"F1@{label} (%)" for label in labels) + " | mIoU (%) |"
+             + "".join(f" {name}@{label} (%) |" for label, name in temporal),
+             "|---" * (len(labels) + 2 + len(temporal)) + "|"]
+    for method in score.methods:
+        results: list[PooledScore] = [score.overall[(method, label)] for label in labels]
+        f1s = [_percent(result.ratios[2]) for result in results]
+        rates = [_percent(rate) for label in labels if temporal
+                 for rate in score.temporal_overall[(method, label)].rates]
+        lines.append(f"| {method} | " + " | ".join(f1s) + f" | {_percent(results[0].miou)} |"
+                     + "".join(f" {rate} |" for rate in rates))
+    return "\n".join(lines)
+
+
+def summary_markdown(score: Vil100Score, width: int) -> str:
+    return (f"# VIL-100, official protocol\n\n{score.n_frames:,} frames of {score.n_sequences} sequences, each at its "
+            f"own size; lanes {width} px wide; a match counts when IoU > the threshold (MMA-Net's evaluate_iou.py "
+            "and CULane evaluator, 8f95908). F1 from TP, FP and FN summed over the sequences; mIoU: the mean "
+            "over sequences of each sequence's mIoU as its evaluator prints it (6 significant digits), a frame's "
+            "mIoU being the IoU summed over the matched pairs divided by its predicted lanes. official.csv "
+            "gives every sequence and scenario."
+            + (" Rs, Rj, Rm: RVLD's evaluate_temporal.py (4d90de1) with each threshold as tau, over the pairs of "
+               "ground-truth lanes linked across consecutive frames (IoU > 0.5), with that script's own IoU; a frame "
+               "without a prediction file counts as no lanes, where that script stops. temporal.csv gives every "
+               "sequence." if score.temporal_overall else "")
+            + "\n\n" + summary_table(score) + "\n")
+
+
+__all__ = ["score_vil100", "Vil100Score", "SequenceScore", "printed"]

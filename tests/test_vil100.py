@@ -1,0 +1,202 @@
+"""VIL-100 scored as MMA-Net's evaluator scores it (golden values from yujun0-0/MMA-Net 8f95908,
+tests/golden/vil100/mmanet_evaluator.json), its inputs (lists, sizes, scenarios), and the
+command's errors; the real ground truth where ../shared is present."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
+from roneld_eval.cli import main
+from roneld_eval.datasets.vil100 import read_vil100, scenarios_of
+from roneld_eval.metrics.vil100_official import printed
+from roneld_eval.metrics.vil100_temporal import sequence_counts
+
+GOLDEN = Path(__file__).parent / "golden" / "vil100"
+EXPECTED = json.loads((GOLDEN / "mmanet_evaluator.json").read_text())
+TEMPORAL = json.loads((GOLDEN / "rvld_temporal.json").read_text())
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "vil100"
+
+
+def golden_score(**options):
+    return score_vil100(GOLDEN / "anno_txt", {"syn": GOLDEN / "pred_txt"}, list_file=GOLDEN / "test.txt",
+                        sizes_file=GOLDEN / "test_sizes.json", **options)
+
+
+def rows_of(score) -> dict:
+    return {(row[1], row[2]): dict(zip(score.rows.columns, row)) for row in score.rows.rows}
+
+
+@pytest.mark.parametrize("threshold, label", [("0.5", "0.50"), ("0.8", "0.80")])
+def test_sequences_and_overall_equal_the_official_evaluator(threshold, label):
+    expected = EXPECTED["thresholds"][threshold]
+    rows = rows_of(golden_score())
+    for sequence, counts in expected["sequences"].items():
+        row = rows[(sequence, label)]
+        assert (row["tp"], row["fp"], row["fn"]) == (counts["tp"], counts["fp"], counts["fn"])
+        assert printed(row["miou"]) == counts["miou_printed"]
+    every = rows[("all", label)]
+    overall = expected["overall"]
+    assert (every["tp"], every["fp"], every["fn"]) == (overall["tp"], overall["fp"], overall["fn"])
+    assert every["f1"] == overall["f1"]
+    assert every["miou"] == pytest.approx(overall["miou"], abs=1e-12)  # evaluate_iou.py sums in os.listdir order
+
+
+@pytest.mark.parametrize("threshold", [0.5, 0.8])
+def test_every_frame_equals_the_official_evaluator(threshold):
+    dataset = read_vil100(GOLDEN / "anno_txt", GOLDEN / "test.txt", sizes_file=GOLDEN / "test_sizes.json")
+    for sequence, frames in dataset.sequences.items():
+        scored = _score_sequence((frames, dataset.labels, (GOLDEN / "pred_txt",), *dataset.sizes[sequence], 30,
+                                  False)).frames[0]
+        expected = EXPECTED["thresholds"][str(threshold)]["frames"][sequence]
+        assert [f"/{relpath}.jpg" for relpath in frames] == [frame["frame"] for frame in expected]
+        for (result, miou), frame in zip(scored, expected):
+            tp = result.true_positives(threshold)
+            assert (tp, result.n_pred - tp, result.n_gt - tp) == (frame["tp"], frame["fp"], frame["fn"]), frame
+            assert miou == frame["miou"], frame  # bit for bit
+
+
+@pytest.mark.parametrize("tau, label", [("0.5", "0.50"), ("0.8", "0.80")])
+def test_temporal_counts_equal_rvlds_script(tau, label):
+    score = golden_score()
+    expected = TEMPORAL[tau]
+    counts = score.temporal_overall[("syn", label)]
+    assert (counts.stable, counts.jump, counts.missing) == (expected["stable"], expected["jump"], expected["missing"])
+    dataset = read_vil100(GOLDEN / "anno_txt", GOLDEN / "test.txt", sizes_file=GOLDEN / "test_sizes.json")
+    transitions = []  # the script's results_t: one (Ns, Nj, Nm) per frame after a sequence's first
+    for sequence, frames in dataset.sequences.items():
+        piece = _score_sequence((frames, dataset.labels, (GOLDEN / "pred_txt",), *dataset.sizes[sequence], 30, True))
+        for k in range(1, len(frames)):
+            step = sequence_counts([[], piece.links[k]], [piece.assigned[0][k - 1], piece.assigned[0][k]], float(tau))
+            transitions.append([step.stable, step.jump, step.missing])
+    assert transitions == expected["per_transition"]
+
+
+def test_the_pairs_depend_on_the_ground_truth_alone():
+    with_predictions = golden_score().temporal_overall[("syn", "0.50")]
+    against_itself = score_vil100(GOLDEN / "anno_txt", {"gt": GOLDEN / "anno_txt"}, list_file=GOLDEN / "test.txt",
+                                  sizes_file=GOLDEN / "test_sizes.json").temporal_overall[("gt", "0.50")]
+    assert against_itself.pairs == with_predictions.pairs and against_itself.stable == against_itself.pairs
+
+
+def test_the_command_writes_official_csv_and_prints_the_summary(tmp_path):
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(GOLDEN / "anno_txt"), "--pred-root",
+                                       f"syn={GOLDEN / 'pred_txt'}", "--sizes", str(GOLDEN / "test_sizes.json"),
+                                       "--out", str(tmp_path / "out"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    text = (tmp_path / "out" / "official.csv").read_text()
+    assert text.splitlines()[0] == "method,category,threshold,tp,fp,fn,precision,recall,f1,miou,sequences"
+    assert "syn,all,0.50,14,9,11,0.608696,0.560000,0.583333,0.467708,2" in text.splitlines()
+    assert "F1@0.80 (%)" in (tmp_path / "out" / "summary.md").read_text()
+    temporal = (tmp_path / "out" / "temporal.csv").read_text().splitlines()
+    assert temporal[0] == "method,category,tau,pairs,stable,jump,missing,rs,rj,rm"
+    assert "syn,all,0.80,10,3,6,1,0.300000,0.600000,0.100000" in temporal
+
+
+def _copy_set(tmp_path: Path, names: dict[str, str]) -> Path:
+    """The golden set with its sequences renamed (scenario codes in front)."""
+    root = tmp_path / "set"
+    for part in ("anno_txt", "pred_txt"):
+        for old, new in names.items():
+            shutil.copytree(GOLDEN / part / old, root / part / new)
+    sizes = json.loads((GOLDEN / "test_sizes.json").read_text())
+    (root / "sizes.json").write_text(json.dumps({new: sizes[old] for old, new in names.items()}))
+    return root
+
+
+def test_without_the_temporal_metrics_there_is_no_temporal_csv(tmp_path):
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(GOLDEN / "anno_txt"), "--pred-root",
+                                       str(GOLDEN / "pred_txt"), "--sizes", str(GOLDEN / "test_sizes.json"),
+                                       "--no-temporal", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in (tmp_path / "out").iterdir() if not p.name.startswith(".")) == [
+        "official.csv", "summary.md"]
+    assert "Rs@" not in result.output
+
+
+def test_scenarios_pool_their_sequences_as_the_overall_row_does(tmp_path):
+    root = _copy_set(tmp_path, {"synA_frames": "12_Road001_frames", "synB_frames": "2_Road002_frames"})
+    assert scenarios_of("12_Road001_frames") == (1, 2) and scenarios_of("1269_Road023_Trim003_frames") == (1, 2, 6, 9)
+    score = score_vil100(root / "anno_txt", {"m": root / "pred_txt"}, sizes_file=root / "sizes.json")
+    rows = rows_of(score)
+    crowded, curved, every = (rows[(name, "0.50")] for name in ("scenario 1 (crowded)", "scenario 2 (curved road)",
+                                                                 "all"))
+    first = rows[("12_Road001_frames", "0.50")]
+    assert (crowded["tp"], crowded["fp"], crowded["fn"], crowded["sequences"]) == (first["tp"], first["fp"],
+                                                                                  first["fn"], 1)
+    assert crowded["miou"] == float(printed(first["miou"]))
+    assert {key: curved[key] for key in ("tp", "fp", "fn", "miou", "sequences")} == {
+        key: every[key] for key in ("tp", "fp", "fn", "miou", "sequences")}
+
+
+def test_sizes_from_images_or_annotations_give_the_same_scores(tmp_path):
+    sizes = json.loads((GOLDEN / "test_sizes.json").read_text())
+    images, annotations = tmp_path / "JPEGImages", tmp_path / "Json"
+    for sequence, size in sizes.items():
+        (images / sequence).mkdir(parents=True)
+        (annotations / sequence).mkdir(parents=True)
+        cv2.imwrite(str(images / sequence / "00000.jpg"), np.zeros((size["height"], size["width"]), np.uint8))
+        (annotations / sequence / "00000.jpg.json").write_text(json.dumps({"info": size, "annotations": {}}))
+    expected = golden_score().rows
+    mmanet_list = tmp_path / "test.txt"  # MMA-Net's own list form
+    mmanet_list.write_text("".join(f"/JPEGImages/{line}.jpg\n" for line in (GOLDEN / "test.txt").read_text().split()))
+    for source in ({"image_root": images}, {"json_root": annotations}):
+        score = score_vil100(GOLDEN / "anno_txt", {"syn": GOLDEN / "pred_txt"}, list_file=mmanet_list, **source)
+        assert score.rows == expected
+
+
+@pytest.mark.parametrize("arguments, message", [
+    ([], "give the sequences' image sizes once: --image-root"),
+    (["--sizes", "{sizes}", "--image-root", "{golden}"], "give the sequences' image sizes once"),
+    (["--sizes", "{short}"], "{short}: no size for sequence synB_frames"),
+    (["--sizes", "{bad}"], "{bad}: synA_frames: a size is a width and a height in pixels (1..100000), got [0, 5]"),
+    (["--sizes", "{sizes}", "--list", "{list}"], "{list}:1: 'synA_frames' is not <sequence>/<frame>"),
+])
+def test_bad_input_is_one_line(tmp_path, arguments, message):
+    paths = {"sizes": GOLDEN / "test_sizes.json", "golden": GOLDEN, "short": tmp_path / "short.json",
+             "bad": tmp_path / "bad.json", "list": tmp_path / "list.txt"}
+    paths["short"].write_text(json.dumps({"synA_frames": [1920, 1080]}))
+    paths["bad"].write_text(json.dumps({"synA_frames": [0, 5], "synB_frames": [960, 480]}))
+    paths["list"].write_text("synA_frames\n")
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(GOLDEN / "anno_txt"), "--pred-root",
+                                       str(GOLDEN / "pred_txt"), *(a.format(**paths) for a in arguments)])
+    assert result.exit_code == 2
+    assert result.output.startswith(f"error: {message.format(**paths)}"), result.output
+    assert result.output.count("\n") == 1
+
+
+def test_a_wrong_labels_folder_is_refused(tmp_path):
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(GOLDEN), "--pred-root",
+                                       str(GOLDEN / "pred_txt"), "--sizes", str(GOLDEN / "test_sizes.json")])
+    assert result.exit_code == 2 and "is this MMA-Net's anno_txt folder?" in result.output
+
+
+def test_run_on_vil100_says_to_score_lane_files():
+    result = CliRunner().invoke(main, ["run", "--dataset", "vil100", "--quiet"])
+    assert result.exit_code == 2
+    assert result.output == "error: VIL-100 is scored from lane files only: `roneld-eval score vil100`\n"
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data/vil100")
+def test_the_real_ground_truth_against_itself_scores_one(tmp_path):
+    score = score_vil100(SHARED / "anno_txt", {"gt": SHARED / "anno_txt"}, list_file=SHARED / "test.txt",
+                         sizes_file=SHARED / "test_sizes.json", workers=2)
+    rows = rows_of(score)
+    assert score.n_frames == 2000 and score.n_sequences == 20
+    lanes = sum(len((SHARED / "anno_txt" / f"{line}.lines.txt").read_text().splitlines())
+                for line in (SHARED / "test.txt").read_text().split())
+    for label in ("0.50", "0.80"):
+        every = rows[("all", label)]
+        assert (every["tp"], every["fp"], every["fn"], every["f1"], every["miou"]) == (lanes, 0, 0, 1.0, 1.0)
+        # RVLD's script on the ground truth itself (4d90de1, tau 0.5): Ns 8017, Nj 0, Nm 0
+        linked = score.temporal_overall[("gt", label)]
+        assert (linked.stable, linked.jump, linked.missing) == (8017, 0, 0)
+    scenarios = {name for name, _ in rows if name.startswith("scenario")}
+    assert scenarios >= {"scenario 0 (normal)", "scenario 9 (crossroad)"}
