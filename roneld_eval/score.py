@@ -168,11 +168,12 @@ class _ListedFiles:
     """The `.lines.txt` names the list asks for, grouped by folder, to count them under any root
     with one directory listing per folder (34,680 frames: 419 listings, not 34,680 stats)."""
 
-    def __init__(self, relpaths: Sequence[str]):
+    def __init__(self, relpaths: Sequence[str], suffix: str = ".lines.txt"):
         self.relpaths = relpaths
+        self.suffix = suffix
         self.by_folder: dict[str, list[str]] = {}
         for relpath in relpaths:
-            label = f"{image_stem(relpath)}.lines.txt"
+            label = f"{image_stem(relpath)}{suffix}"
             # The name as the disk spells it, as under_root spells paths (UTF-8 whatever the locale).
             name = os.fsdecode(posixpath.basename(label).encode("utf-8", "surrogateescape"))
             self.by_folder.setdefault(posixpath.dirname(label), []).append(name)
@@ -192,10 +193,13 @@ class _ListedFiles:
 
     def first_missing(self, root: Path) -> Path:
         for relpath in self.relpaths:
-            path = labels_path(root, relpath)
+            path = self.path(root, relpath)
             if not path.exists():
                 return path
-        return labels_path(root, self.relpaths[0])
+        return self.path(root, self.relpaths[0])
+
+    def path(self, root: Path, relpath: str) -> Path:
+        return under_root(root, f"{image_stem(relpath)}{self.suffix}")
 
 
 def _subfolders(root: Path) -> list[Path]:
@@ -228,7 +232,7 @@ def _root_specs(pred_root: PredictionRoots) -> list[tuple[str | None, Path]]:
 
 def _no_match(root: Path, listed: _ListedFiles) -> InputError:
     """The one-line error for a root without any file of the list, with the folder that has them."""
-    first = labels_path(root, listed.relpaths[0])
+    first = listed.path(root, listed.relpaths[0])
     hint = ""
     parent = root.parent if len(root.parts) > 1 else root.resolve().parent  # as the user wrote it, if possible
     if parent.resolve() != root.resolve() and listed.count(parent):
@@ -244,7 +248,8 @@ def _no_match(root: Path, listed: _ListedFiles) -> InputError:
 
 
 def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], strict: bool = False,
-                          announce: Callable[[str], None] | None = None) -> tuple[list[PredictionTree], list[str]]:
+                          announce: Callable[[str], None] | None = None,
+                          suffix: str = ".lines.txt") -> tuple[list[PredictionTree], list[str]]:
     """The methods to score and warnings about them, checked before any work.
 
     A root that mirrors the list is one method (named by its folder, or NAME=DIR); otherwise
@@ -254,7 +259,7 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
     half the listed files is a warning; with `strict`, any missing file is an error.
     """
     say = announce or (lambda message: None)
-    listed = _ListedFiles(relpaths)
+    listed = _ListedFiles(relpaths, suffix)
     trees: list[PredictionTree] = []
     for name, root in _root_specs(pred_root):
         if not root.is_dir():
