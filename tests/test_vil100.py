@@ -98,6 +98,9 @@ def test_the_command_writes_official_csv_and_prints_the_summary(tmp_path):
     temporal = (tmp_path / "out" / "temporal.csv").read_text().splitlines()
     assert temporal[0] == "method,category,tau,pairs,stable,jump,missing,rs,rj,rm"
     assert "syn,all,0.80,10,3,6,1,0.300000,0.600000,0.100000" in temporal
+    summary = (tmp_path / "out" / "summary.csv").read_text().splitlines()
+    assert summary == ["method,category,f1@0.50,f1@0.80,miou,rs@0.50,rj@0.50,rm@0.50,rs@0.80,rj@0.80,rm@0.80",
+                       "syn,all,0.583333,0.416667,0.467708,0.600000,0.400000,0.000000,0.300000,0.600000,0.100000"]
 
 
 def _copy_set(tmp_path: Path, names: dict[str, str]) -> Path:
@@ -117,7 +120,7 @@ def test_without_the_temporal_metrics_there_is_no_temporal_csv(tmp_path):
                                        "--no-temporal", "--out", str(tmp_path / "out")])
     assert result.exit_code == 0, result.output
     assert sorted(p.name for p in (tmp_path / "out").iterdir() if not p.name.startswith(".")) == [
-        "official.csv", "summary.md"]
+        "official.csv", "summary.csv", "summary.md"]
     assert "Rs@" not in result.output
 
 
@@ -200,3 +203,23 @@ def test_the_real_ground_truth_against_itself_scores_one(tmp_path):
         assert (linked.stable, linked.jump, linked.missing) == (8017, 0, 0)
     scenarios = {name for name, _ in rows if name.startswith("scenario")}
     assert scenarios >= {"scenario 0 (normal)", "scenario 9 (crossroad)"}
+
+
+def test_a_lane_drawn_where_it_reaches_has_the_pixels_of_the_whole_canvas():
+    """lane_mask draws one polyline on the part of the canvas a lane can reach; the script draws
+    every segment with cv2.line on the whole canvas (full_canvas_mask): the same pixels, for lanes
+    inside, across and outside the image's edges."""
+    from roneld_eval.metrics.vil100_temporal import _interpolated, full_canvas_mask, lane_mask
+    from roneld_eval.model import Lane
+
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        width, height = (960, 480) if rng.random() < 0.5 else (1920, 1080)
+        count = int(rng.integers(2, 12))
+        ys = np.sort(rng.uniform(-100, height + 100, count))[::-1]
+        xs = rng.uniform(-300, width + 300) + np.cumsum(rng.normal(0, 40, count))
+        lane = Lane(np.stack([xs, ys], 1))
+        fast = lane_mask(lane, width, height)
+        reference = full_canvas_mask(_interpolated(lane).astype(np.int32), width, height)
+        assert (fast.top, fast.left, fast.area) == (reference.top, reference.left, reference.area)
+        assert np.array_equal(fast.pixels, reference.pixels)

@@ -117,6 +117,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             staging.write_text("official.csv", score.rows.to_csv())
             if score.temporal_rows is not None:
                 staging.write_text("temporal.csv", score.temporal_rows.to_csv())
+            staging.write_text("summary.csv", summary_rows(score).to_csv())
             staging.write_text("summary.md", summary_markdown(score, width))
             folder.commit()
     return score
@@ -170,14 +171,19 @@ def _rows(dataset: Vil100Set, methods: Sequence[str], scored: list, thresholds: 
 
 
 def _temporal_rows(dataset: Vil100Set, methods: Sequence[str], scored: list, thresholds: Thresholds):
+    """Per sequence, per scenario (its sequences' pairs pooled) and all."""
     rows, overall = [], {}
     for m, method in enumerate(methods):
         for value, label in zip(thresholds.values, thresholds.labels):
-            every = TemporalCounts()
-            for name, piece in zip(dataset.sequences, scored):
-                counts = sequence_counts(piece.links, piece.assigned[m], value)
-                rows.append(_temporal_row(method, name, label, counts))
-                every = every + counts
+            per_sequence = {name: sequence_counts(piece.links, piece.assigned[m], value)
+                            for name, piece in zip(dataset.sequences, scored)}
+            rows += [_temporal_row(method, name, label, counts) for name, counts in per_sequence.items()]
+            for code, scenario in enumerate(SCENARIOS):
+                members = [counts for name, counts in per_sequence.items() if code in scenarios_of(name)]
+                if members:
+                    pooled_counts = sum(members, TemporalCounts())
+                    rows.append(_temporal_row(method, f"scenario {code} ({scenario})", label, pooled_counts))
+            every = sum(per_sequence.values(), TemporalCounts())
             overall[(method, label)] = every
             rows.append(_temporal_row(method, "all", label, every))
     return rows, overall
@@ -210,6 +216,28 @@ def summary_table(score: Vil100Score) -> str:
         lines.append(f"| {method} | " + " | ".join(f1s) + f" | {_percent(results[0].miou)} |"
                      + "".join(f" {rate} |" for rate in rates))
     return "\n".join(lines)
+
+
+def summary_rows(score: Vil100Score) -> PlainTable:
+    """The numbers papers print, per method for all sequences and each scenario: F1 at each
+    threshold, mIoU, and Rs, Rj, Rm with each threshold as tau (fractions, as official.csv)."""
+    labels = score.thresholds.labels
+    official = {(r[0], r[1], r[2]): r for r in score.rows.rows}
+    temporal = {} if score.temporal_rows is None else {(r[0], r[1], r[2]): r for r in score.temporal_rows.rows}
+    columns = ["method", "category", *(f"f1@{label}" for label in labels), "miou"]
+    if temporal:
+        columns += [f"{name}@{label}" for label in labels for name in ("rs", "rj", "rm")]
+    categories = list(dict.fromkeys(r[1] for r in score.rows.rows if r[1] == "all" or r[1].startswith("scenario ")))
+    categories = categories[-1:] + categories[:-1]  # all first
+    rows = []
+    for method in score.methods:
+        for category in categories:
+            row = [method, category, *(official[(method, category, label)][8] for label in labels),
+                   official[(method, category, labels[0])][9]]
+            if temporal:
+                row += [value for label in labels for value in temporal[(method, category, label)][7:10]]
+            rows.append(tuple(row))
+    return PlainTable(tuple(columns), tuple(rows))
 
 
 def summary_markdown(score: Vil100Score, width: int) -> str:
