@@ -75,6 +75,20 @@ class Range:
 
 # The thinnest line the rasteriser draws as OpenCV does (see RANGES).
 MIN_LINE_THICKNESS = 2
+# The widest line drawn: a wider one costs time and memory with the square of its width (at 1000 px,
+# some 7 s and 0.4 GB a frame), and no lane is that wide.
+MAX_LINE_THICKNESS = 1000
+
+
+def check_lane_width(width: int) -> None:
+    """Refuse a lane width the scorers do not draw (one line, before any work)."""
+    if isinstance(width, bool) or not isinstance(width, int):
+        raise ConfigError(f"lane width must be a whole number of pixels, got {width!r}")
+    if width < MIN_LINE_THICKNESS:
+        raise ConfigError(f"lane width must be at least {MIN_LINE_THICKNESS}, got {width}: the C++ evaluator draws "
+                          "width 1 as a thin 8-connected line, which is not emulated here")
+    if width > MAX_LINE_THICKNESS:
+        raise ConfigError(f"lane width must be at most {MAX_LINE_THICKNESS} px, got {width}")
 
 # The range of every numeric setting, checked the same way for presets, TOML files, `--set`
 # and the library (each dataclass checks its fields when built). Sources of the defaults are
@@ -95,10 +109,10 @@ RANGES: dict[str, Range] = {
     "roneld.lane_ratio": Range(0, 1, high_open=True),
     # OpenCV draws thickness 1 as a thin 8-connected line, not as the thick polyline drawn
     # here for 2 and more: 1 is refused rather than scored differently from the official tools.
-    "paper.gt_thickness_px": Range(MIN_LINE_THICKNESS, 1000),
-    "paper.pred_thickness_px": Range(MIN_LINE_THICKNESS, 1000),
+    "paper.gt_thickness_px": Range(MIN_LINE_THICKNESS, MAX_LINE_THICKNESS),
+    "paper.pred_thickness_px": Range(MIN_LINE_THICKNESS, MAX_LINE_THICKNESS),
     "official.iou_threshold": Range(0, 1, high_open=True),  # TP when IoU > threshold
-    "official.lane_width_px": Range(MIN_LINE_THICKNESS, 1000),
+    "official.lane_width_px": Range(MIN_LINE_THICKNESS, MAX_LINE_THICKNESS),
     "workers": Range(1, 1024),
 }
 # IoU thresholds (paper.thresholds, `score --iou`): at most this many in a sweep, each with at

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Callable, Iterator, Union
 
 import numpy as np
 
-from .config import MIN_LINE_THICKNESS, Thresholds, parse_thresholds
+from .config import Thresholds, check_lane_width, parse_thresholds
 from .datasets.culane import read_culane
 from .datasets._paths import under_root
 from .datasets.culane import labels_path, read_frame_labels
@@ -368,9 +368,7 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     summary.csv and summary.md.
     """
     thresholds, highlighted = _thresholds(iou, preset)
-    if width < MIN_LINE_THICKNESS:
-        raise ConfigError(f"lane width must be at least {MIN_LINE_THICKNESS}, got {width}: the C++ evaluator draws "
-                          "width 1 as a thin 8-connected line, which is not emulated here")
+    check_lane_width(width)
     with _taking(out, "score culane") as folder:
         dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
         relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]

@@ -15,6 +15,7 @@ from click.testing import CliRunner
 
 from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
 from roneld_eval.cli import main
+from roneld_eval.errors import ConfigError
 from roneld_eval.datasets.vil100 import read_vil100, scenarios_of
 from roneld_eval.metrics.vil100_official import printed
 from roneld_eval.metrics.vil100_temporal import sequence_counts
@@ -159,12 +160,26 @@ def test_sizes_from_images_or_annotations_give_the_same_scores(tmp_path):
     ([], "give the sequences' image sizes once: --image-root"),
     (["--sizes", "{sizes}", "--image-root", "{golden}"], "give the sequences' image sizes once"),
     (["--sizes", "{short}"], "{short}: no size for sequence synB_frames"),
-    (["--sizes", "{bad}"], "{bad}: synA_frames: a size is a width and a height in pixels (1..100000), got [0, 5]"),
+    (["--sizes", "{bad}"], "{bad}: synA_frames: a size is a width and a height in pixels (1..16384), got [0, 5]"),
+    (["--sizes", "{deep}"], "{deep}: not a file of sizes: nested too deeply"),
+    (["--image-root", "{images}"], "{images}/synB_frames/00000.png: image: a size is a width and a height in pixels "
+                                   "(1..16384), got [60000, 60000]"),
+    (["--image-root", "{junk}"], "{junk}/synA_frames/00000.jpg: not a JPEG or PNG whose size can be read"),
     (["--sizes", "{sizes}", "--list", "{list}"], "{list}:1: 'synA_frames' is not <sequence>/<frame>"),
 ])
 def test_bad_input_is_one_line(tmp_path, arguments, message):
     paths = {"sizes": GOLDEN / "test_sizes.json", "golden": GOLDEN, "short": tmp_path / "short.json",
-             "bad": tmp_path / "bad.json", "list": tmp_path / "list.txt"}
+             "bad": tmp_path / "bad.json", "list": tmp_path / "list.txt", "deep": tmp_path / "deep.json",
+             "images": tmp_path / "images", "junk": tmp_path / "junk"}
+    paths["deep"].write_text("[" * 100_000 + "]" * 100_000)
+    for sequence in ("synA_frames", "synB_frames"):
+        (paths["images"] / sequence).mkdir(parents=True)
+        (paths["junk"] / sequence).mkdir(parents=True)
+        (paths["junk"] / sequence / "00000.jpg").write_bytes(b"not an image at all")
+    cv2.imwrite(str(paths["images"] / "synA_frames" / "00000.png"), np.zeros((8, 8), np.uint8))
+    header = bytearray((paths["images"] / "synA_frames" / "00000.png").read_bytes())
+    header[16:24] = (60000).to_bytes(4, "big") * 2  # a 60000x60000 image's header, 100 bytes on disk
+    (paths["images"] / "synB_frames" / "00000.png").write_bytes(bytes(header))
     paths["short"].write_text(json.dumps({"synA_frames": [1920, 1080]}))
     paths["bad"].write_text(json.dumps({"synA_frames": [0, 5], "synB_frames": [960, 480]}))
     paths["list"].write_text("synA_frames\n")
@@ -223,3 +238,12 @@ def test_a_lane_drawn_where_it_reaches_has_the_pixels_of_the_whole_canvas():
         reference = full_canvas_mask(_interpolated(lane).astype(np.int32), width, height)
         assert (fast.top, fast.left, fast.area) == (reference.top, reference.left, reference.area)
         assert np.array_equal(fast.pixels, reference.pixels)
+
+
+@pytest.mark.parametrize("command, root", [("vil100", "--labels"), ("openlane", "--labels"),
+                                           ("culane", "--data-root")])
+def test_a_lane_width_beyond_the_bound_is_refused_before_any_work(command, root):
+    result = CliRunner().invoke(main, ["score", command, "--width", "1001", root, "x", "--pred-root", "x"])
+    assert result.exit_code == 2 and "1001 is not in the range 2<=x<=1000" in result.output
+    with pytest.raises(ConfigError, match="at most 1000 px, got 1000000000"):
+        score_vil100(GOLDEN / "anno_txt", GOLDEN / "pred_txt", sizes_file=GOLDEN / "test_sizes.json", width=10**9)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from ..config import MAX_LINE_THICKNESS
 from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 
 
@@ -22,7 +23,7 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
               help="IoU threshold, or a grid scored in one pass (e.g. 0.50:0.95:0.05 for mF1). Default: 0.5.")
 @click.option("--preset", type=click.Choice(["clrnet"]),  # score.SCORE_PRESETS (a test keeps them equal)
               help="A paper family's grid: clrnet is --iou 0.50:0.95:0.05 with F1@50, F1@75 and mF1.")
-@click.option("--width", default=30, show_default=True, type=click.IntRange(min=2),
+@click.option("--width", default=30, show_default=True, type=click.IntRange(min=2, max=MAX_LINE_THICKNESS),
               help="Lane width in pixels at 1640x590.")
 @click.option("--strict", is_flag=True, help="Stop when any listed frame has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")

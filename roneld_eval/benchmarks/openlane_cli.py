@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from ..config import MAX_LINE_THICKNESS
 from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 
 
@@ -18,7 +19,8 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 @click.option("--list", "list_file", type=click.Path(path_type=Path),
               help="Images to score, <segment>/<frame>.jpg a line (its test_list.txt). Default: every annotation.")
 @click.option("--iou", metavar="T,T|START:STOP:STEP", help="IoU thresholds, scored in one pass. Default: 0.3.")
-@click.option("--width", default=30, show_default=True, type=click.IntRange(min=2), help="Lane width in pixels.")
+@click.option("--width", default=30, show_default=True, type=click.IntRange(min=2, max=MAX_LINE_THICKNESS),
+              help="Lane width in pixels.")
 @click.option("--any-category", "any_only", is_flag=True,
               help="Only the matching that ignores categories (the evaluator's -k); default: both.")
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")

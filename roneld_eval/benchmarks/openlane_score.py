@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..config import MIN_LINE_THICKNESS, Thresholds, parse_thresholds
+from ..config import Thresholds, check_lane_width, parse_thresholds
 from ..datasets.openlane import IMAGE_HEIGHT, IMAGE_WIDTH, json_path, read_lanes, read_list, every_labelled_frame
 from ..errors import ConfigError
 from ..lanes_io import check_coordinates
@@ -75,8 +75,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                    announce: Callable[[str], None] | None = None, strict: bool = False) -> OpenLaneScore:
     """Score OpenLane JSON predictions mirroring `labels` (`<segment>/<frame>.json`)."""
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
-    if width < MIN_LINE_THICKNESS:
-        raise ConfigError(f"lane width must be at least {MIN_LINE_THICKNESS}, got {width}")
+    check_lane_width(width)
     if not modes or any(mode not in MODES for mode in modes):
         raise ConfigError(f"matching must be among {', '.join(MODES)}")
     labels = Path(labels)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from ..config import MAX_LINE_THICKNESS
 from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 
 
@@ -26,7 +27,7 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 @click.option("--sizes", "sizes_file", type=click.Path(path_type=Path),
               help='JSON file of sizes: {"<sequence>": {"width": W, "height": H}, ...}.')
 @click.option("--iou", metavar="T,T|START:STOP:STEP", help="IoU thresholds, scored in one pass. Default: 0.5,0.8.")
-@click.option("--width", default=30, show_default=True, type=click.IntRange(min=2),
+@click.option("--width", default=30, show_default=True, type=click.IntRange(min=2, max=MAX_LINE_THICKNESS),
               help="Lane width in pixels, at every sequence's size (as MMA-Net's evaluator).")
 @click.option("--temporal/--no-temporal", default=True, show_default=True,
               help="Also RVLD's temporal metrics Rs, Rj, Rm (evaluate_temporal.py), each threshold as tau.")

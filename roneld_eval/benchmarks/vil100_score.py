@@ -13,10 +13,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
-from ..config import MIN_LINE_THICKNESS, Thresholds, parse_thresholds
+from ..config import Thresholds, check_lane_width, parse_thresholds
 from ..datasets.culane import check_inside
 from ..datasets.vil100 import SCENARIOS, Vil100Set, labels_path, read_vil100, scenarios_of
-from ..errors import ConfigError
 from ..lanes_io import check_coordinates, read_culane_lines
 from ..metrics.culane_official import CulaneFrameResult, evaluate_culane_frame, f_measure, official_masks
 from ..metrics.vil100_official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
@@ -95,8 +94,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
     Rm with each threshold as tau. `out` gets official.csv, temporal.csv and summary.md.
     """
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
-    if width < MIN_LINE_THICKNESS:
-        raise ConfigError(f"lane width must be at least {MIN_LINE_THICKNESS}, got {width}")
+    check_lane_width(width)
     with _taking(out, "score vil100") as folder:
         dataset = read_vil100(labels, list_file, image_root, json_root, sizes_file)
         relpaths = [relpath for frames in dataset.sequences.values() for relpath in frames]

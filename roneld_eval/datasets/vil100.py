@@ -99,32 +99,78 @@ def read_sizes_file(path: Path) -> dict[str, tuple[int, int]]:
         data = json.loads(read_bytes(path, limit=CONFIG).decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as error:
         raise InputError(path, f"not JSON: {error}") from None
+    except RecursionError:
+        raise InputError(path, "not a file of sizes: nested too deeply") from None
     if not isinstance(data, dict):
         raise InputError(path, "must map each sequence to its width and height")
     return {str(name): _size(value, path, str(name)) for name, value in data.items()}
+
+
+# The largest frame side accepted (VIL-100's largest is 1920): a sequence is drawn at its size.
+MAX_SIDE = 16384
 
 
 def _size(value, path: Path, where: str) -> tuple[int, int]:
     if isinstance(value, dict):
         value = [value.get("width"), value.get("height")]
     if (not isinstance(value, list) or len(value) != 2
-            or not all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 100_000 for v in value)):
-        raise InputError(path, f"{where}: a size is a width and a height in pixels (1..100000), got {value!r}")
+            or not all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_SIDE for v in value)):
+        raise InputError(path, f"{where}: a size is a width and a height in pixels (1..{MAX_SIDE}), got {value!r}")
     return value[0], value[1]
 
 
 def _image_size(root: Path, relpath: str) -> tuple[int, int]:
-    import cv2
-
+    """(width, height) from the image's header (JPEG or PNG), without decoding it."""
     for suffix in IMAGE_SUFFIXES:
         path = under_root(root, relpath + suffix)
         if path.is_file():
             check_regular_file(path, "image not found")
-            image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-            if image is None:
-                raise InputError(path, "not an image OpenCV can read")
-            return int(image.shape[1]), int(image.shape[0])
+            try:
+                with open(path, "rb") as handle:
+                    head = handle.read(IMAGE_HEADER_BYTES)
+            except OSError as error:
+                raise InputError(path, f"cannot read: {error.strerror}") from None
+            size = _png_header(head) if head.startswith(b"\x89PNG\r\n\x1a\n") else _jpeg_header(head)
+            if size is None:
+                raise InputError(path, "not a JPEG or PNG whose size can be read from its header")
+            return _size(list(size), path, "image")
     raise InputError(under_root(root, relpath + IMAGE_SUFFIXES[0]), "image not found (needed for the sequence's size)")
+
+
+# Where a JPEG's frame header lies: after its APPn segments (EXIF thumbnails included), within this.
+IMAGE_HEADER_BYTES = 1 << 20
+
+
+def _png_header(data: bytes) -> tuple[int, int] | None:
+    if len(data) < 24 or data[12:16] != b"IHDR":
+        return None
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
+def _jpeg_header(data: bytes) -> tuple[int, int] | None:
+    """The size in a JPEG's start-of-frame segment (SOF0..SOF15 but DHT, JPG, DAC)."""
+    if not data.startswith(b"\xff\xd8"):
+        return None
+    at = 2
+    while at + 4 <= len(data):
+        if data[at] != 0xFF:
+            return None
+        marker = data[at + 1]
+        if marker == 0xFF:  # fill byte
+            at += 1
+            continue
+        if marker in (0x01, *range(0xD0, 0xD8)):  # segments without a length
+            at += 2
+            continue
+        length = int.from_bytes(data[at + 2:at + 4], "big")
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            if at + 9 > len(data):
+                return None
+            return int.from_bytes(data[at + 7:at + 9], "big"), int.from_bytes(data[at + 5:at + 7], "big")
+        if length < 2:
+            return None
+        at += 2 + length
+    return None
 
 
 def _json_size(root: Path, relpath: str) -> tuple[int, int]:
@@ -135,6 +181,8 @@ def _json_size(root: Path, relpath: str) -> tuple[int, int]:
                 info = json.loads(read_bytes(path, limit=CONFIG).decode("utf-8")).get("info", {})
             except (UnicodeDecodeError, ValueError, AttributeError) as error:
                 raise InputError(path, f"not a VIL-100 annotation: {error}") from None
+            except RecursionError:
+                raise InputError(path, "not a VIL-100 annotation: nested too deeply") from None
             return _size(info if isinstance(info, dict) else None, path, "info")
     raise InputError(under_root(root, relpath + ".jpg.json"), "annotation not found (needed for the sequence's size)")
 
