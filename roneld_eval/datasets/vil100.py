@@ -21,6 +21,7 @@ from typing import Mapping, Sequence
 from ..errors import ConfigError, InputError
 from ..lanes_io import check_regular_file, read_bytes, read_text, split_lines
 from ..limits import CONFIG
+from ..image_header import HEADER_BYTES, header_size
 from ..model import image_stem
 from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
 
@@ -127,50 +128,14 @@ def _image_size(root: Path, relpath: str) -> tuple[int, int]:
             check_regular_file(path, "image not found")
             try:
                 with open(path, "rb") as handle:
-                    head = handle.read(IMAGE_HEADER_BYTES)
+                    head = handle.read(HEADER_BYTES)
             except OSError as error:
                 raise InputError(path, f"cannot read: {error.strerror}") from None
-            size = _png_header(head) if head.startswith(b"\x89PNG\r\n\x1a\n") else _jpeg_header(head)
+            size = header_size(head)
             if size is None:
                 raise InputError(path, "not a JPEG or PNG whose size can be read from its header")
             return _size(list(size), path, "image")
     raise InputError(under_root(root, relpath + IMAGE_SUFFIXES[0]), "image not found (needed for the sequence's size)")
-
-
-# Where a JPEG's frame header lies: after its APPn segments (EXIF thumbnails included), within this.
-IMAGE_HEADER_BYTES = 1 << 20
-
-
-def _png_header(data: bytes) -> tuple[int, int] | None:
-    if len(data) < 24 or data[12:16] != b"IHDR":
-        return None
-    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
-
-
-def _jpeg_header(data: bytes) -> tuple[int, int] | None:
-    """The size in a JPEG's start-of-frame segment (SOF0..SOF15 but DHT, JPG, DAC)."""
-    if not data.startswith(b"\xff\xd8"):
-        return None
-    at = 2
-    while at + 4 <= len(data):
-        if data[at] != 0xFF:
-            return None
-        marker = data[at + 1]
-        if marker == 0xFF:  # fill byte
-            at += 1
-            continue
-        if marker in (0x01, *range(0xD0, 0xD8)):  # segments without a length
-            at += 2
-            continue
-        length = int.from_bytes(data[at + 2:at + 4], "big")
-        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-            if at + 9 > len(data):
-                return None
-            return int.from_bytes(data[at + 7:at + 9], "big"), int.from_bytes(data[at + 5:at + 7], "big")
-        if length < 2:
-            return None
-        at += 2 + length
-    return None
 
 
 def _json_size(root: Path, relpath: str) -> tuple[int, int]:

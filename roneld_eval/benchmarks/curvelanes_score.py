@@ -1,0 +1,119 @@
+"""`score curvelanes`: predicted `.lines.json` files scored as CondLaneNet's lane_metric.py scores
+CurveLanes (aliyun/conditional-lane-detection c57b242; metrics.curvelanes_official), each image at
+its own size, every method in one pass; at a fixed score threshold and, when a list is given, the
+best F1 over it, labelled as chosen on the test set (as vega's summary reports it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..errors import ConfigError, InputError
+from ..datasets.curvelanes import SUFFIX, every_labelled_image, image_size, lanes_path, read_frame, read_list
+
+from ..metrics.curvelanes_official import f_measure, frame_hits, has_zero_step
+from ..output import Staging
+from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees
+
+COLUMNS = ("method", "score_threshold", "chosen", "hits", "predicted", "truth", "precision", "recall", "f1")
+CHUNK_FRAMES = 100
+
+
+@dataclass(frozen=True)
+class CurveLanesScore:
+    rows: PlainTable
+    methods: tuple[str, ...]
+    n_frames: int
+    warnings: tuple[str, ...] = ()
+
+
+def _lanes(path: Path, missing_ok: bool, width: int, height: int, threshold: float | None = None):
+    frame = read_frame(path, missing_ok)
+    kept = [lane for lane, score in zip(frame.lanes, frame.scores)
+            if threshold is None or score is None or score > threshold]
+    for index, lane in enumerate(kept):
+        if has_zero_step(lane, width, height):
+            raise InputError(path, f"lane {index} has two equal consecutive points: CondLaneNet's spline divides by "
+                                   "zero there (and its drawing stops on NaN)")
+    return kept
+
+
+def _score_frames(args) -> np.ndarray:
+    """(methods, thresholds, 3): hits, predicted and ground-truth lanes of a chunk of images."""
+    relpaths, labels, images, pred_roots, thresholds = args
+    counts = np.zeros((len(pred_roots), len(thresholds), 3), np.int64)
+    for relpath in relpaths:
+        width, height = image_size(images, relpath)
+        truth = _lanes(lanes_path(labels, relpath), True, width, height)
+        for m, root in enumerate(pred_roots):
+            for t, threshold in enumerate(thresholds):
+                predicted = _lanes(lanes_path(root, relpath), True, width, height, threshold)
+                counts[m, t] += (frame_hits(truth, predicted, width, height), len(predicted), len(truth))
+    return counts
+
+
+def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root: str | Path,
+                     list_file: str | Path | None = None, score_threshold: float = 0.0,
+                     best_of: Sequence[float] = (), out: str | Path | None = None, workers: int | None = None,
+                     progress: bool = False, announce: Callable[[str], None] | None = None,
+                     strict: bool = False) -> CurveLanesScore:
+    """Score CurveLanes predictions mirroring `labels`; a lane with a score is kept above the threshold."""
+    thresholds = [float(score_threshold), *(float(t) for t in best_of if float(t) != float(score_threshold))]
+    if not all(np.isfinite(thresholds)):
+        raise ConfigError("score thresholds must be finite numbers")
+    labels, images = Path(labels), Path(image_root)
+    with _taking(out, "score curvelanes") as folder:
+        relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels)
+        if not any(lanes_path(labels, relpath).exists() for relpath in relpaths):
+            raise ConfigError(f"no listed image has its labels under {labels} (first looked for: "
+                              f"{lanes_path(labels, relpaths[0])})")
+        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=SUFFIX)
+        roots = tuple(tree.root for tree in trees)
+        chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
+        counts = _run([(chunk, labels, images, roots, thresholds) for chunk in chunks], workers, progress,
+                      len(relpaths))
+        rows = []
+        for m, tree in enumerate(trees):
+            rows.append(_row(tree.method, thresholds[0], "fixed", counts[m, 0]))
+            if best_of:
+                listed = [t for t, value in enumerate(thresholds) if value in [float(b) for b in best_of]]
+                best = max(listed, key=lambda t: (f_measure(*counts[m, t])[2], -t))
+                rows.append(_row(tree.method, thresholds[best], "best on the test set", counts[m, best]))
+        score = CurveLanesScore(PlainTable(COLUMNS, tuple(rows)), tuple(t.method for t in trees), len(relpaths),
+                                tuple(warnings))
+        if folder is not None:
+            staging = Staging(folder)
+            staging.write_text("official.csv", score.rows.to_csv())
+            folder.commit()
+    return score
+
+
+def _row(method: str, threshold: float, chosen: str, counts) -> tuple:
+    hits, predicted, truth = (int(v) for v in counts)
+    return (method, threshold, chosen, hits, predicted, truth, *f_measure(hits, predicted, truth))
+
+
+def _run(tasks, workers, progress, n_frames) -> np.ndarray:
+    from tqdm import tqdm
+
+    total = None
+    with tqdm(total=n_frames, unit="image", desc="scoring", disable=not progress) as bar:
+        if len(tasks) > 1 and workers != 1:
+            from ..workers import default_workers, process_pool, stopping
+
+            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
+            with stopping(process_pool(min(workers or default_workers(), len(tasks))), lambda: died) as pool:
+                for task, piece in zip(tasks, pool.map(_score_frames, tasks)):
+                    total = piece if total is None else total + piece
+                    bar.update(len(task[0]))
+        else:
+            for task in tasks:
+                piece = _score_frames(task)
+                total = piece if total is None else total + piece
+                bar.update(len(task[0]))
+    assert total is not None
+    return total
