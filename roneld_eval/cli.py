@@ -294,14 +294,25 @@ class _BenchmarkCommands(click.Group):
     imported only when it is the one asked for."""
 
     def list_commands(self, ctx):
-        from .benchmarks import benchmark_for
-
-        return [name for name in benchmark_names() if benchmark_for(name).score_command() is not None]
+        return [name for name in benchmark_names() if self._command(name, quiet=True) is not None]
 
     def get_command(self, ctx, name):
+        return self._command(name) if name in benchmark_names() else None
+
+    @staticmethod
+    def _command(name: str, quiet: bool = False):
+        """The benchmark's command; one that cannot be loaded is left out of the list (`quiet`)
+        or is one line, exit 2, when asked for by name."""
         from .benchmarks import benchmark_for
 
-        return benchmark_for(name).score_command() if name in benchmark_names() else None
+        try:
+            return benchmark_for(name).score_command()
+        except Exception as error:  # a third party's package
+            if quiet:
+                return None
+            raise UsageProblem(str(error) if isinstance(error, RoneldEvalError)
+                               else f"benchmark {name!r}: score_command() raised {type(error).__name__}: {error}"
+                               ) from None
 
 
 @main.group(cls=_BenchmarkCommands)
@@ -328,7 +339,7 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
 
     from .benchmarks import benchmark_for
 
-    total = clips * (frames or benchmark_for(dataset).frames_per_clip)
+    total = clips * (frames or _guard(benchmark_for, debug, dataset).frames_per_clip)
     with tqdm(total=total, unit="frame", desc="generating", disable=total < 200) as bar:
         result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
     click.echo(f"data root: {result.data_root}")

@@ -109,3 +109,40 @@ def test_no_code_outside_a_benchmarks_own_modules_names_it():
     for path in sorted((PACKAGE / "roneld_eval").rglob("*.py")):
         found += _named_constants(path, {name for name in names if name not in path.name})
     assert found == []
+
+
+def _package(root: Path, name: str, value: str, module: str, source: str) -> Path:
+    info = root / f"{name}_pkg-0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}-pkg\nVersion: 0\n")
+    (info / "entry_points.txt").write_text(f"[roneld_eval.benchmarks]\n{value}\n")
+    (root / f"{module}.py").write_text(source)
+    return root
+
+
+@pytest.mark.parametrize("source, problem", [
+    ('raise RuntimeError("boom at import")\n', "cannot be loaded: RuntimeError: boom at import"),
+    ('class X:\n    name = "bad"\nB = X()\n',
+     "lacks display_name, image_size, default_preset, frames_per_clip, fixture, score_command (see "
+     "roneld_eval.benchmarks.Benchmark)"),
+])
+def test_a_broken_benchmark_is_one_line_and_leaves_the_others_listed(tmp_path, source, problem):
+    path = _package(tmp_path, "bad", "bad = bad_mod:B", "bad_mod", source)
+    listed = cli("score", "--help", path=path)
+    assert "culane" in listed.stdout and "vil100" in listed.stdout and "bad" not in listed.stdout
+    for args in (["score", "bad", "--help"], ["synth", "--dataset", "bad", "--out", str(tmp_path / "s")]):
+        done = cli(*args, path=path, check=False)
+        assert done.returncode == 2, args
+        assert done.stderr.strip() == f"error: benchmark 'bad' (bad_mod:B) {problem}", args
+
+
+def test_a_package_cannot_replace_a_built_in_benchmark(tmp_path):
+    source = 'class X:\n    name = "culane"\nB = X()\n'
+    path = _package(tmp_path, "shadow", "culane = shadow_mod:B", "shadow_mod", source)
+    done = cli("run", "--dry-run", path=path)
+    assert "culane" in done.stdout + done.stderr and "tusimple" not in done.stdout
+    program = ("from roneld_eval.benchmarks import benchmark_for, default_name; "
+               "print(type(benchmark_for('culane')).__module__, default_name())")
+    checked = subprocess.run([sys.executable, "-c", program],
+                             capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(path)), check=True)
+    assert checked.stdout.split() == ["roneld_eval.benchmarks.culane", "culane"]

@@ -15,7 +15,7 @@ from click.testing import CliRunner
 
 from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
 from roneld_eval.cli import main
-from roneld_eval.errors import ConfigError
+from roneld_eval.errors import ConfigError, InputError
 from roneld_eval.datasets.vil100 import read_vil100, scenarios_of
 from roneld_eval.metrics.vil100_official import printed
 from roneld_eval.metrics.vil100_temporal import sequence_counts
@@ -247,3 +247,22 @@ def test_a_lane_width_beyond_the_bound_is_refused_before_any_work(command, root)
     assert result.exit_code == 2 and "1001 is not in the range 2<=x<=1000" in result.output
     with pytest.raises(ConfigError, match="at most 1000 px, got 1000000000"):
         score_vil100(GOLDEN / "anno_txt", GOLDEN / "pred_txt", sizes_file=GOLDEN / "test_sizes.json", width=10**9)
+
+
+def test_listed_frames_without_ground_truth_are_said_and_refused_under_strict(tmp_path):
+    listing = tmp_path / "list.txt"
+    listing.write_text("synA_frames/00000\nsynA_frames/00001\nsynA_frames/00002\n")  # labels every third frame
+    arguments = ["score", "vil100", "--labels", str(GOLDEN / "anno_txt"), "--pred-root", str(GOLDEN / "pred_txt"),
+                 "--sizes", str(GOLDEN / "test_sizes.json"), "--list", str(listing), "--quiet"]
+    result = CliRunner().invoke(main, arguments + ["--out", str(tmp_path / "out")])
+    assert result.exit_code == 0
+    assert result.stderr.startswith("warning: 2 of 3 listed frames have no ground-truth file (first: "
+                                    f"{GOLDEN / 'anno_txt' / 'synA_frames' / '00001.lines.txt'})")
+    strict = CliRunner().invoke(main, arguments + ["--strict"])
+    assert strict.exit_code == 2 and "--strict needs every one" in strict.output
+
+
+def test_a_sequence_named_like_a_summary_row_is_refused(tmp_path):
+    root = _copy_set(tmp_path, {"synA_frames": "all", "synB_frames": "2_Road002_frames"})
+    with pytest.raises(InputError, match="a sequence named 'all' would be mistaken"):
+        score_vil100(root / "anno_txt", {"m": root / "pred_txt"}, sizes_file=root / "sizes.json")

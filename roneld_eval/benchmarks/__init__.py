@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import importlib.metadata
+import inspect
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
@@ -128,11 +129,24 @@ class Benchmark(Protocol):
 ENTRY_POINT_GROUP = "roneld_eval.benchmarks"
 
 
+_OWN = __name__.split(".")[0] + "."
+# What every benchmark must have, and what `run` needs besides (a benchmark scored from lane
+# files only has default_preset None and need not have these).
+REQUIRED = ("display_name", "image_size", "default_preset", "frames_per_clip", "fixture", "score_command")
+RUN_REQUIRED = ("kernel_groups", "missing_maps_hint", "read", "with_labels", "synthesize", "label_paths",
+                "prepare", "score", "tally", "decode", "lane_file", "official_columns", "official_optional",
+                "official_key", "official_protocol", "official_note", "check_official", "official_comparison")
+
+
 @functools.cache
 def _entry_points() -> dict[str, importlib.metadata.EntryPoint]:
+    """Name -> entry point. This package's own benchmarks keep their names: another package on
+    sys.path registering one of them does not replace it (else the first found wins, as for
+    console scripts)."""
     found: dict[str, importlib.metadata.EntryPoint] = {}
     for point in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        found.setdefault(point.name, point)  # the first on sys.path wins, as for console scripts
+        if point.name not in found or (point.value.startswith(_OWN) and not found[point.name].value.startswith(_OWN)):
+            found[point.name] = point
     return dict(sorted(found.items()))
 
 
@@ -153,17 +167,26 @@ def benchmark_for(name: str) -> Benchmark:
     except Exception as error:  # a third party's package: say which, not a traceback
         raise ConfigError(f"benchmark {name!r} ({points[name].value}) cannot be loaded: "
                           f"{type(error).__name__}: {error}") from None
-    if getattr(benchmark, "name", None) != name:
-        raise ConfigError(f"benchmark {name!r} ({points[name].value}) calls itself "
-                          f"{getattr(benchmark, 'name', None)!r}")
+    where = f"benchmark {name!r} ({points[name].value})"
+    if inspect.getattr_static(benchmark, "name", None) != name:
+        raise ConfigError(f"{where} calls itself {inspect.getattr_static(benchmark, 'name', None)!r}")
+    # Looked up statically: a benchmark may answer every other name with its own ConfigError.
+    missing = [member for member in REQUIRED if inspect.getattr_static(benchmark, member, _MISSING) is _MISSING]
+    if not missing and inspect.getattr_static(benchmark, "default_preset") is not None:
+        missing = [member for member in RUN_REQUIRED
+                   if inspect.getattr_static(benchmark, member, _MISSING) is _MISSING]
+    if missing:
+        raise ConfigError(f"{where} lacks {', '.join(missing)} (see roneld_eval.benchmarks.Benchmark)")
     return benchmark
+
+
+_MISSING = object()
 
 
 def default_name() -> str:
     """The benchmark `run` evaluates when told none: the first of this package's own that bundles
     a fixture (an installed package cannot change what the bare command does)."""
-    own = __name__.split(".")[0] + "."
     for name, point in _entry_points().items():
-        if point.value.startswith(own) and benchmark_for(name).fixture is not None:
+        if point.value.startswith(_OWN) and benchmark_for(name).fixture is not None:
             return name
     raise ConfigError("no installed benchmark bundles a fixture: give --dataset, --data-root and --maps-root")

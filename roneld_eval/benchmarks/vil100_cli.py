@@ -28,10 +28,12 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
               help='JSON file of sizes: {"<sequence>": {"width": W, "height": H}, ...}.')
 @click.option("--iou", metavar="T,T|START:STOP:STEP", help="IoU thresholds, scored in one pass. Default: 0.5,0.8.")
 @click.option("--width", default=30, show_default=True, type=click.IntRange(min=2, max=MAX_LINE_THICKNESS),
-              help="Lane width in pixels, at every sequence's size (as MMA-Net's evaluator).")
+              help="Lane width in pixels for F1 and mIoU, at every sequence's size (as MMA-Net's evaluator); the "
+                   "temporal metrics draw 30 px, as RVLD's script.")
 @click.option("--temporal/--no-temporal", default=True, show_default=True,
               help="Also RVLD's temporal metrics Rs, Rj, Rm (evaluate_temporal.py), each threshold as tau.")
-@click.option("--strict", is_flag=True, help="Stop when any listed frame has no prediction file (default: no lanes).")
+@click.option("--strict", is_flag=True,
+              help="Stop when any listed frame has no prediction or ground-truth file (default: no lanes, a warning).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path),
               help="Folder for official.csv (every method, sequence, scenario and threshold), temporal.csv and "

@@ -16,6 +16,7 @@ from typing import Callable, Sequence
 from ..config import Thresholds, check_lane_width, parse_thresholds
 from ..datasets.culane import check_inside
 from ..datasets.vil100 import SCENARIOS, Vil100Set, labels_path, read_vil100, scenarios_of
+from ..errors import InputError
 from ..lanes_io import check_coordinates, read_culane_lines
 from ..metrics.culane_official import CulaneFrameResult, evaluate_culane_frame, f_measure, official_masks
 from ..metrics.vil100_official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
@@ -99,6 +100,15 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         dataset = read_vil100(labels, list_file, image_root, json_root, sizes_file)
         relpaths = [relpath for frames in dataset.sequences.values() for relpath in frames]
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
+        if dataset.unlabelled:
+            first = labels_path(dataset.labels, dataset.unlabelled[0])
+            said = (f"{len(dataset.unlabelled):,} of {len(relpaths):,} listed frames have no ground-truth file "
+                    f"(first: {first})")
+            if strict:
+                raise InputError(dataset.labels, f"{said}; --strict needs every one")
+            # Every VIL-100 test frame has one (40 are empty): a missing one is a wrong list or folder.
+            warnings.insert(0, f"warning: {said}; they count as frames without lanes, as MMA-Net's evaluator "
+                               "reads them")
         roots = tuple(tree.root for tree in trees)
         tasks = [(frames, dataset.labels, roots, *dataset.sizes[name], width, temporal)
                  for name, frames in dataset.sequences.items()]

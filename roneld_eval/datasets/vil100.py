@@ -39,6 +39,7 @@ class Vil100Set:
     labels: Path
     sequences: Mapping[str, tuple[str, ...]]  # sequence -> frame relpaths "<sequence>/<frame>", list order
     sizes: Mapping[str, tuple[int, int]]
+    unlabelled: tuple[str, ...] = ()  # listed frames without a ground-truth file (no lanes, as the C++ reads them)
 
     @property
     def n_frames(self) -> int:
@@ -165,7 +166,12 @@ def read_vil100(labels: str | Path, list_file: str | Path | None = None, image_r
     sequences: dict[str, list[str]] = {}
     for relpath in entries:
         sequences.setdefault(relpath.split("/")[0], []).append(relpath)
+    for name in sequences:
+        if name == "all" or name.startswith("scenario "):  # the rows official.csv adds
+            raise InputError(Path(list_file) if list_file is not None else labels,
+                             f"a sequence named {name!r} would be mistaken for official.csv's own rows")
     _check_some_labels(labels, entries)
+    unlabelled = tuple(relpath for relpath in entries if not labels_path(labels, relpath).exists())
     if sizes_file is not None:
         known = read_sizes_file(Path(sizes_file))
         missing = [name for name in sequences if name not in known]
@@ -180,7 +186,7 @@ def read_vil100(labels: str | Path, list_file: str | Path | None = None, image_r
         assert json_root is not None
         check_folder(Path(json_root), "annotation folder not found")
         sizes = {name: _json_size(Path(json_root), frames[0]) for name, frames in sequences.items()}
-    return Vil100Set(labels, {name: tuple(frames) for name, frames in sequences.items()}, sizes)
+    return Vil100Set(labels, {name: tuple(frames) for name, frames in sequences.items()}, sizes, unlabelled)
 
 
 def _check_some_labels(labels: Path, entries: Sequence[str]) -> None:
