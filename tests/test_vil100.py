@@ -266,3 +266,24 @@ def test_a_sequence_named_like_a_summary_row_is_refused(tmp_path):
     root = _copy_set(tmp_path, {"synA_frames": "all", "synB_frames": "2_Road002_frames"})
     with pytest.raises(InputError, match="a sequence named 'all' would be mistaken"):
         score_vil100(root / "anno_txt", {"m": root / "pred_txt"}, sizes_file=root / "sizes.json")
+
+
+@pytest.mark.parametrize("content, problem", [
+    ("[1, 2]", "not a VIL-100 annotation: no `info` object with the image's width and height"),
+    ('{"annotations": {}}', "not a VIL-100 annotation: no `info` object with the image's width and height"),
+    ("{", "not a VIL-100 annotation: Expecting property name"),
+    (None, "is a folder"),
+])
+def test_a_bad_annotation_is_named_with_its_problem(tmp_path, content, problem):
+    for sequence in ("synA_frames", "synB_frames"):
+        (tmp_path / sequence).mkdir()
+        (tmp_path / sequence / "00000.jpg.json").write_text('{"info": {"width": 960, "height": 480}}')
+    bad = tmp_path / "synB_frames" / "00000.jpg.json"
+    if content is None:
+        bad.unlink()
+        bad.mkdir()
+    else:
+        bad.write_text(content)
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(GOLDEN / "anno_txt"), "--pred-root",
+                                       str(GOLDEN / "pred_txt"), "--json-root", str(tmp_path), "--quiet"])
+    assert result.exit_code == 2 and result.output.startswith(f"error: {bad}: ") and problem in result.output

@@ -113,7 +113,7 @@ def _point(point, path: Path, index: int) -> Point:
 def image_size(root: Path, relpath: str) -> tuple[int, int]:
     for suffix in IMAGE_SUFFIXES:
         path = under_root(root, relpath + suffix)
-        if path.is_file():
+        if os.path.lexists(path):  # there: a folder or a FIFO is refused as such
             check_regular_file(path, "image not found")
             try:
                 with open(path, "rb") as handle:

@@ -125,7 +125,7 @@ def _image_size(root: Path, relpath: str) -> tuple[int, int]:
     """(width, height) from the image's header (JPEG or PNG), without decoding it."""
     for suffix in IMAGE_SUFFIXES:
         path = under_root(root, relpath + suffix)
-        if path.is_file():
+        if os.path.lexists(path):
             check_regular_file(path, "image not found")
             try:
                 with open(path, "rb") as handle:
@@ -142,14 +142,17 @@ def _image_size(root: Path, relpath: str) -> tuple[int, int]:
 def _json_size(root: Path, relpath: str) -> tuple[int, int]:
     for name in (relpath + ".jpg.json", relpath + ".json"):
         path = under_root(root, name)
-        if path.is_file():
+        if os.path.lexists(path):  # there: a folder or a FIFO is refused as such by read_bytes
             try:
-                info = json.loads(read_bytes(path, limit=CONFIG).decode("utf-8")).get("info", {})
-            except (UnicodeDecodeError, ValueError, AttributeError) as error:
+                record = json.loads(read_bytes(path, limit=CONFIG).decode("utf-8"))
+            except (UnicodeDecodeError, ValueError) as error:
                 raise InputError(path, f"not a VIL-100 annotation: {error}") from None
             except RecursionError:
                 raise InputError(path, "not a VIL-100 annotation: nested too deeply") from None
-            return _size(info if isinstance(info, dict) else None, path, "info")
+            info = record.get("info") if isinstance(record, dict) else None
+            if not isinstance(info, dict):
+                raise InputError(path, "not a VIL-100 annotation: no `info` object with the image's width and height")
+            return _size(info, path, "info")
     raise InputError(under_root(root, relpath + ".jpg.json"), "annotation not found (needed for the sequence's size)")
 
 
