@@ -499,9 +499,9 @@ class EvalConfig:
             if method not in defined:
                 installed = installed_extractors() if installed is None else installed
                 if method not in installed:
-                    choices = ", ".join(list(METHODS) + sorted(set(defined) | set(installed)))
-                    raise ConfigError(f"unknown method {method!r}; choose from {choices}, or add your own with "
-                                      f"--method {method}=module:callable")
+                    known = list(METHODS) + sorted(set(defined) | set(installed))
+                    raise ConfigError(f"unknown method {method!r}{_nearest(method, known)}; choose from "
+                                      f"{', '.join(known)}, or add your own with --method {method}=module:callable")
                 defined[method] = PluginMethod(method, installed[method])
             used.append(defined[method])
         return tuple(used)
@@ -775,7 +775,16 @@ def resolve_config_path(value: str | Path) -> Path:
         return path
     if path.suffix == "" and str(value) in preset_names():
         return preset_path(str(value))
-    raise ConfigError(f"{value}: no such config file or preset (presets: {', '.join(preset_names())})")
+    raise ConfigError(f"{value}: no such config file or preset{_nearest(str(value), preset_names())}"
+                      f"; presets: {', '.join(preset_names())}")
+
+
+def _nearest(value: str, choices) -> str:
+    """' (did you mean X?)' for the closest of `choices` to a misspelt `value`, or ''."""
+    import difflib
+
+    close = difflib.get_close_matches(value, list(choices), n=1, cutoff=0.75)
+    return f" (did you mean {close[0]}?)" if close else ""
 
 
 # ---- number ranges -------------------------------------------------------------------

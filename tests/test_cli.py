@@ -5,6 +5,7 @@ import json
 import subprocess
 
 import click
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -33,6 +34,8 @@ def test_every_command_and_option_has_help():
     (["run", "--data-root", "x"], "give both --data-root and --maps-root"),
     (["run", "--config", "no-such-preset"], "no such config file or preset"),
     (["run", "--methods", "baseline,magic"], "unknown method 'magic'"),
+    (["run", "--config", "scnn-culan"], "scnn-culan: no such config file or preset (did you mean scnn-culane?)"),
+    (["run", "--methods", "roneld,basline"], "unknown method 'basline' (did you mean baseline?)"),
     (["run", "--thresholds", "0.3:0.5:0.07"], "does not divide"),
     (["run", "--set", "paper.thickness_rule=diagonal"], "thickness_rule must be"),
     (["score", "tusimple", "--labels", "nope.json", "--pred", "nope.json"], "nope.json: file not found"),
@@ -163,3 +166,30 @@ def test_a_dry_run_checks_and_says_what_would_be_scored_and_writes_nothing(tmp_p
     result = CliRunner().invoke(main, args + ["--on-error", "skip"])
     assert result.exit_code == 0 and "1 clip, 2 frames" in result.output and "would skip: " in result.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["set"]
+
+
+@pytest.mark.parametrize("level", ["deeper", "higher"])
+def test_a_maps_root_one_level_off_names_the_folder_that_holds_the_maps(tmp_path, level):
+    from roneld_eval.datasets.culane_synth import synth_culane
+
+    synth_culane(tmp_path / "set", clips=1, frames=2, seed=1)
+    maps = tmp_path / "set" / "maps"
+    given = next(maps.iterdir()) if level == "deeper" else tmp_path / "set"
+    result = CliRunner().invoke(main, ["run", "--data-root", str(tmp_path / "set" / "data"), "--maps-root", str(given),
+                                       "--quiet", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert result.output.rstrip().endswith(f"did you mean --maps-root {maps} (it holds them)?")
+
+
+def test_maps_stored_height_width_channels_say_how_to_transpose(tmp_path):
+    from roneld_eval.datasets.culane_synth import synth_culane
+
+    synth_culane(tmp_path / "set", clips=1, frames=2, seed=1)
+    first = sorted((tmp_path / "set" / "maps").rglob("*.npy"))[0]
+    np.save(first, np.load(first).transpose(1, 2, 0).copy())
+    result = CliRunner().invoke(main, ["run", "--data-root", str(tmp_path / "set" / "data"), "--maps-root",
+                                       str(tmp_path / "set" / "maps"), "--quiet", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert result.output.strip() == (f"error: {first}: has 288 channels, expected 4 (it looks like (height, width, "
+                                     "channels) = (288, 800, 4): store (channels, height, width), e.g. "
+                                     "np.transpose(maps, (2, 0, 1)))")

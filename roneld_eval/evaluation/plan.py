@@ -3,6 +3,7 @@ the first map's geometry (`run --dry-run` is this alone)."""
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
@@ -49,6 +50,32 @@ def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
     more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
     hint = benchmark_for(dataset.name).missing_maps_hint
     return f"maps missing for {counted(len(missing), 'frame')} of {counted(len(clips), 'clip')}{hint}: {listing}{more}"
+
+
+def _root_hint(maps_root: Path, dataset: Dataset, config: EvalConfig) -> str:
+    """'; did you mean --maps-root X (it holds them)?' where the folder one level up, or one
+    below, has the first listed frame's maps (as `score` says for prediction roots)."""
+    first = dataset.clips[0].frames[0].relpath if dataset.clips and dataset.clips[0].frames else None
+    if first is None:
+        return ""
+
+    def holds(root: Path) -> bool:
+        try:
+            return all(path.exists() for path in required_paths(root, first, config.maps))
+        except (OSError, ValueError):
+            return False
+
+    parent = maps_root.parent
+    if parent != maps_root and holds(parent):
+        return f"; did you mean --maps-root {parent} (it holds them)?"
+    try:
+        children = sorted(entry.path for entry in os.scandir(maps_root) if entry.is_dir())
+    except OSError:
+        return ""
+    for child in children[:50]:
+        if holds(Path(child)):
+            return f"; did you mean --maps-root {child} (it holds them)?"
+    return ""
 
 
 @dataclass(frozen=True)
@@ -113,7 +140,7 @@ def _clips_with_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, skip
     if not missing:
         return list(dataset.clips)
     if config.on_error != "skip":
-        raise InputError(maps_root, describe_missing(missing, dataset))
+        raise InputError(maps_root, describe_missing(missing, dataset) + _root_hint(maps_root, dataset, config))
     by_clip: dict[str, list[Path]] = {}
     for clip_id, path in missing:
         by_clip.setdefault(clip_id, []).append(path)

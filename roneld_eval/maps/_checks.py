@@ -15,8 +15,12 @@ def canonical_probabilities(array: np.ndarray, path, config: MapsConfig) -> np.n
         raise InputError(path, f"maps must be a (channels, height, width) array, got shape {array.shape}")
     if array.shape[0] != expected:
         hint = ""
-        if array.shape[0] == config.lane_channels + 1 and not config.background_channel:
-            hint = " (if the first channel is background, set maps.background_channel = true)"
+        if array.shape[-1] in (expected, config.lane_channels, config.lane_channels + 1) and array.shape[0] > 16:
+            hint = (f" (it looks like (height, width, channels) = {tuple(array.shape)}: store (channels, height, "
+                    "width), e.g. np.transpose(maps, (2, 0, 1)))")
+        elif array.shape[0] == config.lane_channels + 1 and not config.background_channel:
+            hint = (" (if the first channel is background, add --set maps.background_channel=true, or "
+                    "background_channel = true in [maps])")
         raise InputError(path, f"has {array.shape[0]} channels, expected {expected}{hint}")
     if array.shape[1] < 2 or array.shape[2] < 2:
         raise InputError(path, f"maps of {array.shape[2]}x{array.shape[1]} pixels are too small")
