@@ -69,6 +69,8 @@ class ResultCache:
             self.folder.unlink()  # never write through a link to somewhere else
         if not resume:
             self.discard()
+        # A finished run keeps no cache: resuming into one (or into nothing) has nothing to reuse.
+        self.nothing_kept = not self.folder.is_dir()
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as error:
@@ -158,6 +160,9 @@ class ResultCache:
     def summary(self) -> str:
         """'reused 3 clips; computed 2 (1 not finished, 1 maps or labels changed)'."""
         computed = sum(self.reasons.values())
+        if self.nothing_kept and not self.reused:
+            return (f"nothing to resume: this folder keeps no unfinished run (a finished one keeps no clips); "
+                    f"computing all {computed} clip{'s' if computed != 1 else ''}")
         why = ", ".join(f"{count} {reason}" for reason, count in sorted(self.reasons.items()))
         return f"reused {self.reused} finished clip{'s' if self.reused != 1 else ''}; computing {computed}" + \
             (f" ({why})" if why else "")

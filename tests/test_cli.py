@@ -193,3 +193,13 @@ def test_maps_stored_height_width_channels_say_how_to_transpose(tmp_path):
     assert result.output.strip() == (f"error: {first}: has 288 channels, expected 4 (it looks like (height, width, "
                                      "channels) = (288, 800, 4): store (channels, height, width), e.g. "
                                      "np.transpose(maps, (2, 0, 1)))")
+
+
+def test_resuming_into_a_finished_run_says_there_is_nothing_to_resume(tmp_path):
+    out = tmp_path / "out"
+    assert CliRunner().invoke(main, ["run", "--out", str(out), "--quiet", "--workers", "1"]).exit_code == 0
+    result = CliRunner().invoke(main, ["run", "--out", str(out), "--resume", "--workers", "1"])
+    assert result.exit_code == 0, result.output
+    assert ("resume: nothing to resume: this folder keeps no unfinished run (a finished one keeps no clips); "
+            "computing all 4 clips") in result.output
+    assert "not finished" not in result.output
