@@ -203,3 +203,14 @@ def test_resuming_into_a_finished_run_says_there_is_nothing_to_resume(tmp_path):
     assert ("resume: nothing to resume: this folder keeps no unfinished run (a finished one keeps no clips); "
             "computing all 4 clips") in result.output
     assert "not finished" not in result.output
+
+
+def test_compare_says_how_many_frames_two_runs_do_not_share(tmp_path):
+    for name, extra in (("a", []), ("b", ["--set", "dataset.limit=2"])):
+        result = CliRunner().invoke(main, ["run", "--out", str(tmp_path / name), "--quiet", "--workers", "1", *extra])
+        assert result.exit_code == 0, result.output
+    result = CliRunner().invoke(main, ["compare", str(tmp_path / "a"), str(tmp_path / "b"), "--out",
+                                       str(tmp_path / "c"), "--quiet"])
+    assert result.exit_code == 2
+    assert ("scored different frames (of the 40 frames with a ground-truth ego lane in either, 20 are in one run "
+            "only, e.g. driver_102_30frame/05182066_0205.MP4/00000.jpg)") in result.output

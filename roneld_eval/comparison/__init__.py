@@ -29,6 +29,7 @@ from ..metrics.bootstrap import LEVEL, MIN_CLIPS, paired_bootstrap
 from ..benchmarks import benchmark_for, names as benchmark_names
 from ..methods import ABLATION_PAIR, METHOD_TABLE, PAPER_PAIR, facts_of
 from ..report.tables import dataset_name, display_name
+from ..wording import counted
 from .runs import Run, frames_of, read_run
 from .tables import EMPTY, Cell, Column, Gain, Grid, Stat, Text, clips_text, wrap_words
 
@@ -233,7 +234,9 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
         if run.frames_key != base.frames_key:
             a, b = frames_of(base), frames_of(run)
             differ = sorted(a ^ b)
-            detail = (f"{len(differ)} of {len(a | b)} frames differ, e.g. {differ[0]}" if differ else
+            detail = (f"of the {counted(len(a | b), 'frame')} with a ground-truth ego lane in either, "
+                      f"{len(differ)} {'is' if len(differ) == 1 else 'are'} in one run only, e.g. {differ[0]}"
+                      if differ else
                       f"{base.counts['labelled_frames']} and {run.counts['labelled_frames']} frames scored")
             raise ConfigError(f"{where} but scored different frames ({detail}); compare runs of one dataset "
                               f"on the same frames")
