@@ -363,3 +363,18 @@ def test_one_number_prints_alike_however_it_was_computed():
     assert tables.fixed(-0.0001, signed=True) == "+0.000" and tables.fixed(float("nan")) == "n/a"
     assert tables.fixed(8.45, 1) == "8.5" and tables.fixed(-0.0875) == "-0.088"
     assert tables.fixed(0.7125 - 0.675) == "0.038"  # 3/80, whatever the float rounding left
+
+
+def test_a_runtime_mean_above_its_95th_percentile_is_explained(tmp_path):
+    from roneld_eval import api
+    from roneld_eval.report.write import write_report
+
+    result = api.run(api.default_config().with_overrides(workers=1), tmp_path / "run", progress=False)
+    assert "95th percentile" not in (tmp_path / "run" / "runtime.md").read_text() or (
+        result.runtime["mean_ms"] > result.runtime["p95_ms"]).any()
+    skewed = result.runtime.copy()
+    skewed.loc[0, "mean_ms"] = skewed.loc[0, "p95_ms"] * 3  # one frame a hundred times slower than the rest
+    result.runtime = skewed
+    write_report(result, tmp_path / "again")
+    text = (tmp_path / "again" / "runtime.md").read_text()
+    assert f"A mean above its 95th percentile ({skewed.loc[0, 'method']})" in text and "the median is" in text

@@ -149,9 +149,14 @@ def stage_report(result: RunResult, staging: Staging) -> None:
             f"Accuracy of {tables.display_name('roneld', model)} with and without preceding frame tracking (PFT) "
             f"on {source}. {paper_note}", f"tab:pft-{result.dataset.name}"))
     staging.write_csv("runtime.csv", result.runtime, "%.4f")
+    skewed = [str(row["method"]) for row in result.runtime.to_dict("records") if row["mean_ms"] > row["p95_ms"]]
+    skew_note = (f"\n\nA mean above its 95th percentile ({', '.join(skewed)}): fewer than one frame in 20 took far "
+                 "longer than the rest (a slow disk read, the machine busy with other work), and the median is the "
+                 "typical frame." if skewed else "")
     staging.write_text("runtime.md", f"# Runtime per frame on {source}\n\n"
                        f"Milliseconds per frame of extraction alone (after numba warm-up), map loading apart, "
-                       f"on {protocol.map_size()}.\n\n" + tables.runtime_table(result.runtime, model).to_markdown())
+                       f"on {protocol.map_size()}.\n\n" + tables.runtime_table(result.runtime, model).to_markdown()
+                       + skew_note)
     staging.write_csv("per_frame.csv", result.per_frame, "%.10g")
     staging.write_csv("official.csv", result.official, "%.6f")
     staging.write_text("config.toml", config_record(result))
