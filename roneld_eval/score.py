@@ -342,6 +342,37 @@ def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds
     return thresholds, highlighted or thresholds.labels[:1]
 
 
+def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | None, progress: bool,
+                  announce: Callable[[str], None] | None = None, kernel_groups: tuple[str, ...] = ("official",),
+                  unit: str = "frame") -> list:
+    """`function` over tasks whose first item is their frames, in order: in worker processes for
+    more than one task (all cores unless `workers`), else here; a progress bar counts frames.
+    The kernels are compiled once here first, not in every worker."""
+    from tqdm import tqdm
+
+    from . import kernels
+
+    if kernel_groups:
+        kernels.prepare(announce=announce, needed=kernel_groups)
+    pieces = []
+    with tqdm(total=sum(len(task[0]) for task in tasks), unit=unit, desc="scoring", disable=not progress) as bar:
+        if len(tasks) > 1 and workers != 1:
+            from .workers import default_workers, process_pool, stopping
+
+            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
+            with stopping(process_pool(min(workers or default_workers(), len(tasks))), lambda: died) as pool:
+                for task, piece in zip(tasks, pool.map(function, tasks)):
+                    pieces.append(piece)
+                    bar.update(len(task[0]))
+        else:
+            if kernel_groups:
+                kernels.warm_up(kernel_groups)  # loaded here in one go, not frame by frame
+            for task in tasks:
+                pieces.append(function(task))
+                bar.update(len(task[0]))
+    return pieces
+
+
 @contextlib.contextmanager
 def _taking(out: str | Path | None, command: str) -> Iterator[OutputFolder | None]:
     """The whole command with SIGTERM and SIGHUP ending it as Ctrl-C does, and OUT (when given)

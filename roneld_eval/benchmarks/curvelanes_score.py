@@ -17,7 +17,7 @@ from ..datasets.curvelanes import SUFFIX, every_labelled_image, image_size, lane
 
 from ..metrics.curvelanes_official import f_measure, frame_hits, has_zero_step
 from ..output import Staging
-from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees
+from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 
 COLUMNS = ("method", "score_threshold", "chosen", "hits", "predicted", "truth", "precision", "recall", "f1")
 CHUNK_FRAMES = 100
@@ -74,8 +74,8 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=SUFFIX)
         roots = tuple(tree.root for tree in trees)
         chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
-        counts = _run([(chunk, labels, images, roots, thresholds) for chunk in chunks], workers, progress,
-                      len(relpaths))
+        tasks = [(chunk, labels, images, roots, thresholds) for chunk in chunks]
+        counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(), unit="image"))
         rows = []
         for m, tree in enumerate(trees):
             rows.append(_row(tree.method, thresholds[0], "fixed", counts[m, 0]))
@@ -95,25 +95,3 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
 def _row(method: str, threshold: float, chosen: str, counts) -> tuple:
     hits, predicted, truth = (int(v) for v in counts)
     return (method, threshold, chosen, hits, predicted, truth, *f_measure(hits, predicted, truth))
-
-
-def _run(tasks, workers, progress, n_frames) -> np.ndarray:
-    from tqdm import tqdm
-
-    total = None
-    with tqdm(total=n_frames, unit="image", desc="scoring", disable=not progress) as bar:
-        if len(tasks) > 1 and workers != 1:
-            from ..workers import default_workers, process_pool, stopping
-
-            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
-            with stopping(process_pool(min(workers or default_workers(), len(tasks))), lambda: died) as pool:
-                for task, piece in zip(tasks, pool.map(_score_frames, tasks)):
-                    total = piece if total is None else total + piece
-                    bar.update(len(task[0]))
-        else:
-            for task in tasks:
-                piece = _score_frames(task)
-                total = piece if total is None else total + piece
-                bar.update(len(task[0]))
-    assert total is not None
-    return total

@@ -20,7 +20,7 @@ from ..errors import ConfigError
 from ..lanes_io import check_coordinates
 from ..metrics.culane_official import f_measure, matched_result, official_masks
 from ..output import Staging
-from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees
+from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 
 DEFAULT_IOU = "0.3"  # evaluate.cpp:121 (its help() says 0.4)
 LANE_WIDTH = 30  # evaluate.cpp:120 (its help() says 10)
@@ -88,7 +88,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
         roots = tuple(tree.root for tree in trees)
         chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
         tasks = [(chunk, labels, roots, IMAGE_WIDTH, IMAGE_HEIGHT, width, modes, thresholds.values) for chunk in chunks]
-        counts = _run(tasks, workers, progress, len(relpaths), announce)
+        counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce))
         rows = []
         for m, tree in enumerate(trees):
             for k, mode in enumerate(modes):
@@ -103,33 +103,6 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
             staging.write_text("summary.md", summary_markdown(score, width))
             folder.commit()
     return score
-
-
-def _run(tasks, workers, progress, n_frames, announce) -> np.ndarray:
-    from tqdm import tqdm
-
-    from .. import kernels
-
-    kernels.prepare(announce=announce, needed=("official",))
-    total = None
-    with tqdm(total=n_frames, unit="frame", desc="scoring", disable=not progress) as bar:
-        if len(tasks) > 1 and workers != 1:
-            from ..workers import default_workers, process_pool, stopping
-
-            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
-            with stopping(process_pool(min(workers or default_workers(), len(tasks))), lambda: died) as pool:
-                pieces = pool.map(_score_frames, tasks)
-                for task, piece in zip(tasks, pieces):
-                    total = piece if total is None else total + piece
-                    bar.update(len(task[0]))
-        else:
-            kernels.warm_up(("official",))
-            for task in tasks:
-                piece = _score_frames(task)
-                total = piece if total is None else total + piece
-                bar.update(len(task[0]))
-    assert total is not None
-    return total
 
 
 def summary_table(score: OpenLaneScore) -> str:

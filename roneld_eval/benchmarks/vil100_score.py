@@ -22,7 +22,7 @@ from ..metrics.culane_official import CulaneFrameResult, evaluate_culane_frame, 
 from ..metrics.vil100_official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
 from ..metrics.vil100_temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
 from ..output import Staging
-from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees
+from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 
 DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers report both
 LANE_WIDTH = 30  # evaluate_iou.py:22, for every sequence whatever its size
@@ -112,7 +112,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         roots = tuple(tree.root for tree in trees)
         tasks = [(frames, dataset.labels, roots, *dataset.sizes[name], width, temporal)
                  for name, frames in dataset.sequences.items()]
-        scored = _run(tasks, workers, progress, len(relpaths), announce)
+        scored = scored_pieces(_score_sequence, tasks, workers, progress, announce)
         methods = tuple(tree.method for tree in trees)
         rows, overall = _rows(dataset, methods, scored, thresholds)
         temporal_rows, temporal_overall = _temporal_rows(dataset, methods, scored, thresholds) if temporal else ([], {})
@@ -129,30 +129,6 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             staging.write_text("summary.md", summary_markdown(score, width))
             folder.commit()
     return score
-
-
-def _run(tasks: list, workers: int | None, progress: bool, n_frames: int, announce) -> list:
-    from tqdm import tqdm
-
-    from .. import kernels
-
-    kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
-    pieces = []
-    with tqdm(total=n_frames, unit="frame", desc="scoring", disable=not progress) as bar:
-        if len(tasks) > 1 and workers != 1:
-            from ..workers import default_workers, process_pool, stopping
-
-            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
-            with stopping(process_pool(min(workers or default_workers(), len(tasks))), lambda: died) as pool:
-                for task, piece in zip(tasks, pool.map(_score_sequence, tasks)):
-                    pieces.append(piece)
-                    bar.update(len(task[0]))
-        else:
-            kernels.warm_up(("official",))
-            for task in tasks:
-                pieces.append(_score_sequence(task))
-                bar.update(len(task[0]))
-    return pieces
 
 
 def _rows(dataset: Vil100Set, methods: Sequence[str], scored: list, thresholds: Thresholds):
