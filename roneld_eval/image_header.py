@@ -42,3 +42,21 @@ def jpeg_header(data: bytes) -> tuple[int, int] | None:
 def header_size(data: bytes) -> tuple[int, int] | None:
     """(width, height) of a JPEG or PNG from its first bytes; None if neither can be read."""
     return png_header(data) if data.startswith(b"\x89PNG\r\n\x1a\n") else jpeg_header(data)
+
+
+def image_file_size(path) -> tuple[int, int]:
+    """(width, height) of the image at `path`, from its header: an InputError naming the file
+    when it is not a readable regular file or not a JPEG or PNG."""
+    from .errors import InputError
+    from .lanes_io import check_regular_file
+
+    check_regular_file(path, "image not found")
+    try:
+        with open(path, "rb") as handle:
+            size = header_size(handle.read(HEADER_BYTES))
+    except OSError as error:
+        raise InputError(path, f"cannot read: {error.strerror}") from None
+    if size is None:
+        raise InputError(path, "not a JPEG or PNG whose size can be read from its header")
+    return size
+

@@ -64,3 +64,26 @@ def frame_sort_key(relpath: str):
     name = posixpath.basename(relpath)
     stem = image_stem(name)
     return (0, int(stem), name) if stem.isdigit() and stem.isascii() else (1, 0, name)
+
+
+def read_image_list(path: Path, keep_suffix: bool = True) -> list[str]:
+    """The relpaths a list file names, one a line (its first word), in order; with
+    `keep_suffix=False` without their image extension. Duplicates and an empty list refused."""
+    from ..lanes_io import read_text, split_lines
+    from ..model import image_stem
+
+    entries: list[str] = []
+    seen: set[str] = set()
+    for number, line in enumerate(split_lines(read_text(path)), start=1):
+        if not line.strip():
+            continue
+        relpath = normalise_relpath(line.split()[0], path, number)
+        relpath = relpath if keep_suffix else image_stem(relpath)
+        if relpath in seen:
+            raise InputError(path, f"{relpath} is listed twice", line=number)
+        seen.add(relpath)
+        entries.append(relpath)
+    if not entries:
+        raise InputError(path, "the list names no images")
+    return entries
+

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
-from ..image_header import HEADER_BYTES, header_size
-from ..lanes_io import check_regular_file, decode_text, read_bytes, read_text, split_lines
+from ..image_header import image_file_size
+from ..lanes_io import decode_text, read_bytes
 from ..model import image_stem
-from ._paths import check_folder, normalise_relpath, under_root
+from ._paths import read_image_list, check_folder, under_root
 
 SUFFIX = ".lines.json"
 IMAGE_SUFFIXES = (".jpg", ".png", ".jpeg")
@@ -37,17 +37,8 @@ def lanes_path(root: Path, relpath: str) -> Path:
 
 
 def read_list(path: Path) -> list[str]:
-    entries, seen = [], set()
-    for number, line in enumerate(split_lines(read_text(path)), start=1):
-        if line.strip():
-            relpath = image_stem(normalise_relpath(line.split()[0], path, number))
-            if relpath in seen:
-                raise InputError(path, f"{relpath} is listed twice", line=number)
-            seen.add(relpath)
-            entries.append(relpath)
-    if not entries:
-        raise InputError(path, "the list names no images")
-    return entries
+    """The images to score, `<name>.jpg` a line (kept without the extension)."""
+    return read_image_list(path, keep_suffix=False)
 
 
 def every_labelled_image(labels: Path) -> list[str]:
@@ -114,14 +105,7 @@ def image_size(root: Path, relpath: str) -> tuple[int, int]:
     for suffix in IMAGE_SUFFIXES:
         path = under_root(root, relpath + suffix)
         if os.path.lexists(path):  # there: a folder or a FIFO is refused as such
-            check_regular_file(path, "image not found")
-            try:
-                with open(path, "rb") as handle:
-                    size = header_size(handle.read(HEADER_BYTES))
-            except OSError as error:
-                raise InputError(path, f"cannot read: {error.strerror}") from None
-            if size is None:
-                raise InputError(path, "not a JPEG or PNG whose size can be read from its header")
+            size = image_file_size(path)
             if not all(1 <= side <= MAX_SIDE for side in size):
                 raise InputError(path, f"image of {size[0]}x{size[1]}: sides of 1..{MAX_SIDE} px are scored")
             return size

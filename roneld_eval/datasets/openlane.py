@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..lanes_io import decode_text, read_bytes, read_text, split_lines
+from ..lanes_io import decode_text, read_bytes
 from ..model import Lane, image_stem
-from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
+from ._paths import read_image_list, check_folder, frame_sort_key, under_root
 
 IMAGE_WIDTH, IMAGE_HEIGHT = 1920, 1280  # evaluate.cpp:125-126 (-c, -r): the canvas every frame is drawn on
 
@@ -40,18 +40,7 @@ def json_path(root: Path, relpath: str) -> Path:
 
 def read_list(path: Path) -> list[str]:
     """The images to score, as test_list.txt names them (`<segment>/<frame>.jpg`)."""
-    entries, seen = [], set()
-    for number, line in enumerate(split_lines(read_text(path)), start=1):
-        if not line.strip():
-            continue
-        relpath = normalise_relpath(line.split()[0], path, number)
-        if relpath in seen:
-            raise InputError(path, f"{relpath} is listed twice", line=number)
-        seen.add(relpath)
-        entries.append(relpath)
-    if not entries:
-        raise InputError(path, "the list names no images")
-    return entries
+    return read_image_list(path, keep_suffix=True)
 
 
 def every_labelled_frame(labels: Path) -> list[str]:

@@ -19,9 +19,9 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 from ..errors import ConfigError, InputError
-from ..lanes_io import check_regular_file, read_bytes, read_text, split_lines
+from ..lanes_io import read_bytes, read_text, split_lines
 from ..limits import CONFIG
-from ..image_header import HEADER_BYTES, header_size
+from ..image_header import image_file_size
 from ..model import image_stem
 from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
 
@@ -126,15 +126,7 @@ def _image_size(root: Path, relpath: str) -> tuple[int, int]:
     for suffix in IMAGE_SUFFIXES:
         path = under_root(root, relpath + suffix)
         if os.path.lexists(path):
-            check_regular_file(path, "image not found")
-            try:
-                with open(path, "rb") as handle:
-                    head = handle.read(HEADER_BYTES)
-            except OSError as error:
-                raise InputError(path, f"cannot read: {error.strerror}") from None
-            size = header_size(head)
-            if size is None:
-                raise InputError(path, "not a JPEG or PNG whose size can be read from its header")
+            size = image_file_size(path)
             return _size(list(size), path, "image")
     raise InputError(under_root(root, relpath + IMAGE_SUFFIXES[0]), "image not found (needed for the sequence's size)")
 
