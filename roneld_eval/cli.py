@@ -17,7 +17,8 @@ import click
 from .version import __version__
 from .wording import counted
 from .benchmarks import names as benchmark_names
-from .config import MAP_FORMATS, METHODS, EvalConfig, parse_setting, preset_names
+from .config import MAP_FORMATS, METHODS, EvalConfig, parse_setting
+from .presets import preset_names
 from .errors import ConfigError, RoneldEvalError
 from .output import DEFAULT_OUT
 

@@ -19,8 +19,7 @@ import re
 import stat
 import sys
 from dataclasses import dataclass, field, fields, replace
-from decimal import Decimal, InvalidOperation
-from importlib import resources
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +31,9 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 from .errors import ConfigError
 from .limits import CONFIG
 from .geometry import MapGeometry
+from .presets import nearest, preset_path, resolve_config_path
+from .thresholds import TALLEST_IMAGE, parse_rows, parse_thresholds
+from .toml_text import toml_key, toml_value
 from .methods import METHOD_TABLE
 
 # "lanes": another detector's lane files, rendered into maps (roneld_eval.maps.lanes).
@@ -95,7 +97,7 @@ def check_lane_width(width: int) -> None:
 # beside the fields; the bounds keep a typo from running for hours or drawing nonsense.
 RANGES: dict[str, Range] = {
     "dataset.image_width": Range(1, 100_000),
-    "dataset.image_height": Range(1, 100_000),
+    "dataset.image_height": Range(1, TALLEST_IMAGE),
     "dataset.limit": Range(1),  # clips
     "maps.width": Range(1, 10_000),  # reference map size in pixels (maps of another size rescale)
     "maps.height": Range(1, 10_000),
@@ -115,11 +117,6 @@ RANGES: dict[str, Range] = {
     "official.lane_width_px": Range(MIN_LINE_THICKNESS, MAX_LINE_THICKNESS),
     "workers": Range(1, 1024),
 }
-# IoU thresholds (paper.thresholds, `score --iou`): at most this many in a sweep, each with at
-# most this many decimals (a sweep costs one array comparison per threshold).
-MAX_THRESHOLDS = 1000
-MAX_THRESHOLD_DECIMALS = 12
-
 # Settings that no longer exist, with what to write instead.
 REMOVED_SETTINGS = {
     "roneld.pft": (
@@ -500,7 +497,7 @@ class EvalConfig:
                 installed = installed_extractors() if installed is None else installed
                 if method not in installed:
                     known = list(METHODS) + sorted(set(defined) | set(installed))
-                    raise ConfigError(f"unknown method {method!r}{_nearest(method, known)}; choose from "
+                    raise ConfigError(f"unknown method {method!r}{nearest(method, known)}; choose from "
                                       f"{', '.join(known)}, or add your own with --method {method}=module:callable")
                 defined[method] = PluginMethod(method, installed[method])
             used.append(defined[method])
@@ -637,15 +634,15 @@ class EvalConfig:
         for key, value in self.to_dict().items():
             if key == "methods" and isinstance(value, dict):
                 for name, table in value.items():
-                    lines = [f"[methods.{_toml_key(name)}]"]
-                    lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items()]
+                    lines = [f"[methods.{toml_key(name)}]"]
+                    lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in table.items()]
                     tables.append("\n".join(lines))
             elif isinstance(value, dict):
                 lines = [f"[{key}]"]
-                lines += [f"{k} = {_toml_value(v)}" for k, v in value.items() if v is not None]
+                lines += [f"{k} = {toml_value(v)}" for k, v in value.items() if v is not None]
                 tables.append("\n".join(lines))
             elif value is not None:
-                top.append(f"{key} = {_toml_value(value)}")
+                top.append(f"{key} = {toml_value(value)}")
         return "\n".join(top) + "\n\n" + "\n\n".join(tables) + "\n"
 
 
@@ -723,164 +720,3 @@ def _read_config_text(path: Path) -> str:
             f"{path}: not UTF-8 text (byte 0x{data[error.start]:02x} at offset {error.start}); save it as UTF-8"
         ) from None
     return text[1:] if text.startswith("\ufeff") else text
-
-
-# TOML basic-string escapes: quote, backslash, and every control character.
-_TOML_ESCAPES = {ord('"'): '\\"', ord("\\"): "\\\\", ord("\b"): "\\b", ord("\t"): "\\t", ord("\n"): "\\n",
-                 ord("\f"): "\\f", ord("\r"): "\\r"}
-_TOML_ESCAPES.update({code: f"\\u{code:04X}" for code in [*range(0x20), 0x7F] if code not in _TOML_ESCAPES})
-
-
-def _toml_key(key: str) -> str:
-    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_value(key)
-
-
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    return '"' + str(value).translate(_TOML_ESCAPES) + '"'
-
-
-# ---- presets -------------------------------------------------------------------------
-
-
-def _presets_folder() -> Path:
-    """configs/ as installed (roneld_eval.configs), or beside the package in a source checkout."""
-    try:
-        return Path(str(resources.files("roneld_eval.configs")))
-    except ModuleNotFoundError:
-        return Path(__file__).resolve().parents[1] / "configs"
-
-
-def preset_names() -> list[str]:
-    """Names of the bundled presets (the TOML files in configs/)."""
-    return sorted(entry.name[:-5] for entry in _presets_folder().iterdir() if entry.name.endswith(".toml"))
-
-
-def preset_path(name: str) -> Path:
-    """The file of a bundled preset."""
-    if name not in preset_names():
-        raise ConfigError(f"unknown preset {name!r}; presets: {', '.join(preset_names())}")
-    return _presets_folder() / f"{name}.toml"
-
-
-def resolve_config_path(value: str | Path) -> Path:
-    """A config file path, or a preset name when no such file exists."""
-    path = Path(value)
-    if os.path.lexists(path):  # read (or refused: a folder, a FIFO) by the caller
-        return path
-    if path.suffix == "" and str(value) in preset_names():
-        return preset_path(str(value))
-    raise ConfigError(f"{value}: no such config file or preset{_nearest(str(value), preset_names())}"
-                      f"; presets: {', '.join(preset_names())}")
-
-
-def _nearest(value: str, choices) -> str:
-    """' (did you mean X?)' for the closest of `choices` to a misspelt `value`, or ''."""
-    import difflib
-
-    close = difflib.get_close_matches(value, list(choices), n=1, cutoff=0.75)
-    return f" (did you mean {close[0]}?)" if close else ""
-
-
-# ---- number ranges -------------------------------------------------------------------
-
-
-def parse_rows(spec: str) -> range:
-    """Image rows 'start:stop:step' (Python range semantics, 0-based)."""
-    try:
-        start, stop, step = (int(part) for part in str(spec).split(":"))
-    except ValueError:
-        raise ConfigError(f"rows must look like 'start:stop:step' with integers, got {spec!r}") from None
-    if step <= 0 or start < 0 or stop <= start:
-        raise ConfigError(f"rows {spec!r} must have 0 <= start < stop and a positive step")
-    tallest = RANGES["dataset.image_height"].high
-    assert tallest is not None  # image heights have a documented upper bound
-    if stop > tallest:
-        raise ConfigError(f"rows {spec!r} go below any image (stop must be at most the image height)")
-    return range(start, stop, step)
-
-
-@dataclass(frozen=True)
-class Thresholds:
-    """IoU thresholds as exact decimals: `labels` like '0.30', `values` the nearest doubles."""
-
-    labels: tuple[str, ...]
-    values: tuple[float, ...]
-
-    def __len__(self) -> int:
-        return len(self.values)
-
-
-_THRESHOLD_FORMS = "START:STOP:STEP (e.g. 0.30:0.50:0.01), one number (0.5), or numbers separated by commas"
-
-
-def _decimal_places(value: Decimal) -> int:
-    """Digits after the point of a finite Decimal (negative for 1E+2)."""
-    exponent = value.as_tuple().exponent
-    assert isinstance(exponent, int), value  # only NaN and infinities have a letter here
-    return -exponent
-
-
-def _threshold_decimal(part: str, spec: str) -> Decimal:
-    """One number of a threshold spec: finite, in [0, 1), at most MAX_THRESHOLD_DECIMALS places."""
-    try:
-        value = Decimal(part.strip())
-    except InvalidOperation:
-        raise ConfigError(f"thresholds {spec!r}: {part.strip()!r} is not a number; write {_THRESHOLD_FORMS}") from None
-    if not value.is_finite():
-        raise ConfigError(f"thresholds {spec!r}: {part.strip()!r} is not a finite number")
-    if _decimal_places(value) > MAX_THRESHOLD_DECIMALS:
-        raise ConfigError(f"thresholds {spec!r}: {part.strip()} has more than {MAX_THRESHOLD_DECIMALS} decimals")
-    return value
-
-
-def parse_thresholds(spec: str) -> Thresholds:
-    """'0.30:0.50:0.01' (inclusive) or '0.5' or '0.3,0.5' -> exact decimal thresholds.
-
-    Values are built as integer multiples of the step divided last, so 0.30 is the double
-    nearest 0.3, never 0.30000000000000004. Every value lies in [0, 1); a sweep has a positive
-    step and at most MAX_THRESHOLDS values. Anything else is one ConfigError line.
-    """
-    text = str(spec).strip()
-    if ":" in text:
-        parts = text.split(":")
-        if len(parts) != 3:
-            raise ConfigError(f"thresholds {text!r} must be {_THRESHOLD_FORMS}")
-        start, stop, step = (_threshold_decimal(part, text) for part in parts)
-        for value in (start, stop):
-            if not 0 <= value < 1:
-                raise ConfigError(f"IoU thresholds must lie in [0, 1), got {value}")
-        if step <= 0 or stop < start:
-            raise ConfigError(f"thresholds {text!r} need start <= stop and a positive step")
-        count = (stop - start) / step
-        if count + 1 > MAX_THRESHOLDS:
-            raise ConfigError(
-                f"thresholds {text!r} give {int(count) + 1:,} values; at most {MAX_THRESHOLDS:,} are allowed"
-            )
-        if count != count.to_integral_value():
-            raise ConfigError(f"thresholds {text!r}: the step does not divide stop - start")
-        decimals = [start + step * i for i in range(int(count) + 1)]
-    else:
-        parts = [part for part in text.split(",") if part.strip()]
-        if len(parts) > MAX_THRESHOLDS:
-            raise ConfigError(f"{len(parts):,} thresholds given; at most {MAX_THRESHOLDS:,} are allowed")
-        decimals = [_threshold_decimal(part, text) for part in parts]
-    if not decimals:
-        raise ConfigError(f"no thresholds given; write {_THRESHOLD_FORMS}")
-    for value in decimals:
-        if not 0 <= value < 1:
-            raise ConfigError(f"IoU thresholds must lie in [0, 1), got {value}")
-    places = max(max(_decimal_places(d), 0) for d in decimals)
-    places = max(places, 2)
-    labels = tuple(f"{value:.{places}f}" for value in decimals)
-    # Exact: a Decimal with few digits converts to the nearest double.
-    values = tuple(float(value) for value in decimals)
-    if len(set(labels)) != len(labels) or len(set(values)) != len(values):
-        raise ConfigError(f"thresholds {text!r} repeat a value")
-    assert all(math.isfinite(v) for v in values)
-    return Thresholds(labels=labels, values=values)

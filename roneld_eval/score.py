@@ -28,7 +28,9 @@ from typing import TYPE_CHECKING, Callable, Iterator, Union
 
 import numpy as np
 
-from .config import Thresholds, check_lane_width, parse_thresholds
+from .config import check_lane_width
+
+from .thresholds import Thresholds, parse_thresholds
 from .datasets.culane import read_culane
 from .datasets._paths import under_root
 from .datasets.culane import labels_path, read_frame_labels

@@ -29,7 +29,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from roneld_eval.comparison import compare  # noqa: E402
-from roneld_eval.config import EvalConfig, parse_thresholds  # noqa: E402
+from roneld_eval.config import EvalConfig  # noqa: E402
+from roneld_eval.thresholds import parse_thresholds  # noqa: E402
 from roneld_eval.metrics.bootstrap import paired_bootstrap  # noqa: E402
 from roneld_eval.metrics.sweep import sweep_accuracy  # noqa: E402
 from roneld_eval.output import OutputFolder  # noqa: E402

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roneld_eval.config import parse_thresholds
+from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.metrics import bootstrap
 from roneld_eval.metrics.bootstrap import clip_positions, count_clips, paired_bootstrap
 

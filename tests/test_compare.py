@@ -28,7 +28,7 @@ from hypothesis import strategies as st
 from roneld_eval import api
 from roneld_eval.cli import main
 from roneld_eval.comparison import compare, read_run
-from roneld_eval.config import Thresholds
+from roneld_eval.thresholds import Thresholds
 from roneld_eval.errors import ConfigError, InputError, RoneldEvalError
 from roneld_eval.metrics.bootstrap import paired_bootstrap
 from roneld_eval.report.tables import latex_text

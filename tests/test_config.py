@@ -2,13 +2,9 @@
 
 import pytest
 
-from roneld_eval.config import (
-    EvalConfig,
-    PaperMetricParams,
-    parse_rows,
-    parse_thresholds,
-    preset_names,
-)
+from roneld_eval.config import EvalConfig, PaperMetricParams
+from roneld_eval.presets import preset_names
+from roneld_eval.thresholds import parse_rows, parse_thresholds
 from roneld_eval.errors import ConfigError
 
 

@@ -32,9 +32,9 @@ from roneld_eval.config import (
     MapsConfig,
     RoneldParams,
     parse_setting,
-    parse_thresholds,
-    preset_names,
 )
+from roneld_eval.presets import preset_names
+from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.datasets import read_dataset
 from roneld_eval.datasets.culane import read_culane
 from roneld_eval.datasets.tusimple import read_tusimple
@@ -674,7 +674,7 @@ def test_maps_found_in_another_format_are_named(sets, tmp_path):
 
 
 def test_preset_comments_agree_with_their_format():
-    from roneld_eval.config import preset_path
+    from roneld_eval.presets import preset_path
 
     for name in preset_names():
         text = preset_path(name).read_text(encoding="utf-8")

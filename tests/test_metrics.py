@@ -8,7 +8,9 @@ import pandas as pd
 import pytest
 from conftest import GOLDEN
 
-from roneld_eval.config import PaperMetricParams, parse_thresholds
+from roneld_eval.config import PaperMetricParams
+
+from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.geometry import MapGeometry
 from roneld_eval.lanes_io import parse_culane_lines
 from roneld_eval.metrics.culane_official import (

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from roneld_eval import api
 from roneld_eval.cli import main
-from roneld_eval.config import parse_thresholds
+from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.metrics.bootstrap import paired_bootstrap
 from roneld_eval.report.overlays import worst_frames
 

@@ -5,7 +5,7 @@ import pandas as pd
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from roneld_eval.config import parse_thresholds
+from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.metrics.culane_official import evaluate_culane_frame
 from roneld_eval.metrics.iou import mask_iou
 from roneld_eval.metrics.raster import mask_from_pixels, official_mask

@@ -24,7 +24,7 @@ from click.testing import CliRunner
 
 from roneld_eval import api
 from roneld_eval.cli import main
-from roneld_eval.config import parse_thresholds
+from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.geometry import EffectiveGeometry
 from roneld_eval.metrics.bootstrap import MIN_CLIPS, count_clips, paired_bootstrap
 from roneld_eval.report import tables

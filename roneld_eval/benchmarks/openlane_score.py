@@ -14,7 +14,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..config import Thresholds, check_lane_width, parse_thresholds
+from ..config import check_lane_width
+
+from ..thresholds import Thresholds, parse_thresholds
 from ..datasets.openlane import IMAGE_HEIGHT, IMAGE_WIDTH, json_path, read_lanes, read_list, every_labelled_frame
 from ..errors import ConfigError
 from ..lanes_io import check_coordinates

@@ -13,7 +13,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
-from ..config import Thresholds, check_lane_width, parse_thresholds
+from ..config import check_lane_width
+
+from ..thresholds import Thresholds, parse_thresholds
 from ..datasets.culane import check_inside
 from ..datasets.vil100 import SCENARIOS, Vil100Set, labels_path, read_vil100, scenarios_of
 from ..errors import InputError

@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from ..version import __version__
-from ..config import Thresholds, parse_thresholds
+from ..thresholds import Thresholds, parse_thresholds
 from ..errors import ConfigError, InputError
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, paired_bootstrap
 from ..benchmarks import benchmark_for, names as benchmark_names

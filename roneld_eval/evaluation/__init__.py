@@ -18,7 +18,8 @@ from typing import Callable, Sequence
 
 from .. import kernels
 from ..benchmarks import OfficialTally
-from ..config import EvalConfig, parse_thresholds
+from ..config import EvalConfig
+from ..thresholds import parse_thresholds
 from ..metrics.sweep import sweep_accuracy
 from ..model import Clip, Dataset, Frame
 from ..workers import default_workers

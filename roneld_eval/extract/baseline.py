@@ -15,7 +15,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..config import BaselineParams, parse_rows
+from ..config import BaselineParams
+
+from ..thresholds import parse_rows
 from ..geometry import MapGeometry
 from ..model import EGO_CHANNELS, FrameMaps, Lane
 from ._kernels import row_argmax

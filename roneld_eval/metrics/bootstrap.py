@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config import Thresholds
+from ..thresholds import Thresholds
 
 if TYPE_CHECKING:  # imported where used: report.tables needs this module's constants, not pandas
     import pandas as pd

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..config import Thresholds
+from ..thresholds import Thresholds
 
 
 def sweep_counts(ious: np.ndarray, thresholds: Thresholds) -> np.ndarray:
