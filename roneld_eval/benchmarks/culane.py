@@ -146,7 +146,7 @@ class CulaneBenchmark:
 
 def _official_grid(groups):
     """Official CULane F1 (%) per category (rows) for every model and method (columns); 'cross' as FP."""
-    from ..comparison import all_found, method_header, method_name, ordered_methods
+    from ..comparison.groups import all_found, method_header, method_name, ordered_methods
     from ..comparison.tables import EMPTY, Cell, Column, Grid, Stat, Text
 
     categories = list(dict.fromkeys(c for g in groups for r in g.runs for c in r.official["category"]))

@@ -120,7 +120,7 @@ class TusimpleBenchmark:
 
 def _official_grid(groups):
     """TuSimple Accuracy (%), FP, FN and F1 (%) per model and method."""
-    from ..comparison import all_found, method_name, ordered_methods
+    from ..comparison.groups import all_found, method_name, ordered_methods
     from ..comparison.tables import EMPTY, Cell, Column, Grid, Stat, Text
 
     rows: list[tuple[Cell, ...]] = []

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from decimal import Decimal
 from functools import partial
 from pathlib import Path
-from typing import Callable, Iterable, Mapping, Sequence, TypeVar
+from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -26,18 +26,17 @@ from ..version import __version__
 from ..thresholds import Thresholds, parse_thresholds
 from ..errors import ConfigError, InputError
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, paired_bootstrap
-from ..benchmarks import benchmark_for, names as benchmark_names
-from ..methods import ABLATION_PAIR, METHOD_TABLE, PAPER_PAIR, facts_of
+from ..benchmarks import benchmark_for
+from ..methods import METHOD_TABLE
 from ..report.tables import dataset_name, display_name
 from ..wording import counted
+from .groups import (ABLATION_METHOD, KNOWN_METHODS, PAPER_METHODS, Group, _accuracy_of, _column_of, _groups,
+                     all_found, method_header, method_name, ordered_methods)
 from .runs import Run, frames_of, read_run
 from .tables import EMPTY, Cell, Column, Gain, Grid, Stat, Text, clips_text, wrap_words
 
-PAPER_METHODS = PAPER_PAIR  # the paper's pair: the model's own extraction, and RONELD
-ABLATION_METHOD = ABLATION_PAIR[0]  # RONELD without preceding-frame tracking (Table IV)
 ACCURACY_ROWS = ("0.3", "0.4", "0.5")  # Tables II/III
 ABLATION_ROWS = ("0.3", "0.5")  # Table IV
-KNOWN_METHODS = tuple(METHOD_TABLE)
 
 __all__ = ["compare", "Comparison", "read_run", "Run"]
 
@@ -51,29 +50,6 @@ class Comparison:
     pairs: pd.DataFrame  # pairs.csv (no rows without `pairs`)
     notes: tuple[str, ...]  # footnotes every table carries (mixed protocols)
     files: tuple[Path, ...]  # what was written
-
-
-@dataclass(frozen=True, eq=False)
-class Group:
-    """The runs of one model (label) on one dataset: one run, or several seeds or checkpoints."""
-
-    dataset: str
-    label: str
-    runs: tuple[Run, ...]
-
-    @property
-    def n(self) -> int:
-        return len(self.runs)
-
-    @property
-    def methods(self) -> tuple[str, ...]:
-        return self.runs[0].methods
-
-    def title(self) -> str:
-        return self.label if self.n == 1 else f"{self.label}, n = {self.n}"
-
-    def accuracy(self, method: str, threshold: Decimal) -> Stat:
-        return Stat(tuple(_accuracy_of(run, method)[threshold] for run in self.runs))
 
 
 def compare(runs: Sequence[str | Path], out: str | Path = "comparison",
@@ -313,33 +289,6 @@ def _table_rows(spec, grid: tuple[Decimal, ...], default: tuple[str, ...]) -> li
     return asked
 
 
-def _groups(runs: Sequence[Run]) -> list[Group]:
-    """Runs grouped by dataset (the installed benchmarks in their order, then others) and label,
-    in the order given."""
-    order = {name: index for index, name in enumerate(benchmark_names())}
-    datasets = sorted(dict.fromkeys(r.dataset for r in runs),
-                      key=lambda d: (order.get(d, len(order)), [r.dataset for r in runs].index(d)))
-    groups = []
-    for dataset in datasets:
-        members = [r for r in runs if r.dataset == dataset]
-        for label in dict.fromkeys(r.label for r in members):
-            groups.append(Group(dataset, label, tuple(r for r in members if r.label == label)))
-    return groups
-
-
-def ordered_methods(methods: Iterable[str]) -> list[str]:
-    methods = list(dict.fromkeys(methods))
-    return [m for m in KNOWN_METHODS if m in methods] + [m for m in methods if m not in KNOWN_METHODS]
-
-
-def _accuracy_of(run: Run, method: str) -> dict[Decimal, float]:
-    return run.column(method, "accuracy")
-
-
-def _column_of(run: Run, method: str, column: str) -> dict[Decimal, float]:
-    return run.column(method, column)
-
-
 # ---- comparison.csv and pairs --------------------------------------------------------------------
 
 def comparison_table(runs: Sequence[Run]) -> pd.DataFrame:
@@ -413,18 +362,6 @@ def _seeds_note(groups: Sequence[Group]) -> str:
         return ""
     return ("Where n is given, the model's runs (seeds or checkpoints) are averaged: mean ± sample standard "
             "deviation over the n runs.")
-
-
-def method_header(method: str, label: str) -> tuple[str, ...]:
-    """A method's header lines under its model's spanning header."""
-    facts = facts_of(method)
-    return wrap_words(method) if facts is None else facts.header
-
-
-def method_name(method: str, label: str) -> str:
-    """A method's name in Markdown headers and legends: 'SCNN + RONELD', 'SCNN polyfit'."""
-    name = display_name(method, label)
-    return name if method in KNOWN_METHODS or name.startswith(label) else f"{label} {name}"
 
 
 def _accuracy_columns(group: Group) -> list[tuple[str, str]]:
@@ -533,14 +470,6 @@ def _ablation_files(groups: Sequence[Group], rows, protocol: str, notes) -> dict
         f"\n{note}\n" for note in notes)
     return {"table_ablation.md": markdown, "table_ablation.tex": grid.to_latex(text, "tab:compare-pft", list(notes))}
 
-
-Found = TypeVar("Found")
-
-
-def all_found(found: Sequence[Found | None]) -> list[Found] | None:
-    """`found` when every run has the value, else None (the table shows a dash)."""
-    present = [f for f in found if f is not None]
-    return present if len(present) == len(found) else None
 
 
 def _runtime_of(run: Run) -> dict[str, float]:

@@ -151,7 +151,7 @@ class ToyBenchmark:
             raise InputError(path, "more exact clips than clips")
 
     def official_comparison(self, groups):
-        from roneld_eval.comparison import all_found, method_name, ordered_methods
+        from roneld_eval.comparison.groups import all_found, method_name, ordered_methods
         from roneld_eval.comparison.tables import EMPTY, Column, Grid, Stat, Text
 
         rows = []
