@@ -94,7 +94,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
 
     Sizes come from exactly one of `image_root`, `json_root` and `sizes_file`. `iou`: one
     threshold, a comma list or a grid (default 0.5 and 0.8). `temporal`: also RVLD's Rs, Rj and
-    Rm with each threshold as tau. `out` gets official.csv, temporal.csv and summary.md.
+    Rm with each threshold as tau. `out` gets official.csv, temporal.csv, summary.csv and summary.md.
     """
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
     check_lane_width(width)
