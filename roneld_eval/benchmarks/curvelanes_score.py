@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import ConfigError, InputError
 from ..datasets.curvelanes import SUFFIX, every_labelled_image, image_size, lanes_path, read_frame, read_list
 
-from ..metrics.curvelanes_official import f_measure, frame_hits, has_zero_step
+from ..metrics.curvelanes_official import f_measure, has_zero_step, hits, iou_matrix
 from ..output import Staging
 from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 
@@ -31,28 +31,41 @@ class CurveLanesScore:
     warnings: tuple[str, ...] = ()
 
 
-def _lanes(path: Path, missing_ok: bool, width: int, height: int, threshold: float | None = None):
-    frame = read_frame(path, missing_ok)
-    kept = [lane for lane, score in zip(frame.lanes, frame.scores)
-            if threshold is None or score is None or score > threshold]
-    for index, lane in enumerate(kept):
-        if has_zero_step(lane, width, height):
-            raise InputError(path, f"lane {index} has two equal consecutive points: CondLaneNet's spline divides by "
-                                   "zero there (and its drawing stops on NaN)")
-    return kept
+def _zero_step(path: Path, index: int) -> InputError:
+    return InputError(path, f"lane {index} has two equal consecutive points: CondLaneNet's spline divides by zero "
+                            "there (and its drawing stops on NaN)")
 
 
 def _score_frames(args) -> np.ndarray:
-    """(methods, thresholds, 3): hits, predicted and ground-truth lanes of a chunk of images."""
+    """(methods, thresholds, 3): hits, predicted and ground-truth lanes of a chunk of images.
+
+    Each file is read and each lane drawn once; a score threshold keeps a subset of the
+    predictions, whose columns of the one IoU matrix are matched (the same IoUs, in the same
+    order, as drawing the kept lanes alone)."""
     relpaths, labels, images, pred_roots, thresholds = args
     counts = np.zeros((len(pred_roots), len(thresholds), 3), np.int64)
     for relpath in relpaths:
         width, height = image_size(images, relpath)
-        truth = _lanes(lanes_path(labels, relpath), True, width, height)
+        path = lanes_path(labels, relpath)
+        truth = read_frame(path, True).lanes
+        for index, lane in enumerate(truth):
+            if has_zero_step(lane, width, height):
+                raise _zero_step(path, index)
         for m, root in enumerate(pred_roots):
-            for t, threshold in enumerate(thresholds):
-                predicted = _lanes(lanes_path(root, relpath), True, width, height, threshold)
-                counts[m, t] += (frame_hits(truth, predicted, width, height), len(predicted), len(truth))
+            path = lanes_path(root, relpath)
+            frame = read_frame(path, True)
+            kept = [[k for k, score in enumerate(frame.scores) if score is None or score > threshold]
+                    for threshold in thresholds]
+            used = sorted({k for chosen in kept for k in chosen})
+            for chosen in kept:  # in threshold order, named by its place among the lanes kept
+                for index, k in enumerate(chosen):
+                    if has_zero_step(frame.lanes[k], width, height):
+                        raise _zero_step(path, index)
+            matrix = iou_matrix(truth, [frame.lanes[k] for k in used], width, height) if truth else None
+            column = {k: j for j, k in enumerate(used)}
+            for t, chosen in enumerate(kept):
+                found = 0 if matrix is None or not chosen else hits(matrix[:, [column[k] for k in chosen]])
+                counts[m, t] += (found, len(chosen), len(truth))
     return counts
 
 

@@ -107,19 +107,24 @@ def iou(first: np.ndarray, second: np.ndarray) -> float:
     return (255 * inter) / float(255 * union)  # the file's sums of 255s
 
 
-def frame_hits(truth: Sequence[Sequence[Point]], predicted: Sequence[Sequence[Point]], width: int,
-               height: int) -> int:
-    """Hits of one image (lanes in image pixels, already filtered by score), as evaluate_core."""
-    from scipy.optimize import linear_sum_assignment
-
-    if not truth or not predicted:
-        return 0
+def iou_matrix(truth: Sequence[Sequence[Point]], predicted: Sequence[Sequence[Point]], width: int,
+               height: int) -> np.ndarray:
+    """IoU of every ground-truth lane with every predicted lane of one image (image pixels)."""
     gt = [drawing(scaled(lane, width, height)) for lane in truth]
     pr = [drawing(scaled(lane, width, height)) for lane in predicted]
     matrix = np.zeros((len(gt), len(pr)))
     for i, a in enumerate(gt):
         for j, b in enumerate(pr):
             matrix[i][j] = iou(a, b)
+    return matrix
+
+
+def hits(matrix: np.ndarray) -> int:
+    """Hits of one image from its IoU matrix (predictions already filtered by score), as evaluate_core."""
+    from scipy.optimize import linear_sum_assignment
+
+    if matrix.size == 0:
+        return 0
     rows, columns = linear_sum_assignment(1 - np.array(matrix))
     return sum(1 for r, c in zip(rows, columns) if matrix[r][c] > IOU_THRESHOLD)
 
