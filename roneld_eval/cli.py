@@ -151,12 +151,13 @@ def main():
 @main.command()
 @click.option("--config", "config_file", metavar="FILE|PRESET",
               help=f"Configuration TOML file or preset name ({', '.join(preset_names())}). "
-                   "Default: the SCNN preset of the dataset.")
+                   "Default: the dataset's preset (SCNN's, where there is one).")
 @click.option("--dataset", type=click.Choice(benchmark_names()),
               help="Benchmark layout of --data-root. Default: the config's, else the bundled fixture's.")
 @click.option("--data-root", type=click.Path(path_type=Path),
-              help="Dataset root (CULane: holds list/test.txt; TuSimple: holds test_label.json). "
-                   "Without it and --maps-root, the bundled fixture is evaluated.")
+              help="Dataset root (CULane: holds list/test.txt; TuSimple: holds test_label.json; VIL-100: holds "
+                   "anno_txt/ and JPEGImages/, Json/ or sizes.json). Without it and --maps-root, the bundled "
+                   "fixture is evaluated.")
 @click.option("--maps-root", type=click.Path(path_type=Path),
               help="Folder of stored maps mirroring the dataset tree (<rel>/00000.npy for <rel>/00000.jpg).")
 @click.option("--maps-format", type=click.Choice(MAP_FORMATS),
@@ -164,8 +165,9 @@ def main():
                    "another detector's lane files (CULane .lines.txt mirrored under --maps-root, or TuSimple "
                    "predictions.json in it), drawn into maps for RONELD; 'baseline' is then the detector's own lanes.")
 @click.option("--list", "list_file", type=click.Path(path_type=Path),
-              help="CULane list file (default <data-root>/list/test.txt) or TuSimple label file "
-                   "(default <data-root>/test_label.json).")
+              help="CULane list file (default <data-root>/list/test.txt), TuSimple label file "
+                   "(default <data-root>/test_label.json) or VIL-100 list (default <data-root>/data/test.txt, "
+                   "else every labelled frame).")
 @click.option("--methods", help=f"Comma-separated methods among {', '.join(METHODS)} and plug-ins. "
                                 "Default: baseline,roneld.")
 @click.option("--method", "plugins", multiple=True, metavar="NAME=MODULE:CALLABLE",

@@ -31,6 +31,7 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 from .errors import ConfigError
 from .limits import CONFIG
 from .geometry import MapGeometry
+from .model import Frame
 from .presets import nearest, preset_path, resolve_config_path
 from .thresholds import TALLEST_IMAGE, parse_rows, parse_thresholds
 from .toml_text import toml_key, toml_value
@@ -521,6 +522,13 @@ class EvalConfig:
             crop_top_px=self.maps.crop_top_px,
             crop_bottom_px=self.maps.crop_bottom_px,
         )
+
+    def geometry_of(self, frame: Frame) -> MapGeometry:
+        """The geometry of one frame: the configured one, at the frame's own size where it has
+        one (its crop rows scaled with its height)."""
+        if frame.image_size is None:
+            return self.geometry
+        return self.geometry.at_image_size(*frame.image_size)
 
     # ---- building -------------------------------------------------------------------
 

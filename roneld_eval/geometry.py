@@ -45,6 +45,10 @@ class MapGeometry:
         return self.crop_bottom_px - self.crop_top_px
 
     @property
+    def image_size(self) -> tuple[int, int]:
+        return self.image_width, self.image_height
+
+    @property
     def scale_x(self) -> float:
         """Image pixels per map pixel, horizontally."""
         return self.image_width / self.map_width
@@ -60,6 +64,17 @@ class MapGeometry:
         if (map_width, map_height) == (self.map_width, self.map_height):
             return self
         return replace(self, map_width=int(map_width), map_height=int(map_height))
+
+    def at_image_size(self, image_width: int, image_height: int) -> "MapGeometry":
+        """The same maps over a frame of another size: the crop rows scale with the height
+        (a benchmark whose videos come in several sizes configures them at its reference size)."""
+        if (image_width, image_height) == (self.image_width, self.image_height):
+            return self
+        assert self.crop_bottom_px is not None  # __post_init__ fills it in
+        top = round(self.crop_top_px * image_height / self.image_height)
+        bottom = round(self.crop_bottom_px * image_height / self.image_height)
+        return replace(self, image_width=int(image_width), image_height=int(image_height),
+                       crop_top_px=top, crop_bottom_px=max(bottom, top + 1))
 
     def map_to_image(self, points: np.ndarray) -> np.ndarray:
         """(N, 2) map pixels -> image pixels."""
@@ -95,9 +110,17 @@ class EffectiveGeometry:
     pred_thickness_px: int
     official_lane_width_px: int  # official CULane protocol, at image resolution
     official_iou_threshold: float
+    # (width, height) of the frames where they come in several sizes (VIL-100), each frame then
+    # drawn at its own (image_width x image_height is the configured reference); empty: one size
+    frame_sizes: tuple[tuple[int, int], ...] = ()
 
     def describe(self) -> str:
         """One line for reports: map size, crop and every thickness really used."""
+        if self.frame_sizes:
+            frames = f"each frame at its own size ({self.sizes_text()})"
+            return (f"maps {self.map_width}x{self.map_height} over the whole of {frames}"
+                    f"{' (rescaled from the preset)' if self.rescaled else ''}; "
+                    f"paper protocol: ground truth {self.gt_thickness_px} px, predictions {self.pred_thickness_px} px")
         return (f"maps {self.map_width}x{self.map_height} "
                 f"over image rows {self.crop_top_px}..{self.crop_bottom_px - 1} "
                 f"of {self.image_width}x{self.image_height}{' (rescaled from the preset)' if self.rescaled else ''}; "
@@ -105,8 +128,14 @@ class EffectiveGeometry:
                 f"official: IoU > {self.official_iou_threshold:g}, {self.official_lane_width_px} px at "
                 f"{self.image_width}x{self.image_height}")
 
+    def sizes_text(self) -> str:
+        return ", ".join(f"{width}x{height}" for width, height in self.frame_sizes)
+
     def to_dict(self) -> dict:
-        return asdict(self)
+        data = asdict(self)
+        if not self.frame_sizes:
+            del data["frame_sizes"]  # as summary.json held it before frames had sizes of their own
+        return data
 
 
 # Maps may be stored at another resolution than the configuration's (they are rescaled), but

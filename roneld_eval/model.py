@@ -105,12 +105,15 @@ class Frame:
     `relpath` is the image path relative to the dataset root, with forward slashes and no
     leading slash (``driver_37_30frame/05181432_0203.MP4/00000.jpg``). `lanes` are all the
     ground-truth lanes of the frame in file order; `h_samples` are the TuSimple label rows.
+    `image_size` is (width, height) where a benchmark's frames come in several sizes (VIL-100
+    scores each video at its own); None: the dataset's one size.
     """
 
     relpath: str
     lanes: tuple[Lane, ...] = ()
     labelled: bool = True
     h_samples: tuple[int, ...] | None = None
+    image_size: tuple[int, int] | None = None
 
     @property
     def stem(self) -> str:
@@ -145,6 +148,12 @@ class Dataset:
     # False when frames do not carry their lanes yet (CULane read with labels=False: each
     # clip's labels are read where the clip is evaluated).
     labels_loaded: bool = True
+
+    @property
+    def frame_sizes(self) -> tuple[tuple[int, int], ...]:
+        """The frames' own sizes, largest first, where they have them (else empty)."""
+        sizes = {frame.image_size for clip in self.clips for frame in clip.frames if frame.image_size is not None}
+        return tuple(sorted(sizes, key=lambda size: (-size[0] * size[1], size)))
 
     @property
     def n_frames(self) -> int:

@@ -9,7 +9,7 @@ from roneld_eval.errors import ConfigError
 
 
 def test_presets_cover_both_models_and_datasets():
-    assert preset_names() == ["enet-sad-culane", "enet-sad-tusimple", "scnn-culane", "scnn-tusimple"]
+    assert preset_names() == ["enet-sad-culane", "enet-sad-tusimple", "lanes-vil100", "scnn-culane", "scnn-tusimple"]
     scnn = EvalConfig.preset("scnn-culane")
     assert (scnn.maps.width, scnn.maps.height, scnn.maps.crop_top_px) == (800, 288, 0)
     enet = EvalConfig.preset("enet-sad-culane")
@@ -17,6 +17,8 @@ def test_presets_cover_both_models_and_datasets():
     tusimple = EvalConfig.preset("scnn-tusimple")
     assert tusimple.roneld.lane_ratio == 0.6 and tusimple.dataset.image_height == 720
     assert scnn.roneld.lane_ratio == 0.0 and scnn.roneld.center_ratio == 0.5
+    vil100 = EvalConfig.preset("lanes-vil100")  # a detector's lane files, each video at its own size
+    assert (vil100.maps.format, vil100.maps.crop_bottom_px, vil100.dataset.image_height) == ("lanes", None, 1080)
 
 
 def test_toml_round_trip(tmp_path):

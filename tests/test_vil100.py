@@ -196,10 +196,10 @@ def test_a_wrong_labels_folder_is_refused(tmp_path):
     assert result.exit_code == 2 and "is this MMA-Net's anno_txt folder?" in result.output
 
 
-def test_run_on_vil100_says_to_score_lane_files():
+def test_run_on_vil100_without_data_says_what_it_needs():
     result = CliRunner().invoke(main, ["run", "--dataset", "vil100", "--quiet"])
     assert result.exit_code == 2
-    assert result.output == "error: VIL-100 is scored from lane files only: `roneld-eval score vil100`\n"
+    assert result.output == "error: VIL-100 has no bundled fixture: give --data-root and --maps-root\n"
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data/vil100")

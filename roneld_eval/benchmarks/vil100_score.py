@@ -17,7 +17,7 @@ from ..config import check_lane_width
 
 from ..thresholds import Thresholds, parse_thresholds
 from ..datasets.culane import check_inside
-from ..datasets.vil100 import SCENARIOS, Vil100Set, labels_path, read_vil100, scenarios_of
+from ..datasets.vil100 import SCENARIOS, labels_path, read_vil100, scenarios_of
 from ..errors import InputError
 from ..lanes_io import check_coordinates, read_culane_lines
 from ..metrics.culane_official import CulaneFrameResult, evaluate_culane_frame, f_measure, official_masks
@@ -49,7 +49,7 @@ class Vil100Score:
 
 
 @dataclass
-class _ScoredSequence:
+class ScoredSequence:
     """One sequence against every method: per method, each frame's matched result and mIoU;
     with the temporal metrics, the ground truth's links between consecutive frames and, per
     method, each frame's assigned IoUs (RVLD's own IoU)."""
@@ -59,9 +59,9 @@ class _ScoredSequence:
     assigned: list[list[np.ndarray]] = field(default_factory=list)
 
 
-def _score_sequence(args) -> _ScoredSequence:
+def _score_sequence(args) -> ScoredSequence:
     relpaths, labels, pred_roots, width, height, lane_width, temporal = args
-    out = _ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots])
+    out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots])
     previous: list | None = None
     for relpath in relpaths:
         path = labels_path(labels, relpath)
@@ -116,10 +116,12 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                  for name, frames in dataset.sequences.items()]
         scored = scored_pieces(_score_sequence, tasks, workers, progress, announce)
         methods = tuple(tree.method for tree in trees)
-        rows, overall = _rows(dataset, methods, scored, thresholds)
-        temporal_rows, temporal_overall = _temporal_rows(dataset, methods, scored, thresholds) if temporal else ([], {})
+        names = list(dataset.sequences)
+        rows, overall = official_rows(names, methods, scored, thresholds)
+        temporal_table, temporal_overall = (temporal_rows(names, methods, scored, thresholds) if temporal
+                                            else ([], {}))
         score = Vil100Score(PlainTable(COLUMNS, tuple(rows)),
-                            PlainTable(TEMPORAL_COLUMNS, tuple(temporal_rows)) if temporal else None,
+                            PlainTable(TEMPORAL_COLUMNS, tuple(temporal_table)) if temporal else None,
                             thresholds, methods, len(relpaths), len(dataset.sequences), overall, temporal_overall,
                             tuple(warnings))
         if folder is not None:
@@ -133,9 +135,11 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
     return score
 
 
-def _rows(dataset: Vil100Set, methods: Sequence[str], scored: list, thresholds: Thresholds):
+def official_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence[ScoredSequence],
+                  thresholds: Thresholds):
+    """official.csv's rows (per sequence, per scenario, then 'all', at each threshold) and the
+    pooled 'all' score per (method, threshold label)."""
     rows, overall = [], {}
-    names = list(dataset.sequences)
     for m, method in enumerate(methods):
         for value, label in zip(thresholds.values, thresholds.labels):
             per_sequence = []
@@ -156,13 +160,14 @@ def _rows(dataset: Vil100Set, methods: Sequence[str], scored: list, thresholds: 
     return rows, overall
 
 
-def _temporal_rows(dataset: Vil100Set, methods: Sequence[str], scored: list, thresholds: Thresholds):
-    """Per sequence, per scenario (its sequences' pairs pooled) and all."""
+def temporal_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence[ScoredSequence],
+                  thresholds: Thresholds):
+    """temporal.csv's rows: per sequence, per scenario (its sequences' pairs pooled) and all."""
     rows, overall = [], {}
     for m, method in enumerate(methods):
         for value, label in zip(thresholds.values, thresholds.labels):
             per_sequence = {name: sequence_counts(piece.links, piece.assigned[m], value)
-                            for name, piece in zip(dataset.sequences, scored)}
+                            for name, piece in zip(names, scored)}
             rows += [_temporal_row(method, name, label, counts) for name, counts in per_sequence.items()]
             for code, scenario in enumerate(SCENARIOS):
                 members = [counts for name, counts in per_sequence.items() if code in scenarios_of(name)]

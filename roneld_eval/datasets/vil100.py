@@ -19,11 +19,12 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 from ..errors import ConfigError, InputError
-from ..lanes_io import read_bytes, read_text, split_lines
+from ..lanes_io import read_bytes, read_culane_lines, read_text, split_lines
 from ..limits import CONFIG
 from ..image_header import image_file_size
-from ..model import image_stem
+from ..model import Frame, image_stem
 from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
+from .culane import check_inside
 
 # dataset/README.md of yujun0-0/MMA-Net (8f95908), lines 127-155: the digits before a sequence
 # name's first "_" are its scenarios.
@@ -193,3 +194,70 @@ def _check_some_labels(labels: Path, entries: Sequence[str]) -> None:
 
 def sequence_of(relpath: str) -> str:
     return posixpath.dirname(relpath)
+
+
+# ---- the layout `run` reads --------------------------------------------------------------------
+
+LABELS_FOLDER = "anno_txt"  # MMA-Net's evaluation/txt/anno_txt, placed in the dataset's root
+SIZES_FILE = "sizes.json"  # what `synth` writes where there are no images
+DEFAULT_LIST = "data/test.txt"  # the dataset's own list (MMA-Net's evaluate_iou.py:25)
+RUN_LAYOUT = (f"a VIL-100 root holds {LABELS_FOLDER}/<sequence>/<frame>.lines.txt and the sequences' sizes "
+              f"in JPEGImages/, Json/ or {SIZES_FILE}")
+
+
+def size_files(root: Path, relpath: str) -> list[Path]:
+    """The files a video's size is read from, given its first frame (what a resumed run must see
+    unchanged): its image or annotation, or the sizes file."""
+    stem = image_stem(relpath)
+    if (root / SIZES_FILE).is_file() and not (root / "JPEGImages").is_dir() and not (root / "Json").is_dir():
+        return [root / SIZES_FILE]
+    for folder, suffixes in (("JPEGImages", IMAGE_SUFFIXES), ("Json", (".jpg.json", ".json"))):
+        if (root / folder).is_dir():
+            return [path for path in (under_root(root / folder, stem + suffix) for suffix in suffixes)
+                    if os.path.lexists(path)]
+    return []
+
+
+def run_layout(root: Path, list_file: Path | None) -> Vil100Set:
+    """The frames `run` evaluates under a dataset root, with their videos' sizes (from the first
+    of JPEGImages/, Json/ and sizes.json there)."""
+    check_folder(root, f"dataset root not found ({RUN_LAYOUT})")
+    labels = root / LABELS_FOLDER
+    if not labels.is_dir():
+        raise InputError(labels, f"ground-truth folder not found: {RUN_LAYOUT}")
+    if list_file is None and (root / DEFAULT_LIST).is_file():
+        list_file = root / DEFAULT_LIST
+    sources = {"image_root": root / "JPEGImages", "json_root": root / "Json", "sizes_file": root / SIZES_FILE}
+    for name, path in sources.items():
+        if path.is_dir() if name != "sizes_file" else path.is_file():
+            return read_vil100(labels, list_file, **{name: path})
+    raise InputError(root, f"no image sizes: {RUN_LAYOUT}")
+
+
+def read_vil100_run(root: Path, list_file: Path | None, limit: int | None,
+                    errors: list[InputError] | None) -> tuple[list[tuple[str, tuple[Frame, ...]]], Path]:
+    """(sequence, its frames in video order with lanes and size) for `run`, and the list or
+    labels folder the frames came from. A listed frame must have its ground truth (with an
+    `errors` list, a bad or missing one is left out and appended)."""
+    found = run_layout(root, list_file)
+    clips = []
+    for name, relpaths in list(found.sequences.items())[:limit]:
+        width, height = found.sizes[name]
+        frames = []
+        for relpath in sorted(relpaths, key=frame_sort_key):
+            path = labels_path(found.labels, relpath)
+            try:
+                if not os.path.lexists(path):
+                    raise InputError(path, "ground truth not found (every listed frame needs its .lines.txt)")
+                lanes = read_culane_lines(path)
+                check_inside(lanes, path, width, height)
+            except InputError as error:
+                if errors is None:
+                    raise
+                errors.append(error)
+                continue
+            frames.append(Frame(relpath=relpath + ".jpg", lanes=tuple(lanes), image_size=(width, height)))
+        if frames:
+            clips.append((name, tuple(frames)))
+    source = Path(list_file) if list_file is not None else found.labels
+    return clips, source

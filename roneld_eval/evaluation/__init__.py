@@ -66,7 +66,7 @@ def evaluate(
     merged.totals["ego_lanes"] = int(len(per_frame) // max(len(config.methods), 1))
     geometry = planned.geometry
     if merged.map_sizes:
-        geometry = effective_geometry(config, *next(iter(merged.map_sizes)))
+        geometry = effective_geometry(config, *next(iter(merged.map_sizes)), planned.dataset.frame_sizes)
         if len(merged.map_sizes) > 1:
             merged.skipped.append("maps differ in size between clips (each clip is rescaled by its own): " + ", ".join(
                 f"{w}x{h} from clip {clip_id}" for (w, h), clip_id in merged.map_sizes.items()))

@@ -30,14 +30,16 @@ _T = TypeVar("_T")
 # ---- one clip ------------------------------------------------------------------------------
 
 
-def _geometry_for(context: RunContext, maps: FrameMaps, where: Path) -> MapGeometry:
-    geometry = context.config.geometry
+def _geometry_for(context: RunContext, frame: Frame, maps: FrameMaps, where: Path) -> MapGeometry:
+    geometry = context.config.geometry_of(frame)
     check_map_shape(geometry, maps.width, maps.height, str(where))
     return geometry.with_map_size(maps.width, maps.height)
 
 
-def effective_geometry(config: EvalConfig, map_width: int, map_height: int) -> EffectiveGeometry:
-    """The geometry and thicknesses a run really uses for maps of this size."""
+def effective_geometry(config: EvalConfig, map_width: int, map_height: int,
+                       frame_sizes: tuple[tuple[int, int], ...] = ()) -> EffectiveGeometry:
+    """The geometry and thicknesses a run really uses for maps of this size (`frame_sizes`: the
+    frames' own sizes, where they have them)."""
     geometry = config.geometry.with_map_size(map_width, map_height)
     paper = config.paper
     return EffectiveGeometry(
@@ -48,7 +50,7 @@ def effective_geometry(config: EvalConfig, map_width: int, map_height: int) -> E
         gt_thickness_px=paper.thickness(paper.gt_thickness_px, map_width, map_height),
         pred_thickness_px=paper.thickness(paper.pred_thickness_px, map_width, map_height),
         official_lane_width_px=config.official.lane_width_px,
-        official_iou_threshold=config.official.iou_threshold,
+        official_iou_threshold=config.official.iou_threshold, frame_sizes=frame_sizes,
     )
 
 
@@ -103,7 +105,7 @@ class _ClipRun:
         self.result.load_ms.append(load_ms)
         if self.extractors is None:
             self.map_shape = maps.probabilities.shape
-            self.geometry = _geometry_for(self.context, maps, frame_map_path(self.context, frame))
+            self.geometry = _geometry_for(self.context, frame, maps, frame_map_path(self.context, frame))
             self.extractors = [_built(method, self.geometry, frame) for method in self.context.methods]
             self.result.map_size = (maps.width, maps.height)
         config = self.context.config

@@ -116,7 +116,7 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
         from ..maps.lanes import check_coverage
 
         check_coverage(maps_root, [f.relpath for clip in clips for f in clip.frames if f.labelled], say)
-    geometry = _first_geometry(clips, context)
+    geometry = _first_geometry(clips, context, dataset.frame_sizes)
     if geometry is not None:
         say(f"geometry: {geometry.describe()}")
     return RunPlan(dataset, tuple(clips), context, tuple(skipped), geometry)
@@ -149,14 +149,15 @@ def _clips_with_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, skip
     return [clip for clip in dataset.clips if clip.clip_id not in by_clip]
 
 
-def _first_geometry(clips: Sequence[Clip], context: RunContext) -> EffectiveGeometry | None:
+def _first_geometry(clips: Sequence[Clip], context: RunContext,
+                    frame_sizes: tuple[tuple[int, int], ...]) -> EffectiveGeometry | None:
     """The geometry of the first clip's maps, checked before any work starts (None if unreadable)."""
     for clip in clips[:1]:
         for frame in clip.frames[:1]:
             config = context.config
             where = str(frame_map_path(context, frame))
             try:
-                width, height = map_size(context.maps_root, frame.relpath, config.maps, config.geometry,
+                width, height = map_size(context.maps_root, frame.relpath, config.maps, config.geometry_of(frame),
                                          config.roneld.center_ratio)
                 check_map_shape(config.geometry, width, height, where)
             except InputError:
@@ -170,5 +171,5 @@ def _first_geometry(clips: Sequence[Clip], context: RunContext) -> EffectiveGeom
                     return None
                 width, height = maps.width, maps.height
                 check_map_shape(config.geometry, width, height, where)
-            return effective_geometry(config, width, height)
+            return effective_geometry(config, width, height, frame_sizes)
     return None

@@ -41,7 +41,7 @@ def plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fra
         if method.time_limit_s is not None and elapsed > method.time_limit_s:
             problem = too_slow  # it caught or blocked the alarm
         else:
-            problem = prediction_problem(prediction, config.dataset.image_width, config.dataset.image_height)
+            problem = prediction_problem(prediction, *(frame.image_size or config.geometry.image_size))
     if problem is not None:
         raise ExtractorError(method.name, frame.relpath, problem)
     extract_ms[method.name].append(elapsed * 1e3)

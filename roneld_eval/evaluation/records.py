@@ -74,7 +74,8 @@ class RunContext:
     def load(self, frame: Frame) -> FrameMaps:
         """One frame's maps (lane files are drawn into maps with the configured geometry)."""
         config = self.config
-        return load_maps(self.maps_root, frame.relpath, config.maps, config.geometry, config.roneld.center_ratio)
+        return load_maps(self.maps_root, frame.relpath, config.maps, config.geometry_of(frame),
+                         config.roneld.center_ratio)
 
     def kernel_groups(self) -> tuple[str, ...]:
         """The numba kernel groups this run executes (see roneld_eval.kernels)."""

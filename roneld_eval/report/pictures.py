@@ -16,7 +16,7 @@ from ..errors import ConfigError, InputError
 from ..evaluation import FrameOutcome, RunContext, evaluate_clip
 from ..maps import load_maps
 from ..metrics.paper import ego_lanes
-from ..model import Clip, Dataset
+from ..model import Clip, Dataset, Frame
 from .overlays import FramePicture, draw_frame, heat_map
 from .tables import display_name
 
@@ -50,20 +50,20 @@ def replay(config: EvalConfig, dataset: Dataset, frames: Sequence[str],
     return clip_of, outcomes
 
 
-def background(config: EvalConfig, dataset: Dataset, relpath: str) -> np.ndarray:
+def background(config: EvalConfig, frame: Frame) -> np.ndarray:
     """The camera image at the benchmark's size, or the frame's maps as a heat map without one."""
     import cv2
 
     data_root, maps_root = _roots(config)
-    image_path = data_root / relpath
+    image_path = data_root / frame.relpath
     image = cv2.imread(str(image_path)) if image_path.is_file() else None
-    size = (dataset.image_width, dataset.image_height)
+    geometry = config.geometry_of(frame)
+    size = geometry.image_size
     if image is None:
-        geometry = config.geometry
-        maps = load_maps(maps_root, relpath, config.maps, geometry, config.roneld.center_ratio)
+        maps = load_maps(maps_root, frame.relpath, config.maps, geometry, config.roneld.center_ratio)
         crop_bottom = geometry.crop_top_px + geometry.crop_height_px
         return heat_map(np.asarray(maps.probabilities), *size, geometry.crop_top_px, crop_bottom)
-    if image.shape[:2] != (dataset.image_height, dataset.image_width):
+    if image.shape[:2] != size[::-1]:
         image = cv2.resize(image, size)
     return image
 
@@ -80,7 +80,7 @@ def frame_pictures(config: EvalConfig, dataset: Dataset, frames: Sequence[str], 
         frame = next(f for f in clip_of[relpath].frames if f.relpath == relpath)
         if not frame.labelled:
             raise InputError(dataset.source_file, f"frame {relpath} has no labels to compare with")
-        left, right = ego_lanes(frame.lanes, dataset.image_width, dataset.image_height, config.roneld.center_ratio)
+        left, right = ego_lanes(frame.lanes, *config.geometry_of(frame).image_size, config.roneld.center_ratio)
         chosen = {id(left), id(right)}
         picture = FramePicture(
             relpath=relpath,
@@ -94,6 +94,6 @@ def frame_pictures(config: EvalConfig, dataset: Dataset, frames: Sequence[str], 
             + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in ious.items())
             for m, ious in picture.ious.items())
         title = f"{relpath}   {scores}"
-        pictures.append((relpath, draw_frame(picture, background(config, dataset, relpath), config.model, title,
+        pictures.append((relpath, draw_frame(picture, background(config, frame), config.model, title,
                                              protocol=protocol)))
     return pictures

@@ -88,10 +88,11 @@ class Protocol:
         """From a run folder's summary.json ("geometry", else "config"); None when neither reads."""
         clips = summary.get("counts", {}).get("clips")
         data = summary.get("geometry")
-        names = [f.name for f in fields(EffectiveGeometry)]
+        names = [f.name for f in fields(EffectiveGeometry) if f.name != "frame_sizes"]
         if isinstance(data, dict) and all(name in data for name in names):
             try:
-                return cls(EffectiveGeometry(**{name: data[name] for name in names}), clips)
+                sizes = tuple((int(width), int(height)) for width, height in data.get("frame_sizes", ()))
+                return cls(EffectiveGeometry(**{name: data[name] for name in names}, frame_sizes=sizes), clips)
             except (TypeError, ValueError):
                 pass
         try:
