@@ -55,7 +55,7 @@ def test_every_frame_equals_the_official_evaluator(threshold):
     dataset = read_vil100(GOLDEN / "anno_txt", GOLDEN / "test.txt", sizes_file=GOLDEN / "test_sizes.json")
     for sequence, frames in dataset.sequences.items():
         scored = _score_sequence((frames, dataset.labels, (GOLDEN / "pred_txt",), *dataset.sizes[sequence], 30,
-                                  False)).frames[0]
+                                  False, "lines")).frames[0]
         expected = EXPECTED["thresholds"][str(threshold)]["frames"][sequence]
         assert [f"/{relpath}.jpg" for relpath in frames] == [frame["frame"] for frame in expected]
         for (result, miou), frame in zip(scored, expected):
@@ -73,7 +73,8 @@ def test_temporal_counts_equal_rvlds_script(tau, label):
     dataset = read_vil100(GOLDEN / "anno_txt", GOLDEN / "test.txt", sizes_file=GOLDEN / "test_sizes.json")
     transitions = []  # the script's results_t: one (Ns, Nj, Nm) per frame after a sequence's first
     for sequence, frames in dataset.sequences.items():
-        piece = _score_sequence((frames, dataset.labels, (GOLDEN / "pred_txt",), *dataset.sizes[sequence], 30, True))
+        piece = _score_sequence((frames, dataset.labels, (GOLDEN / "pred_txt",), *dataset.sizes[sequence], 30, True,
+                                 "lines"))
         for k in range(1, len(frames)):
             step = sequence_counts([[], piece.links[k]], [piece.assigned[0][k - 1], piece.assigned[0][k]], float(tau))
             transitions.append([step.stable, step.jump, step.missing])
@@ -100,8 +101,12 @@ def test_the_command_writes_official_csv_and_prints_the_summary(tmp_path):
     assert temporal[0] == "method,category,tau,pairs,stable,jump,missing,rs,rj,rm"
     assert "syn,all,0.80,10,3,6,1,0.300000,0.600000,0.100000" in temporal
     summary = (tmp_path / "out" / "summary.csv").read_text().splitlines()
-    assert summary == ["method,category,f1@0.50,f1@0.80,miou,rs@0.50,rj@0.50,rm@0.50,rs@0.80,rj@0.80,rm@0.80",
-                       "syn,all,0.583333,0.416667,0.467708,0.600000,0.400000,0.000000,0.300000,0.600000,0.100000"]
+    # Acc/FP/FN beside them (RVLD's version only: lane files; checked in tests/test_vil100_acc.py)
+    assert summary[0] == ("method,category,f1@0.50,f1@0.80,miou,rs@0.50,rj@0.50,rm@0.50,rs@0.80,rj@0.80,rm@0.80,"
+                          "acc_rvld,fp_rvld,fn_rvld")
+    assert summary[1].startswith("syn,all,0.583333,0.416667,0.467708,0.600000,0.400000,0.000000,0.300000,0.600000,"
+                                 "0.100000,")
+    assert len(summary) == 2
 
 
 def _copy_set(tmp_path: Path, names: dict[str, str]) -> Path:
@@ -121,7 +126,7 @@ def test_without_the_temporal_metrics_there_is_no_temporal_csv(tmp_path):
                                        "--no-temporal", "--out", str(tmp_path / "out")])
     assert result.exit_code == 0, result.output
     assert sorted(p.name for p in (tmp_path / "out").iterdir() if not p.name.startswith(".")) == [
-        "official.csv", "summary.csv", "summary.md"]
+        "acc.csv", "official.csv", "summary.csv", "summary.md"]
     assert "Rs@" not in result.output
 
 

@@ -17,6 +17,9 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
               help="Predicted .lines.txt files mirroring --labels (one method, named by the folder or NAME), or a "
                    "folder whose subfolders each do (one method each). Repeatable; all are scored in one pass. "
                    "A missing file means no lanes.")
+@click.option("--pred-format", type=click.Choice(("lines", "png")), default="lines", show_default=True,
+              help="Predictions as .lines.txt, or as MMA-Net's instance masks <sequence>/<frame>.png (each grey "
+                   "value a lane), turned into lanes as its generate_iou_pred_txt.py does.")
 @click.option("--list", "list_file", type=click.Path(path_type=Path),
               help="Frames to score, <sequence>/<frame> a line (MMA-Net's /JPEGImages/<sequence>/<frame>.jpg lines "
                    "too). Default: every labelled frame.")
@@ -40,8 +43,8 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
                    "summary.md.")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
-def score_vil100_command(labels, pred_roots, list_file, image_root, json_root, sizes_file, iou, width, temporal,
-                         strict, workers, out, quiet, debug):
+def score_vil100_command(labels, pred_roots, pred_format, list_file, image_root, json_root, sizes_file, iou, width,
+                         temporal, strict, workers, out, quiet, debug):
     """Official VIL-100 F1 and mIoU per method, sequence and scenario, as MMA-Net's evaluate_iou.py
     and its CULane evaluator compute them (each sequence at its own size)."""
     from .vil100_score import score_vil100, summary_table
@@ -49,7 +52,8 @@ def score_vil100_command(labels, pred_roots, list_file, image_root, json_root, s
     _no_collections_at_exit()
     score = _guard(score_vil100, debug, labels, list(pred_roots), list_file=list_file, image_root=image_root,
                    json_root=json_root, sizes_file=sizes_file, iou=iou, width=width, out=out, workers=workers,
-                   progress=not quiet, announce=_announcer(quiet), strict=strict, temporal=temporal)
+                   progress=not quiet, announce=_announcer(quiet), strict=strict, temporal=temporal,
+                   pred_format=pred_format)
     for warning in score.warnings:
         click.echo(warning, err=True)
     if not quiet:

@@ -18,9 +18,13 @@ from ..config import check_lane_width
 from ..thresholds import Thresholds, parse_thresholds
 from ..datasets.culane import check_inside
 from ..datasets.vil100 import SCENARIOS, labels_path, read_vil100, scenarios_of
-from ..errors import InputError
+from ..datasets._paths import under_root
+from ..errors import ConfigError, InputError
+from ..model import image_stem
 from ..lanes_io import check_coordinates, read_culane_lines
 from ..metrics.culane_official import CulaneFrameResult, evaluate_culane_frame, f_measure, official_masks
+from ..metrics.vil100_acc import AccFrame, mmanet_frame, rvld_frame
+from ..metrics.vil100_acc import means as acc_means
 from ..metrics.vil100_official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
 from ..metrics.vil100_temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
 from ..output import Staging
@@ -30,6 +34,9 @@ DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers 
 LANE_WIDTH = 30  # evaluate_iou.py:22, for every sequence whatever its size
 COLUMNS = ("method", "category", "threshold", "tp", "fp", "fn", "precision", "recall", "f1", "miou", "sequences")
 TEMPORAL_COLUMNS = ("method", "category", "tau", "pairs", "stable", "jump", "missing", "rs", "rj", "rm")
+ACC_COLUMNS = ("method", "category", "version", "frames", "accuracy", "fp", "fn", "stopping_lanes")
+# the two Acc/FP/FN scripts (metrics.vil100_acc), as acc.csv and summary.csv name them
+ACC_VERSIONS = ("mmanet", "rvld")
 
 
 @dataclass(frozen=True)
@@ -45,6 +52,8 @@ class Vil100Score:
     n_sequences: int
     overall: dict  # (method, threshold label) -> PooledScore
     temporal_overall: dict  # (method, threshold label) -> TemporalCounts (empty without the temporal metrics)
+    acc_rows: PlainTable | None = None  # Acc/FP/FN per sequence, scenario and all, in both versions
+    acc_overall: dict = field(default_factory=dict)  # (method, version) -> AccMeans; MMA-Net's needs masks
     warnings: tuple[str, ...] = ()
 
 
@@ -57,11 +66,30 @@ class ScoredSequence:
     frames: list[list[tuple[CulaneFrameResult, float]]]
     links: list[list[tuple[int, int]]] = field(default_factory=list)
     assigned: list[list[np.ndarray]] = field(default_factory=list)
+    # per method, each frame's Acc/FP/FN: RVLD's version, and MMA-Net's (None without instance masks)
+    acc: list[list[tuple[AccFrame, AccFrame | None]]] = field(default_factory=list)
+
+
+PRED_FORMATS = ("lines", "png")  # .lines.txt, or MMA-Net's instance masks (datasets.vil100_png)
+_SUFFIXES = {"lines": ".lines.txt", "png": ".png"}
+
+
+def _read_predictions(root: Path, relpath: str, pred_format: str):
+    """(lanes, the instance mask's fits and height, or None for lane files)."""
+    if pred_format == "png":
+        from ..datasets.vil100_png import read_instance_png
+
+        mask = read_instance_png(under_root(root, f"{image_stem(relpath)}.png"))
+        return mask.lanes, mask
+    path = labels_path(root, relpath)
+    predictions = read_culane_lines(path)
+    check_coordinates(predictions, path)
+    return predictions, None
 
 
 def _score_sequence(args) -> ScoredSequence:
-    relpaths, labels, pred_roots, width, height, lane_width, temporal = args
-    out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots])
+    relpaths, labels, pred_roots, width, height, lane_width, temporal, pred_format = args
+    out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots], [[] for _ in pred_roots])
     previous: list | None = None
     for relpath in relpaths:
         path = labels_path(labels, relpath)
@@ -73,11 +101,11 @@ def _score_sequence(args) -> ScoredSequence:
             out.links.append([] if previous is None else links(linked, previous))
             previous = linked
         for m, root in enumerate(pred_roots):
-            pred_path = labels_path(root, relpath)
-            predictions = read_culane_lines(pred_path)
-            check_coordinates(predictions, pred_path)
+            predictions, mask = _read_predictions(root, relpath, pred_format)
             result = evaluate_culane_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
             out.frames[m].append((result, frame_miou(result)))
+            mmanet = None if mask is None else mmanet_frame(mask.fits, truth, mask.height or height)
+            out.acc[m].append((rvld_frame(predictions, truth), mmanet))
             if temporal:
                 drawn = [lane_mask(lane, width, height) for lane in usable(predictions)]
                 out.assigned[m].append(assigned_ious(linked, drawn))
@@ -89,19 +117,23 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                  sizes_file: str | Path | None = None, iou: str | None = None, width: int = LANE_WIDTH,
                  out: str | Path | None = None, workers: int | None = None, progress: bool = False,
                  announce: Callable[[str], None] | None = None, strict: bool = False,
-                 temporal: bool = True) -> Vil100Score:
+                 temporal: bool = True, pred_format: str = "lines") -> Vil100Score:
     """Score `.lines.txt` predictions mirroring `labels` (`<sequence>/<frame>.lines.txt`).
 
     Sizes come from exactly one of `image_root`, `json_root` and `sizes_file`. `iou`: one
     threshold, a comma list or a grid (default 0.5 and 0.8). `temporal`: also RVLD's Rs, Rj and
-    Rm with each threshold as tau. `out` gets official.csv, temporal.csv, summary.csv and summary.md.
+    Rm with each threshold as tau. `pred_format`: "lines" (`.lines.txt`) or "png" (MMA-Net's
+    instance masks `<sequence>/<frame>.png`, converted as its generate_iou_pred_txt.py converts
+    them). `out` gets official.csv, temporal.csv, summary.csv and summary.md.
     """
+    if pred_format not in PRED_FORMATS:
+        raise ConfigError(f"prediction format must be one of {', '.join(PRED_FORMATS)}, got {pred_format!r}")
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
     check_lane_width(width)
     with _taking(out, "score vil100") as folder:
         dataset = read_vil100(labels, list_file, image_root, json_root, sizes_file)
         relpaths = [relpath for frames in dataset.sequences.values() for relpath in frames]
-        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
+        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=_SUFFIXES[pred_format])
         if dataset.unlabelled:
             first = labels_path(dataset.labels, dataset.unlabelled[0])
             said = (f"{len(dataset.unlabelled):,} of {len(relpaths):,} listed frames have no ground-truth file "
@@ -112,7 +144,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             warnings.insert(0, f"warning: {said}; they count as frames without lanes, as MMA-Net's evaluator "
                                "reads them")
         roots = tuple(tree.root for tree in trees)
-        tasks = [(frames, dataset.labels, roots, *dataset.sizes[name], width, temporal)
+        tasks = [(frames, dataset.labels, roots, *dataset.sizes[name], width, temporal, pred_format)
                  for name, frames in dataset.sequences.items()]
         scored = scored_pieces(_score_sequence, tasks, workers, progress, announce)
         methods = tuple(tree.method for tree in trees)
@@ -120,15 +152,18 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         rows, overall = official_rows(names, methods, scored, thresholds)
         temporal_table, temporal_overall = (temporal_rows(names, methods, scored, thresholds) if temporal
                                             else ([], {}))
+        acc_table, acc_overall = acc_rows(names, methods, scored)
         score = Vil100Score(PlainTable(COLUMNS, tuple(rows)),
                             PlainTable(TEMPORAL_COLUMNS, tuple(temporal_table)) if temporal else None,
                             thresholds, methods, len(relpaths), len(dataset.sequences), overall, temporal_overall,
-                            tuple(warnings))
+                            PlainTable(ACC_COLUMNS, tuple(acc_table)), acc_overall, tuple(warnings))
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
             if score.temporal_rows is not None:
                 staging.write_text("temporal.csv", score.temporal_rows.to_csv())
+            assert score.acc_rows is not None
+            staging.write_text("acc.csv", score.acc_rows.to_csv())
             staging.write_text("summary.csv", summary_rows(score).to_csv())
             staging.write_text("summary.md", summary_markdown(score, width))
             folder.commit()
@@ -180,6 +215,33 @@ def temporal_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence
     return rows, overall
 
 
+def acc_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence[ScoredSequence]):
+    """acc.csv's rows (per sequence, per scenario, all; RVLD's version, and MMA-Net's where the
+    predictions are instance masks) and the 'all' means per (method, version). A group's figures
+    are means over its frames, as the scripts divide their sums by the number of frames."""
+    rows, overall = [], {}
+    for m, method in enumerate(methods):
+        for v, version in enumerate(ACC_VERSIONS):
+            found = {name: [frame[1 - v] for frame in piece.acc[m]] for name, piece in zip(names, scored)}
+            if any(frame is None for frames in found.values() for frame in frames):
+                continue  # MMA-Net's version reads instance masks: not lane files
+            per_sequence = {name: [frame for frame in frames if frame is not None] for name, frames in found.items()}
+            groups = [(name, frames) for name, frames in per_sequence.items()]
+            for code, scenario in enumerate(SCENARIOS):
+                members = [frame for name, frames in per_sequence.items() if code in scenarios_of(name)
+                           for frame in frames]
+                if members:
+                    groups.append((f"scenario {code} ({scenario})", members))
+            every = [frame for frames in per_sequence.values() for frame in frames]
+            groups.append(("all", every))
+            for category, frames in groups:
+                result = acc_means(frames)
+                rows.append((method, category, version, result.frames, result.accuracy, result.fp, result.fn,
+                             result.stopping))
+            overall[(method, version)] = acc_means(every)
+    return rows, overall
+
+
 def _temporal_row(method: str, category: str, label: str, counts: TemporalCounts) -> tuple:
     return (method, category, label, counts.pairs, counts.stable, counts.jump, counts.missing, *counts.rates)
 
@@ -196,17 +258,30 @@ def summary_table(score: Vil100Score) -> str:
     """Markdown: per method, F1 (%) at each threshold and mIoU (%), over every sequence."""
     labels = score.thresholds.labels
     temporal = [(label, name) for label in labels for name in ("Rs", "Rj", "Rm")] if score.temporal_overall else []
+    versions = [version for version in ACC_VERSIONS if any(key[1] == version for key in score.acc_overall)]
+    acc = [f" {name} ({_ACC_SOURCES[version]}) {unit}|" for version in versions
+           for name, unit in (("Acc", "(%) "), ("FP", ""), ("FN", ""))]
     lines = ["| method | " + " | ".join(f"F1@{label} (%)" for label in labels) + " | mIoU (%) |"
-             + "".join(f" {name}@{label} (%) |" for label, name in temporal),
-             "|---" * (len(labels) + 2 + len(temporal)) + "|"]
+             + "".join(f" {name}@{label} (%) |" for label, name in temporal) + "".join(acc),
+             "|---" * (len(labels) + 2 + len(temporal) + len(acc)) + "|"]
     for method in score.methods:
         results: list[PooledScore] = [score.overall[(method, label)] for label in labels]
         f1s = [_percent(result.ratios[2]) for result in results]
         rates = [_percent(rate) for label in labels if temporal
                  for rate in score.temporal_overall[(method, label)].rates]
+        accs = [text for version in versions for text in _acc_cells(score.acc_overall.get((method, version)))]
         lines.append(f"| {method} | " + " | ".join(f1s) + f" | {_percent(results[0].miou)} |"
-                     + "".join(f" {rate} |" for rate in rates))
+                     + "".join(f" {rate} |" for rate in rates) + "".join(f" {text} |" for text in accs))
     return "\n".join(lines)
+
+
+_ACC_SOURCES = {"mmanet": "MMA-Net", "rvld": "RVLD"}
+
+
+def _acc_cells(result) -> list[str]:
+    if result is None:
+        return ["n/a"] * 3
+    return [_percent(result.accuracy), f"{result.fp:.4f}", f"{result.fn:.4f}"]
 
 
 def summary_rows(score: Vil100Score) -> PlainTable:
@@ -218,6 +293,9 @@ def summary_rows(score: Vil100Score) -> PlainTable:
     columns = ["method", "category", *(f"f1@{label}" for label in labels), "miou"]
     if temporal:
         columns += [f"{name}@{label}" for label in labels for name in ("rs", "rj", "rm")]
+    acc = {} if score.acc_rows is None else {(r[0], r[1], r[2]): r for r in score.acc_rows.rows}
+    versions = [version for version in ACC_VERSIONS if any(key[2] == version for key in acc)]
+    columns += [f"{name}_{version}" for version in versions for name in ("acc", "fp", "fn")]
     categories = list(dict.fromkeys(r[1] for r in score.rows.rows if r[1] == "all" or r[1].startswith("scenario ")))
     categories = categories[-1:] + categories[:-1]  # all first
     rows = []
@@ -227,6 +305,9 @@ def summary_rows(score: Vil100Score) -> PlainTable:
                    official[(method, category, labels[0])][9]]
             if temporal:
                 row += [value for label in labels for value in temporal[(method, category, label)][7:10]]
+            for version in versions:
+                found = acc.get((method, category, version))
+                row += [math.nan] * 3 if found is None else list(found[4:7])
             rows.append(tuple(row))
     return PlainTable(tuple(columns), tuple(rows))
 
@@ -242,6 +323,13 @@ def summary_markdown(score: Vil100Score, width: int) -> str:
                "ground-truth lanes linked across consecutive frames (IoU > 0.5), with that script's own IoU; a frame "
                "without a prediction file counts as no lanes, where that script stops. temporal.csv gives every "
                "sequence." if score.temporal_overall else "")
+            + (" Acc, FP, FN: TuSimple's rule over at most 8 lanes a frame, means over frames, in two versions: "
+               "MMA-Net's evaluate_acc.py (8f95908: each instance mask's lane fitted by a degree-2 polynomial; only "
+               "with --pred-format png) and RVLD's evaluate_acc.py (4d90de1: each lane's points through a cubic "
+               "interp1d); a frame without ground truth scores accuracy 0 in both. Where a script stops on a lane "
+               "(acc.csv's stopping_lanes): RVLD's at two points at one y (the first is kept here) or fewer than 4 "
+               "(it matches no point here), MMA-Net's where its polyfit fails (it matches no point). "
+               "acc.csv gives every sequence and scenario." if score.acc_overall else "")
             + "\n\n" + summary_table(score) + "\n")
 
 

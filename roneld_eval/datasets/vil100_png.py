@@ -1,0 +1,153 @@
+"""VIL-100 predictions as instance masks: one PNG per frame in which every grey value is a lane,
+as MMA-Net writes them (libs/utils/utility.py: indexed PNGs with the dataset's palette), turned
+into lanes exactly as its evaluation/generate_iou_pred_txt.py does (yujun0-0/MMA-Net 8f95908):
+
+- the PNG is read as skimage's `imread(path, as_gray=True)` reads it: an 8-bit grey PNG as its
+  values; a palette or RGB PNG as colours, each colour's grey 0.2125 R + 0.7154 G + 0.0721 B of
+  its [0, 1] channels (imageio converts a palette to RGB first); every grey value above 0 is a
+  lane, lanes in increasing grey order (`np.unique`), colours of one grey one lane;
+- per lane, y = height - row - 1 and x = column + 1 of its pixels, and x = p0 y^2 + p1 y + p2
+  fitted by `np.polyfit(y, x, 2)` (also what evaluate_acc.py fits: `instance_fits`);
+- sampled at y = min, min + 3, ... below max; a lane of fewer than two samples is not written; a
+  sample is kept when 0 <= x <= width and written as `'%d %d ' % (x, height - y)` (x truncated),
+  so a lane whose samples all fall outside is a blank line (a lane of no points to the
+  evaluator). Where np.polyfit raises (a lane all in the bottom row), the scripts stop; here such
+  a lane has no fit: it writes nothing (it has no samples) and matches no point in evaluate_acc.
+
+Only what that reading defines exactly is accepted: 8-bit grey, palette without transparency,
+RGB, or RGBA with every pixel opaque.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..image_header import image_file_size
+from ..lanes_io import parse_culane_lines
+from ..model import Lane
+
+Y_STEP = 3  # generate_iou_pred_txt.py: range(min(y), max(y), 3)
+GREY_WEIGHTS = (0.2125, 0.7154, 0.0721)  # skimage.color.rgb2gray
+MAX_SIDE = 16384  # VIL-100's largest frame is 1920 px wide
+
+
+@dataclass(frozen=True)
+class InstanceLane:
+    """One grey value's pixels as the script sees them, and its degree-2 fit."""
+
+    ys: np.ndarray  # height - row - 1
+    xs: np.ndarray  # column + 1
+    # p0, p1, p2 of x = p0 y^2 + p1 y + p2; None where np.polyfit raises (every pixel in the bottom
+    # row, y = 0: "SVD did not converge", where both scripts stop)
+    fit: tuple[float, float, float] | None
+
+
+def _grey_image(path: Path) -> np.ndarray:
+    """The mask as skimage's imread(as_gray=True) gives it: uint8 for a grey PNG, float64 greys
+    for colours; refused (InputError) when it is not a PNG that reading defines."""
+    from PIL import Image, UnidentifiedImageError
+
+    width, height = image_file_size(path)
+    if not (0 < width <= MAX_SIDE and 0 < height <= MAX_SIDE):
+        raise InputError(path, f"a {width}x{height} mask: an instance mask is at most {MAX_SIDE} px a side")
+    try:
+        with Image.open(path) as opened:
+            mode, transparent = opened.mode, "transparency" in opened.info
+            if mode not in ("L", "RGB", "RGBA") and not (mode == "P" and not transparent):
+                raise InputError(path, f"a PNG of mode {mode}{' with transparency' if transparent else ''}: an "
+                                       "instance mask is 8-bit grey, or palette or RGB colours (MMA-Net's indexed PNG)")
+            # a palette as imageio hands it to skimage: its colours
+            pixels = np.asarray(opened.convert("RGB") if mode == "P" else opened)
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as error:
+        raise InputError(path, f"not a readable PNG: {error}") from None
+    if mode == "RGBA":
+        # skimage blends RGBA over white (rgba2rgb): exact only where every pixel is opaque
+        if not (pixels[..., 3] == 255).all():
+            raise InputError(path, "an RGBA mask with transparent pixels: an instance mask is 8-bit grey, or opaque "
+                                   "palette or RGB colours (MMA-Net's indexed PNG)")
+        pixels = pixels[..., :3]
+        mode = "RGB"
+    if mode == "L":
+        return pixels
+    # rgb2gray: img_as_float64 (x * (1 / 255)), then rgb @ coeffs, on the distinct colours only
+    colours, inverse = np.unique(pixels.reshape(-1, 3), axis=0, return_inverse=True)
+    scaled = np.multiply(colours, 1.0 / 255, dtype=np.float64)
+    greys = scaled @ np.array(GREY_WEIGHTS, dtype=np.float64)
+    return greys[inverse.reshape(-1)].reshape(pixels.shape[:2])
+
+
+def instance_lanes(path: Path) -> tuple[list[InstanceLane], int, int]:
+    """(lanes in grey order, width, height) of one mask."""
+    grey = _grey_image(path)
+    height, width = grey.shape
+    # One pass over the mask: its lit pixels in row-major order (np.where's), grouped by value with
+    # a stable sort, so that each lane's pixels come in the order the script's np.where gives them.
+    rows, columns = np.nonzero(grey > 0)
+    values = grey[rows, columns]
+    order = np.argsort(values, kind="stable")
+    grouped = values[order]
+    starts: list[int] = []
+    if grouped.size:
+        starts = np.flatnonzero(np.concatenate([[True], grouped[1:] != grouped[:-1]])).tolist()
+    ends = starts[1:] + [grouped.size]
+    lanes = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # np.polyfit's RankWarning on a lane of one or two rows
+        for start, end in zip(starts, ends):
+            members = order[start:end]
+            ys, xs = height - rows[members] - 1, columns[members] + 1
+            try:
+                if not ys.any():  # all in the bottom row: polyfit's scaling divides by 0 (LAPACK says so on stdout)
+                    raise np.linalg.LinAlgError("SVD did not converge")
+                fit = np.polyfit(ys, xs, 2).tolist()  # float64 of either: the same as the script's lists
+            except np.linalg.LinAlgError:
+                lanes.append(InstanceLane(ys, xs, None))
+                continue
+            lanes.append(InstanceLane(ys, xs, (fit[0], fit[1], fit[2])))
+    return lanes, width, height
+
+
+def instance_fits(path: Path) -> tuple[list[tuple[float, float, float] | None], int]:
+    """evaluate_acc.py's get_pred_lanes: each lane's fit, and the mask's height."""
+    lanes, _, height = instance_lanes(path)
+    return [lane.fit for lane in lanes], height
+
+
+def lines_text(lanes: list[InstanceLane], width: int, height: int) -> str:
+    """The .lines.txt generate_iou_pred_txt.py writes for these lanes."""
+    out = []
+    for lane in lanes:
+        txty = list(range(int(lane.ys.min()), int(lane.ys.max()), Y_STEP))
+        if lane.fit is None:  # one row (y = 0): no sample either
+            continue
+        p0, p1, p2 = lane.fit
+        samples = np.array(txty)
+        txtx = (p0 * samples * samples + p1 * samples + p2).tolist()
+        if len(txtx) >= 2:
+            out.append("".join("%d %d " % (x, height - y) for x, y in zip(txtx, txty) if 0 <= x <= width) + "\n")
+    return "".join(out)
+
+
+@dataclass(frozen=True)
+class InstanceMask:
+    """A frame's mask as both MMA-Net scripts see it: the lanes the evaluator reads from the text
+    generate_iou_pred_txt.py writes, and the fits evaluate_acc.py uses (with the mask's height)."""
+
+    lanes: tuple[Lane, ...]
+    fits: tuple[tuple[float, float, float] | None, ...]
+    height: int | None  # None: no mask
+
+
+def read_instance_png(path: Path) -> InstanceMask:
+    """A frame's mask; no lanes when the file is absent (as a missing .lines.txt)."""
+    if not os.path.lexists(path):
+        return InstanceMask((), (), None)
+    lanes, width, height = instance_lanes(path)
+    return InstanceMask(parse_culane_lines(lines_text(lanes, width, height), path),
+                        tuple(lane.fit for lane in lanes), height)

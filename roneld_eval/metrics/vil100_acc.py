@@ -1,0 +1,152 @@
+"""VIL-100's Acc, FP and FN: TuSimple's rule (a point within 20 px over the cosine of the ground
+truth's slope, a lane found at 85 % of its points, at most 8 lanes a frame) in the two versions
+papers print, which give different numbers for the same lanes:
+
+- MMA-Net's evaluation/evaluate_acc.py (yujun0-0/MMA-Net 8f95908): each predicted lane is the
+  degree-2 fit x(y) of its instance mask's pixels (datasets.vil100_png, `instance_fits`), in
+  the mask's flipped rows (y = height - row - 1), evaluated at every ground-truth point, whose y
+  is flipped as height - y (:42-57, one row apart from the mask's);
+- RVLD's Modeling/VIL-100/PLD/code/evaluation/evaluate_acc.py (dongkwonjin/RVLD 4d90de1): each
+  predicted lane is SciPy's cubic interp1d of x over y through its points, evaluated at the
+  ground-truth points within its rows (-2 elsewhere), in float32 (:36-44).
+
+In both a frame's accuracy is the mean of its ground-truth lanes' best accuracies over at most
+8 lanes (the worst dropped beyond 8, and one FN forgiven), FP = (predictions - found ground
+truth) / predictions (negative where two ground-truth lanes find one prediction), FN = missed /
+ground truth; a frame without ground truth scores accuracy 0. Figures are means over frames.
+
+Where RVLD's script stops (SciPy's cubic interp1d refuses a lane with two points at one y, or
+of fewer than four points: ValueError), a lane keeps its first point at each y (RVLD's own writer,
+libs/save_prediction.py, never repeats one), and one of fewer than four left matches no point
+but still counts as a prediction; `AccFrame.stopping` counts such lanes. A lane without a fit
+(MMA-Net's polyfit raising) likewise matches no point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..model import Lane
+from .tusimple_official import POINT_THRESHOLD, lane_threshold, line_accuracy
+
+MAX_LANES = 8.0  # evaluate_acc.py: min(8.0, len(gt))
+OUTSIDE = -2  # RVLD: x_pred where a ground-truth row lies outside the prediction's rows
+
+
+@dataclass(frozen=True)
+class AccFrame:
+    accuracy: float
+    fp: float
+    fn: float
+    stopping: int = 0  # predicted lanes where the script stops (see the module docstring)
+
+
+def _frame(accs_per_gt: Sequence[Sequence[float]], n_pred: int, n_gt: int) -> tuple[float, float, float]:
+    """calculate_results / bench after the accuracies: the same lines in both scripts."""
+    line_accs = []
+    fn, matched = 0.0, 0.0
+    for accs in accs_per_gt:
+        max_acc = np.max(accs) if len(accs) > 0 else 0.0
+        if max_acc < POINT_THRESHOLD:
+            fn += 1
+        else:
+            matched += 1
+        line_accs.append(max_acc)
+    fp = n_pred - matched
+    if n_gt > MAX_LANES and fn > 0:
+        fn -= 1
+    total = sum(line_accs)
+    if n_gt > MAX_LANES:
+        total -= min(line_accs)
+    return (float(total / max(min(MAX_LANES, n_gt), 1.0)), float(fp / n_pred if n_pred > 0 else 0.0),
+            float(fn / max(min(n_gt, MAX_LANES), 1.0)))
+
+
+def _ground_truth(lanes: Sequence[Lane]) -> list[Lane]:
+    return [lane for lane in lanes if len(lane.points)]  # lanes of no points are skipped (both scripts)
+
+
+def mmanet_frame(fits: Sequence[tuple[float, float, float] | None], truth: Sequence[Lane], height: int) -> AccFrame:
+    """One frame as MMA-Net's calculate_results: `fits` from the instance mask of `height` rows."""
+    lanes = _ground_truth(truth)
+    gtx = [lane.xs.tolist() for lane in lanes]
+    gty = [[height - y for y in lane.ys.tolist()] for lane in lanes]
+    accs_per_gt = []
+    for x_gts, y_gts in zip(gtx, gty):
+        threshold = lane_threshold(np.array(x_gts), np.array(y_gts))
+        accs = []
+        for p in fits:
+            if p is None:
+                accs.append(0.0)
+                continue
+            ys = np.array(y_gts)
+            x_pred = (p[0] * ys * ys + p[1] * ys + p[2]).tolist()
+            accs.append(line_accuracy(np.array(x_pred), np.array(x_gts), threshold))
+        accs_per_gt.append(accs)
+    return AccFrame(*_frame(accs_per_gt, len(fits), len(gtx)), stopping=sum(p is None for p in fits))
+
+
+def _interpolator(lane: Lane):
+    """(interp1d of the lane, or None where it refuses even its first point at each y; whether
+    the script would stop at it)."""
+    from scipy.interpolate import interp1d
+
+    ys, xs = lane.ys, lane.xs
+    _, first = np.unique(ys, return_index=True)
+    repeated = first.size < ys.size
+    if repeated:
+        keep = np.sort(first)  # the first point at each y, in file order
+        ys, xs = ys[keep], xs[keep]
+    try:
+        with np.errstate(all="ignore"):
+            return interp1d(ys, xs, kind="cubic"), repeated
+    except (ValueError, np.linalg.LinAlgError):
+        return None, True
+
+
+def rvld_frame(predictions: Sequence[Lane], truth: Sequence[Lane]) -> AccFrame:
+    """One frame as RVLD's bench: `predictions` as its result pickles hold them (lanes of points)."""
+    lanes = _ground_truth(truth)
+    preds = [lane for lane in predictions if len(lane.points)]
+    built = [_interpolator(lane) for lane in preds]
+    functions = [function for function, _ in built]
+    accs_per_gt = []
+    for lane in lanes:
+        x_gts, y_gts = lane.xs, lane.ys
+        threshold = lane_threshold(x_gts, y_gts)
+        accs = []
+        for pred, function in zip(preds, functions):
+            y_min, y_max = np.min(pred.ys), np.max(pred.ys)
+            check = (y_min <= y_gts) * (y_gts <= y_max)
+            x_pred = np.zeros(check.shape[0], dtype=np.float32) + OUTSIDE
+            if function is not None:
+                x_pred[check] = function(y_gts[check])
+            accs.append(line_accuracy(x_pred.astype(np.float64), x_gts, threshold))
+        accs_per_gt.append(accs)
+    return AccFrame(*_frame(accs_per_gt, len(preds), len(lanes)), stopping=sum(stops for _, stops in built))
+
+
+@dataclass(frozen=True)
+class AccMeans:
+    """Means over frames, as both scripts divide their sums by the number of frames."""
+
+    accuracy: float
+    fp: float
+    fn: float
+    frames: int
+    stopping: int = 0  # lanes where the script stops (AccFrame.stopping)
+
+
+def means(frames: Sequence[AccFrame]) -> AccMeans:
+    total_acc, total_fp, total_fn = 0.0, 0.0, 0.0
+    for frame in frames:  # in frame order, one addition at a time, as the scripts' loops
+        total_acc += frame.accuracy
+        total_fp += frame.fp
+        total_fn += frame.fn
+    n = len(frames)
+    if not n:
+        return AccMeans(float("nan"), float("nan"), float("nan"), 0)
+    return AccMeans(total_acc / n, total_fp / n, total_fn / n, n, sum(f.stopping for f in frames))

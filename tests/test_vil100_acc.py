@@ -1,0 +1,167 @@
+"""VIL-100's Acc/FP/FN in both versions and MMA-Net's instance-mask predictions, against the
+official scripts run unchanged: golden values in tests/golden/vil100/acc_cases/expected.json
+(MMA-Net 8f95908 evaluate_acc.py, RVLD 4d90de1 evaluate_acc.py) and png2txt/
+(generate_iou_pred_txt.py); the real ground truth where ../shared is present."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
+from roneld_eval.cli import main
+from roneld_eval.datasets.vil100 import read_vil100
+from roneld_eval.datasets.vil100_png import instance_lanes, lines_text, read_instance_png
+from roneld_eval.errors import InputError
+from roneld_eval.lanes_io import read_culane_lines
+from roneld_eval.metrics.vil100_acc import mmanet_frame, rvld_frame
+from roneld_eval.model import Lane
+
+GOLDEN = Path(__file__).parent / "golden" / "vil100"
+CASES = GOLDEN / "acc_cases"
+EXPECTED = json.loads((CASES / "expected.json").read_text())
+PNG2TXT = GOLDEN / "png2txt"
+MANIFEST = json.loads((PNG2TXT / "manifest.json").read_text())
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "vil100"
+
+
+def _case_frames(pred_root: Path, pred_format: str) -> dict:
+    dataset = read_vil100(CASES / "anno_txt", CASES / "test.txt", sizes_file=CASES / "test_sizes.json")
+    out = {}
+    for sequence, frames in dataset.sequences.items():
+        piece = _score_sequence((frames, dataset.labels, (pred_root,), *dataset.sizes[sequence], 30, False,
+                                 pred_format))
+        for relpath, (rvld, mmanet) in zip(frames, piece.acc[0]):
+            out[relpath] = rvld if mmanet is None else mmanet
+    return out
+
+
+@pytest.mark.parametrize("version, root, pred_format", [("mmanet", "pred_png", "png"), ("rvld", "pred_txt", "lines")])
+def test_every_frame_equals_the_official_script(version, root, pred_format):
+    # Invented frames reaching every branch: > 8 lanes (accuracy 1.125), negative x, frames without
+    # ground truth (accuracy 0), a prediction found by two lanes (FP -1), part-covered lanes.
+    frames = _case_frames(CASES / root, pred_format)
+    assert set(frames) == set(EXPECTED["frames"])
+    for relpath, expected in EXPECTED["frames"].items():
+        got = frames[relpath]
+        assert [got.accuracy, got.fp, got.fn] == expected[version], (relpath, expected["description"])
+
+
+def test_the_totals_and_acc_csv_equal_the_scripts(tmp_path):
+    score = score_vil100(CASES / "anno_txt", {"syn": CASES / "pred_png"}, list_file=CASES / "test.txt",
+                         sizes_file=CASES / "test_sizes.json", pred_format="png", temporal=False, out=tmp_path / "o")
+    mmanet = score.acc_overall[("syn", "mmanet")]
+    official = EXPECTED["totals"]["mmanet"]
+    assert (mmanet.accuracy, mmanet.fp, mmanet.fn) == (official["accuracy"], official["fp"], official["fn"])
+    lines = score_vil100(CASES / "anno_txt", {"syn": CASES / "pred_txt"}, list_file=CASES / "test.txt",
+                         sizes_file=CASES / "test_sizes.json", temporal=False)
+    rvld = lines.acc_overall[("syn", "rvld")]
+    official = EXPECTED["totals"]["rvld"]
+    assert (rvld.accuracy, rvld.fp, rvld.fn) == (official["acc"], official["fp"], official["fn"])
+    assert ("syn", "mmanet") not in lines.acc_overall  # MMA-Net's version reads instance masks only
+    text = (tmp_path / "o" / "acc.csv").read_text().splitlines()
+    assert text[0] == "method,category,version,frames,accuracy,fp,fn,stopping_lanes"
+    assert "syn,all,mmanet,11,0.680251,0.045455,0.159091,0" in text
+    summary = (tmp_path / "o" / "summary.csv").read_text().splitlines()
+    assert summary[0].endswith(",acc_mmanet,fp_mmanet,fn_mmanet,acc_rvld,fp_rvld,fn_rvld")
+    assert "Acc (MMA-Net) (%)" in (tmp_path / "o" / "summary.md").read_text()
+
+
+def test_a_lane_the_rvld_script_stops_at_keeps_its_first_point_at_each_y():
+    truth = [Lane.from_xy(np.linspace(500, 600, 30), np.linspace(500, 1000, 30))]
+    repeated = Lane.from_xy(np.r_[np.linspace(500, 600, 30), 900.0], np.r_[np.linspace(500, 1000, 30), 500.0])
+    frame = rvld_frame([repeated], truth)  # the script: "Expect x to not have duplicates"
+    assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (1.0, 0.0, 0.0, 1)
+    short = Lane.from_xy([500, 520, 540], [500, 700, 900])  # fewer than 4 points: matches nothing
+    frame = rvld_frame([short], truth)
+    assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (0.0, 1.0, 1.0, 1)
+
+
+def test_a_mask_lane_whose_fit_fails_matches_nothing(tmp_path):
+    mask = np.zeros((480, 960), np.uint8)
+    mask[479, 100:300] = 1  # every pixel in the bottom row: np.polyfit raises, the scripts stop
+    mask[200:400, 500] = 2
+    path = tmp_path / "m.png"
+    cv2.imwrite(str(path), mask)
+    lanes, _, _ = instance_lanes(path)
+    assert lanes[0].fit is None and lanes[1].fit is not None
+    read = read_instance_png(path)
+    assert len(read.lanes) == 1  # the failing lane writes nothing (one row: no samples)
+    frame = mmanet_frame(read.fits, [Lane.from_xy([500] * 20, np.linspace(80, 280, 20))], 480)
+    assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (1.0, 0.5, 0.0, 1)  # 2 predictions, 1 found
+
+
+@pytest.mark.parametrize("pair", MANIFEST["pairs"], ids=[p["key"] for p in MANIFEST["pairs"]])
+def test_masks_become_the_lines_generate_iou_pred_txt_writes(pair):
+    # The script names its output after the JSON at the same sorted index (D_: a gap in the PNGs
+    # shifts them); the text of each mask is compared here.
+    lanes, width, height = instance_lanes(PNG2TXT / pair["input_png"])
+    assert (width, height) == (pair["width"], pair["height"])
+    assert lines_text(lanes, width, height) == (PNG2TXT / pair["output_txt"]).read_text(), pair["description"]
+
+
+def test_a_mask_that_reading_does_not_define_is_refused(tmp_path):
+    rgba = np.zeros((20, 30, 4), np.uint8)
+    rgba[5:10, 5:20] = (9, 9, 9, 128)
+    cv2.imwrite(str(tmp_path / "a.png"), rgba)
+    with pytest.raises(InputError, match="transparent pixels"):
+        instance_lanes(tmp_path / "a.png")
+    cv2.imwrite(str(tmp_path / "b.png"), np.zeros((20, 30), np.uint16) + 700)
+    with pytest.raises(InputError, match="mode I;16"):
+        instance_lanes(tmp_path / "b.png")
+    (tmp_path / "c.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"\0" * 40)
+    with pytest.raises(InputError):
+        instance_lanes(tmp_path / "c.png")
+
+
+def test_score_vil100_reads_instance_masks_from_the_command_line(tmp_path):
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(CASES / "anno_txt"), "--pred-root",
+                                       str(CASES / "pred_png"), "--pred-format", "png", "--sizes",
+                                       str(CASES / "test_sizes.json"), "--out", str(tmp_path / "o"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "o" / "acc.csv").is_file()
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(CASES / "anno_txt"), "--pred-root",
+                                       str(CASES / "pred_txt"), "--pred-format", "png", "--sizes",
+                                       str(CASES / "test_sizes.json")])
+    assert result.exit_code == 2 and "no prediction file of the list is here" in result.output
+    assert ".png" in result.output
+
+
+def _render_masks(labels: Path, out: Path, sizes: dict) -> None:
+    """The ground truth as instance masks, as the golden harness drew them: lane k of a file with
+    value k, cv2.polylines of its rounded points, round(30 W / 1920) px wide."""
+    for path in sorted(labels.rglob("*.lines.txt")):
+        relative = path.relative_to(labels)
+        width, height = sizes[relative.parts[0]]["width"], sizes[relative.parts[0]]["height"]
+        mask = np.zeros((height, width), np.uint8)
+        for k, lane in enumerate(read_culane_lines(path)):
+            if len(lane.points):
+                points = np.round(lane.points).astype(np.int32).reshape(-1, 1, 2)
+                cv2.polylines(mask, [points], False, k + 1, thickness=max(1, round(30 * width / 1920)))
+        target = out / relative.parent / (relative.name[:-len(".lines.txt")] + ".png")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(target), mask)
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data/vil100")
+def test_the_real_ground_truth_as_predictions_scores_as_both_scripts(tmp_path):
+    # Values of the scripts run unchanged on these same inputs (the 2,000 test frames): MMA-Net's
+    # on the ground truth drawn as masks, RVLD's on the ground truth's lanes, where its script
+    # stops at 108 lanes repeating a y (keeping each lane's first point at a y, it gives 0.98,
+    # what the script gives once those points are dropped).
+    sizes = json.loads((SHARED / "test_sizes.json").read_text())
+    _render_masks(SHARED / "anno_txt", tmp_path / "png", sizes)
+    common = dict(list_file=SHARED / "test.txt", sizes_file=SHARED / "test_sizes.json", temporal=False, workers=2)
+    masks = score_vil100(SHARED / "anno_txt", {"gt": tmp_path / "png"}, pred_format="png", **common)
+    mmanet = masks.acc_overall[("gt", "mmanet")]
+    assert (mmanet.accuracy, mmanet.fp, mmanet.fn, mmanet.frames) == (0.9799749931343438, 0.0, 0.0, 2000)
+    lines = score_vil100(SHARED / "anno_txt", {"gt": SHARED / "anno_txt"}, **common)
+    rvld = lines.acc_overall[("gt", "rvld")]
+    assert (rvld.accuracy, rvld.fp, rvld.fn, rvld.stopping) == (0.98, 0.0, 0.0, 108)
+    assert not math.isnan(masks.overall[("gt", "0.50")].miou)
