@@ -165,3 +165,42 @@ def test_the_real_ground_truth_as_predictions_scores_as_both_scripts(tmp_path):
     rvld = lines.acc_overall[("gt", "rvld")]
     assert (rvld.accuracy, rvld.fp, rvld.fn, rvld.stopping) == (0.98, 0.0, 0.0, 108)
     assert not math.isnan(masks.overall[("gt", "0.50")].miou)
+
+
+def _png_header(width: int, height: int) -> bytes:
+    import struct
+    import zlib
+
+    body = b"IHDR" + struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + body + struct.pack(">I", zlib.crc32(body))
+
+
+def test_a_mask_too_large_or_not_a_png_is_refused_before_decoding(tmp_path):
+    # 16384 x 16384 passed the side bound and then raised Pillow's DecompressionBombError
+    (tmp_path / "big.png").write_bytes(_png_header(16384, 16384) + b"\0" * 64)
+    with pytest.raises(InputError, match="at most 16384 px a side and 67,108,864 pixels"):
+        instance_lanes(tmp_path / "big.png")
+    mask = np.zeros((48, 64, 3), np.uint8)
+    mask[10:40, 30:34] = 80
+    cv2.imwrite(str(tmp_path / "j.jpg"), mask)
+    (tmp_path / "j.png").write_bytes((tmp_path / "j.jpg").read_bytes())  # its artefacts would become lanes
+    with pytest.raises(InputError, match="a JPEG image, not a PNG"):
+        instance_lanes(tmp_path / "j.png")
+
+
+def test_masks_of_another_size_and_ground_truth_beyond_the_size_are_said(tmp_path):
+    masks = tmp_path / "masks" / "S_cases_1920x1080"
+    masks.mkdir(parents=True)
+    for path in sorted((CASES / "pred_png" / "S_cases_1920x1080").glob("*.png")):
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        cv2.imwrite(str(masks / path.name), cv2.resize(image, (960, 540), interpolation=cv2.INTER_NEAREST))
+    score = score_vil100(CASES / "anno_txt", {"half": tmp_path / "masks"}, list_file=CASES / "test.txt",
+                         sizes_file=CASES / "test_sizes.json", pred_format="png", temporal=False)
+    assert any("half: 11 masks of S_cases_1920x1080 are not 1920x1080" in w for w in score.warnings), score.warnings
+    (tmp_path / "small.json").write_text('{"S_cases_1920x1080": {"width": 1280, "height": 720}}')
+    score = score_vil100(CASES / "anno_txt", {"syn": CASES / "pred_txt"}, list_file=CASES / "test.txt",
+                         sizes_file=tmp_path / "small.json", temporal=False)
+    assert any("reaches beyond its 1280x720 size" in w and "is the size right?" in w for w in score.warnings)
+    right = score_vil100(CASES / "anno_txt", {"syn": CASES / "pred_txt"}, list_file=CASES / "test.txt",
+                         sizes_file=CASES / "test_sizes.json", temporal=False)
+    assert not right.warnings

@@ -206,3 +206,33 @@ def test_the_real_ground_truth_as_a_detectors_lanes(tmp_path):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["counts"]["frames"] == 300
     assert summary["geometry"]["frame_sizes"] == [[1920, 1080], [1280, 720], [960, 480]]
+
+
+def test_compare_refuses_runs_that_scored_a_video_at_another_size(synthetic, tmp_path):
+    data = tmp_path / "data"
+    shutil.copytree(synthetic / "set" / "data", data)
+    sizes = json.loads((data / "sizes.json").read_text())
+    small = next(name for name, size in sizes.items() if size["width"] == 960)
+    sizes[small] = {"width": 1280, "height": 640}
+    (data / "sizes.json").write_text(json.dumps(sizes))
+    result = invoke("run", "--dataset", "vil100", "--data-root", str(data), "--maps-root",
+                    str(synthetic / "set" / "maps"), "--pft-ablation", "--out", str(tmp_path / "other"), "--quiet")
+    assert result.exit_code == 0, result.output
+    result = invoke("compare", str(synthetic / "out"), str(tmp_path / "other"), "--out", str(tmp_path / "c"))
+    assert result.exit_code == 2
+    assert f"at different frame sizes (clip {small}: 960x480 and 1280x640)" in result.output, result.output
+
+
+def test_a_root_one_level_off_gets_a_hint(synthetic, tmp_path):
+    data = synthetic / "set" / "data"
+    result = invoke("run", "--dataset", "vil100", "--data-root", str(data / "anno_txt"), "--maps-root",
+                    str(synthetic / "set" / "maps"), "--out", str(tmp_path / "o"), "--quiet")
+    assert result.exit_code == 2 and "looks like the anno_txt folder itself" in result.output
+    result = invoke("score", "vil100", "--labels", str(data), "--pred-root", str(synthetic / "out" / "lanes"),
+                    "--sizes", str(data / "sizes.json"))
+    assert result.exit_code == 2 and f"did you mean {data / 'anno_txt'}?" in result.output
+    npy = tmp_path / "npy"
+    assert invoke("synth", "--dataset", "vil100", "--out", str(npy), "--clips", "1", "--frames", "2").exit_code == 0
+    result = invoke("run", "--dataset", "vil100", "--data-root", str(npy / "data"), "--maps-root", str(npy / "maps"),
+                    "--out", str(tmp_path / "o2"), "--quiet")  # the preset reads lane files; synth wrote .npy
+    assert result.exit_code == 2 and "(found 00000.npy: use --maps-format npy)" in result.output

@@ -68,6 +68,10 @@ class ScoredSequence:
     assigned: list[list[np.ndarray]] = field(default_factory=list)
     # per method, each frame's Acc/FP/FN: RVLD's version, and MMA-Net's (None without instance masks)
     acc: list[list[tuple[AccFrame, AccFrame | None]]] = field(default_factory=list)
+    # frames whose ground truth reaches beyond the sequence's size (a wrong size?); per method,
+    # masks of another size than the sequence's (the script reads them at their own)
+    truth_outside: list[str] = field(default_factory=list)
+    odd_masks: list[list[str]] = field(default_factory=list)
 
 
 PRED_FORMATS = ("lines", "png")  # .lines.txt, or MMA-Net's instance masks (datasets.vil100_png)
@@ -89,12 +93,15 @@ def _read_predictions(root: Path, relpath: str, pred_format: str):
 
 def _score_sequence(args) -> ScoredSequence:
     relpaths, labels, pred_roots, width, height, lane_width, temporal, pred_format = args
-    out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots], [[] for _ in pred_roots])
+    out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots], [[] for _ in pred_roots], [],
+                         [[] for _ in pred_roots])
     previous: list | None = None
     for relpath in relpaths:
         path = labels_path(labels, relpath)
         truth = read_culane_lines(path)  # a missing file: no lanes, as the C++ reader ("fail")
         check_inside(truth, path, width, height)
+        if any(((lane.xs > width + 1) | (lane.ys > height + 1)).any() for lane in truth):
+            out.truth_outside.append(relpath)
         gt_masks = official_masks(truth, width, height, lane_width) if truth else None
         if temporal:
             linked = [lane_mask(lane, width, height) for lane in usable(truth)]
@@ -102,6 +109,8 @@ def _score_sequence(args) -> ScoredSequence:
             previous = linked
         for m, root in enumerate(pred_roots):
             predictions, mask = _read_predictions(root, relpath, pred_format)
+            if mask is not None and mask.height is not None and (mask.width, mask.height) != (width, height):
+                out.odd_masks[m].append(relpath)
             result = evaluate_culane_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
             out.frames[m].append((result, frame_miou(result)))
             mmanet = None if mask is None else mmanet_frame(mask.fits, truth, mask.height or height)
@@ -147,6 +156,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         tasks = [(frames, dataset.labels, roots, *dataset.sizes[name], width, temporal, pred_format)
                  for name, frames in dataset.sequences.items()]
         scored = scored_pieces(_score_sequence, tasks, workers, progress, announce)
+        warnings += _size_warnings(dataset, scored, trees)
         methods = tuple(tree.method for tree in trees)
         names = list(dataset.sequences)
         rows, overall = official_rows(names, methods, scored, thresholds)
@@ -168,6 +178,21 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             staging.write_text("summary.md", summary_markdown(score, width))
             folder.commit()
     return score
+
+
+def _size_warnings(dataset, scored: Sequence[ScoredSequence], trees) -> list[str]:
+    """Said when a sequence's size looks wrong: the ground truth of half its frames or more reaching
+    past it (a lane may leave the image now and then), or masks of another size."""
+    out = []
+    for (name, size), piece in zip(dataset.sizes.items(), scored):
+        if 2 * len(piece.truth_outside) >= len(piece.frames[0] if piece.frames else []) > 0:
+            out.append(f"warning: {name}: the ground truth of {len(piece.truth_outside)} frames reaches beyond its "
+                       f"{size[0]}x{size[1]} size (first: {piece.truth_outside[0]}): is the size right?")
+        for tree, odd in zip(trees, piece.odd_masks):
+            if odd:
+                out.append(f"warning: {tree.method}: {len(odd)} masks of {name} are not {size[0]}x{size[1]} (first: "
+                           f"{odd[0]}); each is read at its own size, as generate_iou_pred_txt.py reads it")
+    return out
 
 
 def official_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence[ScoredSequence],

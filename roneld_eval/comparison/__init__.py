@@ -216,6 +216,12 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
                       f"{base.counts['labelled_frames']} and {run.counts['labelled_frames']} frames scored")
             raise ConfigError(f"{where} but scored different frames ({detail}); compare runs of one dataset "
                               f"on the same frames")
+        if run.clip_sizes != base.clip_sizes:
+            clip = sorted(set(base.clip_sizes) ^ set(run.clip_sizes))[0][0]
+            sizes = " and ".join(next((f"{w}x{h}" for name, w, h in one.clip_sizes if name == clip), "none")
+                                 for one in (base, run))
+            raise ConfigError(f"{where} on the same frames but at different frame sizes (clip {clip}: {sizes}); "
+                              "evaluate both with one dataset's sizes")
         if run.truth_key != base.truth_key:
             raise ConfigError(f"{where} on the same frames but against different ground truth (ego lanes "
                               f"{base.counts['ego_lanes']} and {run.counts['ego_lanes']}, all lanes "

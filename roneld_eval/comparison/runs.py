@@ -62,6 +62,8 @@ class Run:
     frames_key: str  # digest of the scored frames
     truth_key: str  # digest of the ground-truth ego lanes (frame, side) and the lane counts
     columns: dict  # (method, accuracy.csv column) -> {threshold: value}, for quick look-ups
+    # (clip, width, height) where its videos have sizes of their own (VIL-100)
+    clip_sizes: tuple[tuple[str, int, int], ...] = ()
 
     def name(self) -> str:
         """The folder as given, for messages."""
@@ -124,7 +126,17 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
     return Run(path=folder, label=label if label is not None else model, model=model, dataset=dataset,
                methods=methods, thresholds=thresholds, protocol=protocol, accuracy=accuracy, per_frame=per_frame,
                runtime=runtime, official=official, counts=dict(counts), clips=clips, frames_key=frames_key,
-               truth_key=truth_key, columns=_columns(accuracy))
+               truth_key=truth_key, columns=_columns(accuracy),
+               clip_sizes=_clip_sizes(folder / "summary.json", summary))
+
+
+def _clip_sizes(path: Path, summary: dict) -> tuple[tuple[str, int, int], ...]:
+    sizes = summary.get("clip_sizes", {})
+    if not isinstance(sizes, dict) or not all(
+            isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) and not isinstance(v, bool) and v > 0
+                                                               for v in size) for size in sizes.values()):
+        raise InputError(path, "`clip_sizes` must map each clip to its width and height in pixels")
+    return tuple(sorted((str(clip), size[0], size[1]) for clip, size in sizes.items()))
 
 
 def _benchmark_of(folder: Path, dataset: str):

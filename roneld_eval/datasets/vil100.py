@@ -92,8 +92,20 @@ def every_labelled_frame(labels: Path) -> list[str]:
         names = [name[:-len(".lines.txt")] for name in os.listdir(labels / sequence) if name.endswith(".lines.txt")]
         entries += sorted((f"{sequence}/{name}" for name in names), key=frame_sort_key)
     if not entries:
-        raise InputError(labels, "no <sequence>/<frame>.lines.txt here: is this MMA-Net's anno_txt folder?")
+        hint = f" (did you mean {labels / LABELS_FOLDER}?)" if _holds_sequences(labels / LABELS_FOLDER) else ""
+        raise InputError(labels, f"no <sequence>/<frame>.lines.txt here: is this MMA-Net's anno_txt folder?{hint}")
     return entries
+
+
+def _holds_sequences(folder: Path) -> bool:
+    """Whether one of the folder's first subfolders holds .lines.txt files (a labels folder)."""
+    try:
+        for entry in sorted(os.scandir(folder), key=lambda entry: entry.name)[:20]:
+            if entry.is_dir() and any(name.endswith(".lines.txt") for name in os.listdir(entry.path)[:200]):
+                return True
+    except OSError:
+        return False
+    return False
 
 
 def read_sizes_file(path: Path) -> dict[str, tuple[int, int]]:
@@ -224,7 +236,10 @@ def run_layout(root: Path, list_file: Path | None) -> Vil100Set:
     check_folder(root, f"dataset root not found ({RUN_LAYOUT})")
     labels = root / LABELS_FOLDER
     if not labels.is_dir():
-        raise InputError(labels, f"ground-truth folder not found: {RUN_LAYOUT}")
+        hint = ""
+        if _holds_sequences(root):
+            hint = f"; {root} looks like the anno_txt folder itself: give the folder that holds it"
+        raise InputError(labels, f"ground-truth folder not found: {RUN_LAYOUT}{hint}")
     if list_file is None and (root / DEFAULT_LIST).is_file():
         list_file = root / DEFAULT_LIST
     sources = {"image_root": root / "JPEGImages", "json_root": root / "Json", "sizes_file": root / SIZES_FILE}

@@ -35,6 +35,7 @@ from ..model import Lane
 Y_STEP = 3  # generate_iou_pred_txt.py: range(min(y), max(y), 3)
 GREY_WEIGHTS = (0.2125, 0.7154, 0.0721)  # skimage.color.rgb2gray
 MAX_SIDE = 16384  # VIL-100's largest frame is 1920 px wide
+MAX_PIXELS = 1 << 26  # 67 M pixels: 35 times VIL-100's largest frame, below Pillow's bomb limit
 
 
 @dataclass(frozen=True)
@@ -54,17 +55,20 @@ def _grey_image(path: Path) -> np.ndarray:
     from PIL import Image, UnidentifiedImageError
 
     width, height = image_file_size(path)
-    if not (0 < width <= MAX_SIDE and 0 < height <= MAX_SIDE):
-        raise InputError(path, f"a {width}x{height} mask: an instance mask is at most {MAX_SIDE} px a side")
+    if not (0 < width <= MAX_SIDE and 0 < height <= MAX_SIDE and width * height <= MAX_PIXELS):
+        raise InputError(path, f"a {width}x{height} mask: an instance mask is at most {MAX_SIDE} px a side and "
+                               f"{MAX_PIXELS:,} pixels")
     try:
         with Image.open(path) as opened:
+            if opened.format != "PNG":  # read all the same by the script: a JPEG's artefacts become lanes
+                raise InputError(path, f"a {opened.format} image, not a PNG: an instance mask must be lossless")
             mode, transparent = opened.mode, "transparency" in opened.info
             if mode not in ("L", "RGB", "RGBA") and not (mode == "P" and not transparent):
                 raise InputError(path, f"a PNG of mode {mode}{' with transparency' if transparent else ''}: an "
                                        "instance mask is 8-bit grey, or palette or RGB colours (MMA-Net's indexed PNG)")
             # a palette as imageio hands it to skimage: its colours
             pixels = np.asarray(opened.convert("RGB") if mode == "P" else opened)
-    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as error:
+    except (UnidentifiedImageError, Image.DecompressionBombError, OSError, SyntaxError, ValueError) as error:
         raise InputError(path, f"not a readable PNG: {error}") from None
     if mode == "RGBA":
         # skimage blends RGBA over white (rgba2rgb): exact only where every pixel is opaque
@@ -142,6 +146,7 @@ class InstanceMask:
     lanes: tuple[Lane, ...]
     fits: tuple[tuple[float, float, float] | None, ...]
     height: int | None  # None: no mask
+    width: int | None = None
 
 
 def read_instance_png(path: Path) -> InstanceMask:
@@ -150,4 +155,4 @@ def read_instance_png(path: Path) -> InstanceMask:
         return InstanceMask((), (), None)
     lanes, width, height = instance_lanes(path)
     return InstanceMask(parse_culane_lines(lines_text(lanes, width, height), path),
-                        tuple(lane.fit for lane in lanes), height)
+                        tuple(lane.fit for lane in lanes), height, width)

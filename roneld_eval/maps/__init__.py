@@ -44,10 +44,13 @@ def found_in_other_format(missing: Path, lane_channels: int = 4) -> str | None:
     """For a frame's missing map file (as `required_paths` names it): 'found <file>: use
     --maps-format <format>' when the frame's maps lie beside it in another format, else None."""
     missing = Path(missing)
-    wanted = next((fmt for fmt, suffix in _FORMAT_SUFFIXES.items() if missing.name.endswith(suffix)), None)
+    # Lane files wanted (a preset's format) may be maps in fact; the reverse is not said: .lines.txt
+    # beside a frame are its ground truth as often as a detector's lanes.
+    suffixes = {**_FORMAT_SUFFIXES, "lanes": ".lines.txt"}
+    wanted = next((fmt for fmt, suffix in suffixes.items() if missing.name.endswith(suffix)), None)
     if wanted is None:
         return None
-    stem = missing.with_name(missing.name[: -len(_FORMAT_SUFFIXES[wanted])])
+    stem = missing.with_name(missing.name[: -len(suffixes[wanted])])
     for fmt in FORMATS:
         if fmt == wanted:
             continue

@@ -68,7 +68,12 @@ def _json_safe(value):
 
 
 def summary(result: RunResult) -> dict:
-    """Everything needed to rerun and to trust the run: config, versions, counts, timing."""
+    """Everything needed to rerun and to trust the run: config, versions, counts, timing (and,
+    where a benchmark's videos come in several sizes, each clip's: compare refuses runs that
+    scored the same clips at other sizes)."""
+    sizes = {clip.clip_id: list(clip.frames[0].image_size) for clip in result.dataset.clips
+             if clip.frames and clip.frames[0].image_size is not None}
+    extra = {"clip_sizes": sizes} if sizes else {}
     return _json_safe({
         "tool": "roneld-eval",
         "dataset": result.dataset.name,
@@ -81,6 +86,7 @@ def summary(result: RunResult) -> dict:
         "skipped": result.skipped,
         "wall_time_s": round(result.wall_time_s, 3),
         "rerun": "roneld-eval run --config config.toml",
+        **extra,
     })
 
 
