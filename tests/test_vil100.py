@@ -229,7 +229,8 @@ def test_a_lane_drawn_where_it_reaches_has_the_pixels_of_the_whole_canvas():
     """lane_mask draws one polyline on the part of the canvas a lane can reach; the script draws
     every segment with cv2.line on the whole canvas (full_canvas_mask): the same pixels, for lanes
     inside, across and outside the image's edges."""
-    from roneld_eval.metrics.vil100_temporal import _interpolated, full_canvas_mask, lane_mask
+    from roneld_eval.metrics.line_masks import full_canvas_mask
+    from roneld_eval.metrics.vil100_temporal import _interpolated, lane_mask
     from roneld_eval.model import Lane
 
     rng = np.random.default_rng(3)
@@ -240,7 +241,7 @@ def test_a_lane_drawn_where_it_reaches_has_the_pixels_of_the_whole_canvas():
         xs = rng.uniform(-300, width + 300) + np.cumsum(rng.normal(0, 40, count))
         lane = Lane(np.stack([xs, ys], 1))
         fast = lane_mask(lane, width, height)
-        reference = full_canvas_mask(_interpolated(lane).astype(np.int32), width, height)
+        reference = full_canvas_mask(_interpolated(lane).astype(np.int32), width, height, 30)
         assert (fast.top, fast.left, fast.area) == (reference.top, reference.left, reference.area)
         assert np.array_equal(fast.pixels, reference.pixels)
 

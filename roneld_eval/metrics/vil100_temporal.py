@@ -26,21 +26,12 @@ from typing import Sequence
 import numpy as np
 
 from ..model import Lane
+from .line_masks import LaneMask, drawn_mask, intersection
 
 LINK_IOU = 0.5  # matching_lane_instance(iou_threshold=0.5): ground truth linked across frames
 LANE_WIDTH = 30
 SAMPLES = 5  # interp(..., n=5)
 CHANNELS = 3  # the script's canvas is (H, W, 3): its pixel counts are three times a plane's
-
-
-@dataclass(frozen=True, eq=False)
-class LaneMask:
-    """A lane drawn as the script draws it: its pixels within their bounding box."""
-
-    top: int
-    left: int
-    pixels: np.ndarray  # bool, the box
-    area: int
 
 
 def _points(lane: Lane) -> list[tuple[float, float]]:
@@ -64,53 +55,9 @@ def _interpolated(lane: Lane) -> np.ndarray:
 
 
 def lane_mask(lane: Lane, width: int, height: int) -> LaneMask:
-    """The lane's pixels as cv2.line draws them on the script's full canvas. Drawn on the part
-    of the canvas the lane can reach: cv2.line's thick lines are integer polygons and discs that
-    a whole-pixel shift moves unchanged and that are clipped pixel by pixel, so the pixels are
-    the same (full_canvas_mask is the script's way, kept as the reference and for coordinates
-    so large that OpenCV's 16-bit fixed point would overflow differently once shifted)."""
-    import cv2
-
-    points = _interpolated(lane).astype(np.int32)
-    if np.abs(points).max() > SAFE_COORDINATE:
-        return full_canvas_mask(points, width, height)
-    reach = LANE_WIDTH // 2 + 2
-    left, top = max(int(points[:, 0].min()) - reach, 0), max(int(points[:, 1].min()) - reach, 0)
-    right = min(int(points[:, 0].max()) + reach + 1, width)
-    bottom = min(int(points[:, 1].max()) + reach + 1, height)
-    if right <= left or bottom <= top:
-        return LaneMask(0, 0, np.zeros((0, 0), bool), 0)
-    canvas = np.zeros((bottom - top, right - left), np.uint8)
-    shifted = np.ascontiguousarray(points - np.array([left, top], np.int32))
-    # One polyline: OpenCV draws it as the same thick segments, each with the disc at its end
-    # (the disc at its start is the one before's end), so the pixels are those of the script's
-    # line() per segment, in one call instead of hundreds.
-    cv2.polylines(canvas, [shifted.reshape(-1, 1, 2)], False, color=255, thickness=LANE_WIDTH)
-    return _boxed(canvas, left, top)
-
-
-# Beyond this, a shift could move a coordinate across OpenCV's fixed-point range (x << 16 in int32).
-SAFE_COORDINATE = 1 << 14
-
-
-def full_canvas_mask(points: np.ndarray, width: int, height: int) -> LaneMask:
-    """As the script draws a lane: every segment of its int32 points on a (height, width) canvas."""
-    import cv2
-
-    canvas = np.zeros((height, width), np.uint8)
-    for p1, p2 in zip(points[:-1], points[1:]):
-        cv2.line(canvas, (int(p1[0]), int(p1[1])), (int(p2[0]), int(p2[1])), color=255, thickness=LANE_WIDTH)
-    return _boxed(canvas, 0, 0)
-
-
-def _boxed(canvas: np.ndarray, left: int, top: int) -> LaneMask:
-    import cv2
-
-    x, y, box_width, box_height = cv2.boundingRect(canvas)  # of its nonzero pixels, in C
-    if box_width == 0 or box_height == 0:
-        return LaneMask(0, 0, np.zeros((0, 0), bool), 0)
-    box = canvas[y:y + box_height, x:x + box_width] > 0
-    return LaneMask(top + y, left + x, box, int(np.count_nonzero(box)))
+    """The lane's pixels as the script draws them: its interpolation truncated to integers, each
+    segment drawn 30 px wide with cv2.line on the (height, width) canvas (metrics.line_masks)."""
+    return drawn_mask(_interpolated(lane).astype(np.int32), width, height, LANE_WIDTH)
 
 
 def ious(first: Sequence[LaneMask], second: Sequence[LaneMask]) -> np.ndarray:
@@ -118,21 +65,10 @@ def ious(first: Sequence[LaneMask], second: Sequence[LaneMask]) -> np.ndarray:
     out = np.zeros((len(first), len(second)))
     for i, a in enumerate(first):
         for j, b in enumerate(second):
-            inter = _intersection(a, b)
+            inter = intersection(a, b)
             union = a.area + b.area - inter
             out[i, j] = np.int64(CHANNELS * inter) / (np.int64(CHANNELS * union) + 1e-10)
     return out
-
-
-def _intersection(a: LaneMask, b: LaneMask) -> int:
-    top, left = max(a.top, b.top), max(a.left, b.left)
-    bottom = min(a.top + a.pixels.shape[0], b.top + b.pixels.shape[0])
-    right = min(a.left + a.pixels.shape[1], b.left + b.pixels.shape[1])
-    if bottom <= top or right <= left:
-        return 0
-    part_a = a.pixels[top - a.top:bottom - a.top, left - a.left:right - a.left]
-    part_b = b.pixels[top - b.top:bottom - b.top, left - b.left:right - b.left]
-    return int(np.count_nonzero(part_a & part_b))
 
 
 def assigned_ious(truth: Sequence[LaneMask], predicted: Sequence[LaneMask]) -> np.ndarray:
