@@ -90,9 +90,11 @@ def mmanet_frame(fits: Sequence[tuple[float, float, float] | None], truth: Seque
 
 
 def _interpolator(lane: Lane):
-    """(interp1d of the lane, or None where it refuses even its first point at each y; whether
-    the script would stop at it)."""
-    from scipy.interpolate import interp1d
+    """(the lane's cubic interp1d, or None where it refuses even the first point at each y;
+    whether the script would stop at it). interp1d(kind="cubic") is make_interp_spline(k=3) of
+    the points sorted by y (a stable sort) and evaluated by it: built here that way, without
+    interp1d's copies and checks."""
+    from scipy.interpolate import make_interp_spline
 
     ys, xs = lane.ys, lane.xs
     _, first = np.unique(ys, return_index=True)
@@ -100,9 +102,10 @@ def _interpolator(lane: Lane):
     if repeated:
         keep = np.sort(first)  # the first point at each y, in file order
         ys, xs = ys[keep], xs[keep]
+    order = np.argsort(ys, kind="mergesort")
     try:
         with np.errstate(all="ignore"):
-            return interp1d(ys, xs, kind="cubic"), repeated
+            return make_interp_spline(ys[order], xs[order], k=3, check_finite=False), repeated
     except (ValueError, np.linalg.LinAlgError):
         return None, True
 
