@@ -57,6 +57,7 @@ def test_the_totals_equal_the_script_at_every_threshold(method):
         total = expected["totals"][str(float(row[1]))]
         assert (row[2], row[3], row[4], row[5], row[6], row[7]) == (
             total["TP"], total["FP"], total["FN"], total["Precision"], total["Recall"], total["F1"]), row
+    assert score.mf1(method) == expected["mF1"]  # CLRNet's sum of F1 / 10 over np.linspace(0.5, 0.95, 10)
     official = expected["eval_predictions"]  # the script's own output, at 0.5
     assert score.rows.rows[0][2:5] == (official["TP"], official["FP"], official["FN"])
     assert score.rows.rows[0][7] == official["F1"]

@@ -1,14 +1,15 @@
 """`score llamas`: predicted `.lines.txt` files scored as LLAMAS's culane_metric/evaluate.py scores
 them (karstenBehrendt/unsupervised_llamas 9b99f46: datasets.llamas for the labels,
 metrics.llamas_official for the metric), every method and threshold in one pass over the labels.
-Papers print F1 at IoU 0.5 (the script's), at 0.75, and mF1, the mean F1 over 0.50..0.95 in
-steps of 0.05: the default thresholds are those ten.
+Papers print F1 at IoU 0.5 (the script's), at 0.75, and mF1 as CLRNet computes it
+(Turoad/CLRNet 7269e9d, clrnet/utils/llamas_metric.py:230-244 with the thresholds of
+clrnet/datasets/llamas.py:178): F1 / 10 added up over np.linspace(0.5, 0.95, 10), whose ninth
+value is 0.8999999999999999; it is always scored, whatever --iou asks.
 """
 
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -28,7 +29,7 @@ DEFAULT_IOU = "0.50:0.95:0.05"  # mF1's grid; 0.5 is the script's own threshold
 LANE_WIDTH = 30  # evaluate.py --width default
 COLUMNS = ("method", "threshold", "tp", "fp", "fn", "precision", "recall", "f1")
 CHUNK_FRAMES = 200
-MF1_THRESHOLDS = tuple(round(0.5 + 0.05 * k, 2) for k in range(10))
+MF1_THRESHOLDS = tuple(np.linspace(0.5, 0.95, 10).tolist())
 
 
 @dataclass(frozen=True)
@@ -38,18 +39,14 @@ class LlamasScore:
     methods: tuple[str, ...]
     n_frames: int
     stopping: dict  # where the script stops: "labels" (lanes add_ys refuses), per method "lanes" splprep refuses
+    mf1s: dict  # method -> CLRNet's mF1
     warnings: tuple[str, ...] = ()
 
     def f1(self, method: str, label: str) -> float:
         return next(row[7] for row in self.rows.rows if row[0] == method and row[1] == label)
 
     def mf1(self, method: str) -> float:
-        """The mean F1 over 0.50..0.95 (NaN unless all ten were scored)."""
-        values = dict(zip(self.thresholds.values, self.thresholds.labels))
-        found = [label for value, label in values.items() if round(value, 2) in MF1_THRESHOLDS]
-        if len(found) != len(MF1_THRESHOLDS):
-            return math.nan
-        return sum(self.f1(method, label) for label in found) / len(found)
+        return self.mf1s[method]
 
 
 def _predicted(path: Path, width: int) -> tuple[list, int]:
@@ -97,16 +94,21 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots, iou: str | None
         trees, warnings = find_prediction_trees(pred_root, keys, strict, announce, suffix=".lines.txt")
         roots = tuple(tree.root for tree in trees)
         chunks = [keys[i:i + CHUNK_FRAMES] for i in range(0, len(keys), CHUNK_FRAMES)]
-        tasks = [(chunk, {key: found[key] for key in chunk}, roots, thresholds.values, width) for chunk in chunks]
+        scored_at = tuple(thresholds.values) + MF1_THRESHOLDS
+        tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width) for chunk in chunks]
         pieces = scored_pieces(_score_frames, tasks, workers, progress, announce)
         counts = sum(piece[0] for piece in pieces)
         dropped = sum(piece[1] for piece in pieces)
         refused = sum(piece[2] for piece in pieces)
-        rows = []
+        rows, mf1s = [], {}
         for m, tree in enumerate(trees):
             for t, label in enumerate(thresholds.labels):
                 tp, fp, fn = (int(v) for v in counts[m, t])
                 rows.append((tree.method, label, tp, fp, fn, *f1_of(tp, fp, fn)))
+            mean = 0.0
+            for t in range(len(thresholds.values), len(scored_at)):  # llamas_metric.py: mean_f1 += f1 / 10
+                mean += f1_of(*(int(v) for v in counts[m, t]))[2] / len(MF1_THRESHOLDS)
+            mf1s[tree.method] = mean
         stopping = {"labels": int(dropped), **{tree.method: int(refused[m]) for m, tree in enumerate(trees)}}
         if dropped:
             warnings.append(f"warning: {dropped} labelled lanes have their valid points above row 300 only, where "
@@ -116,7 +118,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots, iou: str | None
                 warnings.append(f"warning: {tree.method}: {stopping[tree.method]} lanes that scipy's splprep "
                                 "refuses, where evaluate.py stops: left out")
         score = LlamasScore(PlainTable(COLUMNS, tuple(rows)), thresholds, tuple(t.method for t in trees), len(keys),
-                            stopping, tuple(warnings))
+                            stopping, mf1s, tuple(warnings))
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
@@ -158,6 +160,7 @@ def summary_markdown(score: LlamasScore, width: int) -> str:
     return (f"# LLAMAS, official protocol\n\n{score.n_frames:,} labels on a {IMAGE_WIDTH}x{IMAGE_HEIGHT} canvas, lanes "
             f"{width} px wide, a match counts when IoU > the threshold (unsupervised_llamas "
             "culane_metric/evaluate.py, 9b99f46, its official discrete IoU): the labels' four lanes l1, l0, r0, r1 "
-            "from its spline_creator over rows 300..716, predictions through splprep at 50 samples. mF1: the mean "
-            "F1 over IoU 0.50..0.95 in steps of 0.05. official.csv gives every threshold.\n\n"
+            "from its spline_creator over rows 300..716, predictions through splprep at 50 samples. mF1: CLRNet's "
+            "(llamas_metric.py, 7269e9d), F1 / 10 summed over np.linspace(0.5, 0.95, 10). official.csv gives every "
+            "threshold.\n\n"
             + summary_table(score) + "\n")
