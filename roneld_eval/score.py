@@ -459,7 +459,8 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     return score
 
 
-def _percent(value: float) -> str:
+def percent(value: float) -> str:
+    """A fraction as the summary tables print it: percent with 2 decimals, n/a for NaN."""
     return "n/a" if np.isnan(value) else f"{100 * value:.2f}"
 
 
@@ -474,7 +475,7 @@ def grid_text(thresholds: Thresholds) -> str:
 
 def summary_table(score: CulaneScore) -> Table:
     """The summary as papers print it: F1 in percent, two decimals."""
-    rows = tuple(tuple(str(v) if k < 2 else _percent(float(v)) for k, v in enumerate(row))
+    rows = tuple(tuple(str(v) if k < 2 else percent(float(v)) for k, v in enumerate(row))
                  for row in score.summary_rows.rows)
     return Table(score.summary_rows.columns, rows)
 
@@ -487,7 +488,7 @@ def first_threshold_table(score: CulaneScore) -> Table:
     at the first threshold, as the console shows them."""
     first = score.first_rows
     columns = tuple(_RATIOS.get(column, column) for column in first.columns)
-    rows = tuple(tuple(_percent(v) if column in _RATIOS else str(v) for column, v in zip(first.columns, row))
+    rows = tuple(tuple(percent(v) if column in _RATIOS else str(v) for column, v in zip(first.columns, row))
                  for row in first.rows)
     return Table(columns, rows)
 

@@ -22,7 +22,7 @@ from ..errors import InputError
 from ..lanes_io import read_culane_lines
 from ..metrics.llamas_official import f1_of, frame_counts, interpolated, lane_mask
 from ..output import Staging
-from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
 from ..thresholds import Thresholds, parse_thresholds
 
 DEFAULT_IOU = "0.50:0.95:0.05"  # mF1's grid; 0.5 is the script's own threshold
@@ -128,9 +128,6 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots, iou: str | None
     return score
 
 
-def _percent(value: float) -> str:
-    return "n/a" if value != value else f"{100 * value:.2f}"
-
 
 def _headline(score: LlamasScore) -> list[tuple[str, Callable[[str], float]]]:
     labels = dict(zip((round(v, 2) for v in score.thresholds.values), score.thresholds.labels))
@@ -152,7 +149,7 @@ def summary_table(score: LlamasScore) -> str:
     heads = _headline(score)
     lines = ["| method | " + " | ".join(f"{name} (%)" for name, _ in heads) + " |", "|---" * (len(heads) + 1) + "|"]
     for method in score.methods:
-        lines.append(f"| {method} | " + " | ".join(_percent(f(method)) for _, f in heads) + " |")
+        lines.append(f"| {method} | " + " | ".join(percent(f(method)) for _, f in heads) + " |")
     return "\n".join(lines)
 
 

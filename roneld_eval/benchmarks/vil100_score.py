@@ -28,7 +28,7 @@ from ..metrics.vil100_acc import means as acc_means
 from ..metrics.vil100_official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
 from ..metrics.vil100_temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
 from ..output import Staging
-from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
 
 DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers report both
 LANE_WIDTH = 30  # evaluate_iou.py:22, for every sequence whatever its size
@@ -275,9 +275,6 @@ def _row(method: str, category: str, label: str, tp: int, fp: int, fn: int, miou
     return (method, category, label, tp, fp, fn, *f_measure(tp, fp, fn), float(miou), sequences)
 
 
-def _percent(value: float) -> str:
-    return "n/a" if math.isnan(value) else f"{100 * value:.2f}"
-
 
 def summary_table(score: Vil100Score) -> str:
     """Markdown: per method, F1 (%) at each threshold and mIoU (%), over every sequence."""
@@ -291,11 +288,11 @@ def summary_table(score: Vil100Score) -> str:
              "|---" * (len(labels) + 2 + len(temporal) + len(acc)) + "|"]
     for method in score.methods:
         results: list[PooledScore] = [score.overall[(method, label)] for label in labels]
-        f1s = [_percent(result.ratios[2]) for result in results]
-        rates = [_percent(rate) for label in labels if temporal
+        f1s = [percent(result.ratios[2]) for result in results]
+        rates = [percent(rate) for label in labels if temporal
                  for rate in score.temporal_overall[(method, label)].rates]
         accs = [text for version in versions for text in _acc_cells(score.acc_overall.get((method, version)))]
-        lines.append(f"| {method} | " + " | ".join(f1s) + f" | {_percent(results[0].miou)} |"
+        lines.append(f"| {method} | " + " | ".join(f1s) + f" | {percent(results[0].miou)} |"
                      + "".join(f" {rate} |" for rate in rates) + "".join(f" {text} |" for text in accs))
     return "\n".join(lines)
 
@@ -306,7 +303,7 @@ _ACC_SOURCES = {"mmanet": "MMA-Net", "rvld": "RVLD"}
 def _acc_cells(result) -> list[str]:
     if result is None:
         return ["n/a"] * 3
-    return [_percent(result.accuracy), f"{result.fp:.4f}", f"{result.fn:.4f}"]
+    return [percent(result.accuracy), f"{result.fp:.4f}", f"{result.fn:.4f}"]
 
 
 def summary_rows(score: Vil100Score) -> PlainTable:
