@@ -345,9 +345,11 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
     total = clips * (frames or _guard(benchmark_for, debug, dataset).frames_per_clip)
     with tqdm(total=total, unit="frame", desc="generating", disable=total < 200) as bar:
         result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
-    click.echo(f"data root: {result.data_root}")
-    click.echo(f"maps root: {result.maps_root}")
-    click.echo(f"{counted(result.n_clips, 'clip')}, {counted(result.n_frames, 'frame')}. Evaluate them with:")
+    scored = result.score_command is not None  # a benchmark scored from lane files: labels and predictions
+    click.echo(f"{'labels' if scored else 'data root'}: {result.data_root}")
+    click.echo(f"{'predictions' if scored else 'maps root'}: {result.maps_root}")
+    click.echo(f"{counted(result.n_clips, 'clip')}, {counted(result.n_frames, 'frame')}. "
+               f"{'Score' if scored else 'Evaluate'} them with:")
     click.echo(f"  {result.command}")
 
 

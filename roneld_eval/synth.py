@@ -273,13 +273,38 @@ class SynthResult:
     maps_format: str
     n_clips: int
     n_frames: int
+    # a benchmark scored from lane files only: data_root holds the labels, maps_root a detector's
+    # predictions, and this scores them
+    score_command: str | None = None
 
     @property
     def command(self) -> str:
+        if self.score_command is not None:
+            return self.score_command
         return (
             f"roneld-eval run --dataset {self.dataset} --data-root {self.data_root} "
             f"--maps-root {self.maps_root} --maps-format {self.maps_format}"
         )
+
+
+def lane_file_scenes(camera: Camera, clips: int, frames: int, seed: int):
+    """For a benchmark scored from lane files: per clip and frame, (clip, frame index, its scene,
+    the ground-truth lanes as (N, 2) image points every 10 rows from the bottom, a detector's
+    lanes as (points, score)), deterministic in `seed`."""
+    for index in range(clips):
+        rng = np.random.default_rng([seed, index])
+        style, _ = clip_style(index, rng, frames)
+        detector = np.random.default_rng([seed, index, 1])
+        rows = np.arange(camera.height - 1, 0, -10)[::-1]
+        for k, scene in enumerate(scene_sequence(camera, frames, style, rng, frames_apart=30)):
+            ys = np.arange(scene.height - 1, scene.top_y, -10.0)
+            truth = []
+            for _, lateral in sorted(channel_lanes(scene).items()):
+                xs = scene.boundary_x(lateral, ys)
+                keep = (xs >= 0) & (xs < scene.width)
+                if keep.sum() >= 4:
+                    truth.append(np.stack([xs[keep], ys[keep]], axis=1))
+            yield index, k, scene, truth, detector_lanes(scene, style, k, detector, rows)
 
 
 def synthesize(dataset: str, out: str | Path, clips: int = 3, frames: int | None = None, seed: int = 0,

@@ -1,5 +1,5 @@
-"""Benchmark `score llamas` on a generated LLAMAS-like split (labels with markers, predictions
-with shifts and dropped lanes), end to end in a fresh process, beside unsupervised_llamas'
+"""Benchmark `score llamas` on a generated LLAMAS-like split (`synth --dataset llamas`: labels as
+dashed markers, a detector's lanes), end to end in a fresh process, beside unsupervised_llamas'
 culane_metric/evaluate.py on the same files when given (its official discrete IoU, in parallel
 with p_map as its main does).
 
@@ -13,7 +13,6 @@ The official code is karstenBehrendt/unsupervised_llamas (9b99f46), importable a
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -21,40 +20,15 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[1]
-LANES = ((400, 0.6), (800, -0.5), (100, 1.2), (1100, -1.1))  # bottom x and slope of l0, r0, l1, r1
-
-
 def generate(out: Path, n_labels: int, seed: int = 0) -> None:
-    rng = np.random.default_rng(seed)
-    for index in range(n_labels):
-        recording = f"images-{index // 200:04d}"
-        labels, predictions = out / "labels" / recording, out / "pred" / recording
-        labels.mkdir(parents=True, exist_ok=True)
-        predictions.mkdir(parents=True, exist_ok=True)
-        lanes, lines = [], []
-        for name, (bottom, slope) in zip(("l0", "r0", "l1", "r1"), LANES):
-            bottom += rng.uniform(-40, 40)
-            markers = []
-            for k in range(8):
-                y0, y1 = 716 - 45 * k, 696 - 45 * k
-                if y1 < 250:
-                    break
-                x0, x1 = (bottom + slope * (716 - y) + rng.uniform(-3, 3) for y in (y0, y1))
-                markers.append({"pixel_start": {"x": int(x0), "y": y0}, "pixel_end": {"x": int(x1), "y": y1},
-                                "world_start": {"x": 1.0, "y": 1.5, "z": 5.0 + 6 * k},
-                                "world_end": {"x": 1.0, "y": 1.5, "z": 8.0 + 6 * k}})
-            lanes.append({"lane_id": name, "markers": markers})
-            if rng.random() < 0.1:
-                continue
-            shift = rng.choice([0, 5, 15, 30])
-            lines.append(" ".join(f"{bottom + slope * (716 - y) + shift:.1f} {y}" for y in range(716, 300, -20)))
-        name = f"{1419283521 + index}_0004236000"
-        (labels / f"{name}.json").write_text(json.dumps({"projection_matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
-                                                         "lanes": lanes}))
-        (predictions / f"{name}.lines.txt").write_text("\n".join(lines) + "\n")
+    """`synth --dataset llamas`: labels as dashed markers and a detector's lanes, 100 a recording."""
+    from roneld_eval.datasets.llamas_synth import synth_llamas
+
+    clips = max(1, n_labels // 100)
+    synth_llamas(out / "set", clips, max(1, n_labels // clips), seed)
+    (out / "labels").symlink_to(out / "set" / "labels")
+    (out / "pred").symlink_to(out / "set" / "predictions")
 
 
 def main() -> None:

@@ -10,6 +10,7 @@ class CurveLanesBenchmark(LaneFilesOnly):
     name = "curvelanes"
     display_name = "CurveLanes"
     no_run_reason = "its images come in several sizes, and RONELD's presets are for CULane- and TuSimple-sized maps"
+    frames_per_clip = 1  # what `synth` writes a clip
     command = "curvelanes_cli:score_curvelanes_command"
     image_size = (2560, 1440)  # its largest; each image is scored at its own
     kernel_groups: tuple[str, ...] = ()
@@ -17,6 +18,12 @@ class CurveLanesBenchmark(LaneFilesOnly):
                         "predicted": "count", "truth": "count", "f1": "optional number"}
     official_optional: dict[str, str] = {}
     official_key = ("method", "chosen")
+
+
+    def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
+        from ..datasets.curvelanes_synth import synth_curvelanes
+
+        return synth_curvelanes(out, clips, frames, seed, progress=progress)
 
 
 BENCHMARK = CurveLanesBenchmark()

@@ -1,5 +1,6 @@
-"""What the benchmarks scored from lane files alone (VIL-100, OpenLane, CurveLanes) share: no
-`run` and no `synth`, each refused in one line saying how to score them instead."""
+"""What the benchmarks scored from lane files alone (OpenLane, CurveLanes, LLAMAS) share: no `run`,
+refused in one line saying how to score them instead; their `synthesize` (when they have one)
+writes labels and a detector's lanes for `score NAME` (synth.SynthResult.score_command)."""
 
 from __future__ import annotations
 

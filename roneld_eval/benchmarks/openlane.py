@@ -11,6 +11,7 @@ class OpenLaneBenchmark(LaneFilesOnly):
     display_name = "OpenLane"
     no_run_reason = ("RONELD's maps and presets are for 4-lane segmentation models, and its frames carry up to "
                      "some 20 lanes of 14 categories")
+    frames_per_clip = 4  # what `synth` writes a clip
     command = "openlane_cli:score_openlane_command"
     image_size = (1920, 1280)
     kernel_groups = ("official",)
@@ -18,6 +19,12 @@ class OpenLaneBenchmark(LaneFilesOnly):
                         "fn": "count", "f1": "optional number"}
     official_optional: dict[str, str] = {}
     official_key = ("method", "matching", "threshold")
+
+
+    def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
+        from ..datasets.openlane_synth import synth_openlane
+
+        return synth_openlane(out, clips, frames, seed, progress=progress)
 
 
 BENCHMARK = OpenLaneBenchmark()
