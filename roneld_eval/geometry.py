@@ -118,7 +118,12 @@ class EffectiveGeometry:
         """One line for reports: map size, crop and every thickness really used."""
         if self.frame_sizes:
             frames = f"each frame at its own size ({self.sizes_text()})"
-            return (f"maps {self.map_width}x{self.map_height} over the whole of {frames}"
+            if (self.crop_top_px, self.crop_bottom_px) != (0, self.image_height):
+                frames = (f"image rows {self.crop_top_px}..{self.crop_bottom_px - 1} of {self.image_width}x"
+                          f"{self.image_height}, scaled with the height of {frames}")
+            else:
+                frames = f"the whole of {frames}"
+            return (f"maps {self.map_width}x{self.map_height} over {frames}"
                     f"{' (rescaled from the preset)' if self.rescaled else ''}; "
                     f"paper protocol: ground truth {self.gt_thickness_px} px, predictions {self.pred_thickness_px} px")
         return (f"maps {self.map_width}x{self.map_height} "

@@ -236,3 +236,13 @@ def test_a_root_one_level_off_gets_a_hint(synthetic, tmp_path):
     result = invoke("run", "--dataset", "vil100", "--data-root", str(npy / "data"), "--maps-root", str(npy / "maps"),
                     "--out", str(tmp_path / "o2"), "--quiet")  # the preset reads lane files; synth wrote .npy
     assert result.exit_code == 2 and "(found 00000.npy: use --maps-format npy)" in result.output
+
+
+def test_the_geometry_line_names_a_crop_scaled_with_each_frame():
+    from roneld_eval.geometry import EffectiveGeometry
+
+    sizes = ((1920, 1080), (960, 480))
+    whole = EffectiveGeometry(1920, 1080, 800, 288, 0, 1080, False, 16, 30, 30, 0.5, sizes)
+    assert "over the whole of each frame at its own size (1920x1080, 960x480)" in whole.describe()
+    cropped = EffectiveGeometry(1920, 1080, 800, 288, 540, 1080, False, 16, 30, 30, 0.5, sizes)
+    assert "over image rows 540..1079 of 1920x1080, scaled with the height of each frame" in cropped.describe()

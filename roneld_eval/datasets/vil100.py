@@ -254,6 +254,8 @@ def read_vil100_run(root: Path, list_file: Path | None, limit: int | None,
     """(sequence, its frames in video order with lanes and size) for `run`, and the list or
     labels folder the frames came from. A listed frame must have its ground truth (with an
     `errors` list, a bad or missing one is left out and appended)."""
+    if list_file is None and (root / DEFAULT_LIST).is_file():
+        list_file = root / DEFAULT_LIST
     found = run_layout(root, list_file)
     clips = []
     for name, relpaths in list(found.sequences.items())[:limit]:
