@@ -106,6 +106,12 @@ def test_show_draws_frames_into_its_own_folder(fixture_run, tmp_path):
     assert (tmp_path / "pictures" / "overlays" / "driver_100_30frame__05181432_0203.MP4__00030.png").exists()
     result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--frame", "nowhere/0.jpg"])
     assert result.exit_code == 2 and "not in this run's dataset" in result.output
+    # the nearest frame for a path one digit off, and the full path for a bare file name
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--frame", frame.replace("00030", "00031")])
+    assert result.exit_code == 2 and f"(did you mean {frame}?)" in result.output, result.output
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--frame", "00030.jpg"])
+    assert result.exit_code == 2 and "(did you mean driver_" in result.output and "relative to the dataset root" in \
+        result.output, result.output
     result = CliRunner().invoke(main, ["show", "--run", str(tmp_path)])
     assert result.exit_code == 2 and "not a folder written by `roneld-eval run`" in result.output
 

@@ -28,6 +28,23 @@ def _roots(config: EvalConfig) -> tuple[Path, Path]:
     return Path(config.dataset.data_root), Path(config.maps.root)
 
 
+def _nearest_frame(wanted: str, relpaths: list[str]) -> str:
+    """' (did you mean X?)': a frame of that file name (given without its clip), else the closest
+    path of the same clip, else of any; or ''."""
+    import posixpath
+
+    from ..presets import nearest
+
+    if "/" not in wanted.strip("/"):
+        named = [relpath for relpath in relpaths if posixpath.basename(relpath) == wanted.strip("/")]
+        if named:
+            more = f", or one of {len(named) - 1} more frames of that name" if len(named) > 1 else ""
+            return f" (did you mean {named[0]}{more}? --frame takes the path relative to the dataset root)"
+    clip = posixpath.dirname(wanted)
+    same_clip = [relpath for relpath in relpaths if posixpath.dirname(relpath) == clip]
+    return nearest(wanted, same_clip or relpaths)
+
+
 def replay(config: EvalConfig, dataset: Dataset, frames: Sequence[str],
            methods: Sequence[str]) -> tuple[dict[str, Clip], dict[tuple[str, str], FrameOutcome]]:
     """(frame -> its clip with labels, (frame, method) -> outcome with lanes): each clip is
@@ -35,7 +52,8 @@ def replay(config: EvalConfig, dataset: Dataset, frames: Sequence[str],
     clip_of = {f.relpath: clip for clip in dataset.clips for f in clip.frames}
     missing = [f for f in frames if f not in clip_of]
     if missing:
-        raise InputError(dataset.source_file, f"frame {missing[0]} is not in this run's dataset")
+        raise InputError(dataset.source_file, f"frame {missing[0]} is not in this run's dataset"
+                                              f"{_nearest_frame(missing[0], list(clip_of))}")
     wanted_clips = {clip_of[f].clip_id: clip_of[f] for f in frames}
     labelled = {clip_id: load_labels(dataset, clip) for clip_id, clip in wanted_clips.items()}
     clip_of = {f: labelled[clip_of[f].clip_id] for f in frames}
