@@ -89,6 +89,14 @@ def far_lanes(geometry, params):
     return extract
 
 
+def normalised_lanes(geometry, params):
+    def extract(maps):  # x / W and y / H: inside the image, and a 1x1-pixel corner of it
+        lane = Lane(np.array([[0.45, 0.5], [0.48, 0.99]]))
+        return Prediction(lanes=[lane], active=(lane, None))
+
+    return extract
+
+
 def one_point_lanes(geometry, params):
     def extract(maps):
         lane = Lane(np.array([[800.0, 400.0]]))

@@ -318,6 +318,8 @@ BROKEN = [
     ("wrong_type", "returned list, not a roneld_eval.Prediction"),
     ("nan_lanes", "lane 1 of 1: has NaN or infinite coordinates"),
     ("far_lanes", r"point \(50000, 300\) lies far outside the 1640x590 image"),
+    ("normalised_lanes", "every point lies within 2 px of the image's corner: lanes are in image pixels of the "
+                         "1640x590 image, not normalised units"),
     ("one_point_lanes", "lane 1 of 1: has 1 point; a lane needs at least 2"),
     ("factory_raises", "building the extractor raised KeyError: 'threshold'"),
     ("factory_returns_number", "the factory returned int, not a callable extractor"),

@@ -98,7 +98,15 @@ def _lane_problem(lane: Any, image_width: int, image_height: int) -> str | None:
         x, y = points[int(np.argmax(outside))]
         return (f"point ({_number(x)}, {_number(y)}) lies far outside the {image_width}x{image_height} image "
                 f"(lanes are in image pixels, not map pixels or normalised units)")
+    if min(image_width, image_height) > 4 * NORMALISED_BOX and np.abs(points).max() <= NORMALISED_BOX:
+        return (f"every point lies within {NORMALISED_BOX:g} px of the image's corner: lanes are in image pixels "
+                f"of the {image_width}x{image_height} image, not normalised units")
     return None
+
+
+# A lane whose every |coordinate| is at most this many pixels is normalised units by mistake
+# (x/W, y/H in [0, 1]): no real lane fits in a 2x2-pixel corner.
+NORMALISED_BOX = 2.0
 
 
 def _number(value: float) -> str:
