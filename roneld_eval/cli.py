@@ -272,6 +272,8 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
                     announce=_announcer(quiet))
     if not quiet:
         _print_summary(result, out)
+    for note in result.notes:  # nothing left out, but worth knowing
+        click.echo(f"note: {note}", err=True)
     if result.skipped:  # never silently, --quiet or not
         click.echo(f"skipped {len(result.skipped)} (listed in summary.json):", err=True)
         for line in result.skipped[:10]:

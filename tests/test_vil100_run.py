@@ -246,3 +246,20 @@ def test_the_geometry_line_names_a_crop_scaled_with_each_frame():
     assert "over the whole of each frame at its own size (1920x1080, 960x480)" in whole.describe()
     cropped = EffectiveGeometry(1920, 1080, 800, 288, 540, 1080, False, 16, 30, 30, 0.5, sizes)
     assert "over image rows 540..1079 of 1920x1080, scaled with the height of each frame" in cropped.describe()
+
+
+def test_maps_of_another_size_in_one_clip_are_a_note_not_a_skip(tmp_path):
+    import numpy as np
+
+    assert invoke("synth", "--dataset", "vil100", "--out", str(tmp_path / "set"), "--clips", "2", "--frames",
+                  "3").exit_code == 0
+    first = sorted((tmp_path / "set" / "maps").iterdir())[0]
+    for path in first.glob("*.npy"):
+        np.save(path, np.load(path)[:, ::2, ::2])  # 400x144: the same shape, rescaled by its own clip
+    result = CliRunner().invoke(main, [
+        "run", "--dataset", "vil100", "--data-root", str(tmp_path / "set" / "data"), "--maps-root",
+        str(tmp_path / "set" / "maps"), "--maps-format", "npy", "--out", str(tmp_path / "out"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert "note: maps differ in size between clips" in result.stderr and "skipped" not in result.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["skipped"] == [] and summary["notes"][0].startswith("maps differ in size between clips")

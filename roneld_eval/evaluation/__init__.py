@@ -65,10 +65,11 @@ def evaluate(
     paired = PairedGains(per_frame, thresholds)
     merged.totals["ego_lanes"] = int(len(per_frame) // max(len(config.methods), 1))
     geometry = planned.geometry
+    notes = []
     if merged.map_sizes:
         geometry = effective_geometry(config, *next(iter(merged.map_sizes)), planned.dataset.frame_sizes)
         if len(merged.map_sizes) > 1:
-            merged.skipped.append("maps differ in size between clips (each clip is rescaled by its own): " + ", ".join(
+            notes.append("maps differ in size between clips (each clip is rescaled by its own): " + ", ".join(
                 f"{w}x{h} from clip {clip_id}" for (w, h), clip_id in merged.map_sizes.items()))
     return RunResult(
         config=config,
@@ -83,6 +84,7 @@ def evaluate(
         versions=versions(),
         geometry=geometry,
         gains=pairwise_gains(paired, config.methods),
+        notes=notes,
     )
 
 

@@ -101,6 +101,8 @@ class RunResult:
     geometry: EffectiveGeometry | None = None
     # Each method's accuracy gain over RONELD and over the baseline, with bootstrap intervals.
     gains: pd.DataFrame | None = None
+    # What a reader should know that left nothing out (maps of several sizes, each rescaled)
+    notes: list[str] = field(default_factory=list)
 
 
 

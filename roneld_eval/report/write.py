@@ -73,7 +73,9 @@ def summary(result: RunResult) -> dict:
     scored the same clips at other sizes)."""
     sizes = {clip.clip_id: list(clip.frames[0].image_size) for clip in result.dataset.clips
              if clip.frames and clip.frames[0].image_size is not None}
-    extra = {"clip_sizes": sizes} if sizes else {}
+    extra: dict[str, object] = {"clip_sizes": sizes} if sizes else {}
+    if result.notes:
+        extra["notes"] = result.notes
     return _json_safe({
         "tool": "roneld-eval",
         "dataset": result.dataset.name,
