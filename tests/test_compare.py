@@ -300,6 +300,11 @@ def check_latex_matches_markdown(out: Path):
     for md in sorted(out.glob("table_*.md")):
         tex = md.with_suffix(".tex")
         assert body_numbers_tex(tex.read_text()) == body_numbers_md(md.read_text()), md.name
+        # a quoted method name in TeX's quotes: two straight ones print as two closing quotes
+        assert not re.search(r"(?<!\w)'[\w-]+'", tex.read_text()), tex.name
+    ablation = out / "table_ablation.tex"
+    if ablation.exists():
+        assert "`roneld-nopft'" in ablation.read_text()
 
 
 def check_everything(out: Path, groups):

@@ -283,13 +283,15 @@ _CONTROLS = {code: " " if chr(code) in "\t\n\r" else "?" for code in [*range(32)
 
 def latex_text(text: str) -> str:
     """Plain text as LaTeX: specials escaped, '>' and '<' in math, '800x288' with a times sign,
-    control characters (which TeX reads as commands or rejects) as spaces or '?'."""
+    quoted words in TeX's opening and closing quotes (apostrophes stay), control characters
+    (which TeX reads as commands or rejects) as spaces or '?'."""
     text = text.translate(_CONTROLS)
     text = (text.replace("\\", "\x00").replace("{", "\\{").replace("}", "\\}").replace("\x00", "\\textbackslash{}")
             .replace("%", "\\%").replace("&", "\\&").replace("_", "\\_").replace("#", "\\#")
             .replace("$", "\\$").replace("~", "\\textasciitilde{}").replace("^", "\\textasciicircum{}"))
     text = text.replace(" >", "~>").replace(">", "$>$").replace("<", "$<$")  # 'IoU > 0.5' on one line
     text = re.sub(r"(\d) (px|clips?|frames?)\b", r"\1~\2", text)  # '30 px' on one line
+    text = re.sub(r"(?<!\w)'([^'\n]+?)'(?!\w)", r"`\1'", text)  # 'roneld' quoted as TeX quotes, not two closing ones
     return re.sub(r"(\d)x(\d)", r"\1$\\times$\2", text)
 
 
