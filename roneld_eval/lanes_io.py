@@ -158,6 +158,18 @@ def decode_text(data: bytes, path) -> str:
     return text[1:] if text.startswith("\ufeff") else text
 
 
+def parse_json(data: bytes | str, path, not_json: str, kind: str) -> Any:
+    """A JSON file's value, or an InputError naming it: '<not_json>: <error>' for bytes that are
+    not UTF-8 JSON, '<kind>: nested too deeply' where Python's parser runs out of stack (an
+    untrusted file may nest a million brackets)."""
+    try:
+        return json.loads(data.decode("utf-8") if isinstance(data, bytes) else data)
+    except (UnicodeDecodeError, ValueError) as error:
+        raise InputError(path, f"{not_json}: {error}") from None
+    except RecursionError:
+        raise InputError(path, f"{kind}: nested too deeply") from None
+
+
 def read_text(path: Path, limit: SizeLimit = TEXT) -> str:
     """A text file's content (UTF-8, BOM dropped), or an InputError saying why it cannot be read."""
     return decode_text(read_bytes(path, limit=limit), path)

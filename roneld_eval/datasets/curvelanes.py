@@ -7,7 +7,6 @@ a lane optionally `{"points": [...], "score": s}`: kept when its score is above 
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass
@@ -15,7 +14,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..image_header import image_file_size
-from ..lanes_io import decode_text, read_bytes
+from ..lanes_io import decode_text, parse_json, read_bytes
 from ..model import image_stem
 from ._paths import read_image_list, check_folder, under_root
 
@@ -58,12 +57,7 @@ def read_frame(path: Path, missing_ok: bool) -> CurveLanesFrame:
     data = read_bytes(path, missing_ok=missing_ok)
     if data is None:
         return CurveLanesFrame((), ())
-    try:
-        record = json.loads(decode_text(data, path))
-    except ValueError as error:
-        raise InputError(path, f"not JSON: {error}") from None
-    except RecursionError:
-        raise InputError(path, "not a CurveLanes file: nested too deeply") from None
+    record = parse_json(decode_text(data, path), path, "not JSON", "not a CurveLanes file")
     lines = record.get("Lines") if isinstance(record, dict) else None
     if not isinstance(lines, list):
         raise InputError(path, "`Lines` must be a list of lanes")

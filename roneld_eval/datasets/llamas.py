@@ -25,7 +25,6 @@ points all lie above row 300, where add_ys' assert fails, that lane is left out 
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass
@@ -34,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..lanes_io import read_bytes
+from ..lanes_io import parse_json, read_bytes
 from ..limits import CONFIG
 from ..model import Lane
 from ._paths import check_folder, under_root
@@ -216,12 +215,7 @@ def read_label(path: Path) -> LlamasLabel:
     """One label file's lanes (InputError naming it where the code would stop)."""
     data = read_bytes(path, limit=CONFIG)
     assert data is not None
-    try:
-        record = json.loads(data.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as error:
-        raise InputError(path, f"not a LLAMAS label: {error}") from None
-    except RecursionError:
-        raise InputError(path, "not a LLAMAS label: nested too deeply") from None
+    record = parse_json(data, path, "not a LLAMAS label", "not a LLAMAS label")
     try:
         rows = four_lanes(record)
     except _Bad as problem:

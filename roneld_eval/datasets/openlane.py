@@ -9,7 +9,6 @@ is refused here with its problem named.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import posixpath
@@ -19,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..lanes_io import decode_text, read_bytes
+from ..lanes_io import decode_text, parse_json, read_bytes
 from ..model import Lane, image_stem
 from ._paths import read_image_list, check_folder, frame_sort_key, under_root
 
@@ -61,12 +60,7 @@ def read_lanes(path: Path, need_categories: bool = True) -> OpenLaneLanes:
     data = read_bytes(path, missing_ok=True)
     if data is None:
         return OpenLaneLanes((), ())
-    try:
-        record = json.loads(decode_text(data, path))
-    except ValueError as error:
-        raise InputError(path, f"not JSON: {error}") from None
-    except RecursionError:
-        raise InputError(path, "not an OpenLane file: nested too deeply") from None
+    record = parse_json(decode_text(data, path), path, "not JSON", "not an OpenLane file")
     lines = record.get("lane_lines", []) if isinstance(record, dict) else None
     if not isinstance(lines, list):
         raise InputError(path, "`lane_lines` must be a list of lanes")

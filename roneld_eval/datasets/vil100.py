@@ -11,7 +11,6 @@ A sequence's name starts with its scenario codes (dataset/README.md:127-155).
 
 from __future__ import annotations
 
-import json
 import os
 import posixpath
 from dataclasses import dataclass
@@ -19,7 +18,7 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 from ..errors import ConfigError, InputError
-from ..lanes_io import read_bytes, read_culane_lines, read_text, split_lines
+from ..lanes_io import parse_json, read_bytes, read_culane_lines, read_text, split_lines
 from ..limits import CONFIG
 from ..image_header import image_file_size
 from ..model import Frame, image_stem
@@ -110,12 +109,7 @@ def _holds_sequences(folder: Path) -> bool:
 
 def read_sizes_file(path: Path) -> dict[str, tuple[int, int]]:
     """{sequence: {"width": W, "height": H}} or {sequence: [W, H]}."""
-    try:
-        data = json.loads(read_bytes(path, limit=CONFIG).decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as error:
-        raise InputError(path, f"not JSON: {error}") from None
-    except RecursionError:
-        raise InputError(path, "not a file of sizes: nested too deeply") from None
+    data = parse_json(read_bytes(path, limit=CONFIG), path, "not JSON", "not a file of sizes")
     if not isinstance(data, dict):
         raise InputError(path, "must map each sequence to its width and height")
     return {str(name): _size(value, path, str(name)) for name, value in data.items()}
@@ -148,12 +142,8 @@ def _json_size(root: Path, relpath: str) -> tuple[int, int]:
     for name in (relpath + ".jpg.json", relpath + ".json"):
         path = under_root(root, name)
         if os.path.lexists(path):  # there: a folder or a FIFO is refused as such by read_bytes
-            try:
-                record = json.loads(read_bytes(path, limit=CONFIG).decode("utf-8"))
-            except (UnicodeDecodeError, ValueError) as error:
-                raise InputError(path, f"not a VIL-100 annotation: {error}") from None
-            except RecursionError:
-                raise InputError(path, "not a VIL-100 annotation: nested too deeply") from None
+            record = parse_json(read_bytes(path, limit=CONFIG), path, "not a VIL-100 annotation",
+                                "not a VIL-100 annotation")
             info = record.get("info") if isinstance(record, dict) else None
             if not isinstance(info, dict):
                 raise InputError(path, "not a VIL-100 annotation: no `info` object with the image's width and height")
