@@ -38,4 +38,4 @@ def score_llamas_command(labels, pred_roots, iou, width, strict, workers, out, q
     if not quiet:
         click.echo(f"{score.n_frames:,} labels, {len(score.methods)} method{'s' if len(score.methods) > 1 else ''}, "
                    f"width {width}")
-        click.echo(summary_table(score))
+        click.echo(summary_table(score).to_markdown(), nl=False)

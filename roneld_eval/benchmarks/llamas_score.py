@@ -22,6 +22,7 @@ from ..errors import InputError
 from ..lanes_io import read_culane_lines
 from ..metrics.llamas_official import f1_of, frame_counts, interpolated, lane_mask
 from ..output import Staging
+from ..report.tables import Table
 from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
 from ..thresholds import Thresholds, parse_thresholds
 
@@ -145,12 +146,11 @@ def summary_rows(score: LlamasScore) -> PlainTable:
     return PlainTable(columns, tuple((method, *(f(method) for _, f in heads)) for method in score.methods))
 
 
-def summary_table(score: LlamasScore) -> str:
-    heads = _headline(score)
-    lines = ["| method | " + " | ".join(f"{name} (%)" for name, _ in heads) + " |", "|---" * (len(heads) + 1) + "|"]
-    for method in score.methods:
-        lines.append(f"| {method} | " + " | ".join(percent(f(method)) for _, f in heads) + " |")
-    return "\n".join(lines)
+def summary_table(score: LlamasScore) -> Table:
+    """summary.csv in percent, as papers print it."""
+    heads = [name for name, _ in _headline(score)]
+    rows = tuple((row[0], *(percent(value) for value in row[1:])) for row in summary_rows(score).rows)
+    return Table(("method", *(f"{name} (%)" for name in heads)), rows)
 
 
 def summary_markdown(score: LlamasScore, width: int) -> str:
@@ -160,4 +160,4 @@ def summary_markdown(score: LlamasScore, width: int) -> str:
             "from its spline_creator over rows 300..716, predictions through splprep at 50 samples. mF1: CLRNet's "
             "(llamas_metric.py, 7269e9d), F1 / 10 summed over np.linspace(0.5, 0.95, 10). official.csv gives every "
             "threshold.\n\n"
-            + summary_table(score) + "\n")
+            + summary_table(score).to_markdown())
