@@ -221,8 +221,8 @@ def size_files(root: Path, relpath: str) -> list[Path]:
 
 
 def run_layout(root: Path, list_file: Path | None) -> Vil100Set:
-    """The frames `run` evaluates under a dataset root, with their videos' sizes (from the first
-    of JPEGImages/, Json/ and sizes.json there)."""
+    """The frames `run` evaluates under a dataset root (those of `list_file`, else every labelled
+    one), with their videos' sizes (from the first of JPEGImages/, Json/ and sizes.json there)."""
     check_folder(root, f"dataset root not found ({RUN_LAYOUT})")
     labels = root / LABELS_FOLDER
     if not labels.is_dir():
@@ -230,8 +230,6 @@ def run_layout(root: Path, list_file: Path | None) -> Vil100Set:
         if _holds_sequences(root):
             hint = f"; {root} looks like the anno_txt folder itself: give the folder that holds it"
         raise InputError(labels, f"ground-truth folder not found: {RUN_LAYOUT}{hint}")
-    if list_file is None and (root / DEFAULT_LIST).is_file():
-        list_file = root / DEFAULT_LIST
     sources = {"image_root": root / "JPEGImages", "json_root": root / "Json", "sizes_file": root / SIZES_FILE}
     for name, path in sources.items():
         if path.is_dir() if name != "sizes_file" else path.is_file():
