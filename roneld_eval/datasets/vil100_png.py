@@ -7,7 +7,7 @@ into lanes exactly as its evaluation/generate_iou_pred_txt.py does (yujun0-0/MMA
   its [0, 1] channels (imageio converts a palette to RGB first); every grey value above 0 is a
   lane, lanes in increasing grey order (`np.unique`), colours of one grey one lane;
 - per lane, y = height - row - 1 and x = column + 1 of its pixels, and x = p0 y^2 + p1 y + p2
-  fitted by `np.polyfit(y, x, 2)` (also what evaluate_acc.py fits: `instance_fits`);
+  fitted by `np.polyfit(y, x, 2)` (also what evaluate_acc.py fits: `InstanceMask.fits`);
 - sampled at y = min, min + 3, ... below max; a lane of fewer than two samples is not written; a
   sample is kept when 0 <= x <= width and written as `'%d %d ' % (x, height - y)` (x truncated),
   so a lane whose samples all fall outside is a blank line (a lane of no points to the
@@ -115,12 +115,6 @@ def instance_lanes(path: Path) -> tuple[list[InstanceLane], int, int]:
                 continue
             lanes.append(InstanceLane(ys, xs, (fit[0], fit[1], fit[2])))
     return lanes, width, height
-
-
-def instance_fits(path: Path) -> tuple[list[tuple[float, float, float] | None], int]:
-    """evaluate_acc.py's get_pred_lanes: each lane's fit, and the mask's height."""
-    lanes, _, height = instance_lanes(path)
-    return [lane.fit for lane in lanes], height
 
 
 def lines_text(lanes: list[InstanceLane], width: int, height: int) -> str:
