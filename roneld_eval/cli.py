@@ -333,8 +333,9 @@ def score():
 @click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: the benchmark's (CULane 12, "
               "TuSimple 20: a labelled frame and the 19 before it).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed; the same seed gives the same bytes.")
-@click.option("--maps-format", default="npy", show_default=True, type=click.Choice(MAP_FORMATS),
-              help="How to store maps; lanes: a lane detector's output files instead of maps.")
+@click.option("--maps-format", type=click.Choice(MAP_FORMATS),
+              help="How to store maps; lanes: a lane detector's output files instead of maps. Default: npy, or a "
+                   "detector's lane files for the benchmarks scored from them.")
 @debug_option
 def synth(dataset, out, clips, frames, seed, maps_format, debug):
     """Generate a small realistic dataset with SCNN-like maps (4 channels, 288x800)."""

@@ -37,8 +37,9 @@ from .thresholds import TALLEST_IMAGE, parse_rows, parse_thresholds
 from .toml_text import toml_key, toml_value
 from .methods import METHOD_TABLE
 
-# "lanes": another detector's lane files, rendered into maps (roneld_eval.maps.lanes).
-MAP_FORMATS = ("npy", "npz", "scnn-png", "lanes")
+# "scnn-png": <frame>_<k>_avg.png + <frame>.exist.txt; "llamas-png": <frame>.json_<c>.png (LLAMAS's
+# segmentation format); "lanes": another detector's lane files, rendered into maps (roneld_eval.maps.lanes).
+MAP_FORMATS = ("npy", "npz", "scnn-png", "llamas-png", "lanes")
 # The built-in extractors (roneld_eval.extract.registry); plug-ins add their own names.
 METHODS = tuple(METHOD_TABLE)
 # Those that output the two ego lanes only (RONELD keeps the active lanes): their official F1

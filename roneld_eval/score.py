@@ -232,18 +232,18 @@ def _root_specs(pred_root: PredictionRoots) -> list[tuple[str | None, Path]]:
     return specs
 
 
-def _no_match(root: Path, listed: _ListedFiles) -> InputError:
+def _no_match(root: Path, listed: _ListedFiles, option: str = "--pred-root") -> InputError:
     """The one-line error for a root without any file of the list, with the folder that has them."""
     first = listed.path(root, listed.relpaths[0])
     hint = ""
     parent = root.parent if len(root.parts) > 1 else root.resolve().parent  # as the user wrote it, if possible
     if parent.resolve() != root.resolve() and listed.count(parent):
-        hint = f"; did you mean --pred-root {parent} (it holds them)?"
+        hint = f"; did you mean {option} {parent} (it holds them)?"
     else:
         for child in _subfolders(root):
             methods = [grandchild.name for grandchild in _subfolders(child) if listed.count(grandchild)]
             if methods:
-                hint = (f"; did you mean --pred-root {child} (its subfolders {', '.join(methods[:4])}"
+                hint = (f"; did you mean {option} {child} (its subfolders {', '.join(methods[:4])}"
                         f"{', ...' if len(methods) > 4 else ''} each hold them)?")
                 break
     return InputError(root, f"no prediction file of the list is here (first looked for: {first}){hint}")
@@ -251,7 +251,8 @@ def _no_match(root: Path, listed: _ListedFiles) -> InputError:
 
 def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], strict: bool = False,
                           announce: Callable[[str], None] | None = None,
-                          suffix: str = ".lines.txt") -> tuple[list[PredictionTree], list[str]]:
+                          suffix: str = ".lines.txt", option: str = "--pred-root"
+                          ) -> tuple[list[PredictionTree], list[str]]:
     """The methods to score and warnings about them, checked before any work.
 
     A root that mirrors the list is one method (named by its folder, or NAME=DIR); otherwise
@@ -279,7 +280,7 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
             else:
                 others.append(child)
         if not children:
-            raise _no_match(root, listed)
+            raise _no_match(root, listed, option)
         for child in others:
             say(f"{child}: not a prediction tree (no file of the list), left out")
         trees += children
@@ -292,7 +293,7 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
                                         "or name the method with --pred-root NAME=DIR") from None
         if tree.method in seen:
             raise ConfigError(f"two prediction trees are named {tree.method!r} ({seen[tree.method]} and {tree.root}): "
-                              "name them with --pred-root NAME=DIR")
+                              f"name them with {option} NAME=DIR")
         seen[tree.method] = tree.root
     warnings = []
     for tree in trees:

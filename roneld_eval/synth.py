@@ -287,10 +287,11 @@ class SynthResult:
         )
 
 
-def lane_file_scenes(camera: Camera, clips: int, frames: int, seed: int):
+def lane_file_scenes(camera: Camera, clips: int, frames: int, seed: int, maps: bool = False):
     """For a benchmark scored from lane files: per clip and frame, (clip, frame index, its scene,
     the ground-truth lanes as (N, 2) image points every 10 rows from the bottom, a detector's
-    lanes as (points, score)), deterministic in `seed`."""
+    lanes as (points, score)), deterministic in `seed`; with `maps`, a sixth item: the frame's
+    (4, 288, 800) probability maps (drawn after the scenes, so the rest is the same either way)."""
     for index in range(clips):
         rng = np.random.default_rng([seed, index])
         style, _ = clip_style(index, rng, frames)
@@ -304,13 +305,18 @@ def lane_file_scenes(camera: Camera, clips: int, frames: int, seed: int):
                 keep = (xs >= 0) & (xs < scene.width)
                 if keep.sum() >= 4:
                     truth.append(np.stack([xs[keep], ys[keep]], axis=1))
-            yield index, k, scene, truth, detector_lanes(scene, style, k, detector, rows)
+            detected = detector_lanes(scene, style, k, detector, rows)
+            if maps:
+                yield index, k, scene, truth, detected, render_maps(scene, style, k, rng)
+            else:
+                yield index, k, scene, truth, detected
 
 
 def synthesize(dataset: str, out: str | Path, clips: int = 3, frames: int | None = None, seed: int = 0,
-               maps_format: str = "npy", progress=None) -> SynthResult:
+               maps_format: str | None = None, progress=None) -> SynthResult:
     """Generate a dataset of a registered benchmark (the library twin of `roneld-eval synth`)."""
     from .benchmarks import benchmark_for
 
     benchmark = benchmark_for(dataset)
+    maps_format = maps_format or str(getattr(benchmark, "synth_maps_format", "npy"))
     return benchmark.synthesize(Path(out), clips, frames or benchmark.frames_per_clip, seed, maps_format, progress)

@@ -9,7 +9,8 @@ from roneld_eval.errors import ConfigError
 
 
 def test_presets_cover_both_models_and_datasets():
-    assert preset_names() == ["enet-sad-culane", "enet-sad-tusimple", "lanes-vil100", "scnn-culane", "scnn-tusimple"]
+    assert preset_names() == ["enet-sad-culane", "enet-sad-tusimple", "lanes-vil100", "scnn-culane", "scnn-tusimple",
+                              "segmentation-llamas"]
     scnn = EvalConfig.preset("scnn-culane")
     assert (scnn.maps.width, scnn.maps.height, scnn.maps.crop_top_px) == (800, 288, 0)
     enet = EvalConfig.preset("enet-sad-culane")

@@ -682,6 +682,9 @@ def test_preset_comments_agree_with_their_format():
         maps_section = text.split("\n[maps]\n")[1].split("\n[baseline]\n")[0]
         if name == "lanes-vil100":  # no model's maps are public for VIL-100: a detector's lane files
             assert config.maps.format == "lanes" and "--maps-format lanes" in text.split("\n[maps]\n")[0]
+        elif name == "segmentation-llamas":  # LLAMAS's own segmentation format
+            head = text.split("\n[maps]\n")[0]
+            assert config.maps.format == "llamas-png" and '"llamas-png"' in head and "--maps-format lanes" in head
         else:
             assert config.maps.format == "npy"
             assert '"npy": one' in maps_section and "--maps-format scnn-png" in maps_section

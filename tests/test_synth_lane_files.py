@@ -25,7 +25,7 @@ def synth(name: str, out: Path, *extra: str) -> list[str]:
 @pytest.mark.parametrize("name, header", [
     ("openlane", "method,matching,threshold,tp,fp,fn,precision,recall,f1"),
     ("curvelanes", "method,score_threshold,chosen,hits,predicted,truth,precision,recall,f1"),
-    ("llamas", "method,threshold,tp,fp,fn,precision,recall,f1"),
+    ("llamas", "method,threshold,tp,fp,fn,precision,recall,f1,ap_l1,ap_l0,ap_r0,ap_r1,ap_mean"),
 ])
 def test_the_printed_command_scores_the_generated_set(tmp_path, name, header):
     command = synth(name, tmp_path / "set")
@@ -47,4 +47,4 @@ def test_the_generated_llamas_labels_score_as_the_official_script_scores_them(tm
     result = CliRunner().invoke(main, [*command, "--iou", "0.5", "--out", str(tmp_path / "scores"), "--quiet"])
     assert result.exit_code == 0, result.output
     assert (tmp_path / "scores" / "official.csv").read_text().splitlines()[1] == \
-        "predictions,0.50,115,8,5,0.934959,0.958333,0.946502"
+        "predictions,0.50,115,8,5,0.934959,0.958333,0.946502,,,,,"

@@ -82,7 +82,8 @@ class Benchmark(Protocol):
         """The clip with its labels read (called only where `read` left them out)."""
 
     def synthesize(self, out: Path, clips: int, frames: int, seed: int, maps_format: str, progress) -> Any:
-        """Write a synthetic set (`synth.SynthResult`): OUT/data in the benchmark's layout, OUT/maps."""
+        """Write a synthetic set (`synth.SynthResult`): OUT/data in the benchmark's layout, OUT/maps
+        (in `maps_format`: its attribute `synth_maps_format` when `synth` is not told, else "npy")."""
 
     def label_paths(self, clip: Clip, data_root: Path | None, label_file: Path | None) -> list[Path]:
         """Every file holding this clip's labels (what resume must see unchanged)."""

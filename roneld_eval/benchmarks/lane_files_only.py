@@ -20,6 +20,7 @@ class LaneFilesOnly:
     command: str  # "vil100_cli:score_vil100_command"
     default_preset: str | None = None
     frames_per_clip = 1
+    synth_maps_format = "lanes"  # `synth` writes labels and a detector's lane files
     fixture: str | None = None
     missing_maps_hint = ""
 

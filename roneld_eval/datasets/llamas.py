@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import InputError
 from ..lanes_io import parse_json, read_bytes
 from ..limits import CONFIG
-from ..model import Lane
+from ..model import Clip, Frame, Lane
 from ._paths import check_folder, under_root
 
 IMAGE_WIDTH, IMAGE_HEIGHT = 1276, 717  # common/constants.py
@@ -211,17 +211,61 @@ def label_lanes(rows: list[list[float]]) -> tuple[tuple[Lane, ...], int]:
     return tuple(lanes), dropped
 
 
-def read_label(path: Path) -> LlamasLabel:
-    """One label file's lanes (InputError naming it where the code would stop)."""
+def read_record(path: Path) -> object:
+    """A label file's JSON value (InputError naming it when it is not JSON)."""
     data = read_bytes(path, limit=CONFIG)
     assert data is not None
-    record = parse_json(data, path, "not a LLAMAS label", "not a LLAMAS label")
+    return parse_json(data, path, "not a LLAMAS label", "not a LLAMAS label")
+
+
+def label_of(record, path: Path) -> LlamasLabel:
+    """A label's lanes as the spline creator makes them (InputError naming the file where the
+    code would stop)."""
     try:
         rows = four_lanes(record)
     except _Bad as problem:
         raise InputError(path, str(problem)) from None
     lanes, dropped = label_lanes(rows)
     return LlamasLabel(tuple(tuple(r) for r in rows), lanes, dropped)
+
+
+def read_label(path: Path) -> LlamasLabel:
+    """One label file's lanes (InputError naming it where the code would stop)."""
+    return label_of(read_record(path), path)
+
+
+@dataclass(frozen=True)
+class MarkerLane:
+    """A lane as read_json leaves it (filtered, renamed l0, l1, ... r0, r1, ...): its markers'
+    world start and end points (x, y, z), what the segmentation labels are drawn from."""
+
+    lane_id: str
+    markers: tuple[tuple[tuple[float, float, float], tuple[float, float, float]], ...]
+
+
+def marker_lanes(record, path: Path) -> tuple[np.ndarray, tuple[MarkerLane, ...]]:
+    """read_json's projection matrix (a 3x3 array of numbers) and lanes, for the segmentation
+    labels (InputError naming the file where the code would stop)."""
+    try:
+        lanes = _lanes_of(record)
+        assert isinstance(record, dict)
+        matrix = record["projection_matrix"]
+        if (not isinstance(matrix, list) or len(matrix) != 3
+                or any(not isinstance(row, list) or len(row) != 3 for row in matrix)):
+            raise _Bad("projection_matrix is not a 3x3 list of numbers")
+        values = [v for row in matrix for v in row]
+        # numpy.asarray takes the lists as they are (no float() as for the markers): numbers only
+        if any(type(v) not in (int, float) or not math.isfinite(v) or abs(v) >= 2**63 for v in values):
+            raise _Bad("projection_matrix holds an entry that is not a finite number")
+    except _Bad as problem:
+        raise InputError(path, str(problem)) from None
+    exact = np.asarray(matrix)  # as project_point makes it: int64 when every entry is an integer
+    out = []
+    for lane in lanes:
+        out.append(MarkerLane(lane["lane_id"], tuple(
+            (tuple(m["world_start"][a] for a in "xyz"), tuple(m["world_end"][a] for a in "xyz"))
+            for m in lane["markers"])))
+    return exact, tuple(out)
 
 
 def frame_key(relative: str) -> str:
@@ -252,3 +296,36 @@ def every_label(labels: Path) -> dict[str, Path]:
 
 def prediction_path(root: Path, key: str) -> Path:
     return under_root(root, f"{key}.lines.txt")
+
+
+def map_path(root: Path, key: str, channel: int) -> Path:
+    """A class's probability map as evaluate_segmentation.py names it: <key>.json_<channel>.png
+    (0 background, 1..4 l1, l0, r0, r1)."""
+    return under_root(root, f"{key}.json_{channel}.png")
+
+
+def read_llamas_run(root: Path, limit: int | None) -> list[tuple[str, tuple[Frame, ...]]]:
+    """(recording, its frames in time order) for `run`: every label below `root`, labels not yet
+    read (`with_labels`). A frame's relpath is its label's path below the root, so that maps
+    mirror the labels: <maps-root>/<recording>/<frame>.json_<c>.png."""
+    found = every_label(root)
+    clips: dict[str, list[Frame]] = {}
+    for key, path in found.items():  # sorted by key: a recording's frames by their time stamps
+        relpath = os.path.relpath(path, root).replace(os.sep, "/")
+        clips.setdefault(key.split("/")[0], []).append(Frame(relpath=relpath))
+    return [(name, tuple(frames)) for name, frames in list(clips.items())[:limit]]
+
+
+def with_labels(clip: Clip, root: Path, errors: list[InputError] | None) -> Clip:
+    """The clip with its frames' lanes (bad labels left out and appended to `errors`, if given)."""
+    frames = []
+    for frame in clip.frames:
+        try:
+            label = read_label(under_root(root, frame.relpath))
+        except InputError as error:
+            if errors is None:
+                raise
+            errors.append(error)
+            continue
+        frames.append(replace(frame, lanes=label.lanes))
+    return replace(clip, frames=tuple(frames))

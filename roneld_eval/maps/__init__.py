@@ -18,9 +18,10 @@ from ..datasets._paths import under_root
 from ..errors import InputError
 from ..model import FrameMaps, image_stem
 from .npy import load_npy, load_npz
+from .llamas_png import llamas_png_paths, load_llamas_png
 from .scnn_png import load_scnn_png, png_size, scnn_png_paths
 
-FORMATS = ("npy", "npz", "scnn-png")
+FORMATS = ("npy", "npz", "scnn-png", "llamas-png")
 
 
 def map_stem(root: Path, relpath: str) -> Path:
@@ -29,7 +30,7 @@ def map_stem(root: Path, relpath: str) -> Path:
 
 
 # The file that must exist for a frame's maps in each format: <stem> + suffix.
-_FORMAT_SUFFIXES = {"npy": ".npy", "npz": ".npz", "scnn-png": ".exist.txt"}
+_FORMAT_SUFFIXES = {"npy": ".npy", "npz": ".npz", "scnn-png": ".exist.txt", "llamas-png": ".json_1.png"}
 
 
 def format_files(stem: Path, fmt: str, lane_channels: int = 4) -> list[Path]:
@@ -37,6 +38,8 @@ def format_files(stem: Path, fmt: str, lane_channels: int = 4) -> list[Path]:
     if fmt == "scnn-png":
         pngs, exist = scnn_png_paths(stem, lane_channels)
         return [pngs[0], exist] + pngs[1:]
+    if fmt == "llamas-png":
+        return llamas_png_paths(stem, lane_channels)
     return [stem.with_name(stem.name + _FORMAT_SUFFIXES[fmt])]
 
 
@@ -123,6 +126,8 @@ def load_maps(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometr
         return load_npz(stem.with_name(stem.name + _FORMAT_SUFFIXES["npz"]), config)
     if config.format == "scnn-png":
         return load_scnn_png(stem, config)
+    if config.format == "llamas-png":
+        return load_llamas_png(stem, config)
     raise InputError(None, f"unknown maps format {config.format!r}")
 
 
@@ -131,8 +136,11 @@ def map_size(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry
     """(width, height) of a frame's maps, as `load_maps` would give them. For PNG maps, from the
     first PNG's header: nothing is decoded, so a process that only asks this (the run's main
     process) never loads the decoding kernel, nor numba with it (0.3 s and 50 MB)."""
-    if config.format == "scnn-png":
-        for path in scnn_png_paths(map_stem(root, relpath), config.lane_channels)[0]:
+    if config.format in ("scnn-png", "llamas-png"):
+        stem = map_stem(root, relpath)
+        paths = (scnn_png_paths(stem, config.lane_channels)[0] if config.format == "scnn-png"
+                 else llamas_png_paths(stem, config.lane_channels))
+        for path in paths:
             size = png_size(path)
             if size is not None:
                 return size

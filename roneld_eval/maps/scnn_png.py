@@ -152,7 +152,8 @@ def png_size(path: Path) -> tuple[int, int] | None:
 MAX_MAP_PIXELS = 1 << 26
 
 
-def _read_png(path: Path, data: bytes) -> np.ndarray:
+def _checked_plain(path: Path, data: bytes) -> np.ndarray | None:
+    """check_png, the pixel cap on the header, and the plain PNG's map (None: not plain)."""
     check_png(data, path)
     if data[12:16] == b"IHDR":
         width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
@@ -160,7 +161,29 @@ def _read_png(path: Path, data: bytes) -> np.ndarray:
             raise InputError(path, f"its header claims {width}x{height} pixels; maps of more than "
                                    f"{MAX_MAP_PIXELS:,} pixels are refused (8192 x 8192)")
     # Without libdeflate, zlib would inflate no faster than OpenCV decodes the whole PNG.
-    plain = _decode_plain_png(data) if _libdeflate is not None else None
+    return _decode_plain_png(data) if _libdeflate is not None else None
+
+
+def read_grey_png(path: Path) -> np.ndarray:
+    """A PNG as cv2.imread(path, IMREAD_GRAYSCALE) gives it, (H, W) uint8 (colour weighted to
+    grey, 16 bits cut to 8, as OpenCV does): how LLAMAS's evaluation reads its probability maps.
+    An InputError naming the file when it is missing, broken or too large."""
+    data = read_bytes(path, limit=MAP)
+    assert data is not None
+    plain = _checked_plain(path, data)
+    if plain is not None:  # grey, or RGB(A) whose channels agree: the grey OpenCV's weights give too
+        return plain
+    try:
+        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
+    except cv2.error as error:
+        raise InputError(path, f"not a readable image ({str(error).strip().splitlines()[-1]})") from None
+    if image is None:
+        raise InputError(path, "not a readable image (truncated or not a PNG?)")
+    return image
+
+
+def _read_png(path: Path, data: bytes) -> np.ndarray:
+    plain = _checked_plain(path, data)
     if plain is not None:
         return plain
     try:

@@ -57,32 +57,41 @@ def lane_mask(points: np.ndarray, width: int, height: int, thickness: int = LANE
     return drawn_mask(np.asarray(points, np.float64).astype(np.int32), width, height, thickness)
 
 
-def frame_counts(truth: Sequence[LaneMask], predicted: Sequence[LaneMask], thresholds: Sequence[float]) -> np.ndarray:
-    """(thresholds, 3): TP, FP, FN of one frame at each threshold (culane_metric)."""
-    from scipy.optimize import linear_sum_assignment
-
-    out = np.zeros((len(thresholds), 3), np.int64)
-    if not predicted:
-        out[:, 2] = len(truth)
-        return out
-    if not truth:
-        out[:, 1] = len(predicted)
-        return out
+def iou_matrix(predicted: Sequence[LaneMask], truth: Sequence[LaneMask]) -> np.ndarray:
+    """discrete_cross_iou: (predicted, truth) IoUs, 0 for a pair both wholly outside the image
+    (0 / 0, where the script's assignment stops: "matrix contains invalid numeric entries")."""
     ious = np.zeros((len(predicted), len(truth)))
     with np.errstate(invalid="ignore", divide="ignore"):
         for i, a in enumerate(predicted):
             for j, b in enumerate(truth):
                 inter = intersection(a, b)
                 ious[i, j] = np.float64(inter) / np.float64(a.area + b.area - inter)
-    # Two lanes both wholly outside the image: 0 / 0, where the script's assignment stops ("matrix
-    # contains invalid numeric entries"); here such a pair has IoU 0.
-    ious = np.nan_to_num(ious, nan=0.0)
+    return np.nan_to_num(ious, nan=0.0)
+
+
+def matched_ious(ious: np.ndarray) -> np.ndarray:
+    """culane_metric's assignment: the IoUs of the pairs linear_sum_assignment gives on 1 - IoU
+    (none when either side has no lanes)."""
+    from scipy.optimize import linear_sum_assignment
+
+    if 0 in ious.shape:
+        return np.zeros(0)
     rows, columns = linear_sum_assignment(1 - ious)
-    matched = ious[rows, columns]
+    return ious[rows, columns]
+
+
+def counts_at(matched: np.ndarray, n_pred: int, n_gt: int, thresholds: Sequence[float]) -> np.ndarray:
+    """(thresholds, 3): TP, FP, FN at each threshold, a TP an assigned pair with IoU > it."""
+    out = np.zeros((len(thresholds), 3), np.int64)
     for t, threshold in enumerate(thresholds):
         tp = int((matched > threshold).sum())
-        out[t] = (tp, len(predicted) - tp, len(truth) - tp)
+        out[t] = (tp, n_pred - tp, n_gt - tp)
     return out
+
+
+def frame_counts(truth: Sequence[LaneMask], predicted: Sequence[LaneMask], thresholds: Sequence[float]) -> np.ndarray:
+    """(thresholds, 3): TP, FP, FN of one frame at each threshold (culane_metric)."""
+    return counts_at(matched_ious(iou_matrix(predicted, truth)), len(predicted), len(truth), thresholds)
 
 
 def f1_of(tp: int, fp: int, fn: int) -> tuple[float, float, float]:
