@@ -75,3 +75,18 @@ def test_a_missing_image_is_one_line(tmp_path):
                                        str(GOLDEN / "pred"), "--image-root", str(tmp_path), "--quiet"])
     assert result.exit_code == 2 and "image not found (needed for its size)" in result.output
     assert result.output.count("\n") == 1
+
+
+def test_by_default_the_best_of_vegas_list_is_given_beside_the_fixed_threshold(images, tmp_path):
+    from roneld_eval.benchmarks.curvelanes_score import VEGA_THRESHOLDS, score_curvelanes
+
+    command = ["score", "curvelanes", "--labels", str(GOLDEN / "labels"), "--pred-root", f"m={GOLDEN / 'pred'}",
+               "--image-root", str(images), "--quiet"]
+    result = CliRunner().invoke(main, [*command, "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    lines = (tmp_path / "out" / "official.csv").read_text().splitlines()
+    best = score_curvelanes(GOLDEN / "labels", {"m": GOLDEN / "pred"}, images, best_of=VEGA_THRESHOLDS, workers=1)
+    assert lines[1:] == best.rows.to_csv().splitlines()[1:] and ",best on the test set," in lines[2]
+    assert float(lines[2].split(",")[1]) in VEGA_THRESHOLDS
+    result = CliRunner().invoke(main, [*command, "--best-of", "none", "--out", str(tmp_path / "fixed")])
+    assert result.exit_code == 0 and len((tmp_path / "fixed" / "official.csv").read_text().splitlines()) == 2

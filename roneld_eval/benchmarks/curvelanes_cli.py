@@ -10,7 +10,11 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 
 
 def _thresholds(context, parameter, value):
+    from .curvelanes_score import VEGA_THRESHOLDS
+
     if value is None:
+        return VEGA_THRESHOLDS
+    if value.strip().lower() == "none":
         return ()
     try:
         return tuple(float(part) for part in value.split(","))
@@ -31,7 +35,9 @@ def _thresholds(context, parameter, value):
 @click.option("--score-threshold", default=0.0, show_default=True, type=float,
               help="A lane given with a score is kept when its score is above this (lanes without one always are).")
 @click.option("--best-of", callback=_thresholds, metavar="T,T,...",
-              help="Also give the best F1 over these score thresholds, labelled as chosen on the test set.")
+              help="Also give the best F1 over these score thresholds, labelled as chosen on the test set. "
+                   "Default: vega's list (auto_lane.yml, 0f1d0d0: 0.56, 0.60, 0.63, ..., 0.93); none: only the "
+                   "fixed --score-threshold.")
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv.")

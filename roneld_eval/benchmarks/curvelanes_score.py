@@ -69,6 +69,12 @@ def _score_frames(args) -> np.ndarray:
     return counts
 
 
+# The score thresholds vega's shipped lane configuration searches (huawei-noah/vega 0f1d0d0,
+# examples/nas/auto_lane/auto_lane.yml, LaneMetric thresh_list; LaneMetric.summary takes the best):
+# `score curvelanes` reports the best of them unless told another list.
+VEGA_THRESHOLDS = (0.56, 0.60, 0.63, 0.66, 0.70, 0.73, 0.76, 0.80, 0.83, 0.86, 0.90, 0.93)
+
+
 def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root: str | Path,
                      list_file: str | Path | None = None, score_threshold: float = 0.0,
                      best_of: Sequence[float] = (), out: str | Path | None = None, workers: int | None = None,
