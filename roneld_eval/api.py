@@ -85,18 +85,28 @@ def with_absolute_paths(config: EvalConfig) -> EvalConfig:
 
 
 def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progress: bool = True,
-        resume: bool = False, overlays: int = 0, announce: Callable[[str], None] | None = None) -> RunResult:
+        resume: bool = False, overlays: int = 0, announce: Callable[[str], None] | None = None,
+        shard: str | None = None) -> RunResult | None:
     """Evaluate every configured method and write the report to `out` (see the README).
 
     Finished clips are kept in `out` while the run goes on; after an interruption,
     `resume=True` evaluates only the clips not yet finished and gives the same numbers.
     `overlays=N` also draws the N frames where the baseline and RONELD differ most.
     `announce` receives one-line notes (the geometry used, what resume reused).
-    The folder `out` is the run's own: see roneld_eval.output.
+    The folder `out` is the run's own: see roneld_eval.output. With `shard` ('I/N') only that
+    share of the clips is evaluated and `out` gets its part for `merge` (None is returned).
     """
     requested = with_absolute_paths(config or default_config())
     config = with_fixture(requested)
     say = announce or (lambda message: None)
+    if shard is not None:
+        from .shards import parse_shard
+
+        if resume or overlays:
+            raise ConfigError("--shard writes a part for `roneld-eval merge`, not a report: without --resume or "
+                              "--overlays (give them to the merged run's show)")
+        _run_shard(config, parse_shard(shard), out, progress, say)
+        return None
     with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
         staging = Staging(folder)
         cache = ResultCache(folder.path, config, __version__, resume, note=say)
@@ -137,6 +147,53 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
         except BaseException:
             cache.discard()  # bad input or a bug: nothing to resume from
             raise
+    return result
+
+
+def _run_shard(config: EvalConfig, shard, out: str | Path, progress: bool, say: Callable[[str], None]) -> None:
+    """One shard of a run: its clips evaluated and kept as a part (roneld_eval.run_parts)."""
+    from .run_parts import PartWriter, write_run_part
+
+    with terminate_as_interrupt(), OutputFolder(out, "run") as folder:
+        staging = Staging(folder)
+        writer = PartWriter(staging)
+        result = evaluate(config, progress=progress, cache=writer, announce=say, shard=shard)
+        write_run_part(staging, config, shard, result.dataset, writer, __version__, result.wall_time_s)
+        folder.commit()
+
+
+def merge_run(parts, out: str | Path) -> RunResult:
+    """The run the parts are shards of, written to `out` as that run writes it; every clip's
+    results come from the parts (run_parts.PartsCache), none is computed again."""
+    from .run_parts import CONFIG, PartsCache, ground_truth, shards_wall_time
+
+    config = EvalConfig.from_toml(parts[0].path / CONFIG)
+    from .cache import config_key
+
+    if config_key(config, __version__) != parts[0].manifest["settings"]:
+        raise InputError(parts[0].path / CONFIG, "not the configuration its part.json was run with (or a plug-in's "
+                                                 "code changed since)")
+    cache = PartsCache(parts, config)
+    with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
+        staging = Staging(folder)
+        writer = LaneWriter(staging, benchmark_for(config.dataset.name)) if config.save_lanes else None
+        result = evaluate(config, progress=False, lane_sink=writer, cache=cache)
+        if ground_truth(result.dataset) != parts[0].manifest["ground_truth"]:
+            raise InputError(config.dataset.data_root, "the dataset's clips or categories are not those the shards "
+                                                       "were run on")
+        if cache.unused():
+            raise InputError(parts[0].path, f"clip {cache.unused()[0]} of a part is not among the clips the run "
+                                            "evaluates now (left out, or no longer listed)")
+        if not result.counts["labelled_frames"]:
+            raise InputError(config.maps.root or config.dataset.data_root,
+                             _nothing_scored(result.counts["clips"], result.skipped))
+        if writer is not None:
+            writer.close()
+        result.wall_time_s = shards_wall_time(parts)
+        result.notes.append(f"merged from {len(parts)} shards: the wall time is the sum of theirs, the timings "
+                            "each shard's own")
+        stage_report(result, staging)
+        folder.commit()
     return result
 
 

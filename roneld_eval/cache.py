@@ -50,15 +50,7 @@ class ResultCache:
 
     def __init__(self, out: str | Path, config: EvalConfig, version: str, resume: bool,
                  note: Callable[[str], None] | None = None):
-        settings = config.to_dict()
-        # Neither changes a clip's results: a resumed run may use other values.
-        settings.pop("workers", None)
-        settings["dataset"].pop("limit", None)
-        # A plug-in's results change with its code, which the configuration does not hold.
-        from .extract.registry import methods_of, source_fingerprint
-
-        code = {method.name: source_fingerprint(method) for method in methods_of(config) if not method.built_in}
-        self.config_key = _digest(json.dumps([settings, version, code], sort_keys=True, default=str))
+        self.config_key = config_key(config, version)
         self.benchmark = benchmark_for(config.dataset.name)
         self.folder = Path(out) / CACHE
         self.note = note or (lambda message: None)
@@ -178,6 +170,19 @@ class ResultCache:
             self.folder.unlink()
         else:
             shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def config_key(config: EvalConfig, version: str) -> str:
+    """What a clip's results depend on beyond its inputs: the configuration (but the worker count
+    and the clip limit, which change no clip's results), the version and the plug-ins' code."""
+    settings = config.to_dict()
+    settings.pop("workers", None)
+    settings["dataset"].pop("limit", None)
+    # A plug-in's results change with its code, which the configuration does not hold.
+    from .extract.registry import methods_of, source_fingerprint
+
+    code = {method.name: source_fingerprint(method) for method in methods_of(config) if not method.built_in}
+    return _digest(json.dumps([settings, version, code], sort_keys=True, default=str))
 
 
 def fingerprint(paths: Sequence[Path]) -> str:

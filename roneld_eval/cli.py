@@ -197,10 +197,14 @@ def main():
                    "at which geometry; evaluate and write nothing (exit 0, or 2 with the problem).")
 @click.option("--out", type=click.Path(path_type=Path), default=Path(DEFAULT_OUT), show_default=True,
               help="Folder for the results (the default is ignored by this repository's git, never results/).")
+@click.option("--shard", metavar="I/N",
+              help="Evaluate only shard I of N (whole clips, in list order) and write its part to --out; "
+                   "`roneld-eval merge` turns the N parts into this run's results.")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
 def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, plugins, pft_ablation, no_pft,
-        thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, dry_run, out, quiet, debug):
+        thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, dry_run, out, shard, quiet,
+        debug):
     """Evaluate the baseline, RONELD and any plug-in on a dataset's stored maps; write tables and curves.
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
@@ -269,7 +273,11 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         _dry_run(config, quiet, debug)
         return
     result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume, overlays=overlays,
-                    announce=_announcer(quiet))
+                    announce=_announcer(quiet), shard=shard)
+    if result is None:  # a shard: its part is written
+        if not quiet:
+            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        return
     if not quiet:
         _print_summary(result, out)
     for note in result.notes:  # nothing left out, but worth knowing
@@ -323,6 +331,24 @@ class _BenchmarkCommands(click.Group):
 @main.group(cls=_BenchmarkCommands)
 def score():
     """Score lane files in the official formats (no maps, any method's output)."""
+
+
+@main.command()
+@click.argument("parts", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--out", required=True, type=click.Path(path_type=Path),
+              help="Folder for the merged results: what the command would have written unsharded.")
+@debug_option
+def merge(parts, out, debug):
+    """Merge the parts of a sharded command (each written with --shard I/N to its own --out) into
+    the files one unsharded command writes, byte for byte.
+
+    Parts must be every shard 1..N of one command, written by this version with the same
+    settings and ground truth; anything else is refused in one line.
+    """
+    from .shards import merge as merge_parts
+
+    command, _ = _guard(merge_parts, debug, list(parts), out)
+    click.echo(f"{counted(len(parts), 'part')} of `{command}` merged; results in {out}/")
 
 
 @main.command()

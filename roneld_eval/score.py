@@ -392,71 +392,202 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
                  iou: str | float | None = None, width: int = 30, out: str | Path | None = None,
                  workers: int | None = None, progress: bool = False,
                  announce: Callable[[str], None] | None = None, preset: str | None = None,
-                 strict: bool = False) -> CulaneScore:
+                 strict: bool = False, shard: str | None = None) -> CulaneScore | None:
     """Score `.lines.txt` predictions with the official CULane protocol, every method in one pass.
 
     `pred_root`: a folder mirroring the list, a folder of such folders (one per method), or
     several ('NAME=DIR' names one). `iou`: one threshold (default 0.5) or a grid scored in
     one pass ('0.50:0.95:0.05'); `preset='clrnet'` is that grid with F1@50/F1@75/mF1.
     A missing prediction file means no lanes (`strict`: an error). `out` gets official.csv,
-    summary.csv and summary.md.
+    summary.csv and summary.md; with `shard` ('I/N', see roneld_eval.shards) only that share
+    of the clips is scored and `out` gets its part for `merge` (None is returned).
     """
+    from .shards import parse_shard, shard_range
+
     thresholds, highlighted = _thresholds(iou, preset)
     check_lane_width(width)
+    share = parse_shard(shard) if shard is not None else None
+    if share is not None and out is None:
+        raise ConfigError("--shard writes a partial result for `roneld-eval merge`: give --out")
     with _taking(out, "score culane") as folder:
         dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
         relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
+        # every shard finds the methods over the whole list: the same trees (and counts) in every part
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
-        image_width, image_height = dataset.image_width, dataset.image_height
-        roots = tuple(tree.root for tree in trees)
-        chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
-        tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]
-        if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
-            from .workers import default_workers
-
-            workers = min(workers or default_workers(), len(chunks))
+        if share is not None:
+            clips = dataset.clips[slice(*_bounds(shard_range([len(c.frames) for c in dataset.clips], share)))]
+            scored_relpaths = [frame.relpath for clip in clips for frame in clip.frames]
         else:
-            workers = 1
-        from . import kernels
+            scored_relpaths = relpaths
+        scored = _score_culane_frames(scored_relpaths, dataset, trees, width, workers, progress, announce)
+        if share is not None:
+            assert folder is not None
+            _write_culane_part(folder, share, scored, dataset, relpaths, trees, warnings, iou, preset, width, strict)
+            return None
+        score = _culane_score(scored, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings)
+        if folder is not None:
+            write_culane_score(folder, score, width)
+    return score
 
-        kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
-        if workers == 1:
-            kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
-        from tqdm import tqdm
 
-        pieces = []
-        with tqdm(total=len(relpaths), unit="frame", desc="scoring", disable=not progress) as bar:
-            if workers > 1:
-                from .workers import process_pool, stopping
+def _bounds(share: range) -> tuple[int, int]:
+    return share.start, share.stop
 
-                died = "a worker process died (killed, or out of memory) while scoring: no result was written"
-                with stopping(process_pool(workers), lambda: died) as pool:
-                    for piece in pool.map(_score_frames, tasks):
-                        pieces.append(piece)
-                        bar.update(len(piece[0]))
-            else:
-                for piece in map(_score_frames, tasks):
+
+def _score_culane_frames(relpaths: list[str], dataset, trees, width: int, workers: int | None, progress: bool,
+                         announce) -> ScoredFrames:
+    """Every method's frame results on these frames, in their order."""
+    image_width, image_height = dataset.image_width, dataset.image_height
+    roots = tuple(tree.root for tree in trees)
+    chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
+    tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]
+    if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
+        from .workers import default_workers
+
+        workers = min(workers or default_workers(), len(chunks))
+    else:
+        workers = 1
+    from . import kernels
+
+    kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
+    if workers == 1:
+        kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
+    from tqdm import tqdm
+
+    pieces = []
+    with tqdm(total=len(relpaths), unit="frame", desc="scoring", disable=not progress) as bar:
+        if workers > 1:
+            from .workers import process_pool, stopping
+
+            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
+            with stopping(process_pool(workers), lambda: died) as pool:
+                for piece in pool.map(_score_frames, tasks):
                     pieces.append(piece)
                     bar.update(len(piece[0]))
-        n_methods = len(trees)
-        scored = ScoredFrames(
-            tuple(relpaths),
-            np.concatenate([p[0] for p in pieces]) if pieces else np.zeros(0, np.int64),
-            np.concatenate([p[1] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0), np.int64),
-            np.concatenate([p[2] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
-        )
-        methods = [tree.method for tree in trees]
-        official = sweep_records(scored, methods, dataset.categories, thresholds.values, thresholds.labels)
-        summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
-        score = CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
-                            PlainTable(tuple(summary_columns), tuple(summary)),
-                            thresholds, highlighted, tuple(trees), len(relpaths), tuple(warnings))
-        if folder is not None:
-            staging = Staging(folder)
-            staging.write_text("official.csv", score.official_rows.to_csv())
-            staging.write_text("summary.csv", score.summary_rows.to_csv())
-            staging.write_text("summary.md", summary_markdown(score, width))
-            folder.commit()
+        else:
+            for piece in map(_score_frames, tasks):
+                pieces.append(piece)
+                bar.update(len(piece[0]))
+    n_methods = len(trees)
+    return ScoredFrames(
+        tuple(relpaths),
+        np.concatenate([p[0] for p in pieces]) if pieces else np.zeros(0, np.int64),
+        np.concatenate([p[1] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0), np.int64),
+        np.concatenate([p[2] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
+    )
+
+
+def _culane_score(scored: ScoredFrames, categories, thresholds: Thresholds, highlighted, trees, n_frames: int,
+                  warnings) -> CulaneScore:
+    methods = [tree.method for tree in trees]
+    official = sweep_records(scored, methods, categories, thresholds.values, thresholds.labels)
+    summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
+    return CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
+                       PlainTable(tuple(summary_columns), tuple(summary)),
+                       thresholds, highlighted, tuple(trees), n_frames, tuple(warnings))
+
+
+def write_culane_score(folder: OutputFolder, score: CulaneScore, width: int) -> None:
+    staging = Staging(folder)
+    staging.write_text("official.csv", score.official_rows.to_csv())
+    staging.write_text("summary.csv", score.summary_rows.to_csv())
+    staging.write_text("summary.md", summary_markdown(score, width))
+    folder.commit()
+
+
+def _culane_ground_truth(relpaths: Sequence[str], categories: Mapping[str, frozenset[str]]) -> str:
+    """What the parts of one command share: the list's frames in order and each category's frames
+    among them (what merge checks the parts' frames against)."""
+    from .shards import digest
+
+    listed = set(relpaths)
+    return digest({"frames": list(relpaths),
+                   "categories": [[name, sorted(members & listed)] for name, members in categories.items()]})
+
+
+def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, dataset, relpaths, trees, warnings,
+                       iou, preset, width: int, strict: bool) -> None:
+    from .shards import PART_FORMAT, PART_VERSION, write_part
+    from .version import __version__
+
+    manifest = {
+        "format": PART_FORMAT, "format_version": PART_VERSION, "command": "score culane", "version": __version__,
+        "shard": [share.index, share.count],
+        "settings": {"iou": None if iou is None else str(iou), "preset": preset, "width": width, "strict": strict,
+                     "trees": [[t.method, str(t.root), t.found, t.listed] for t in trees],
+                     "categories": list(dataset.categories), "frames": len(relpaths)},
+        "ground_truth": _culane_ground_truth(relpaths, dataset.categories),
+        "warnings": list(warnings),
+        "scored_frames": len(scored.frames),
+    }
+    arrays = {"frames": np.array(scored.frames, dtype=str) if scored.frames else np.zeros(0, "<U1"),
+              "n_gt": scored.n_gt, "n_pred": scored.n_pred, "matched_iou": scored.matched_iou}
+    for k, members in enumerate(dataset.categories.values()):
+        arrays[f"category_{k}"] = np.array([frame in members for frame in scored.frames], bool)
+    staging = Staging(folder)
+    write_part(staging, manifest, arrays)
+    folder.commit()
+
+
+def _culane_part_settings(part) -> dict:
+    """A `score culane` part's settings, each field's type checked (an untrusted file)."""
+    from .config import MAX_LINE_THICKNESS
+    from .shards import MANIFEST_NAME
+
+    settings, warnings = part.manifest["settings"], part.manifest.get("warnings")
+
+    def texts(value) -> bool:
+        return isinstance(value, list) and all(isinstance(v, str) for v in value)
+
+    def count(value) -> bool:
+        return type(value) is int and value >= 0
+
+    good = (isinstance(settings, dict)
+            and set(settings) == {"iou", "preset", "width", "strict", "trees", "categories", "frames"}
+            and (settings["iou"] is None or isinstance(settings["iou"], str))
+            and settings["preset"] in (None, *SCORE_PRESETS)
+            and type(settings["width"]) is int and 2 <= settings["width"] <= MAX_LINE_THICKNESS
+            and isinstance(settings["strict"], bool) and texts(settings["categories"]) and count(settings["frames"])
+            and isinstance(settings["trees"], list) and texts(warnings)
+            and all(isinstance(t, list) and len(t) == 4 and isinstance(t[0], str) and isinstance(t[1], str)
+                    and count(t[2]) and count(t[3]) for t in settings["trees"]))
+    if not good:
+        raise InputError(part.path / MANIFEST_NAME, "its settings are not those `score culane --shard` writes")
+    return settings
+
+
+def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
+    """The files one unsharded `score culane` writes, from its shards' parts (checked together)."""
+    from .shards import check_part_arrays
+
+    first = parts[0].manifest
+    settings = _culane_part_settings(parts[0])
+    thresholds, highlighted = _thresholds(settings["iou"], settings["preset"])
+    trees = tuple(PredictionTree(method, Path(root), found, listed)
+                  for method, root, found, listed in settings["trees"])
+    names = settings["categories"]
+    frames: list[str] = []
+    n_gt, n_pred, matched = [], [], []
+    members: list[list[str]] = [[] for _ in names]
+    for part in parts:
+        arrays = check_part_arrays(part, len(trees), len(names))
+        part_frames = [str(v) for v in arrays["frames"].tolist()]
+        frames += part_frames
+        n_gt.append(arrays["n_gt"])
+        n_pred.append(arrays["n_pred"])
+        matched.append(arrays["matched_iou"])
+        for k in range(len(names)):
+            members[k] += [f for f, inside in zip(part_frames, arrays[f"category_{k}"].tolist()) if inside]
+    categories = {name: frozenset(found) for name, found in zip(names, members)}
+    if _culane_ground_truth(frames, categories) != first["ground_truth"]:
+        raise InputError(parts[-1].path, f"the parts hold {len(frames):,} frames, not the {settings['frames']:,} "
+                                         "frames of the list (and its categories) in order: not one command's shards")
+    scored = ScoredFrames(tuple(frames), np.concatenate(n_gt), np.concatenate(n_pred, axis=1),
+                          np.concatenate(matched, axis=1))
+    score = _culane_score(scored, categories, thresholds, highlighted, trees, settings["frames"], first["warnings"])
+    with _taking(out, "score culane") as folder:
+        assert folder is not None
+        write_culane_score(folder, score, settings["width"])
     return score
 
 

@@ -29,9 +29,13 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path),
               help="Folder for official.csv (every method, category and threshold), summary.csv and summary.md.")
+@click.option("--shard", metavar="I/N",
+              help="Score only shard I of N (whole clips, in list order) and write its part to --out; "
+                   "`roneld-eval merge` turns the N parts into this command's files.")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
-def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, strict, workers, out, quiet, debug):
+def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, strict, workers, out, shard, quiet,
+                         debug):
     """Official CULane precision, recall and F1 per method and category, as SCNN's lane_evaluation
     computes them; with a grid, F1@50, F1@75 and mF1 as CLRNet reports them."""
     from .. import score as scoring  # not api: scoring needs none of the evaluation's imports
@@ -39,7 +43,11 @@ def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, s
     _no_collections_at_exit()
     score = _guard(scoring.score_culane, debug, data_root, list(pred_roots), list_file=list_file, iou=iou, width=width,
                    out=out, workers=workers, progress=not quiet, announce=_announcer(quiet), preset=preset,
-                   strict=strict)
+                   strict=strict, shard=shard)
+    if score is None:  # a shard: its part is written
+        if not quiet:
+            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        return
     for warning in score.warnings:  # never silently, --quiet or not
         click.echo(warning, err=True)
     if not quiet:

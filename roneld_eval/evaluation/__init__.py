@@ -37,6 +37,7 @@ def evaluate(
     dataset: Dataset | None = None,
     cache: ClipCache | None = None,
     announce: Callable[[str], None] | None = None,
+    shard=None,
 ) -> RunResult:
     """Evaluate every configured method on a dataset's stored maps (the library `run`).
 
@@ -45,7 +46,7 @@ def evaluate(
     before anything is computed (maps' contents are checked as they load).
     """
     started = time.perf_counter()
-    planned = plan(config, dataset, announce)
+    planned = plan(config, dataset, announce, shard)
     clips, context = list(planned.clips), planned.context
     workers = min(config.workers or default_workers(), max(len(clips), 1))
     # Compiled once here, before the workers fork, instead of in every worker at once.

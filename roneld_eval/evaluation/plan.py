@@ -91,9 +91,11 @@ class RunPlan:
 
 
 def plan(config: EvalConfig, dataset: Dataset | None = None,
-         announce: Callable[[str], None] | None = None) -> RunPlan:
+         announce: Callable[[str], None] | None = None, shard=None) -> RunPlan:
     """Read the dataset's layout and check every frame's maps are there (the first map is
-    read for its size): the checks a run makes before it starts, and `run --dry-run` alone."""
+    read for its size): the checks a run makes before it starts, and `run --dry-run` alone.
+    With a `shard` (shards.Shard) only its share of the dataset's clips is planned; the plan's
+    dataset stays whole."""
     if config.dataset.data_root is None or config.maps.root is None:
         raise ConfigError("a run needs both a data root and a maps root")
     maps_root = Path(config.maps.root)
@@ -107,7 +109,16 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
             f"the configuration's image size {config.dataset.image_width}x{config.dataset.image_height} does not "
             f"match {dataset.name}'s {dataset.image_width}x{dataset.image_height}"
         )
-    clips = _clips_with_maps(dataset, maps_root, config, skipped)
+    if shard is not None:  # the share is cut from the list alone, before any clip is left out
+        from dataclasses import replace
+
+        from ..shards import shard_range
+
+        share = shard_range([len(clip.frames) for clip in dataset.clips], shard)
+        clips = _clips_with_maps(replace(dataset, clips=dataset.clips[share.start:share.stop]), maps_root, config,
+                                 skipped)
+    else:
+        clips = _clips_with_maps(dataset, maps_root, config, skipped)
     context = RunContext(config, maps_root, None if dataset.labels_loaded else dataset.root,
                          data_root=Path(dataset.root),
                          label_file=None if dataset.source_file is None else Path(dataset.source_file))

@@ -1,0 +1,241 @@
+"""Shards: a command's work split by whole clips over N processes or machines (`--shard I/N`),
+each writing a partial result, and `merge` turning the parts back into the files one unsharded
+command writes, byte for byte.
+
+Shard I of N is a contiguous run of clips, in the dataset's order, cut where the frames so far
+pass I/N of all frames: every shard's share is fixed by the list alone, the parts concatenated
+in shard order hold the frames in the order one command scores them, and lane metrics (sums
+over frames) merge exactly.
+
+A part is two files in its --out folder: `part.json` (what was scored, how, by which version,
+which shard; small) and `part.npz` (the per-frame numbers, no pickles). Both are untrusted input
+to `merge`, checked field by field.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from .errors import ConfigError, InputError
+
+PART_FORMAT = "roneld-eval partial result"
+PART_VERSION = 1
+MANIFEST_NAME = "part.json"
+ARRAYS_NAME = "part.npz"
+MAX_SHARDS = 100_000
+
+
+@dataclass(frozen=True)
+class Shard:
+    """Shard `index` (1-based) of `count`."""
+
+    index: int
+    count: int
+
+    def __str__(self) -> str:
+        return f"{self.index}/{self.count}"
+
+
+def parse_shard(text: str) -> Shard:
+    """'I/N' with 1 <= I <= N."""
+    match = re.fullmatch(r"\s*([0-9]+)\s*/\s*([0-9]+)\s*", text)
+    if match is None:
+        raise ConfigError(f"--shard takes I/N (shard I of N, counted from 1), got {text!r}")
+    index, count = int(match.group(1)), int(match.group(2))
+    if not 1 <= index <= count or count > MAX_SHARDS:
+        raise ConfigError(f"--shard {text}: I must be 1..N and N at most {MAX_SHARDS:,}")
+    return Shard(index, count)
+
+
+def shard_range(sizes: Sequence[int], shard: Shard) -> range:
+    """The clips (indexes into `sizes`, each clip's frame count) of a shard: contiguous, cut
+    where the frames before a clip reach index/count of all (a shard may be empty)."""
+    total = sum(sizes)
+    bounds, before = [], 0
+    for size in sizes:
+        bounds.append(before)
+        before += size
+
+    def start(k: int) -> int:  # first clip whose frames before it reach k/count of the total
+        goal = k * total
+        return next((c for c, b in enumerate(bounds) if b * shard.count >= goal), len(sizes))
+
+    first = 0 if shard.index == 1 else start(shard.index - 1)
+    end = len(sizes) if shard.index == shard.count else start(shard.index)
+    return range(first, max(first, end))
+
+
+def digest(value: Any) -> str:
+    """SHA-256 of a JSON-able value, keys sorted: what parts compare to belong together."""
+    return hashlib.sha256(json.dumps(value, sort_keys=True, ensure_ascii=False).encode("utf-8")).hexdigest()
+
+
+@dataclass(frozen=True)
+class Part:
+    """One read part: its manifest and arrays, checked for form (not yet against the others)."""
+
+    path: Path
+    manifest: dict
+    arrays: dict[str, np.ndarray]
+
+    @property
+    def shard(self) -> Shard:
+        index, count = self.manifest["shard"]
+        return Shard(index, count)
+
+
+def write_part(staging, manifest: dict, arrays: dict[str, np.ndarray]) -> None:
+    """part.json and part.npz into an output folder's staging (output.Staging)."""
+    import io
+    import zipfile
+
+    staging.write_text(MANIFEST_NAME, json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=False) + "\n")
+    buffer = io.BytesIO()
+    # np.savez stamps entries with the time; a fixed date keeps a part's bytes reproducible
+    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        for name, array in arrays.items():
+            member = io.BytesIO()
+            np.lib.format.write_array(member, np.ascontiguousarray(array), allow_pickle=False)
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            archive.writestr(info, member.getvalue())
+    with open(staging.file(ARRAYS_NAME), "wb") as handle:
+        handle.write(buffer.getvalue())
+
+
+def read_part(folder: Path) -> Part:
+    """A part's manifest and arrays (InputError naming the file for anything malformed)."""
+    from .lanes_io import parse_json, read_bytes
+    from .limits import CONFIG, MAP
+
+    folder = Path(folder)
+    path = folder / MANIFEST_NAME
+    if not path.exists() and folder.is_dir():
+        raise InputError(folder, f"not a partial result (no {MANIFEST_NAME}: written by a command given --shard I/N)")
+    data = read_bytes(path, limit=CONFIG)
+    assert data is not None
+    manifest = parse_json(data, path, "not a partial result", "not a partial result")
+    if not isinstance(manifest, dict) or manifest.get("format") != PART_FORMAT:
+        raise InputError(path, "not a partial result of roneld-eval")
+    if manifest.get("format_version") != PART_VERSION:
+        raise InputError(path, f"a partial result of format {manifest.get('format_version')!r}; this version "
+                               f"reads format {PART_VERSION}: score the shard again with this version")
+    shard = manifest.get("shard")
+    if (not isinstance(shard, list) or len(shard) != 2 or any(type(v) is not int for v in shard)
+            or not 1 <= shard[0] <= shard[1] <= MAX_SHARDS):
+        raise InputError(path, "its shard is not [I, N] with 1 <= I <= N")
+    for key in ("command", "version", "settings", "ground_truth"):
+        if key not in manifest:
+            raise InputError(path, f"a partial result without its {key!r}")
+    arrays_path = folder / ARRAYS_NAME  # a part of a command that keeps per-frame numbers (not `run`'s)
+    raw = read_bytes(arrays_path, missing_ok=True, limit=MAP)
+    arrays = {} if raw is None else _load_arrays(raw, arrays_path)
+    return Part(folder, manifest, arrays)
+
+
+def _load_arrays(raw: bytes, path: Path) -> dict[str, np.ndarray]:
+    import io
+    import zipfile
+
+    from .limits import MAP
+
+    out: dict[str, np.ndarray] = {}
+    try:
+        with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+            for info in archive.infolist():
+                if not info.filename.endswith(".npy") or info.file_size > MAP.bytes:
+                    raise InputError(path, f"an unexpected member {info.filename!r}")
+                with archive.open(info) as member:
+                    array = np.lib.format.read_array(io.BytesIO(member.read(MAP.bytes + 1)),
+                                                     allow_pickle=False)
+                out[info.filename[:-4]] = array
+    except InputError:
+        raise
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as error:
+        raise InputError(path, f"not a readable part.npz ({error})") from None
+    return out
+
+
+def check_together(parts: Sequence[Part]) -> list[Part]:
+    """The parts in shard order, once each checked to belong to one command: the same command,
+    version, settings and ground truth, and every shard 1..N exactly once."""
+    if not parts:
+        raise ConfigError("merge needs the folders of every shard's part")
+    first = parts[0]
+    for part in parts[1:]:
+        for key, what in (("command", "command"), ("version", "roneld-eval version"),
+                          ("ground_truth", "ground truth (its list of frames and categories)"),
+                          ("settings", "settings (methods, thresholds, widths)")):
+            if part.manifest[key] != first.manifest[key]:
+                raise InputError(part.path, f"this part's {what} differ from those of {first.path}: parts of "
+                                            "different commands cannot be merged")
+        if part.shard.count != first.shard.count:
+            raise InputError(part.path, f"shard {part.shard} of another split than {first.path}'s {first.shard}")
+    from .version import __version__
+
+    if first.manifest["version"] != __version__:
+        raise InputError(first.path, f"written by roneld-eval {first.manifest['version']}, this is {__version__}: "
+                                     "merge the parts with the version that wrote them")
+    by_index: dict[int, Part] = {}
+    for part in parts:
+        if part.shard.index in by_index:
+            raise InputError(part.path, f"shard {part.shard} given twice (also {by_index[part.shard.index].path})")
+        by_index[part.shard.index] = part
+    missing = [str(k) for k in range(1, first.shard.count + 1) if k not in by_index]
+    if missing:
+        shown = ", ".join(missing[:8]) + (", ..." if len(missing) > 8 else "")
+        raise ConfigError(f"shards {shown} of {first.shard.count} are missing: merge needs every shard's part")
+    return [by_index[k] for k in sorted(by_index)]
+
+
+def check_part_arrays(part: Part, n_methods: int, n_categories: int) -> dict[str, np.ndarray]:
+    """A `score culane` part's arrays, every shape, type and value range checked."""
+    arrays = part.arrays
+    where = part.path / ARRAYS_NAME
+    wanted = {"frames", "n_gt", "n_pred", "matched_iou", *(f"category_{k}" for k in range(n_categories))}
+    if set(arrays) != wanted:
+        raise InputError(where, f"holds {sorted(arrays)}, not {sorted(wanted)}")
+    frames = arrays["frames"]
+    if frames.ndim != 1 or frames.dtype.kind != "U":
+        raise InputError(where, "its frames are not a list of names")
+    n = len(frames)
+    n_gt, n_pred, matched = arrays["n_gt"], arrays["n_pred"], arrays["matched_iou"]
+    if n_gt.dtype != np.int64 or n_gt.shape != (n,) or (n_gt < 0).any():
+        raise InputError(where, "its lane counts are not one count a frame")
+    if n_pred.dtype != np.int64 or n_pred.shape != (n_methods, n) or (n_pred < 0).any():
+        raise InputError(where, "its predicted lane counts are not one count a frame and method")
+    if matched.dtype != np.float64 or matched.shape != (n_methods, int(n_gt.sum())):
+        raise InputError(where, "its matched IoUs are not one a labelled lane and method")
+    with np.errstate(invalid="ignore"):
+        if not (np.isnan(matched) | (matched == -np.inf) | ((matched >= 0) & (matched <= 1))).all():
+            raise InputError(where, "a matched IoU outside [0, 1]")
+    for k in range(n_categories):
+        if arrays[f"category_{k}"].dtype != np.bool_ or arrays[f"category_{k}"].shape != (n,):
+            raise InputError(where, f"its category {k} is not one flag a frame")
+    if part.manifest.get("scored_frames") != n:
+        raise InputError(part.path / MANIFEST_NAME, "its frame count differs from its part.npz's")
+    return arrays
+
+
+# The commands whose parts merge, and where their merger lives (module:function): each takes the
+# checked parts in shard order and the output folder, and writes what one unsharded command writes.
+MERGERS = {"score culane": "roneld_eval.score:merge_culane_parts", "run": "roneld_eval.run_parts:merge_run_parts"}
+
+
+def merge(folders: Sequence[str | Path], out: str | Path):
+    """Read every part, check they are the shards of one command, and write its results to `out`."""
+    import importlib
+
+    parts = check_together([read_part(Path(folder)) for folder in folders])
+    command = parts[0].manifest["command"]
+    if command not in MERGERS:
+        raise InputError(parts[0].path / MANIFEST_NAME, f"parts of {command!r}, which this version cannot merge")
+    module, _, function = MERGERS[command].partition(":")
+    return command, getattr(importlib.import_module(module), function)(parts, out)

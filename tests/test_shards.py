@@ -1,0 +1,206 @@
+"""Shards and merge: `--shard I/N` scores whole clips in list order and writes a part; `merge` of
+every part gives the unsharded command's files byte for byte, and refuses parts that do not
+belong together in one line."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from hypothesis import given
+from hypothesis import strategies as st
+
+from roneld_eval.cli import main
+from roneld_eval.errors import ConfigError
+from roneld_eval.shards import Shard, parse_shard, shard_range
+
+
+@given(sizes=st.lists(st.integers(0, 50), max_size=40), count=st.integers(1, 12))
+def test_shards_cut_the_clips_into_contiguous_runs_in_order(sizes, count):
+    ranges = [shard_range(sizes, Shard(k, count)) for k in range(1, count + 1)]
+    assert [i for r in ranges for i in r] == list(range(len(sizes)))  # every clip once, in order
+    total = sum(sizes)
+    for k, r in enumerate(ranges, start=1):  # each starts at the first clip past (k-1)/count of the frames
+        before = sum(sizes[:r.start])
+        assert k == 1 or before * count >= (k - 1) * total
+        assert k == 1 or r.start == 0 or sum(sizes[:r.start - 1]) * count < (k - 1) * total or sizes[r.start - 1] == 0
+
+
+@pytest.mark.parametrize("text", ["0/3", "4/3", "1", "a/b", "1/0", "-1/2"])
+def test_a_bad_shard_is_refused(text):
+    with pytest.raises(ConfigError, match="shard"):
+        parse_shard(text)
+
+
+def _invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def culane_set(tmp_path_factory):
+    out = tmp_path_factory.mktemp("shards") / "set"
+    result = _invoke("synth", "--dataset", "culane", "--out", out, "--clips", "5", "--frames", "6", "--maps-format",
+                     "lanes")
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def _score(culane_set, out, *extra):
+    result = _invoke("score", "culane", "--data-root", culane_set / "data", "--pred-root", f"a={culane_set / 'maps'}",
+                     "--pred-root", f"b={culane_set / 'maps'}", "--iou", "0.3:0.7:0.1", "--workers", "1", "--quiet",
+                     "--out", out, *extra)
+    assert result.exit_code == 0, result.output
+    return out
+
+
+@pytest.mark.parametrize("count", [1, 2, 3, 7])  # 7 shards of 5 clips: some shards are empty
+def test_merged_shards_are_the_unsharded_files_byte_for_byte(culane_set, tmp_path, count):
+    whole = _score(culane_set, tmp_path / "whole")
+    parts = [_score(culane_set, tmp_path / f"part{k}", "--shard", f"{k}/{count}") for k in range(1, count + 1)]
+    assert sorted(p.name for p in parts[0].iterdir() if not p.name.startswith(".")) == ["part.json", "part.npz"]
+    result = _invoke("merge", *reversed(parts), "--out", tmp_path / "merged")  # any order on the command line
+    assert result.exit_code == 0, result.output
+    for name in ("official.csv", "summary.csv", "summary.md"):
+        assert (tmp_path / "merged" / name).read_bytes() == (whole / name).read_bytes(), name
+    categories = {line.split(",")[1] for line in (whole / "official.csv").read_text().splitlines()[1:]}
+    assert len(categories) > 2  # the synthetic set's category lists are merged too
+
+
+@pytest.fixture(scope="module")
+def three_parts(culane_set, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("parts")
+    return [_score(culane_set, folder / f"p{k}", "--shard", f"{k}/3") for k in (1, 2, 3)]
+
+
+def _refused(tmp_path, *parts) -> str:
+    result = _invoke("merge", *parts, "--out", tmp_path / "merged")
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert not (tmp_path / "merged" / "official.csv").exists()
+    assert len(result.output.strip().splitlines()) == 1
+    return result.output
+
+
+def test_a_missing_or_repeated_shard_is_refused(three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    assert "shards 3 of 3 are missing" in _refused(tmp_path, p1, p2)
+    assert "given twice" in _refused(tmp_path, p1, p2, p2, p3)
+
+
+def test_parts_of_other_settings_or_another_split_are_refused(culane_set, three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    other = _score(culane_set, tmp_path / "other", "--shard", "2/3", "--width", "20")
+    assert "settings" in _refused(tmp_path, p1, other, p3)
+    split = _score(culane_set, tmp_path / "split", "--shard", "2/4")
+    assert "another split" in _refused(tmp_path, p1, split, p3)
+
+
+def test_parts_of_another_list_are_refused(culane_set, three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    data = tmp_path / "data"
+    shutil.copytree(culane_set / "data", data)
+    listing = data / "list" / "test.txt"
+    listing.write_text("".join(listing.read_text().splitlines(keepends=True)[:-1]))  # one frame fewer
+    result = _invoke("score", "culane", "--data-root", data, "--pred-root", f"a={culane_set / 'maps'}", "--pred-root",
+                     f"b={culane_set / 'maps'}", "--iou", "0.3:0.7:0.1", "--quiet", "--out", tmp_path / "o",
+                     "--shard", "3/3")
+    assert result.exit_code == 0, result.output
+    assert "ground truth" in _refused(tmp_path, p1, p2, tmp_path / "o")
+
+
+def test_an_edited_part_is_refused_naming_its_file(three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    edited = tmp_path / "edited"
+    shutil.copytree(p2, edited)
+    with np.load(p2 / "part.npz") as loaded:
+        arrays = {name: loaded[name] for name in loaded.files}
+    arrays["matched_iou"] = arrays["matched_iou"] + 2.0
+    np.savez(edited / "part.npz", **arrays)
+    assert f"{edited / 'part.npz'}: a matched IoU outside [0, 1]" in _refused(tmp_path, p1, edited, p3)
+    (edited / "part.npz").write_bytes(b"PK\x03\x04 not a zip")
+    assert "not a readable part.npz" in _refused(tmp_path, p1, edited, p3)
+    manifest = json.loads((p2 / "part.json").read_text())
+    manifest["version"] = "0.0.1"
+    shutil.copy(p2 / "part.npz", edited / "part.npz")
+    (edited / "part.json").write_text(json.dumps(manifest))
+    assert "version" in _refused(tmp_path, p1, edited, p3)
+    for key, value in (("trees", "x"), ("width", 1), ("categories", [3])):
+        broken = json.loads((p2 / "part.json").read_text())
+        broken["settings"][key] = value
+        for part, folder in ((p1, tmp_path / "b1"), (edited, tmp_path / "b2"), (p3, tmp_path / "b3")):
+            shutil.rmtree(folder, ignore_errors=True)
+            shutil.copytree(part if part is not edited else p2, folder)
+            if part is not edited:
+                manifest = json.loads((folder / "part.json").read_text())
+                manifest["settings"][key] = value  # all three alike: only the merge's own checks can refuse
+                (folder / "part.json").write_text(json.dumps(manifest))
+            else:
+                (folder / "part.json").write_text(json.dumps(broken))
+        assert "its settings are not those" in _refused(tmp_path, tmp_path / "b1", tmp_path / "b2", tmp_path / "b3")
+    (edited / "part.json").write_text("{")
+    assert "not a partial result" in _refused(tmp_path, p1, edited, p3)
+    assert "not a partial result" in _refused(tmp_path, p1, tmp_path, p3)
+
+
+def test_a_shard_needs_an_output_folder(culane_set):
+    result = _invoke("score", "culane", "--data-root", culane_set / "data", "--pred-root", culane_set / "maps",
+                     "--shard", "1/2")
+    assert result.exit_code == 2 and "--out" in result.output
+
+
+TIMINGS = {"runtime.csv", "runtime.md", "report.html", "summary.json"}  # each run's own clock
+
+
+def _files(folder):
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def _run(data, maps, out, *extra, dataset="culane"):
+    result = _invoke("run", "--dataset", dataset, "--data-root", data, "--maps-root", maps, "--save-lanes",
+                     "--pft-ablation", "--workers", "1", "--quiet", "--out", out, *extra)
+    assert result.exit_code == 0, result.output
+    return out
+
+
+@pytest.mark.parametrize("dataset", ["culane", "tusimple"])  # TuSimple: one lane file for all frames
+def test_a_merged_run_is_the_unsharded_run_but_for_its_clock(tmp_path, dataset):
+    result = _invoke("synth", "--dataset", dataset, "--out", tmp_path / "set", "--clips", "4", "--frames", "5")
+    assert result.exit_code == 0, result.output
+    data, maps = tmp_path / "set" / "data", tmp_path / "set" / "maps"
+    whole = _files(_run(data, maps, tmp_path / "whole", dataset=dataset))
+    parts = [_run(data, maps, tmp_path / f"p{k}", "--shard", f"{k}/3", dataset=dataset) for k in (1, 2, 3)]
+    assert not (parts[0] / "accuracy.csv").exists()  # a part, not a report
+    result = _invoke("merge", *parts, "--out", tmp_path / "merged")
+    assert result.exit_code == 0, result.output
+    merged = _files(tmp_path / "merged")
+    assert set(merged) == set(whole) and any(name.startswith("lanes/") for name in whole)
+    assert [name for name in sorted(whole) if name not in TIMINGS and whole[name] != merged[name]] == []
+    before, after = (json.loads(files["summary.json"]) for files in (whole, merged))
+    assert after.pop("notes") == ["merged from 3 shards: the wall time is the sum of theirs, the timings each "
+                                  "shard's own"]
+    before.pop("wall_time_s"), after.pop("wall_time_s")
+    assert before == after
+
+
+def test_a_merge_refuses_a_clip_whose_maps_changed_since_its_shard(culane_set, tmp_path):
+    result = _invoke("synth", "--dataset", "culane", "--out", tmp_path / "set", "--clips", "2", "--frames", "3")
+    assert result.exit_code == 0, result.output
+    data, maps = tmp_path / "set" / "data", tmp_path / "set" / "maps"
+    parts = [_run(data, maps, tmp_path / f"p{k}", "--shard", f"{k}/2") for k in (1, 2)]
+    changed = sorted(maps.rglob("*.npy"))[-1]
+    changed.write_bytes(changed.read_bytes())  # same bytes, a new modification time
+    import os
+
+    os.utime(changed, ns=(1, 1))
+    output = _refused(tmp_path, *parts)
+    assert "changed since its shard was run" in output and str(parts[1]) in output
+    output = _refused(tmp_path, parts[0])
+    assert "shards 2 of 2 are missing" in output
+
+
+def test_a_run_shard_refuses_what_it_cannot_give(culane_set, tmp_path):
+    for extra in (["--resume"], ["--overlays", "2"]):
+        result = _invoke("run", "--out", tmp_path / "o", "--shard", "1/2", *extra)
+        assert result.exit_code == 2 and "--shard writes a part" in result.output
