@@ -63,7 +63,9 @@ def bench_maps(args, work: Path) -> None:
     result = subprocess.run([str(args.official_python), "-c", _OFFICIAL_AP, str(work / "split"), str(work / "pred"),
                              str(args.workers)], check=True, capture_output=True, text=True, env=environment)
     theirs = time.perf_counter() - start
-    official = eval(result.stdout.strip().splitlines()[-1], {})  # {class: {recall, precision, threshold, auc}}
+    import numpy  # the script prints numpy scalars: np.float64(...)
+
+    official = eval(result.stdout.strip().splitlines()[-1], {"np": numpy})  # {class: {recall, precision, ...}}
     with open(work / "ours" / "official.csv") as table:
         header, row = (line.split(",") for line in table.read().splitlines()[:2])
     ours_ap = [float(row[header.index(f"ap_{name}")]) for name in ("l1", "l0", "r0", "r1")]

@@ -4,7 +4,9 @@ probability maps through `score llamas --maps` (evaluate_segmentation.py --multi
 from __future__ import annotations
 
 import csv
+import json
 import io
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -188,3 +190,36 @@ def test_synth_llamas_writes_lane_files_unless_told(tmp_path):
     result = CliRunner().invoke(main, ["synth", "--dataset", "llamas", "--out", str(tmp_path / "n"),
                                        "--maps-format", "npy"])
     assert result.exit_code != 0 and "llamas-png or lanes" in result.output
+
+
+GOLDEN_AP = Path(__file__).parent / "golden" / "llamas_ap"
+
+
+def test_the_ap_of_every_image_and_its_mean_are_the_official_scripts():
+    # unsupervised_llamas 9b99f46 evaluate_segmentation.py --multi_class, run unchanged on these files
+    # (tests/golden/llamas_ap/README.md): every image's four numbers per class, and the means
+    from roneld_eval.benchmarks.llamas_score import _class_curves, _segmentation_label, score_llamas
+    from roneld_eval.datasets.llamas import every_label, read_record
+
+    expected = json.loads((GOLDEN_AP / "expected.json").read_text())
+    labels = GOLDEN_AP / "labels" / "valid"
+    methods = sorted(expected["per_image"])
+    assert methods == ["blocks", "odd", "soft"]
+    compared = 0
+    for key, path in every_label(labels).items():
+        masks = _segmentation_label(read_record(path), path)
+        for method in methods:
+            for c, curve in enumerate(_class_curves(GOLDEN_AP / "pred" / method, key, masks), start=1):
+                want = expected["per_image"][method][key][str(c)]
+                assert (curve.recall, curve.precision, curve.threshold, curve.auc) == \
+                    (want["recall"], want["precision"], want["threshold"], want["auc"]), (method, key, c)
+                compared += 1
+    assert compared == 12 * 3 * 4
+    score = score_llamas(labels, maps={m: GOLDEN_AP / "pred" / m for m in methods}, workers=1)
+    for method in methods:
+        for c, curve in enumerate(score.segmentation[method], start=1):
+            want = expected["mean_sorted"][method][str(c)]
+            assert (curve.recall, curve.precision, curve.threshold, curve.auc) == \
+                (want["recall"], want["precision"], want["threshold"], want["auc"])
+            walked = expected["mean_walk_order"][method][str(c)]["auc"]
+            assert abs(curve.auc - walked) <= 4e-16  # the script's file-system order: the last bits only
