@@ -103,7 +103,32 @@ def test_masks_become_the_lines_generate_iou_pred_txt_writes(pair):
     # shifts them); the text of each mask is compared here.
     lanes, width, height = instance_lanes(PNG2TXT / pair["input_png"])
     assert (width, height) == (pair["width"], pair["height"])
-    assert lines_text(lanes, width, height) == (PNG2TXT / pair["output_txt"]).read_text(), pair["description"]
+    ours, theirs = lines_text(lanes, width, height), (PNG2TXT / pair["output_txt"]).read_text()
+    if ours != theirs:
+        _differ_only_in_lapacks_last_bits(lanes, ours, theirs, pair["description"])
+
+
+def _differ_only_in_lapacks_last_bits(lanes, ours: str, theirs: str, description: str) -> None:
+    """A vertical lane's fitted x is an integer plus or minus LAPACK's rounding, which differs
+    between machines (OpenBLAS picks its kernels by CPU): np.polyfit gives 1000.9999999999999
+    on one and 1001.0000000000002 on another, and the script's %d writes 1000 or 1001. The
+    script run here writes what we write; against the golden text only those x may differ, by one."""
+    from roneld_eval.datasets.vil100_png import Y_STEP
+
+    near_integer = set()
+    for lane in lanes:
+        if lane.fit is None:
+            continue
+        ys = np.arange(int(lane.ys.min()), int(lane.ys.max()), Y_STEP, dtype=np.float64)
+        xs = lane.fit[0] * ys * ys + lane.fit[1] * ys + lane.fit[2]
+        near_integer |= {int(round(x)) for x in xs.tolist() if abs(x - round(x)) < 1e-6}
+    ours_lines, theirs_lines = ours.splitlines(), theirs.splitlines()
+    assert len(ours_lines) == len(theirs_lines), description
+    for a, b in zip(ours_lines, theirs_lines):
+        left, right = a.split(), b.split()
+        assert len(left) == len(right) and left[1::2] == right[1::2], description  # the same rows
+        for x, y in zip(left[::2], right[::2]):
+            assert x == y or (abs(int(x) - int(y)) == 1 and max(int(x), int(y)) in near_integer), (description, x, y)
 
 
 def test_a_mask_that_reading_does_not_define_is_refused(tmp_path):
