@@ -404,9 +404,13 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     """
     from .shards import parse_shard, shard_range
 
+    from .sweeps import expand_roots
+
     thresholds, highlighted = _thresholds(iou, preset)
     check_lane_width(width)
     share = parse_shard(shard) if shard is not None else None
+    if not isinstance(pred_root, Mapping):  # glob patterns: one method per folder matched
+        pred_root = expand_roots([pred_root] if isinstance(pred_root, (str, Path)) else list(pred_root))
     if share is not None and out is None:
         raise ConfigError("--shard writes a partial result for `roneld-eval merge`: give --out")
     with _taking(out, "score culane") as folder:
@@ -488,11 +492,28 @@ def _culane_score(scored: ScoredFrames, categories, thresholds: Thresholds, high
 
 
 def write_culane_score(folder: OutputFolder, score: CulaneScore, width: int) -> None:
+    """official.csv, summary.csv, summary.md; with several methods sweep.csv and sweep.png too."""
     staging = Staging(folder)
     staging.write_text("official.csv", score.official_rows.to_csv())
     staging.write_text("summary.csv", score.summary_rows.to_csv())
     staging.write_text("summary.md", summary_markdown(score, width))
+    if len(score.trees) > 1:
+        from .sweeps import plot_sweep
+
+        table, _ = culane_sweep(score)
+        staging.write_text("sweep.csv", table.to_csv())
+        plot_sweep(table, staging.file("sweep.png"), f"CULane, all frames: {len(score.trees)} methods, "
+                                                      f"IoU {grid_text(score.thresholds)}")
     folder.commit()
+
+
+def culane_sweep(score: CulaneScore):
+    """(sweep.csv's table, the best method): each method's headline F1s over all frames."""
+    from .sweeps import sweep_table
+
+    columns = score.summary_rows.columns[2:]
+    values = {row[0]: row[2:] for row in score.summary_rows.rows if row[1] == "all"}
+    return sweep_table(score.methods, columns, values)
 
 
 def _culane_ground_truth(relpaths: Sequence[str], categories: Mapping[str, frozenset[str]]) -> str:

@@ -13,10 +13,15 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 @click.command("culane")
 @click.option("--data-root", required=True, type=click.Path(path_type=Path),
               help="CULane root with the ground-truth .lines.txt files and list/test.txt.")
-@click.option("--pred-root", "pred_roots", required=True, multiple=True, metavar="DIR|NAME=DIR",
+@click.option("--pred-root", "pred_roots", multiple=True, metavar="DIR|NAME=DIR|PATTERN",
               help="Predicted .lines.txt files mirrored under DIR (one method, named by the folder or NAME), or "
                    "a folder whose subfolders each mirror the list (one method each, as run --save-lanes writes "
-                   "OUT/lanes/). Repeatable; all are scored in one pass. A missing file means no lanes.")
+                   "OUT/lanes/), or a quoted glob ('ckpt/epoch_*/lines': one method per folder, named by what the "
+                   "wildcards matched). Repeatable; all are scored in one pass. A missing file means no lanes.")
+@click.option("--pred-roots-from", "roots_file", type=click.Path(path_type=Path),
+              help="A file listing prediction roots, DIR or NAME=DIR a line (relative to the file), added to "
+                   "--pred-root. With several methods, sweep.csv and sweep.png give each one's F1 over all "
+                   "frames and name the best.")
 @click.option("--list", "list_file", type=click.Path(path_type=Path),
               help="List file (default <data-root>/list/test.txt).")
 @click.option("--iou", metavar="T|START:STOP:STEP",
@@ -34,14 +39,21 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
                    "`roneld-eval merge` turns the N parts into this command's files.")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
-def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, strict, workers, out, shard, quiet,
-                         debug):
+def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, preset, width, strict, workers, out,
+                         shard, quiet, debug):
     """Official CULane precision, recall and F1 per method and category, as SCNN's lane_evaluation
     computes them; with a grid, F1@50, F1@75 and mF1 as CLRNet reports them."""
     from .. import score as scoring  # not api: scoring needs none of the evaluation's imports
 
     _no_collections_at_exit()
-    score = _guard(scoring.score_culane, debug, data_root, list(pred_roots), list_file=list_file, iou=iou, width=width,
+    roots = list(pred_roots)
+    if roots_file is not None:
+        from ..sweeps import roots_from_file
+
+        roots += _guard(roots_from_file, debug, roots_file)
+    if not roots:
+        raise click.UsageError("give --pred-root or --pred-roots-from")
+    score = _guard(scoring.score_culane, debug, data_root, roots, list_file=list_file, iou=iou, width=width,
                    out=out, workers=workers, progress=not quiet, announce=_announcer(quiet), preset=preset,
                    strict=strict, shard=shard)
     if score is None:  # a shard: its part is written
@@ -52,6 +64,14 @@ def score_culane_command(data_root, pred_roots, list_file, iou, preset, width, s
         click.echo(warning, err=True)
     if not quiet:
         _print_culane_score(score, width)
+        if len(score.trees) > 1:
+            from ..score import culane_sweep
+
+            _, best = culane_sweep(score)
+            column = score.summary_rows.columns[-1]
+            if best is not None:
+                click.echo(f"best by {column} over all frames: {best}" + (f" (sweep.csv, sweep.png in {out})"
+                                                                         if out is not None else ""))
 
 
 def _print_culane_score(score, width: int) -> None:

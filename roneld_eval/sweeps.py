@@ -1,0 +1,117 @@
+"""Many checkpoints in one `score`: prediction roots from a glob or a list file, named by what
+tells them apart (epoch_12, seed3/epoch_40), and the sweep they make: one row per checkpoint of
+the headline scores over all frames, the best one named, and a plot of each against the checkpoint.
+"""
+
+from __future__ import annotations
+
+import glob
+import math
+import re
+from pathlib import Path
+from typing import Sequence
+
+from .errors import ConfigError, InputError
+
+_WILDCARD = re.compile(r"[*?\[]")
+
+
+def expand_roots(specs: Sequence[str]) -> list[str]:
+    """--pred-root values with glob patterns replaced by the folders they match, sorted in natural
+    order, each as NAME=DIR with NAME the parts of its path the wildcards matched. A value that is
+    an existing path, or NAME=DIR, is kept as it is; a pattern matching no folder is an error."""
+    out: list[str] = []
+    for spec in specs:
+        text = str(spec)
+        if not _WILDCARD.search(text) or Path(text).exists():
+            out.append(text)
+            continue
+        matches = sorted((Path(m) for m in glob.glob(text) if Path(m).is_dir()), key=lambda p: natural_key(str(p)))
+        if not matches:
+            raise InputError(Path(text), "no folder matches this pattern")
+        pattern = Path(text).parts
+        for match in matches:
+            parts = match.parts
+            name = "/".join(part for wanted, part in zip(pattern, parts) if _WILDCARD.search(wanted))
+            out.append(f"{name}={match}")
+    return out
+
+
+def roots_from_file(path: str | Path) -> list[str]:
+    """A list file of prediction roots: one 'DIR' or 'NAME=DIR' a line ('#' comments, blank lines
+    skipped); a relative DIR is relative to the file's folder."""
+    from .lanes_io import read_text
+
+    path = Path(path)
+    roots = []
+    for number, line in enumerate(read_text(path).splitlines(), start=1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        name, equals, folder = line.partition("=")
+        if equals and (not name.strip() or "/" in name or not folder.strip()):
+            raise InputError(path, f"{line!r} is neither DIR nor NAME=DIR", line=number)
+        folder = folder.strip() if equals else line
+        where = Path(folder) if Path(folder).is_absolute() else path.parent / folder
+        roots.append(f"{name.strip()}={where}" if equals else str(where))
+    if not roots:
+        raise ConfigError(f"{path}: lists no prediction root")
+    return roots
+
+
+def natural_key(text: str) -> list:
+    """'epoch_9' before 'epoch_10': digits compared as numbers."""
+    return [(0, int(part), "") if part.isdigit() else (1, 0, part) for part in re.split(r"([0-9]+)", text)]
+
+
+def checkpoint_number(name: str) -> int | None:
+    """The last number in a checkpoint's name (epoch_12 -> 12), or None."""
+    numbers = re.findall(r"[0-9]+", name)
+    return int(numbers[-1]) if numbers else None
+
+
+def sweep_table(methods: Sequence[str], columns: Sequence[str], values: dict[str, Sequence[float]]):
+    """sweep.csv: (method, checkpoint, each headline score, best) in checkpoint order, where every
+    name holds a number (else in the given order); the best is the highest last score (mF1 where
+    a grid was scored), the first such checkpoint on ties. `values[method]` is in `columns` order."""
+    from .score import PlainTable
+
+    numbers = {method: checkpoint_number(method) for method in methods}
+    ordered = list(methods)
+    if all(n is not None for n in numbers.values()):
+        ordered = sorted(methods, key=lambda m: (numbers[m], natural_key(m)))
+    scores = {method: float(values[method][-1]) for method in methods}
+    finite = [m for m in ordered if not math.isnan(scores[m])]
+    best = max(finite, key=lambda m: scores[m]) if finite else None
+    rows = tuple((method, "" if numbers[method] is None else numbers[method], *(float(v) for v in values[method]),
+                  method == best) for method in ordered)
+    return PlainTable(("method", "checkpoint", *columns, "best"), rows), best
+
+
+def plot_sweep(table, path: Path, title: str) -> None:
+    """sweep.png: each headline score (in percent) against the checkpoint, the best one marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    columns = table.columns[2:-1]
+    numbered = all(row[1] != "" for row in table.rows)
+    xs = [row[1] if numbered else k for k, row in enumerate(table.rows)]
+    figure, axes = plt.subplots(figsize=(7, 4), dpi=100)
+    for c, column in enumerate(columns):
+        axes.plot(xs, [100 * row[2 + c] for row in table.rows], marker="o", markersize=3, label=column)
+    for x, row in zip(xs, table.rows):
+        if row[-1]:
+            axes.plot([x], [100 * row[-2]], marker="*", markersize=14, color="black", linestyle="none",
+                      label=f"best {columns[-1]} on these frames: {row[0]} ({100 * row[-2]:.2f})")
+    axes.set_xlabel("checkpoint (the number in its name)" if numbered else "checkpoint")
+    if not numbered:
+        axes.set_xticks(xs, [row[0] for row in table.rows], rotation=45, ha="right", fontsize=7)
+    axes.set_ylabel("%")
+    axes.set_title(title, fontsize=10)
+    axes.grid(alpha=0.3)
+    axes.legend(fontsize=8, loc="lower right")
+    figure.tight_layout()
+    figure.savefig(path, metadata={"Software": None})
+    plt.close(figure)

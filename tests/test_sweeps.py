@@ -1,0 +1,87 @@
+"""Many checkpoints in one `score culane`: roots from a glob or a list file, and sweep.csv/.png
+naming the best checkpoint over all frames."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval.cli import main
+from roneld_eval.sweeps import checkpoint_number, expand_roots, natural_key, sweep_table
+
+EPOCHS = (1, 2, 5, 10, 20, 40)
+
+
+def _invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def checkpoints(tmp_path_factory):
+    """A synthetic CULane set and six checkpoints' lanes, each 30 / epoch px to the right of the
+    detector's (later epochs closer)."""
+    root = tmp_path_factory.mktemp("sweep")
+    result = _invoke("synth", "--dataset", "culane", "--out", root / "set", "--clips", "3", "--frames", "4",
+                     "--maps-format", "lanes")
+    assert result.exit_code == 0, result.output
+    source = root / "set" / "maps"
+    for epoch in EPOCHS:
+        for path in source.rglob("*.lines.txt"):
+            out = root / "ckpt" / f"epoch_{epoch}" / "lines" / path.relative_to(source)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            lines = []
+            for line in path.read_text().splitlines():
+                values = line.split()
+                lines.append(" ".join(f"{float(x) + 30 / epoch:.2f} {y}" for x, y in zip(values[::2], values[1::2])))
+            out.write_text("".join(line + "\n" for line in lines))
+    return root
+
+
+def _rows(path):
+    return list(csv.DictReader(io.StringIO(path.read_text())))
+
+
+def test_a_glob_scores_every_checkpoint_and_the_sweep_names_the_best(checkpoints, tmp_path):
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-root",
+                     checkpoints / "ckpt" / "epoch_*" / "lines", "--iou", "0.50:0.95:0.05", "--out", tmp_path / "o")
+    assert result.exit_code == 0, result.output
+    rows = _rows(tmp_path / "o" / "sweep.csv")
+    assert [row["method"] for row in rows] == [f"epoch_{e}" for e in EPOCHS]  # 2 before 10, named by the wildcard
+    assert [int(row["checkpoint"]) for row in rows] == list(EPOCHS)
+    summary = {row["method"]: row for row in _rows(tmp_path / "o" / "summary.csv") if row["category"] == "all"}
+    assert all(row["mF1"] == summary[row["method"]]["mF1"] for row in rows)
+    best = max(rows, key=lambda row: float(row["mF1"]))
+    assert [row["method"] for row in rows if row["best"] == "True"] == [best["method"]]
+    assert f"best by mF1 over all frames: {best['method']}" in result.output
+    assert (tmp_path / "o" / "sweep.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_list_file_names_the_roots(checkpoints, tmp_path):
+    listing = checkpoints / "ckpt" / "roots.txt"
+    listing.write_text("# name=folder, relative to this file\nlate=epoch_40/lines\n\nepoch_2/lines\n")
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-roots-from", listing,
+                     "--out", tmp_path / "o", "--quiet")
+    assert result.exit_code == 0, result.output
+    assert [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")] == ["late", "lines"]
+    listing.write_text("=nothing\n")
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-roots-from", listing)
+    assert result.exit_code == 2 and f"{listing}:1:" in result.output
+
+
+def test_a_pattern_matching_nothing_or_no_root_at_all_is_refused(checkpoints, tmp_path):
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-root",
+                     checkpoints / "ckpt" / "epoch_9*" / "lines")
+    assert result.exit_code == 2 and "no folder matches this pattern" in result.output
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data")
+    assert result.exit_code == 2 and "--pred-roots-from" in result.output
+
+
+def test_names_and_order():
+    assert sorted(["e10", "e9", "e100"], key=natural_key) == ["e9", "e10", "e100"]
+    assert checkpoint_number("seed3/epoch_12") == 12 and checkpoint_number("final") is None
+    table, best = sweep_table(["b", "a"], ["F1"], {"a": [0.5], "b": [0.5]})
+    assert [row[0] for row in table.rows] == ["b", "a"] and best == "b"  # unnumbered: as given; ties: the first
+    assert expand_roots(["x=y", "plain"]) == ["x=y", "plain"]
