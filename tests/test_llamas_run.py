@@ -223,3 +223,27 @@ def test_the_ap_of_every_image_and_its_mean_are_the_official_scripts():
                 (want["recall"], want["precision"], want["threshold"], want["auc"])
             walked = expected["mean_walk_order"][method][str(c)]["auc"]
             assert abs(curve.auc - walked) <= 4e-16  # the script's file-system order: the last bits only
+
+
+def test_on_a_detectors_lane_files_the_baseline_is_the_detector_scored_as_score_llamas_scores_it(tmp_path):
+    result = _invoke_synth_lanes(tmp_path)
+    labels, lanes = tmp_path / "set" / "labels", tmp_path / "set" / "predictions"
+    result = CliRunner().invoke(main, ["run", "--dataset", "llamas", "--data-root", str(labels), "--maps-root",
+                                       str(lanes), "--maps-format", "lanes", "--out", str(tmp_path / "run"),
+                                       "--workers", "1", "--quiet"])
+    assert result.exit_code == 0, result.output
+    result = CliRunner().invoke(main, ["score", "llamas", "--labels", str(labels), "--pred-root", f"baseline={lanes}",
+                                       "--out", str(tmp_path / "s"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    scored = {row["threshold"]: row for row in _rows(tmp_path / "s" / "official.csv")}
+    run = [row for row in _rows(tmp_path / "run" / "official.csv") if (row["method"], row["category"]) ==
+           ("baseline", "all")]
+    assert len(run) == 10 and all([row[k] for k in ("tp", "fp", "fn", "f1")] ==
+                                  [scored[row["threshold"]][k] for k in ("tp", "fp", "fn", "f1")] for row in run)
+
+
+def _invoke_synth_lanes(tmp_path):
+    result = CliRunner().invoke(main, ["synth", "--dataset", "llamas", "--out", str(tmp_path / "set"), "--clips", "2",
+                                       "--frames", "4"])
+    assert result.exit_code == 0, result.output
+    return result
