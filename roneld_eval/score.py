@@ -269,7 +269,8 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
             raise InputError(root, "prediction root not found")
         found = listed.count(root)
         if found:
-            trees.append(PredictionTree(name or root.resolve().name, root, found, len(relpaths)))
+            # named as given (a link to a checkpoint keeps its own name), "." and ".." made absolute first
+            trees.append(PredictionTree(name or Path(os.path.abspath(root)).name, root, found, len(relpaths)))
             continue
         children, others = [], []
         for child in _subfolders(root):

@@ -85,3 +85,12 @@ def test_names_and_order():
     table, best = sweep_table(["b", "a"], ["F1"], {"a": [0.5], "b": [0.5]})
     assert [row[0] for row in table.rows] == ["b", "a"] and best == "b"  # unnumbered: as given; ties: the first
     assert expand_roots(["x=y", "plain"]) == ["x=y", "plain"]
+
+
+def test_a_linked_root_is_named_by_the_link_not_its_target(checkpoints, tmp_path):
+    for name in ("best", "last"):
+        (tmp_path / name).symlink_to(checkpoints / "ckpt" / "epoch_40" / "lines")
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-root", tmp_path / "best",
+                     "--pred-root", tmp_path / "last", "--out", tmp_path / "o", "--quiet")
+    assert result.exit_code == 0, result.output  # both targets are called "lines": named so, they would clash
+    assert [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")] == ["best", "last"]
