@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -235,7 +236,172 @@ def merge(folders: Sequence[str | Path], out: str | Path):
 
     parts = check_together([read_part(Path(folder)) for folder in folders])
     command = parts[0].manifest["command"]
+    if command in RERUN_COMMANDS:
+        return command, merge_by_rerun(parts, out)
     if command not in MERGERS:
         raise InputError(parts[0].path / MANIFEST_NAME, f"parts of {command!r}, which this version cannot merge")
     module, _, function = MERGERS[command].partition(":")
     return command, getattr(importlib.import_module(module), function)(parts, out)
+
+
+# ---- score commands whose results are sums over frames (OpenLane, CurveLanes, LLAMAS) ----------
+#
+# Such a command runs its usual setup (list, labels, prediction trees) and, for a shard, scores its
+# share and keeps the arrays it reduces the frames to: `sum_*` arrays (counts) add up over the
+# parts, `cat_*` arrays (one row per frame) are concatenated in shard order. Merging calls the same
+# command again with the arguments its parts record and those arrays in place of the scoring: its
+# setup runs again (the labels and prediction roots must be where the shards found them) and must
+# find the frames and prediction trees the shards had.
+
+RERUN_COMMANDS = {
+    "score openlane": "roneld_eval.benchmarks.openlane_score:score_openlane",
+    "score curvelanes": "roneld_eval.benchmarks.curvelanes_score:score_curvelanes",
+    "score llamas": "roneld_eval.benchmarks.llamas_score:score_llamas",
+}
+_NOT_RECORDED = {"out", "workers", "progress", "announce", "shard", "merged"}
+
+
+@dataclass(frozen=True)
+class Merged:
+    """What a merge hands a score command: the parts' ground truth and their arrays combined."""
+
+    ground_truth: str
+    arrays: dict[str, np.ndarray]
+
+
+class Sharding:
+    """A score command's view of `--shard` (or of a merge calling it again)."""
+
+    def __init__(self, command: str, shard: str | None, out, merged: Merged | None, arguments: dict,
+                 paths: Sequence[str] = ("labels", "list_file", "image_root"),
+                 roots: Sequence[str] = ("pred_root", "maps")):
+        """`arguments`: the command's own, as given; those named in `paths` (a path) and `roots`
+        (prediction roots: a path, NAME=DIR, or several) are recorded absolute, so that shards
+        started in other folders agree and the merge finds them from anywhere."""
+        self.command = command
+        self.shard = parse_shard(shard) if shard is not None else None
+        self.merged = merged
+        if self.shard is not None and out is None:
+            raise ConfigError("--shard writes a partial result for `roneld-eval merge`: give --out")
+        self.arguments = {}
+        for key, value in arguments.items():
+            if key in roots:
+                value = _absolute_roots(value) if value else []
+            elif key in paths and value is not None:
+                value = os.path.abspath(value)
+            self.arguments[key] = _recorded(value)
+
+    def share(self, keys: Sequence[str], clip_of) -> list[str]:
+        """The keys this command scores: all, or the shard's whole clips (runs of keys with one clip_of)."""
+        if self.shard is None:
+            return list(keys)
+        sizes: list[int] = []
+        previous = object()
+        for key in keys:
+            clip = clip_of(key)
+            if clip != previous:
+                sizes.append(0)
+                previous = clip
+            sizes[-1] += 1
+        share = shard_range(sizes, self.shard)
+        return list(keys)[sum(sizes[:share.start]):sum(sizes[:share.stop])]
+
+    def ground_truth(self, keys: Sequence[str], trees) -> str:
+        return digest({"frames": list(keys),
+                       "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees]})
+
+    def check_merged(self, keys: Sequence[str], trees) -> None:
+        """In a merge: the frames and prediction trees found now are those the shards found."""
+        assert self.merged is not None
+        if self.ground_truth(keys, trees) != self.merged.ground_truth:
+            raise InputError(None, f"the labels' frames or the prediction trees found now are not those the shards "
+                                   f"of this `{self.command}` found: merge where the shards ran, with the same files")
+
+    def merged_array(self, name: str, shape: tuple[int, ...], kind: str = "i") -> np.ndarray:
+        """A combined array of the parts, of this shape and kind."""
+        assert self.merged is not None
+        array = self.merged.arrays.get(name)
+        if array is None or array.dtype.kind != kind or array.shape != shape:
+            raise InputError(None, f"the parts' {name} do not fit this `{self.command}` (its methods, thresholds "
+                                   "or frames): not its shards")
+        return array
+
+    def write_part(self, folder, keys: Sequence[str], trees, arrays: dict[str, np.ndarray]) -> None:
+        from .output import Staging
+        from .version import __version__
+
+        assert self.shard is not None
+        manifest = {"format": PART_FORMAT, "format_version": PART_VERSION, "command": self.command,
+                    "version": __version__, "shard": [self.shard.index, self.shard.count],
+                    "settings": self.arguments, "ground_truth": self.ground_truth(keys, trees)}
+        write_part(Staging(folder), manifest, arrays)
+        folder.commit()
+
+
+def _absolute_roots(value) -> list[str]:
+    from .score import _root_specs
+
+    return [f"{name}={os.path.abspath(path)}" if name else os.path.abspath(path) for name, path in _root_specs(value)]
+
+
+def _recorded(value):
+    """An argument as part.json keeps it (paths as text, mappings as NAME=DIR lists)."""
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, dict):
+        return [f"{name}={path}" for name, path in value.items()]
+    if isinstance(value, (list, tuple)):
+        return [_recorded(v) for v in value]
+    return value
+
+
+def _combined(parts: Sequence[Part]) -> dict[str, np.ndarray]:
+    """`sum_*` arrays added up, `cat_*` arrays concatenated in shard order (all checked alike)."""
+    names = set(parts[0].arrays)
+    out: dict[str, np.ndarray] = {}
+    for part in parts:
+        where = part.path / ARRAYS_NAME
+        if set(part.arrays) != names or not all(name.startswith(("sum_", "cat_")) for name in names):
+            raise InputError(where, f"holds {sorted(part.arrays)}, not the arrays of the other parts")
+        for name, array in part.arrays.items():
+            first = parts[0].arrays[name]
+            if array.dtype != first.dtype or array.dtype.kind not in "if" or array.ndim == 0:
+                raise InputError(where, f"its {name} is not an array of numbers like the other parts'")
+            if name.startswith("sum_") and (array.shape != first.shape or (array < 0).any()):
+                raise InputError(where, f"its {name} is not a count of the shape of the other parts'")
+            if name.startswith("cat_") and (array.shape[1:] != first.shape[1:] or not np.isfinite(array).all()):
+                raise InputError(where, f"its {name} is not a row a frame of the shape of the other parts'")
+    for name in names:
+        arrays = [part.arrays[name] for part in parts]
+        out[name] = np.sum(arrays, axis=0) if name.startswith("sum_") else np.concatenate(arrays)
+    return out
+
+
+def merge_by_rerun(parts: Sequence[Part], out: str | Path):
+    """The command the parts are shards of, run again with their arguments and arrays."""
+    import importlib
+    import inspect
+
+    first = parts[0]
+    command = first.manifest["command"]
+    module, _, name = RERUN_COMMANDS[command].partition(":")
+    function = getattr(importlib.import_module(module), name)
+    arguments = first.manifest["settings"]
+    accepted = set(inspect.signature(function).parameters) - _NOT_RECORDED
+    if (not isinstance(arguments, dict) or not set(arguments) <= accepted
+            or not all(_plain(value) for value in arguments.values())):
+        raise InputError(first.path / MANIFEST_NAME, f"its settings are not the arguments of `{command}`")
+    if not isinstance(first.manifest["ground_truth"], str):
+        raise InputError(first.path / MANIFEST_NAME, "its ground truth is not a digest")
+    merged = Merged(first.manifest["ground_truth"], _combined(parts))
+    try:
+        return function(**arguments, out=out, merged=merged)
+    except (TypeError, ValueError, KeyError, IndexError) as error:
+        raise InputError(first.path / MANIFEST_NAME,
+                         f"its settings or arrays do not fit `{command}` ({error})") from None
+
+
+def _plain(value) -> bool:
+    if value is None or isinstance(value, (str, bool, int, float)):
+        return True
+    return isinstance(value, list) and all(_plain(v) for v in value)

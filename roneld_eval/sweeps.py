@@ -9,14 +9,14 @@ import glob
 import math
 import re
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 from .errors import ConfigError, InputError
 
 _WILDCARD = re.compile(r"[*?\[]")
 
 
-def expand_roots(specs: Sequence[str]) -> list[str]:
+def expand_roots(specs: Sequence[str | Path]) -> list[str]:
     """--pred-root values with glob patterns replaced by the folders they match, sorted in natural
     order, each as NAME=DIR with NAME the parts of its path the wildcards matched. A value that is
     an existing path, or NAME=DIR, is kept as it is; a pattern matching no folder is an error."""
@@ -70,7 +70,7 @@ def checkpoint_number(name: str) -> int | None:
     return int(numbers[-1]) if numbers else None
 
 
-def sweep_table(methods: Sequence[str], columns: Sequence[str], values: dict[str, Sequence[float]]):
+def sweep_table(methods: Sequence[str], columns: Sequence[str], values: Mapping[str, Sequence]):
     """sweep.csv: (method, checkpoint, each headline score, best) in checkpoint order, where every
     name holds a number (else in the given order); the best is the highest last score (mF1 where
     a grid was scored), the first such checkpoint on ties. `values[method]` is in `columns` order."""

@@ -204,3 +204,54 @@ def test_a_run_shard_refuses_what_it_cannot_give(culane_set, tmp_path):
     for extra in (["--resume"], ["--overlays", "2"]):
         result = _invoke("run", "--out", tmp_path / "o", "--shard", "1/2", *extra)
         assert result.exit_code == 2 and "--shard writes a part" in result.output
+
+
+def _lane_file_command(tmp_path, dataset):
+    result = _invoke("synth", "--dataset", dataset, "--out", tmp_path / "set", "--clips", "4", "--frames", "3")
+    assert result.exit_code == 0, result.output
+    command = next(line.split("roneld-eval ", 1)[1] for line in result.output.splitlines()
+                   if "roneld-eval score" in line)
+    args = command.split()
+    if dataset == "llamas":  # a model's maps of the same labels too: the AP merges (frame rows, in order)
+        result = _invoke("synth", "--dataset", "llamas", "--out", tmp_path / "maps", "--clips", "4", "--frames", "3",
+                         "--maps-format", "llamas-png")
+        assert result.exit_code == 0, result.output
+        args += ["--maps", f"seg={tmp_path / 'maps' / 'predictions'}"]
+    return args
+
+
+@pytest.mark.parametrize("dataset", ["openlane", "curvelanes", "llamas"])
+def test_merged_lane_file_scores_are_the_unsharded_files(tmp_path, dataset, monkeypatch):
+    args = _lane_file_command(tmp_path, dataset)
+    whole = _invoke(*args, "--quiet", "--out", tmp_path / "whole")
+    assert whole.exit_code == 0, whole.output
+    parts = []
+    for k in (1, 2, 3):
+        result = _invoke(*args, "--quiet", "--out", tmp_path / f"p{k}", "--shard", f"{k}/3")
+        assert result.exit_code == 0, result.output
+        parts.append(tmp_path / f"p{k}")
+    monkeypatch.chdir(tmp_path / "p1")  # the parts hold absolute paths: a merge from anywhere finds the files
+    result = _invoke("merge", *parts, "--out", tmp_path / "merged")
+    assert result.exit_code == 0, result.output
+    names = sorted(p.name for p in (tmp_path / "whole").iterdir() if not p.name.startswith("."))
+    assert "official.csv" in names
+    for name in names:
+        assert (tmp_path / "merged" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name
+    if dataset == "llamas":
+        official = (tmp_path / "whole" / "official.csv").read_text().splitlines()
+        seg = [line for line in official if line.startswith("seg,")]
+        assert len(seg) == 1 and 0 < float(seg[0].split(",")[-1]) < 1  # the AP row is there, its mean filled
+        assert "AP mean" in (tmp_path / "whole" / "summary.md").read_text()
+
+
+def test_a_lane_file_merge_refuses_files_that_moved_since_the_shards(tmp_path):
+    args = _lane_file_command(tmp_path, "openlane")
+    parts = []
+    for k in (1, 2):
+        result = _invoke(*args, "--quiet", "--out", tmp_path / f"p{k}", "--shard", f"{k}/2")
+        assert result.exit_code == 0, result.output
+        parts.append(tmp_path / f"p{k}")
+    victim = sorted((tmp_path / "set" / "predictions").rglob("*.json"))[0]
+    victim.unlink()  # one prediction file fewer: the tree the merge finds is not the shards'
+    output = _refused(tmp_path, *parts)
+    assert "not those the shards of this `score openlane` found" in output

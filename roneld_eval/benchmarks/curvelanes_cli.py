@@ -41,10 +41,13 @@ def _thresholds(context, parameter, value):
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv.")
+@click.option("--shard", metavar="I/N",
+              help="Score only shard I of N (whole images, in order) and write its part to --out; "
+                   "`roneld-eval merge` turns the N parts into this command's files.")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
 def score_curvelanes_command(labels, pred_roots, image_root, list_file, score_threshold, best_of, strict, workers,
-                             out, quiet, debug):
+                             out, shard, quiet, debug):
     """CurveLanes precision, recall and F1 per method, as CondLaneNet's lane_metric.py computes them
     (the same as vega's LaneMetricCore; CurveLanes has no official tool)."""
     from .curvelanes_score import score_curvelanes
@@ -52,7 +55,11 @@ def score_curvelanes_command(labels, pred_roots, image_root, list_file, score_th
     _no_collections_at_exit()
     score = _guard(score_curvelanes, debug, labels, list(pred_roots), image_root, list_file=list_file,
                    score_threshold=score_threshold, best_of=best_of, out=out, workers=workers, progress=not quiet,
-                   announce=_announcer(quiet), strict=strict)
+                   announce=_announcer(quiet), strict=strict, shard=shard)
+    if score is None:  # a shard: its part is written
+        if not quiet:
+            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        return
     for warning in score.warnings:
         click.echo(warning, err=True)
     if not quiet:

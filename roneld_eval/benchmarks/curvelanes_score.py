@@ -18,6 +18,7 @@ from ..datasets.curvelanes import SUFFIX, every_labelled_image, image_size, lane
 from ..metrics.curvelanes_official import f_measure, has_zero_step, hits, iou_matrix
 from ..output import Staging
 from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ..shards import Merged, Sharding
 
 COLUMNS = ("method", "score_threshold", "chosen", "hits", "predicted", "truth", "precision", "recall", "f1")
 CHUNK_FRAMES = 100
@@ -79,11 +80,16 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
                      list_file: str | Path | None = None, score_threshold: float = 0.0,
                      best_of: Sequence[float] = (), out: str | Path | None = None, workers: int | None = None,
                      progress: bool = False, announce: Callable[[str], None] | None = None,
-                     strict: bool = False) -> CurveLanesScore:
-    """Score CurveLanes predictions mirroring `labels`; a lane with a score is kept above the threshold."""
+                     strict: bool = False, shard: str | None = None,
+                     merged: Merged | None = None) -> CurveLanesScore | None:
+    """Score CurveLanes predictions mirroring `labels`; a lane with a score is kept above the threshold.
+    With `shard` ('I/N'), only that share of the images, written as a part to `out` (None is returned)."""
     thresholds = [float(score_threshold), *(float(t) for t in best_of if float(t) != float(score_threshold))]
     if not all(np.isfinite(thresholds)):
         raise ConfigError("score thresholds must be finite numbers")
+    sharding = Sharding("score curvelanes", shard, out, merged, dict(
+        labels=labels, pred_root=pred_root, image_root=image_root, list_file=list_file,
+        score_threshold=float(score_threshold), best_of=[float(t) for t in best_of], strict=strict))
     labels, images = Path(labels), Path(image_root)
     with _taking(out, "score curvelanes") as folder:
         relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels)
@@ -91,10 +97,20 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             raise ConfigError(f"no listed image has its labels under {labels} (first looked for: "
                               f"{lanes_path(labels, relpaths[0])})")
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=SUFFIX)
-        roots = tuple(tree.root for tree in trees)
-        chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
-        tasks = [(chunk, labels, images, roots, thresholds) for chunk in chunks]
-        counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(), unit="image"))
+        if merged is not None:
+            sharding.check_merged(relpaths, trees)
+            counts = sharding.merged_array("sum_counts", (len(trees), len(thresholds), 3))
+        else:
+            roots = tuple(tree.root for tree in trees)
+            scored = sharding.share(relpaths, lambda relpath: relpath)  # every image is its own clip
+            chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
+            tasks = [(chunk, labels, images, roots, thresholds) for chunk in chunks]
+            counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(),
+                                       unit="image"), np.zeros((len(trees), len(thresholds), 3), np.int64))
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, relpaths, trees, {"sum_counts": counts})
+                return None
         rows = []
         for m, tree in enumerate(trees):
             rows.append(_row(tree.method, thresholds[0], "fixed", counts[m, 0]))

@@ -28,9 +28,12 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 @click.option("--strict", is_flag=True, help="Stop when any label has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv, summary.csv and summary.md.")
+@click.option("--shard", metavar="I/N",
+              help="Score only shard I of N (whole recordings, in order) and write its part to --out; "
+                   "`roneld-eval merge` turns the N parts into this command's files.")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
-def score_llamas_command(labels, pred_roots, map_roots, iou, width, strict, workers, out, quiet, debug):
+def score_llamas_command(labels, pred_roots, map_roots, iou, width, strict, workers, out, shard, quiet, debug):
     """Official LLAMAS precision, recall and F1 per method, as unsupervised_llamas'
     culane_metric/evaluate.py computes them, with the F1@0.75 and mF1 papers print; and the AP
     of probability maps per class, as its evaluation/evaluate_segmentation.py computes it."""
@@ -38,7 +41,11 @@ def score_llamas_command(labels, pred_roots, map_roots, iou, width, strict, work
 
     _no_collections_at_exit()
     score = _guard(score_llamas, debug, labels, list(pred_roots), iou=iou, width=width, out=out, workers=workers,
-                   progress=not quiet, announce=_announcer(quiet), strict=strict, maps=list(map_roots))
+                   progress=not quiet, announce=_announcer(quiet), strict=strict, maps=list(map_roots), shard=shard)
+    if score is None:  # a shard: its part is written
+        if not quiet:
+            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        return
     for warning in score.warnings:
         click.echo(warning, err=True)
     if not quiet:

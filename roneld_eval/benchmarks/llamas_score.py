@@ -30,6 +30,7 @@ from ..metrics.llamas_segmentation import class_masks, mean_curves, ClassCurve
 from ..output import Staging
 from ..report.tables import Table
 from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
+from ..shards import Merged, Sharding
 from ..thresholds import Thresholds, parse_thresholds
 
 DEFAULT_IOU = "0.50:0.95:0.05"  # mF1's grid; 0.5 is the script's own threshold
@@ -137,34 +138,60 @@ def _score_frames(args):
 def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str | None = None,
                  width: int = LANE_WIDTH, out: str | Path | None = None, workers: int | None = None,
                  progress: bool = False, announce: Callable[[str], None] | None = None, strict: bool = False,
-                 maps: PredictionRoots = ()) -> LlamasScore:
+                 maps: PredictionRoots = (), shard: str | None = None,
+                 merged: Merged | None = None) -> LlamasScore | None:
     """Score `.lines.txt` predictions (`<recording>/<frame>.lines.txt`, `pred_root`) for F1 and
     probability maps (`<recording>/<frame>.json_<c>.png`, `maps`) for AP against every label below
-    `labels` (one split's folder of `<recording>/<frame>.json`)."""
+    `labels` (one split's folder of `<recording>/<frame>.json`). With `shard` ('I/N'), only that
+    share of the recordings, written as a part to `out` (None is returned)."""
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
     check_lane_width(width)
     if not _given(pred_root) and not _given(maps):
         raise ConfigError("nothing to score: give --pred-root (lane files, for F1) or --maps (probability "
                           "maps, for AP), or both")
+    sharding = Sharding("score llamas", shard, out, merged, dict(
+        labels=labels, pred_root=pred_root, iou=iou, width=width, strict=strict, maps=maps))
     with _taking(out, "score llamas") as folder:
         found = every_label(Path(labels))
         keys = list(found)
         trees, warnings = (find_prediction_trees(pred_root, keys, strict, announce, suffix=".lines.txt")
                            if _given(pred_root) else ([], []))
         map_trees = _map_trees(maps, keys, announce) if _given(maps) else []
-        roots = tuple(tree.root for tree in trees)
-        map_roots = tuple(tree.root for tree in map_trees)
-        chunks = [keys[i:i + CHUNK_FRAMES] for i in range(0, len(keys), CHUNK_FRAMES)]
         scored_at = tuple(thresholds.values) + MF1_THRESHOLDS
-        tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width, map_roots) for chunk in chunks]
-        pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=())
-        counts = sum(piece[0] for piece in pieces)
-        dropped = sum(piece[1] for piece in pieces)
-        refused = sum(piece[2] for piece in pieces)
+        if merged is not None:
+            sharding.check_merged(keys, [*trees, *map_trees])
+            counts = sharding.merged_array("sum_counts", (len(trees), len(scored_at), 3))
+            dropped = int(sharding.merged_array("sum_dropped", (1,))[0])
+            refused = sharding.merged_array("sum_refused", (len(trees),))
+            curves = sharding.merged_array("cat_curves", (len(keys) if map_trees else 0, len(map_trees),
+                                                          len(CLASSES), 4), kind="f")
+        else:
+            roots = tuple(tree.root for tree in trees)
+            map_roots = tuple(tree.root for tree in map_trees)
+            scored = sharding.share(keys, lambda key: key.split("/")[0])  # a recording is a clip
+            chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
+            tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width, map_roots)
+                     for chunk in chunks]
+            pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=())
+            counts = sum((piece[0] for piece in pieces), np.zeros((len(trees), len(scored_at), 3), np.int64))
+            dropped = int(sum(piece[1] for piece in pieces))
+            refused = sum((piece[2] for piece in pieces), np.zeros(len(trees), np.int64))
+            # (frames, map methods, classes, recall/precision/threshold/AUC), the frames in key order
+            per_frame = [[[(c.recall, c.precision, c.threshold, c.auc) for c in piece[3][m][f]]
+                          for m in range(len(map_trees))]
+                         for piece in pieces for f in range(len(piece[3][0]) if map_trees else 0)]
+            curves = np.array(per_frame, np.float64).reshape(len(per_frame), len(map_trees), len(CLASSES), 4)
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, keys, [*trees, *map_trees], {
+                    "sum_counts": counts, "sum_dropped": np.array([dropped], np.int64), "sum_refused": refused,
+                    "cat_curves": curves})
+                return None
         segmentation = {}
         for m, tree in enumerate(map_trees):  # the frames in key order: the mean summed as evaluate_set sums it
-            frames = [frame for piece in pieces for frame in piece[3][m]]
-            segmentation[tree.method] = tuple(mean_curves([frame[c] for frame in frames]) for c in range(len(CLASSES)))
+            segmentation[tree.method] = tuple(mean_curves([ClassCurve(*(float(v) for v in curves[f, m, c]))
+                                                           for f in range(len(curves))])
+                                              for c in range(len(CLASSES)))
         rows, mf1s = [], {}
         for m, tree in enumerate(trees):
             ap = _ap_values(segmentation.get(tree.method))

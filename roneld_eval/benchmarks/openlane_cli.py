@@ -26,9 +26,13 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv and summary.md.")
+@click.option("--shard", metavar="I/N",
+              help="Score only shard I of N (whole segments, in order) and write its part to --out; "
+                   "`roneld-eval merge` turns the N parts into this command's files.")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
-def score_openlane_command(labels, pred_roots, list_file, iou, width, any_only, strict, workers, out, quiet, debug):
+def score_openlane_command(labels, pred_roots, list_file, iou, width, any_only, strict, workers, out, shard, quiet,
+                           debug):
     """Official OpenLane 2D precision, recall and F1 per method, with lanes matched within their
     category (the evaluator's default) and whatever their category (its -k)."""
     from .openlane_score import MODES, score_openlane, summary_table
@@ -37,7 +41,11 @@ def score_openlane_command(labels, pred_roots, list_file, iou, width, any_only, 
     modes = MODES[1:] if any_only else MODES
     score = _guard(score_openlane, debug, labels, list(pred_roots), list_file=list_file, iou=iou, width=width,
                    modes=modes, out=out, workers=workers, progress=not quiet, announce=_announcer(quiet),
-                   strict=strict)
+                   strict=strict, shard=shard)
+    if score is None:  # a shard: its part is written
+        if not quiet:
+            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        return
     for warning in score.warnings:
         click.echo(warning, err=True)
     if not quiet:

@@ -8,6 +8,7 @@ matching: metrics.culane_official), on a 1920x1280 canvas, lanes 30 px wide.
 
 from __future__ import annotations
 
+import posixpath
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -23,6 +24,7 @@ from ..lanes_io import check_coordinates
 from ..metrics.culane_official import f_measure, matched_result, official_masks
 from ..output import Staging
 from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ..shards import Merged, Sharding
 
 DEFAULT_IOU = "0.3"  # evaluate.cpp:121 (its help() says 0.4)
 LANE_WIDTH = 30  # evaluate.cpp:120 (its help() says 10)
@@ -74,12 +76,17 @@ def _score_frames(args) -> np.ndarray:
 def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
                    iou: str | None = None, width: int = LANE_WIDTH, modes: tuple[str, ...] = MODES,
                    out: str | Path | None = None, workers: int | None = None, progress: bool = False,
-                   announce: Callable[[str], None] | None = None, strict: bool = False) -> OpenLaneScore:
-    """Score OpenLane JSON predictions mirroring `labels` (`<segment>/<frame>.json`)."""
+                   announce: Callable[[str], None] | None = None, strict: bool = False, shard: str | None = None,
+                   merged: Merged | None = None) -> OpenLaneScore | None:
+    """Score OpenLane JSON predictions mirroring `labels` (`<segment>/<frame>.json`). With `shard`
+    ('I/N'), only that share of the segments, written as a part to `out` (None is returned)."""
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
     check_lane_width(width)
+    modes = tuple(modes)
     if not modes or any(mode not in MODES for mode in modes):
         raise ConfigError(f"matching must be among {', '.join(MODES)}")
+    sharding = Sharding("score openlane", shard, out, merged, dict(
+        labels=labels, pred_root=pred_root, list_file=list_file, iou=iou, width=width, modes=modes, strict=strict))
     labels = Path(labels)
     with _taking(out, "score openlane") as folder:
         relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_frame(labels)
@@ -87,10 +94,21 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
             raise ConfigError(f"no listed image has its annotation under {labels} (first looked for: "
                               f"{json_path(labels, relpaths[0])})")
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
-        roots = tuple(tree.root for tree in trees)
-        chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
-        tasks = [(chunk, labels, roots, IMAGE_WIDTH, IMAGE_HEIGHT, width, modes, thresholds.values) for chunk in chunks]
-        counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce))
+        if merged is not None:
+            sharding.check_merged(relpaths, trees)
+            counts = sharding.merged_array("sum_counts", (len(trees), len(modes), len(thresholds.values), 3))
+        else:
+            roots = tuple(tree.root for tree in trees)
+            scored = sharding.share(relpaths, posixpath.dirname)  # a segment is a clip
+            chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
+            tasks = [(chunk, labels, roots, IMAGE_WIDTH, IMAGE_HEIGHT, width, modes, thresholds.values)
+                     for chunk in chunks]
+            counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce),
+                         np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, relpaths, trees, {"sum_counts": counts})
+                return None
         rows = []
         for m, tree in enumerate(trees):
             for k, mode in enumerate(modes):
