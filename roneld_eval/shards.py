@@ -94,21 +94,11 @@ class Part:
 
 def write_part(staging, manifest: dict, arrays: dict[str, np.ndarray]) -> None:
     """part.json and part.npz into an output folder's staging (output.Staging)."""
-    import io
-    import zipfile
-
     staging.write_text(MANIFEST_NAME, json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=False) + "\n")
-    buffer = io.BytesIO()
-    # np.savez stamps entries with the time; a fixed date keeps a part's bytes reproducible
-    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as archive:
-        for name, array in arrays.items():
-            member = io.BytesIO()
-            np.lib.format.write_array(member, np.ascontiguousarray(array), allow_pickle=False)
-            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-            info.compress_type = zipfile.ZIP_DEFLATED
-            archive.writestr(info, member.getvalue())
+    from .synth import npz_bytes
+
     with open(staging.file(ARRAYS_NAME), "wb") as handle:
-        handle.write(buffer.getvalue())
+        handle.write(npz_bytes(arrays))
 
 
 def read_part(folder: Path) -> Part:

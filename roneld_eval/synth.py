@@ -251,16 +251,24 @@ def _write_maps(path: Path, maps: np.ndarray, maps_format: str) -> None:
 
 
 def _save_npz_deterministic(path: Path, **arrays: np.ndarray) -> None:
+    path.write_bytes(npz_bytes(arrays, compresslevel=9))
+
+
+def npz_bytes(arrays: dict[str, np.ndarray], compresslevel: int | None = None) -> bytes:
+    """An .npz archive of these arrays (no pickles) whose bytes depend on them alone: np.savez
+    stamps its members with the time, these have a fixed date."""
     import io
     import zipfile
 
-    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as archive:
         for name, array in arrays.items():
             buffer = io.BytesIO()
             np.lib.format.write_array(buffer, np.ascontiguousarray(array), allow_pickle=False)
             info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
-            archive.writestr(info, buffer.getvalue(), compresslevel=9)
+            archive.writestr(info, buffer.getvalue(), compresslevel=compresslevel)
+    return out.getvalue()
 
 
 @dataclass(frozen=True)

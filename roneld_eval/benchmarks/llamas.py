@@ -192,29 +192,9 @@ class LlamasBenchmark:
 
 def _official_grid(groups):
     """F1 at 0.5 and 0.75 and mF1 per model and method: all lanes, then the ego lanes."""
-    from ..comparison.groups import all_found, method_name, ordered_methods
-    from ..comparison.tables import EMPTY, Cell, Column, Grid, Stat, Text
+    from .grids import lanes_grid
 
-    wanted = [("0.50", "f1"), ("0.75", "f1"), ("0.50", "mf1")]
-    rows: list[tuple[Cell, ...]] = []
-    for group in groups:
-        for method in ordered_methods(group.methods):
-            title = method_name(method, group.label) + ("" if group.n == 1 else f" (n = {group.n})")
-            for lanes in ("all", "ego"):
-                cells: list[Cell] = [Text(title), Text(lanes)]
-                for threshold, column in wanted:
-                    hits = []
-                    for run in group.runs:
-                        table = run.official
-                        hit = table[(table["method"] == method) & (table["category"] == lanes)
-                                    & (table["threshold"] == threshold)]
-                        hits.append(None if hit.empty else hit.iloc[0])
-                    found = all_found(hits)
-                    cells.append(EMPTY if found is None else
-                                 Stat(tuple(float(f[column]) for f in found), decimals=2, scale=100))
-                rows.append(tuple(cells))
-    columns = (Column("F1@0.5 (%)", ("F1@0.5",)), Column("F1@0.75 (%)", ("F1@0.75",)), Column("mF1 (%)", ("mF1",)))
-    return Grid((Column("Method", ("Method",)), Column("Lanes", ("Lanes",))), columns, tuple(rows))
+    return lanes_grid(groups, [("0.50", "f1"), ("0.75", "f1"), ("0.50", "mf1")], ("F1@0.5", "F1@0.75", "mF1"))
 
 
 class LlamasTally:

@@ -197,33 +197,12 @@ class Vil100Benchmark:
 def _official_grid(groups):
     """F1 at 0.5 and 0.8, mIoU, and Rs, Rj, Rm at tau 0.5 per model and method, over all videos:
     all lanes, then the ego lanes."""
-    from ..comparison.groups import all_found, method_name, ordered_methods
-    from ..comparison.tables import EMPTY, Cell, Column, Grid, Stat, Text
     from ..thresholds import parse_thresholds
+    from .grids import lanes_grid
 
     low, high = parse_thresholds(THRESHOLDS).labels  # as official.csv writes them
     wanted = [(low, "f1"), (high, "f1"), (low, "miou"), (low, "rs"), (low, "rj"), (low, "rm")]
-    rows: list[tuple[Cell, ...]] = []
-    for group in groups:
-        for method in ordered_methods(group.methods):
-            title = method_name(method, group.label) + ("" if group.n == 1 else f" (n = {group.n})")
-            for lanes in ("all", "ego"):
-                cells: list[Cell] = [Text(title), Text(lanes)]
-                for threshold, column in wanted:
-                    hits = []
-                    for run in group.runs:
-                        table = run.official
-                        hit = table[(table["method"] == method) & (table["category"] == lanes)
-                                    & (table["threshold"] == threshold)]
-                        hits.append(None if hit.empty or column not in hit.columns else hit.iloc[0])
-                    found = all_found(hits)
-                    cells.append(EMPTY if found is None else
-                                 Stat(tuple(float(f[column]) for f in found), decimals=2, scale=100))
-                rows.append(tuple(cells))
-    columns = (Column(f"F1@{low} (%)", (f"F1@{low}",)), Column(f"F1@{high} (%)", (f"F1@{high}",)),
-               Column("mIoU (%)", ("mIoU",)), Column("Rs (%)", ("Rs",)), Column("Rj (%)", ("Rj",)),
-               Column("Rm (%)", ("Rm",)))
-    return Grid((Column("Method", ("Method",)), Column("Lanes", ("Lanes",))), columns, tuple(rows))
+    return lanes_grid(groups, wanted, (f"F1@{low}", f"F1@{high}", "mIoU", "Rs", "Rj", "Rm"))
 
 
 def _ego(frame: Frame, center_ratio: float) -> list[Lane]:
