@@ -3,7 +3,7 @@ annotations and a detector's lanes), end to end in a fresh process, beside OpenL
 evaluator on the same files when given: its two runs (default, lanes matched within their category,
 and -k, whatever their category) at its defaults (-w 30, -t 0.3), OpenMP on --workers threads.
 
-    python scripts/bench_openlane.py [--frames 500] [--workers 2] [--official LANE2D_DIR/evaluate]
+    python scripts/bench_openlane.py [--frames 400] [--workers 2] [--official LANE2D_DIR/evaluate]
 
 The evaluator is OpenDriveLab/OpenLane (8a0ce6b) eval/LANE_evaluation/lane2d, built unchanged with its
 Makefile (this project does not ship it); on Debian or Ubuntu with libopencv-dev (OpenCV 4):
@@ -63,7 +63,7 @@ def lane2d(evaluate: Path, work: Path, workers: int, any_category: bool) -> tupl
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=500)
+    parser.add_argument("--frames", type=int, default=400)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--official", type=Path, help="lane2d's built `evaluate`")
     args = parser.parse_args()

@@ -59,7 +59,8 @@ def main() -> None:
         first = results[counts[0]][1]
         for n in counts[1:]:
             extra = (results[n][1] - first) / (n - counts[0])
-            print(f"CPU per extra root (1 -> {n}): {extra:.2f} s, {extra / first:.2f} of the first root's {first:.2f} s")
+            print(f"CPU per extra root (1 -> {n}): {extra:.2f} s, {extra / first:.2f} of the first root's "
+                  f"{first:.2f} s")
         n = counts[-1]
         listing = work / f"roots{n}.txt"
         start = time.perf_counter()
