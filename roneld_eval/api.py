@@ -104,7 +104,7 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
 
         if resume or overlays:
             raise ConfigError("--shard writes a part for `roneld-eval merge`, not a report: without --resume or "
-                              "--overlays (give them to the merged run's show)")
+                              "--overlays (draw pictures of the merged run with `roneld-eval show`)")
         _run_shard(config, parse_shard(shard), out, progress, say)
         return None
     with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
@@ -168,6 +168,9 @@ def merge_run(parts, out: str | Path) -> RunResult:
     from .run_parts import CONFIG, PartsCache, ground_truth, shards_wall_time
 
     config = EvalConfig.from_toml(parts[0].path / CONFIG)
+    if config.plugins:  # a part is untrusted: merging it must not import code it names
+        raise InputError(parts[0].path / CONFIG, "names plug-in methods; merge imports no code a part names: "
+                                                 "run the whole evaluation unsharded, or merge without the plug-ins")
     from .cache import config_key
 
     if config_key(config, __version__) != parts[0].manifest["settings"]:

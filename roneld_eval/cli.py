@@ -269,14 +269,15 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         return config
 
     config = _guard(build, debug)
+    if dry_run and shard is not None:
+        _guard(_refuse, debug, "--dry-run checks the whole dataset's layout: run it without --shard")
     if dry_run:
         _dry_run(config, quiet, debug)
         return
     result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume, overlays=overlays,
                     announce=_announcer(quiet), shard=shard)
     if result is None:  # a shard: its part is written
-        if not quiet:
-            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        shard_written(shard, out, quiet)
         return
     if not quiet:
         _print_summary(result, out)
@@ -333,6 +334,18 @@ def score():
     """Score lane files in the official formats (no maps, any method's output)."""
 
 
+def _refuse(message: str) -> NoReturn:
+    raise ConfigError(message)
+
+
+def shard_written(shard: str, out, quiet: bool) -> None:
+    """What a command given --shard says: its part is written, merge the parts."""
+    if not quiet:
+        from .shards import parse_shard
+
+        click.echo(f"shard {parse_shard(shard)}: part written to {out}; `roneld-eval merge` the parts of all shards")
+
+
 @main.command()
 @click.argument("parts", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("--out", required=True, type=click.Path(path_type=Path),
@@ -347,8 +360,10 @@ def merge(parts, out, debug):
     """
     from .shards import merge as merge_parts
 
-    command, _ = _guard(merge_parts, debug, list(parts), out)
+    command, result = _guard(merge_parts, debug, list(parts), out)
     click.echo(f"{counted(len(parts), 'part')} of `{command}` merged; results in {out}/")
+    for line in (getattr(result, "skipped", None) or [])[:10]:  # a run's, as the run itself lists them
+        click.echo(f"  skipped: {line}", err=True)
 
 
 @main.command()

@@ -13,6 +13,7 @@ refused.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -70,6 +71,7 @@ class PartsCache:
 
     def __init__(self, parts: Sequence[Part], config: EvalConfig):
         self.benchmark = benchmark_for(config.dataset.name)
+        self.methods = tuple(config.methods)
         self.where: dict[str, tuple[Part, Path]] = {}
         for part in parts:
             clip_ids = part.manifest.get("clips")
@@ -97,13 +99,28 @@ class PartsCache:
             result = decode_result(entry.get("result"), self.benchmark)
             if result.clip_id != clip.clip_id:
                 raise ValueError(f"it does not hold clip {clip.clip_id}")
+            self._check(result, clip)
         except (ValueError, TypeError, KeyError, IndexError, AttributeError, RecursionError) as error:
             raise InputError(path, f"not a clip of a partial result ({error})") from None
         if entry.get("inputs") != fingerprint(inputs()):
             raise InputError(path, f"the maps or labels of clip {clip.clip_id} changed since its shard was run "
-                                   "(size or modification time): run that shard again")
+                                   "(their size, modification or change time, as --resume checks them): run that "
+                                   "shard again where the merge runs")
         self.used.add(clip.clip_id)
         return result
+
+    def _check(self, result: ClipResult, clip: Clip) -> None:
+        """What the run would have given: each scored frame of the clip once per method, IoUs in [0, 1]."""
+        frames = {frame.relpath for frame in clip.frames}
+        if result.n_frames != len(clip.frames) or not result.n_scored <= result.n_frames:
+            raise ValueError("its frame counts are not the clip's")
+        pairs = [(o.relpath, o.method) for o in result.outcomes]
+        scored = {relpath for relpath, _ in pairs}
+        if (len(set(pairs)) != len(pairs) or not scored <= frames or len(scored) != result.n_scored
+                or len(pairs) != len(scored) * len(self.methods) or {m for _, m in pairs} - set(self.methods)):
+            raise ValueError("its outcomes are not one per scored frame and method")
+        if not all(math.isnan(v) or 0 <= v <= 1 for o in result.outcomes for v in o.ious.values()):
+            raise ValueError("an IoU outside [0, 1]")
 
     def store(self, clip: Clip, inputs: Sequence[Path], result: ClipResult) -> None:
         raise AssertionError("a merge computes no clip")  # load gives every clip or stops the merge

@@ -74,7 +74,8 @@ SCORE_PRESETS = {
 HIGHLIGHTS = ("0.50", "0.75")
 CHUNK_FRAMES = 200
 
-PredictionRoots = Union[str, Path, Sequence[Union[str, Path]], Mapping[str, Union[str, Path]]]
+# a path or 'NAME=DIR'; several, or (name, folder) pairs among them; or a mapping of name to folder
+PredictionRoots = Union[str, Path, Sequence[Union[str, Path, tuple]], Mapping[str, Union[str, Path]]]
 
 
 @dataclass(frozen=True)
@@ -220,6 +221,12 @@ def _root_specs(pred_root: PredictionRoots) -> list[tuple[str | None, Path]]:
         pred_root = [pred_root]
     specs: list[tuple[str | None, Path]] = []
     for item in pred_root:
+        if isinstance(item, (tuple, list)):  # (name, folder): a glob's match, or a part's record
+            if (len(item) != 2 or not isinstance(item[1], (str, Path))
+                    or not (item[0] is None or isinstance(item[0], str))):
+                raise ConfigError(f"a prediction root given as a pair must be (name, folder), got {item!r}")
+            specs.append((item[0] or None, Path(item[1])))
+            continue
         text = str(item)
         name, sep, folder = text.partition("=")
         # NAME=DIR, unless the whole text is itself an existing folder (a path may hold '=').
@@ -532,13 +539,19 @@ def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, datase
     from .shards import PART_FORMAT, PART_VERSION, write_part
     from .version import __version__
 
+    from .shards import digest, files_fingerprint
+
+    listed = _culane_ground_truth(relpaths, dataset.categories)
+    labels = files_fingerprint([labels_path(dataset.root, relpath) for relpath in relpaths])
     manifest = {
         "format": PART_FORMAT, "format_version": PART_VERSION, "command": "score culane", "version": __version__,
         "shard": [share.index, share.count],
         "settings": {"iou": None if iou is None else str(iou), "preset": preset, "width": width, "strict": strict,
-                     "trees": [[t.method, str(t.root), t.found, t.listed] for t in trees],
+                     "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees],
                      "categories": list(dataset.categories), "frames": len(relpaths)},
-        "ground_truth": _culane_ground_truth(relpaths, dataset.categories),
+        # the list and categories (what merge checks the parts' frames against) and the label files
+        # (path, size, modification time: what the parts must agree on)
+        "ground_truth": digest({"list": listed, "labels": labels}), "list": listed,
         "warnings": list(warnings),
         "scored_frames": len(scored.frames),
     }
@@ -573,6 +586,10 @@ def _culane_part_settings(part) -> dict:
             and isinstance(settings["trees"], list) and texts(warnings)
             and all(isinstance(t, list) and len(t) == 4 and isinstance(t[0], str) and isinstance(t[1], str)
                     and count(t[2]) and count(t[3]) for t in settings["trees"]))
+    if good:
+        methods = [t[0] for t in settings["trees"]]
+        good = (len(set(methods)) == len(methods) and settings["frames"] < 1 << 31
+                and all(t[2] <= t[3] == settings["frames"] for t in settings["trees"]))
     if not good:
         raise InputError(part.path / MANIFEST_NAME, "its settings are not those `score culane --shard` writes")
     return settings
@@ -601,7 +618,7 @@ def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
         for k in range(len(names)):
             members[k] += [f for f, inside in zip(part_frames, arrays[f"category_{k}"].tolist()) if inside]
     categories = {name: frozenset(found) for name, found in zip(names, members)}
-    if _culane_ground_truth(frames, categories) != first["ground_truth"]:
+    if _culane_ground_truth(frames, categories) != first.get("list"):
         raise InputError(parts[-1].path, f"the parts hold {len(frames):,} frames, not the {settings['frames']:,} "
                                          "frames of the list (and its categories) in order: not one command's shards")
     scored = ScoredFrames(tuple(frames), np.concatenate(n_gt), np.concatenate(n_pred, axis=1),

@@ -46,7 +46,7 @@ class Shard:
 
 def parse_shard(text: str) -> Shard:
     """'I/N' with 1 <= I <= N."""
-    match = re.fullmatch(r"\s*([0-9]+)\s*/\s*([0-9]+)\s*", text)
+    match = re.fullmatch(r"\s*([0-9]{1,9})\s*/\s*([0-9]{1,9})\s*", text, re.ASCII)
     if match is None:
         raise ConfigError(f"--shard takes I/N (shard I of N, counted from 1), got {text!r}")
     index, count = int(match.group(1)), int(match.group(2))
@@ -71,6 +71,21 @@ def shard_range(sizes: Sequence[int], shard: Shard) -> range:
     first = 0 if shard.index == 1 else start(shard.index - 1)
     end = len(sizes) if shard.index == shard.count else start(shard.index)
     return range(first, max(first, end))
+
+
+def files_fingerprint(paths) -> str:
+    """A digest of each file's absolute path, size and modification time (missing ones included):
+    what parts compare to have read the same labels. Not the change time or inode, which a copy
+    with `cp -a` or a `chmod` changes and an edit hardly ever leaves alone."""
+    hasher = hashlib.sha256()
+    for path in paths:
+        try:
+            info = os.stat(path)
+            record = f"{os.path.abspath(path)}\0{info.st_size}\0{info.st_mtime_ns}\n"
+        except (OSError, ValueError):
+            record = f"{os.path.abspath(path)}\0missing\n"
+        hasher.update(record.encode("utf-8", "surrogateescape"))
+    return hasher.hexdigest()
 
 
 def digest(value: Any) -> str:
@@ -125,6 +140,8 @@ def read_part(folder: Path) -> Part:
     for key in ("command", "version", "settings", "ground_truth"):
         if key not in manifest:
             raise InputError(path, f"a partial result without its {key!r}")
+    if not all(isinstance(manifest[key], str) for key in ("command", "version", "ground_truth")):
+        raise InputError(path, "its command, version and ground truth are not text")
     arrays_path = folder / ARRAYS_NAME  # a part of a command that keeps per-frame numbers (not `run`'s)
     raw = read_bytes(arrays_path, missing_ok=True, limit=MAP)
     arrays = {} if raw is None else _load_arrays(raw, arrays_path)
@@ -140,9 +157,14 @@ def _load_arrays(raw: bytes, path: Path) -> dict[str, np.ndarray]:
     out: dict[str, np.ndarray] = {}
     try:
         with zipfile.ZipFile(io.BytesIO(raw)) as archive:
-            for info in archive.infolist():
-                if not info.filename.endswith(".npy") or info.file_size > MAP.bytes:
-                    raise InputError(path, f"an unexpected member {info.filename!r}")
+            members = archive.infolist()
+            # every member's name and the inflated total checked before anything is inflated
+            for info in members:
+                if not re.fullmatch(r"[a-z_0-9]{1,64}\.npy", info.filename):
+                    raise InputError(path, f"an unexpected member {info.filename[:80]!r}")
+            if len(members) > 64 or sum(info.file_size for info in members) > MAP.bytes:
+                raise InputError(path, f"its members inflate to more than {MAP.rule()}")
+            for info in members:
                 with archive.open(info) as member:
                     array = np.lib.format.read_array(io.BytesIO(member.read(MAP.bytes + 1)),
                                                      allow_pickle=False)
@@ -182,7 +204,9 @@ def check_together(parts: Sequence[Part]) -> list[Part]:
     missing = [str(k) for k in range(1, first.shard.count + 1) if k not in by_index]
     if missing:
         shown = ", ".join(missing[:8]) + (", ..." if len(missing) > 8 else "")
-        raise ConfigError(f"shards {shown} of {first.shard.count} are missing: merge needs every shard's part")
+        which = f"shard {shown} of {first.shard.count} is" if len(missing) == 1 else \
+            f"shards {shown} of {first.shard.count} are"
+        raise ConfigError(f"{which} missing: merge needs every shard's part")
     return [by_index[k] for k in sorted(by_index)]
 
 
@@ -204,9 +228,17 @@ def check_part_arrays(part: Part, n_methods: int, n_categories: int) -> dict[str
         raise InputError(where, "its predicted lane counts are not one count a frame and method")
     if matched.dtype != np.float64 or matched.shape != (n_methods, int(n_gt.sum())):
         raise InputError(where, "its matched IoUs are not one a labelled lane and method")
+    if (n_gt >= 1 << 20).any() or (n_pred >= 1 << 20).any():
+        raise InputError(where, "a frame with more than a million lanes")
     with np.errstate(invalid="ignore"):
         if not (np.isnan(matched) | (matched == -np.inf) | ((matched >= 0) & (matched <= 1))).all():
             raise InputError(where, "a matched IoU outside [0, 1]")
+    # a ground-truth lane is matched to at most one predicted lane of its frame
+    frame_of = np.repeat(np.arange(n), n_gt)
+    for m in range(n_methods):
+        matched_lanes = np.bincount(frame_of[matched[m] > -np.inf], minlength=n) if n else np.zeros(0, np.int64)
+        if (matched_lanes > n_pred[m]).any():
+            raise InputError(where, "a frame with more matched lanes than predicted ones")
     for k in range(n_categories):
         if arrays[f"category_{k}"].dtype != np.bool_ or arrays[f"category_{k}"].shape != (n,):
             raise InputError(where, f"its category {k} is not one flag a frame")
@@ -225,6 +257,12 @@ def merge(folders: Sequence[str | Path], out: str | Path):
     import importlib
 
     parts = check_together([read_part(Path(folder)) for folder in folders])
+    target = Path(out)
+    for part in parts:
+        if target.exists() and target.resolve() == part.path.resolve():
+            raise InputError(target, "is one of the parts being merged: give another --out")
+    if (target / MANIFEST_NAME).exists():
+        raise InputError(target, f"holds a part ({MANIFEST_NAME}): give another --out, the parts stay as they are")
     command = parts[0].manifest["command"]
     if command in RERUN_COMMANDS:
         return command, merge_by_rerun(parts, out)
@@ -253,10 +291,12 @@ _NOT_RECORDED = {"out", "workers", "progress", "announce", "shard", "merged"}
 
 @dataclass(frozen=True)
 class Merged:
-    """What a merge hands a score command: the parts' ground truth and their arrays combined."""
+    """What a merge hands a score command: the parts' ground truth, their arrays combined, and
+    each part's shard with the digest of the frames it scored."""
 
     ground_truth: str
     arrays: dict[str, np.ndarray]
+    shares: tuple[tuple[Shard, str], ...] = ()
 
 
 class Sharding:
@@ -285,6 +325,10 @@ class Sharding:
         """The keys this command scores: all, or the shard's whole clips (runs of keys with one clip_of)."""
         if self.shard is None:
             return list(keys)
+        return self._share_of(keys, clip_of, self.shard)
+
+    @staticmethod
+    def _share_of(keys: Sequence[str], clip_of, shard: Shard) -> list[str]:
         sizes: list[int] = []
         previous = object()
         for key in keys:
@@ -293,19 +337,25 @@ class Sharding:
                 sizes.append(0)
                 previous = clip
             sizes[-1] += 1
-        share = shard_range(sizes, self.shard)
+        share = shard_range(sizes, shard)
         return list(keys)[sum(sizes[:share.start]):sum(sizes[:share.stop])]
 
-    def ground_truth(self, keys: Sequence[str], trees) -> str:
-        return digest({"frames": list(keys),
+    def ground_truth(self, keys: Sequence[str], trees, labels: Sequence[Path]) -> str:
+        """The frames, the label files (path, size, modification time) and the prediction trees."""
+        return digest({"frames": list(keys), "labels": files_fingerprint(labels),
                        "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees]})
 
-    def check_merged(self, keys: Sequence[str], trees) -> None:
-        """In a merge: the frames and prediction trees found now are those the shards found."""
+    def check_merged(self, keys: Sequence[str], trees, labels: Sequence[Path], clip_of) -> None:
+        """In a merge: the frames, labels and prediction trees found now are those the shards
+        found, and each part scored its shard's share of the frames."""
         assert self.merged is not None
-        if self.ground_truth(keys, trees) != self.merged.ground_truth:
-            raise InputError(None, f"the labels' frames or the prediction trees found now are not those the shards "
-                                   f"of this `{self.command}` found: merge where the shards ran, with the same files")
+        if self.ground_truth(keys, trees, labels) != self.merged.ground_truth:
+            raise InputError(None, f"the labels or prediction trees found now are not those the shards of this "
+                                   f"`{self.command}` found (frames, files, sizes or modification times): merge where "
+                                   "the shards ran, with the same files")
+        for shard, scored in self.merged.shares:
+            if digest(self._share_of(keys, clip_of, shard)) != scored:
+                raise InputError(None, f"the part of shard {shard} did not score that shard's frames")
 
     def merged_array(self, name: str, shape: tuple[int, ...], kind: str = "i") -> np.ndarray:
         """A combined array of the parts, of this shape and kind."""
@@ -316,22 +366,25 @@ class Sharding:
                                    "or frames): not its shards")
         return array
 
-    def write_part(self, folder, keys: Sequence[str], trees, arrays: dict[str, np.ndarray]) -> None:
+    def write_part(self, folder, keys: Sequence[str], trees, labels: Sequence[Path], scored: Sequence[str],
+                   arrays: dict[str, np.ndarray]) -> None:
         from .output import Staging
         from .version import __version__
 
         assert self.shard is not None
         manifest = {"format": PART_FORMAT, "format_version": PART_VERSION, "command": self.command,
                     "version": __version__, "shard": [self.shard.index, self.shard.count],
-                    "settings": self.arguments, "ground_truth": self.ground_truth(keys, trees)}
+                    "settings": self.arguments, "ground_truth": self.ground_truth(keys, trees, labels),
+                    "share": digest(list(scored))}
         write_part(Staging(folder), manifest, arrays)
         folder.commit()
 
 
-def _absolute_roots(value) -> list[str]:
+def _absolute_roots(value) -> list[list]:
+    """Prediction roots as [name or None, absolute folder] pairs (what _root_specs reads back)."""
     from .score import _root_specs
 
-    return [f"{name}={os.path.abspath(path)}" if name else os.path.abspath(path) for name, path in _root_specs(value)]
+    return [[name, os.path.abspath(path)] for name, path in _root_specs(value)]
 
 
 def _recorded(value):
@@ -383,7 +436,12 @@ def merge_by_rerun(parts: Sequence[Part], out: str | Path):
         raise InputError(first.path / MANIFEST_NAME, f"its settings are not the arguments of `{command}`")
     if not isinstance(first.manifest["ground_truth"], str):
         raise InputError(first.path / MANIFEST_NAME, "its ground truth is not a digest")
-    merged = Merged(first.manifest["ground_truth"], _combined(parts))
+    shares = []
+    for part in parts:
+        if not isinstance(part.manifest.get("share"), str):
+            raise InputError(part.path / MANIFEST_NAME, "its share of the frames is not a digest")
+        shares.append((part.shard, part.manifest["share"]))
+    merged = Merged(first.manifest["ground_truth"], _combined(parts), tuple(shares))
     try:
         return function(**arguments, out=out, merged=merged)
     except (TypeError, ValueError, KeyError, IndexError) as error:

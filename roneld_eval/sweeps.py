@@ -16,15 +16,19 @@ from .errors import ConfigError, InputError
 _WILDCARD = re.compile(r"[*?\[]")
 
 
-def expand_roots(specs: Sequence[str | Path]) -> list[str]:
+def expand_roots(specs: Sequence) -> list:
     """--pred-root values with glob patterns replaced by the folders they match, sorted in natural
-    order, each as NAME=DIR with NAME the parts of its path the wildcards matched. A value that is
-    an existing path, or NAME=DIR, is kept as it is; a pattern matching no folder is an error."""
-    out: list[str] = []
+    order, each as a (name, folder) pair, the name the parts of its path the wildcards matched
+    ('seed3/epoch_40'). Any other value (an existing path, NAME=DIR, a pair) is kept as it is; a
+    pattern matching no folder is an error."""
+    out: list = []
     for spec in specs:
+        if isinstance(spec, (tuple, list)):
+            out.append(spec)
+            continue
         text = str(spec)
         if not _WILDCARD.search(text) or Path(text).exists():
-            out.append(text)
+            out.append(spec)
             continue
         matches = sorted((Path(m) for m in glob.glob(text) if Path(m).is_dir()), key=lambda p: natural_key(str(p)))
         if not matches:
@@ -33,27 +37,32 @@ def expand_roots(specs: Sequence[str | Path]) -> list[str]:
         for match in matches:
             parts = match.parts
             name = "/".join(part for wanted, part in zip(pattern, parts) if _WILDCARD.search(wanted))
-            out.append(f"{name}={match}")
+            out.append((name, str(match)))
     return out
 
 
-def roots_from_file(path: str | Path) -> list[str]:
-    """A list file of prediction roots: one 'DIR' or 'NAME=DIR' a line ('#' comments, blank lines
-    skipped); a relative DIR is relative to the file's folder."""
+def roots_from_file(path: str | Path) -> list:
+    """A list file of prediction roots: one 'DIR' or 'NAME=DIR' a line ('#' comment lines and blank
+    lines skipped), as (name, folder) pairs; a relative DIR is relative to the file's folder, and
+    names the root as written there ('epoch_1/lines'; an absolute DIR: its folder's name)."""
     from .lanes_io import read_text
 
     path = Path(path)
-    roots = []
+    roots: list = []
     for number, line in enumerate(read_text(path).splitlines(), start=1):
         line = line.strip()
         if not line or line.startswith("#"):
             continue
         name, equals, folder = line.partition("=")
-        if equals and (not name.strip() or "/" in name or not folder.strip()):
+        if equals and not Path(path.parent / line).exists() and (not name.strip() or "/" in name
+                                                                 or not folder.strip()):
             raise InputError(path, f"{line!r} is neither DIR nor NAME=DIR", line=number)
+        if equals and Path(path.parent / line).exists():  # a folder whose name holds '='
+            equals, folder = "", line
         folder = folder.strip() if equals else line
         where = Path(folder) if Path(folder).is_absolute() else path.parent / folder
-        roots.append(f"{name.strip()}={where}" if equals else str(where))
+        label = name.strip() if equals else (None if Path(folder).is_absolute() else folder.rstrip("/"))
+        roots.append((label, str(where)))
     if not roots:
         raise ConfigError(f"{path}: lists no prediction root")
     return roots

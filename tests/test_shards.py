@@ -85,7 +85,7 @@ def _refused(tmp_path, *parts) -> str:
 
 def test_a_missing_or_repeated_shard_is_refused(three_parts, tmp_path):
     p1, p2, p3 = three_parts
-    assert "shards 3 of 3 are missing" in _refused(tmp_path, p1, p2)
+    assert "shard 3 of 3 is missing" in _refused(tmp_path, p1, p2)
     assert "given twice" in _refused(tmp_path, p1, p2, p2, p3)
 
 
@@ -197,7 +197,7 @@ def test_a_merge_refuses_a_clip_whose_maps_changed_since_its_shard(culane_set, t
     output = _refused(tmp_path, *parts)
     assert "changed since its shard was run" in output and str(parts[1]) in output
     output = _refused(tmp_path, parts[0])
-    assert "shards 2 of 2 are missing" in output
+    assert "shard 2 of 2 is missing" in output
 
 
 def test_a_run_shard_refuses_what_it_cannot_give(culane_set, tmp_path):
@@ -255,3 +255,69 @@ def test_a_lane_file_merge_refuses_files_that_moved_since_the_shards(tmp_path):
     victim.unlink()  # one prediction file fewer: the tree the merge finds is not the shards'
     output = _refused(tmp_path, *parts)
     assert "not those the shards of this `score openlane` found" in output
+
+
+def test_a_merge_into_one_of_its_parts_is_refused_and_leaves_the_part(three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    before = (p2 / "part.npz").read_bytes()
+    result = _invoke("merge", p1, p2, p3, "--out", p2)
+    assert result.exit_code == 2 and "is one of the parts" in result.output
+    assert (p2 / "part.npz").read_bytes() == before
+
+
+def test_culane_parts_scored_against_other_labels_are_refused(culane_set, three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    data = tmp_path / "data"
+    shutil.copytree(culane_set / "data", data)  # the same list, other label files
+    result = _invoke("score", "culane", "--data-root", data, "--pred-root", f"a={culane_set / 'maps'}", "--pred-root",
+                     f"b={culane_set / 'maps'}", "--iou", "0.3:0.7:0.1", "--quiet", "--out", tmp_path / "o",
+                     "--shard", "2/3")
+    assert result.exit_code == 0, result.output
+    assert "ground truth" in _refused(tmp_path, p1, tmp_path / "o", p3)
+
+
+def test_lane_file_parts_refuse_edited_labels_and_a_relabelled_copy(tmp_path):
+    args = _lane_file_command(tmp_path, "openlane")
+    parts = []
+    for k in (1, 2, 3):
+        result = _invoke(*args, "--quiet", "--out", tmp_path / f"p{k}", "--shard", f"{k}/3")
+        assert result.exit_code == 0, result.output
+        parts.append(tmp_path / f"p{k}")
+    copy = tmp_path / "copy"
+    shutil.copytree(parts[1], copy)  # shard 2's numbers presented as shard 3's
+    manifest = json.loads((copy / "part.json").read_text())
+    manifest["shard"] = [3, 3]
+    (copy / "part.json").write_text(json.dumps(manifest))
+    assert "did not score that shard's frames" in _refused(tmp_path, parts[0], parts[1], copy)
+    label = sorted((tmp_path / "set" / "labels").rglob("*.json"))[0]
+    label.write_text(label.read_text())  # rewritten after the shards ran
+    import os
+
+    os.utime(label, ns=(10**9, 10**9))
+    assert "labels or prediction trees found now" in _refused(tmp_path, *parts)
+
+
+def test_a_run_part_naming_a_plug_in_is_not_imported_by_merge(tmp_path):
+    result = _invoke("synth", "--dataset", "culane", "--out", tmp_path / "set", "--clips", "2", "--frames", "2")
+    assert result.exit_code == 0, result.output
+    data, maps = tmp_path / "set" / "data", tmp_path / "set" / "maps"
+    parts = [_run(data, maps, tmp_path / f"p{k}", "--shard", f"{k}/2") for k in (1, 2)]
+    evil = tmp_path / "evil.py"
+    marker = tmp_path / "imported"
+    evil.write_text(f"open({str(marker)!r}, 'w').close()\ndef make():\n    pass\n")
+    config = parts[0] / "config.toml"
+    config.write_text(config.read_text() + f'\n[methods.evil]\nentry = "{evil}:make"\n')
+    output = _refused(tmp_path, *parts)
+    assert not marker.exists() and ("plug-in" in output or "config" in output)
+
+
+def test_a_part_npz_of_many_members_is_refused_before_they_are_inflated(three_parts, tmp_path):
+    import zipfile
+
+    p1, p2, p3 = three_parts
+    edited = tmp_path / "many"
+    shutil.copytree(p2, edited)
+    with zipfile.ZipFile(edited / "part.npz", "a") as archive:
+        for k in range(70):
+            archive.writestr(f"junk_{k}.npy", b"x")
+    assert "members inflate to more than" in _refused(tmp_path, p1, edited, p3)

@@ -65,7 +65,7 @@ def test_a_list_file_names_the_roots(checkpoints, tmp_path):
     result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-roots-from", listing,
                      "--out", tmp_path / "o", "--quiet")
     assert result.exit_code == 0, result.output
-    assert [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")] == ["late", "lines"]
+    assert [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")] == ["late", "epoch_2/lines"]  # as written
     listing.write_text("=nothing\n")
     result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-roots-from", listing)
     assert result.exit_code == 2 and f"{listing}:1:" in result.output
@@ -94,3 +94,16 @@ def test_a_linked_root_is_named_by_the_link_not_its_target(checkpoints, tmp_path
                      "--pred-root", tmp_path / "last", "--out", tmp_path / "o", "--quiet")
     assert result.exit_code == 0, result.output  # both targets are called "lines": named so, they would clash
     assert [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")] == ["best", "last"]
+
+
+def test_globs_of_several_wildcards_and_folders_named_with_equals_signs(checkpoints, tmp_path):
+    for seed in (1, 2):
+        for lr in ("0.1", "0.01"):
+            (tmp_path / "runs" / f"seed{seed}" / f"lr={lr}").mkdir(parents=True)
+            (tmp_path / "runs" / f"seed{seed}" / f"lr={lr}" / "lines").symlink_to(
+                checkpoints / "ckpt" / "epoch_40" / "lines")
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-root",
+                     tmp_path / "runs" / "seed*" / "lr=*" / "lines", "--out", tmp_path / "o", "--quiet")
+    assert result.exit_code == 0, result.output
+    names = [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")]
+    assert sorted(names) == ["seed1/lr=0.01", "seed1/lr=0.1", "seed2/lr=0.01", "seed2/lr=0.1"]

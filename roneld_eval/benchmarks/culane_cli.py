@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from ..config import MAX_LINE_THICKNESS
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_written
 
 
 @click.command("culane")
@@ -57,8 +57,7 @@ def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, pres
                    out=out, workers=workers, progress=not quiet, announce=_announcer(quiet), preset=preset,
                    strict=strict, shard=shard)
     if score is None:  # a shard: its part is written
-        if not quiet:
-            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        shard_written(shard, out, quiet)
         return
     for warning in score.warnings:  # never silently, --quiet or not
         click.echo(warning, err=True)

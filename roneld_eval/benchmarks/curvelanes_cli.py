@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_written
 
 
 def _thresholds(context, parameter, value):
@@ -57,8 +57,7 @@ def score_curvelanes_command(labels, pred_roots, image_root, list_file, score_th
                    score_threshold=score_threshold, best_of=best_of, out=out, workers=workers, progress=not quiet,
                    announce=_announcer(quiet), strict=strict, shard=shard)
     if score is None:  # a shard: its part is written
-        if not quiet:
-            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        shard_written(shard, out, quiet)
         return
     for warning in score.warnings:
         click.echo(warning, err=True)

@@ -13,7 +13,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..errors import ConfigError, InputError
-from ..datasets.curvelanes import SUFFIX, every_labelled_image, image_size, lanes_path, read_frame, read_list
+from ..datasets._paths import under_root
+from ..datasets.curvelanes import (IMAGE_SUFFIXES, SUFFIX, every_labelled_image, image_size, lanes_path, read_frame,
+                                   read_list)
 
 from ..metrics.curvelanes_official import f_measure, has_zero_step, hits, iou_matrix
 from ..output import Staging
@@ -76,6 +78,10 @@ def _score_frames(args) -> np.ndarray:
 VEGA_THRESHOLDS = (0.56, 0.60, 0.63, 0.66, 0.70, 0.73, 0.76, 0.80, 0.83, 0.86, 0.90, 0.93)
 
 
+def _each_image(relpath: str) -> str:
+    return relpath  # every image is its own clip
+
+
 def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root: str | Path,
                      list_file: str | Path | None = None, score_threshold: float = 0.0,
                      best_of: Sequence[float] = (), out: str | Path | None = None, workers: int | None = None,
@@ -97,19 +103,22 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             raise ConfigError(f"no listed image has its labels under {labels} (first looked for: "
                               f"{lanes_path(labels, relpaths[0])})")
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=SUFFIX)
+        # the labels, and the images whose headers give each image's size
+        label_files = [path for relpath in relpaths for path in (
+            lanes_path(labels, relpath), *(under_root(images, relpath + suffix) for suffix in IMAGE_SUFFIXES))]
         if merged is not None:
-            sharding.check_merged(relpaths, trees)
+            sharding.check_merged(relpaths, trees, label_files, _each_image)
             counts = sharding.merged_array("sum_counts", (len(trees), len(thresholds), 3))
         else:
             roots = tuple(tree.root for tree in trees)
-            scored = sharding.share(relpaths, lambda relpath: relpath)  # every image is its own clip
+            scored = sharding.share(relpaths, _each_image)
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
             tasks = [(chunk, labels, images, roots, thresholds) for chunk in chunks]
             counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(),
                                        unit="image"), np.zeros((len(trees), len(thresholds), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
-                sharding.write_part(folder, relpaths, trees, {"sum_counts": counts})
+                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts})
                 return None
         rows = []
         for m, tree in enumerate(trees):

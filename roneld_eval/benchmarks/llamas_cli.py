@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from ..config import MAX_LINE_THICKNESS
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_written
 
 
 @click.command("llamas")
@@ -43,8 +43,7 @@ def score_llamas_command(labels, pred_roots, map_roots, iou, width, strict, work
     score = _guard(score_llamas, debug, labels, list(pred_roots), iou=iou, width=width, out=out, workers=workers,
                    progress=not quiet, announce=_announcer(quiet), strict=strict, maps=list(map_roots), shard=shard)
     if score is None:  # a shard: its part is written
-        if not quiet:
-            click.echo(f"shard {shard.strip()}: part written to {out}; `roneld-eval merge` the parts of all shards")
+        shard_written(shard, out, quiet)
         return
     for warning in score.warnings:
         click.echo(warning, err=True)

@@ -135,6 +135,10 @@ def _score_frames(args):
     return counts, dropped, refused, curves
 
 
+def _recording(key: str) -> str:
+    return key.split("/")[0]  # a recording is a clip
+
+
 def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str | None = None,
                  width: int = LANE_WIDTH, out: str | Path | None = None, workers: int | None = None,
                  progress: bool = False, announce: Callable[[str], None] | None = None, strict: bool = False,
@@ -159,7 +163,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
         map_trees = _map_trees(maps, keys, announce) if _given(maps) else []
         scored_at = tuple(thresholds.values) + MF1_THRESHOLDS
         if merged is not None:
-            sharding.check_merged(keys, [*trees, *map_trees])
+            sharding.check_merged(keys, [*trees, *map_trees], list(found.values()), _recording)
             counts = sharding.merged_array("sum_counts", (len(trees), len(scored_at), 3))
             dropped = int(sharding.merged_array("sum_dropped", (1,))[0])
             refused = sharding.merged_array("sum_refused", (len(trees),))
@@ -168,7 +172,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
         else:
             roots = tuple(tree.root for tree in trees)
             map_roots = tuple(tree.root for tree in map_trees)
-            scored = sharding.share(keys, lambda key: key.split("/")[0])  # a recording is a clip
+            scored = sharding.share(keys, _recording)
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
             tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width, map_roots)
                      for chunk in chunks]
@@ -183,7 +187,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             curves = np.array(per_frame, np.float64).reshape(len(per_frame), len(map_trees), len(CLASSES), 4)
             if sharding.shard is not None:
                 assert folder is not None
-                sharding.write_part(folder, keys, [*trees, *map_trees], {
+                sharding.write_part(folder, keys, [*trees, *map_trees], list(found.values()), scored, {
                     "sum_counts": counts, "sum_dropped": np.array([dropped], np.int64), "sum_refused": refused,
                     "cat_curves": curves})
                 return None

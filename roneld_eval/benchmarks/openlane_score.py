@@ -94,8 +94,9 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
             raise ConfigError(f"no listed image has its annotation under {labels} (first looked for: "
                               f"{json_path(labels, relpaths[0])})")
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
+        label_files = [json_path(labels, relpath) for relpath in relpaths]
         if merged is not None:
-            sharding.check_merged(relpaths, trees)
+            sharding.check_merged(relpaths, trees, label_files, posixpath.dirname)
             counts = sharding.merged_array("sum_counts", (len(trees), len(modes), len(thresholds.values), 3))
         else:
             roots = tuple(tree.root for tree in trees)
@@ -107,7 +108,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                          np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
-                sharding.write_part(folder, relpaths, trees, {"sum_counts": counts})
+                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts})
                 return None
         rows = []
         for m, tree in enumerate(trees):
