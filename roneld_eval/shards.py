@@ -357,11 +357,13 @@ class Sharding:
             if digest(self._share_of(keys, clip_of, shard)) != scored:
                 raise InputError(None, f"the part of shard {shard} did not score that shard's frames")
 
-    def merged_array(self, name: str, shape: tuple[int, ...], kind: str = "i") -> np.ndarray:
-        """A combined array of the parts, of this shape and kind."""
+    def merged_array(self, name: str, shape: tuple[int, ...], kind: str = "i",
+                     within: tuple[float, float] | None = None) -> np.ndarray:
+        """A combined array of the parts, of this shape and kind (and its values `within`)."""
         assert self.merged is not None
         array = self.merged.arrays.get(name)
-        if array is None or array.dtype.kind != kind or array.shape != shape:
+        if (array is None or array.dtype.kind != kind or array.shape != shape
+                or within is not None and array.size and not ((array >= within[0]) & (array <= within[1])).all()):
             raise InputError(None, f"the parts' {name} do not fit this `{self.command}` (its methods, thresholds "
                                    "or frames): not its shards")
         return array
@@ -410,7 +412,8 @@ def _combined(parts: Sequence[Part]) -> dict[str, np.ndarray]:
             first = parts[0].arrays[name]
             if array.dtype != first.dtype or array.dtype.kind not in "if" or array.ndim == 0:
                 raise InputError(where, f"its {name} is not an array of numbers like the other parts'")
-            if name.startswith("sum_") and (array.shape != first.shape or (array < 0).any()):
+            if name.startswith("sum_") and (array.shape != first.shape or (array < 0).any()
+                                            or (array >= 1 << 40).any()):
                 raise InputError(where, f"its {name} is not a count of the shape of the other parts'")
             if name.startswith("cat_") and (array.shape[1:] != first.shape[1:] or not np.isfinite(array).all()):
                 raise InputError(where, f"its {name} is not a row a frame of the shape of the other parts'")

@@ -321,3 +321,21 @@ def test_a_part_npz_of_many_members_is_refused_before_they_are_inflated(three_pa
         for k in range(70):
             archive.writestr(f"junk_{k}.npy", b"x")
     assert "members inflate to more than" in _refused(tmp_path, p1, edited, p3)
+
+
+@pytest.mark.parametrize("dataset, name, value, message", [
+    ("openlane", "sum_counts", 2**62, "is not a count"),  # two such parts would overflow
+    ("llamas", "cat_curves", -1e300, "do not fit"),  # an AP below 0
+])
+def test_lane_file_parts_with_impossible_numbers_are_refused(tmp_path, dataset, name, value, message):
+    args = _lane_file_command(tmp_path, dataset)
+    parts = []
+    for k in (1, 2):
+        result = _invoke(*args, "--quiet", "--out", tmp_path / f"p{k}", "--shard", f"{k}/2")
+        assert result.exit_code == 0, result.output
+        parts.append(tmp_path / f"p{k}")
+    with np.load(parts[1] / "part.npz") as loaded:
+        arrays = {key: loaded[key] for key in loaded.files}
+    arrays[name] = np.full_like(arrays[name], value)
+    np.savez(parts[1] / "part.npz", **arrays)
+    assert message in _refused(tmp_path, *parts)

@@ -168,7 +168,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             dropped = int(sharding.merged_array("sum_dropped", (1,))[0])
             refused = sharding.merged_array("sum_refused", (len(trees),))
             curves = sharding.merged_array("cat_curves", (len(keys) if map_trees else 0, len(map_trees),
-                                                          len(CLASSES), 4), kind="f")
+                                                          len(CLASSES), 4), kind="f", within=(0.0, 1.0))
         else:
             roots = tuple(tree.root for tree in trees)
             map_roots = tuple(tree.root for tree in map_trees)

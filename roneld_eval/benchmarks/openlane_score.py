@@ -83,7 +83,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
     check_lane_width(width)
     modes = tuple(modes)
-    if not modes or any(mode not in MODES for mode in modes):
+    if not modes or any(mode not in MODES for mode in modes) or len(set(modes)) != len(modes):
         raise ConfigError(f"matching must be among {', '.join(MODES)}")
     sharding = Sharding("score openlane", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, list_file=list_file, iou=iou, width=width, modes=modes, strict=strict))
