@@ -184,7 +184,7 @@ def check_together(parts: Sequence[Part]) -> list[Part]:
     first = parts[0]
     for part in parts[1:]:
         for key, what in (("command", "command"), ("version", "roneld-eval version"),
-                          ("ground_truth", "ground truth (its list of frames and categories)"),
+                          ("ground_truth", "ground truth (its frames, categories and label files)"),
                           ("settings", "settings (methods, thresholds, widths)")):
             if part.manifest[key] != first.manifest[key]:
                 raise InputError(part.path, f"this part's {what} differ from those of {first.path}: parts of "
@@ -226,10 +226,10 @@ def check_part_arrays(part: Part, n_methods: int, n_categories: int) -> dict[str
         raise InputError(where, "its lane counts are not one count a frame")
     if n_pred.dtype != np.int64 or n_pred.shape != (n_methods, n) or (n_pred < 0).any():
         raise InputError(where, "its predicted lane counts are not one count a frame and method")
-    if matched.dtype != np.float64 or matched.shape != (n_methods, int(n_gt.sum())):
-        raise InputError(where, "its matched IoUs are not one a labelled lane and method")
     if (n_gt >= 1 << 20).any() or (n_pred >= 1 << 20).any():
         raise InputError(where, "a frame with more than a million lanes")
+    if matched.dtype != np.float64 or matched.shape != (n_methods, int(n_gt.sum())):
+        raise InputError(where, "its matched IoUs are not one a labelled lane and method")
     with np.errstate(invalid="ignore"):
         if not (np.isnan(matched) | (matched == -np.inf) | ((matched >= 0) & (matched <= 1))).all():
             raise InputError(where, "a matched IoU outside [0, 1]")
