@@ -115,6 +115,13 @@ def _announcer(quiet: bool):
 debug_option = click.option("--debug", is_flag=True, help="Show the full traceback of an error.")
 
 
+def shard_option(clips: str):
+    """A score command's --shard; `clips` says what its whole units are ("segments", ...)."""
+    return click.option("--shard", metavar="I/N",
+                        help=f"Score only shard I of N (whole {clips}, in list order) and write its part to --out; "
+                             "`roneld-eval merge` turns the N parts into this command's files.")
+
+
 class _Command(click.Group):
     """The command group, with SIGTERM and SIGHUP ending any command as Ctrl-C does from the
     moment click starts, and Ctrl-C outside a command's own handling one line and 128 + n,

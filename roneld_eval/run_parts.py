@@ -129,12 +129,6 @@ class PartsCache:
         return [clip_id for clip_id in self.where if clip_id not in self.used]
 
 
-def merge_run_parts(parts: Sequence[Part], out: str | Path):
-    """The files one unsharded `run` writes, from its shards' parts (checked together)."""
-    from .api import merge_run
-
-    return merge_run(parts, out)
-
 
 def shards_wall_time(parts: Sequence[Part]) -> float:
     """The shards' wall times added up (what the merged run's summary.json reports as its own)."""

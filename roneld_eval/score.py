@@ -427,7 +427,8 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         # every shard finds the methods over the whole list: the same trees (and counts) in every part
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
         if share is not None:
-            clips = dataset.clips[slice(*_bounds(shard_range([len(c.frames) for c in dataset.clips], share)))]
+            cut = shard_range([len(c.frames) for c in dataset.clips], share)
+            clips = dataset.clips[cut.start:cut.stop]
             scored_relpaths = [frame.relpath for clip in clips for frame in clip.frames]
         else:
             scored_relpaths = relpaths
@@ -440,10 +441,6 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         if folder is not None:
             write_culane_score(folder, score, width)
     return score
-
-
-def _bounds(share: range) -> tuple[int, int]:
-    return share.start, share.stop
 
 
 def _score_culane_frames(relpaths: list[str], dataset, trees, width: int, workers: int | None, progress: bool,

@@ -249,7 +249,7 @@ def check_part_arrays(part: Part, n_methods: int, n_categories: int) -> dict[str
 
 # The commands whose parts merge, and where their merger lives (module:function): each takes the
 # checked parts in shard order and the output folder, and writes what one unsharded command writes.
-MERGERS = {"score culane": "roneld_eval.score:merge_culane_parts", "run": "roneld_eval.run_parts:merge_run_parts"}
+MERGERS = {"score culane": "roneld_eval.score:merge_culane_parts", "run": "roneld_eval.api:merge_run"}
 
 
 def merge(folders: Sequence[str | Path], out: str | Path):

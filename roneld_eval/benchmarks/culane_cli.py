@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from ..config import MAX_LINE_THICKNESS
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_written
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_option, shard_written
 
 
 @click.command("culane")
@@ -34,9 +34,7 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path),
               help="Folder for official.csv (every method, category and threshold), summary.csv and summary.md.")
-@click.option("--shard", metavar="I/N",
-              help="Score only shard I of N (whole clips, in list order) and write its part to --out; "
-                   "`roneld-eval merge` turns the N parts into this command's files.")
+@shard_option("clips")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
 def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, preset, width, strict, workers, out,

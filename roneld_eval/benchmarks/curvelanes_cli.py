@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_written
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_option, shard_written
 
 
 def _thresholds(context, parameter, value):
@@ -41,9 +41,7 @@ def _thresholds(context, parameter, value):
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv.")
-@click.option("--shard", metavar="I/N",
-              help="Score only shard I of N (whole images, in order) and write its part to --out; "
-                   "`roneld-eval merge` turns the N parts into this command's files.")
+@shard_option("images")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
 def score_curvelanes_command(labels, pred_roots, image_root, list_file, score_threshold, best_of, strict, workers,
