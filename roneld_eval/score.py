@@ -49,6 +49,7 @@ from .model import image_stem
 from .output import OutputFolder
 from .report.tables import Table
 from .output import Staging
+from .shards import Merged, Sharding
 from .signals import terminate_as_interrupt
 
 if TYPE_CHECKING:
@@ -678,13 +679,40 @@ def summary_markdown(score: CulaneScore, width: int) -> str:
     return "\n".join(lines)
 
 
-def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None = None) -> TusimpleScore:
+def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None = None, shard: str | None = None,
+                   merged: Merged | None = None) -> TusimpleScore | None:
     """Score TuSimple JSON-lines predictions against a label file, as evaluate/lane.py does,
-    with F1 under UFLD-v2's and CLRNet's formulas (f1_ufld, f1_clrnet)."""
-    from .metrics.tusimple_official import score_tusimple_files
+    with F1 under UFLD-v2's and CLRNet's formulas (f1_ufld, f1_clrnet). With `shard` ('I/N'),
+    only that share of the clips (in label-file order), written as a part to `out` (None is
+    returned); the part keeps each frame's scores and their lines, which a merge adds up in the
+    prediction file's order, as lane.py does."""
+    from .metrics.tusimple_official import frame_scores, mean_scores, read_labels
 
+    sharding = Sharding("score tusimple", shard, out, merged, dict(labels=labels, pred=pred),
+                        paths=("labels", "pred"))
     with _taking(out, "score tusimple") as folder:
-        score = score_tusimple_files(labels, pred)
+        gts = read_labels(labels)
+        keys, files = list(gts), [Path(labels), Path(pred)]
+        if merged is not None:
+            sharding.check_merged(keys, [], files, posixpath.dirname)
+            lines, _ = frame_scores(labels, pred, gts, checked_only=True)  # every line checked, none scored
+            taken = sharding.merged_array("cat_line", (len(gts),), "i")
+            # FP is below 0 where several labelled lanes match one prediction
+            values = sharding.merged_array("cat_scores", (len(gts), 3), "f", within=(-1e6, 1e6))
+            order = np.argsort(taken, kind="stable")
+            if not np.array_equal(taken[order], np.array(lines, np.int64)):
+                raise InputError(None, "the parts' frames are not the prediction file's lines: not its shards")
+            scores = [(float(a), float(p), float(n)) for a, p, n in values[order].tolist()]
+        else:
+            share = sharding.share(keys, posixpath.dirname)  # a clip: a folder of frames
+            lines, scores = frame_scores(labels, pred, gts, None if sharding.shard is None else frozenset(share))
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, keys, [], files, share,
+                                    {"cat_line": np.array(lines, np.int64),
+                                     "cat_scores": np.array(scores, np.float64).reshape(-1, 3)})
+                return None
+        score = mean_scores(scores, len(gts))
         if folder is not None:
             import pandas as pd
 

@@ -282,6 +282,8 @@ def merge(folders: Sequence[str | Path], out: str | Path):
 # find the frames and prediction trees the shards had.
 
 RERUN_COMMANDS = {
+    "score tusimple": "roneld_eval.score:score_tusimple",
+    "score vil100": "roneld_eval.benchmarks.vil100_score:score_vil100",
     "score openlane": "roneld_eval.benchmarks.openlane_score:score_openlane",
     "score curvelanes": "roneld_eval.benchmarks.curvelanes_score:score_curvelanes",
     "score llamas": "roneld_eval.benchmarks.llamas_score:score_llamas",
@@ -340,16 +342,18 @@ class Sharding:
         share = shard_range(sizes, shard)
         return list(keys)[sum(sizes[:share.start]):sum(sizes[:share.stop])]
 
-    def ground_truth(self, keys: Sequence[str], trees, labels: Sequence[Path]) -> str:
-        """The frames, the label files (path, size, modification time) and the prediction trees."""
+    def ground_truth(self, keys: Sequence[str], trees, labels: Sequence[Path], extra: Any = None) -> str:
+        """The frames, the label files (path, size, modification time), the prediction trees and
+        `extra` (what else the command read that the shards must agree on, JSON-able)."""
         return digest({"frames": list(keys), "labels": files_fingerprint(labels),
-                       "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees]})
+                       "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees],
+                       **({} if extra is None else {"extra": extra})})
 
-    def check_merged(self, keys: Sequence[str], trees, labels: Sequence[Path], clip_of) -> None:
+    def check_merged(self, keys: Sequence[str], trees, labels: Sequence[Path], clip_of, extra: Any = None) -> None:
         """In a merge: the frames, labels and prediction trees found now are those the shards
         found, and each part scored its shard's share of the frames."""
         assert self.merged is not None
-        if self.ground_truth(keys, trees, labels) != self.merged.ground_truth:
+        if self.ground_truth(keys, trees, labels, extra) != self.merged.ground_truth:
             raise InputError(None, f"the labels or prediction trees found now are not those the shards of this "
                                    f"`{self.command}` found (frames, files, sizes or modification times): merge where "
                                    "the shards ran, with the same files")
@@ -369,14 +373,14 @@ class Sharding:
         return array
 
     def write_part(self, folder, keys: Sequence[str], trees, labels: Sequence[Path], scored: Sequence[str],
-                   arrays: dict[str, np.ndarray]) -> None:
+                   arrays: dict[str, np.ndarray], extra: Any = None) -> None:
         from .output import Staging
         from .version import __version__
 
         assert self.shard is not None
         manifest = {"format": PART_FORMAT, "format_version": PART_VERSION, "command": self.command,
                     "version": __version__, "shard": [self.shard.index, self.shard.count],
-                    "settings": self.arguments, "ground_truth": self.ground_truth(keys, trees, labels),
+                    "settings": self.arguments, "ground_truth": self.ground_truth(keys, trees, labels, extra),
                     "share": digest(list(scored))}
         write_part(Staging(folder), manifest, arrays)
         folder.commit()

@@ -252,7 +252,7 @@ def test_a_foreign_out_is_refused_before_any_scoring(lanes, tmp_path, monkeypatc
         raise AssertionError("scored before the output folder was checked")
 
     monkeypatch.setattr(scoring, "_score_frames", no_work)
-    monkeypatch.setattr(tusimple_official, "score_tusimple_files", no_work)
+    monkeypatch.setattr(tusimple_official, "read_labels", no_work)
     out = tmp_path / "thesis"
     out.mkdir()
     (out / "thesis.tex").write_text("mine")

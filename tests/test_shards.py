@@ -339,3 +339,112 @@ def test_lane_file_parts_with_impossible_numbers_are_refused(tmp_path, dataset, 
     arrays[name] = np.full_like(arrays[name], value)
     np.savez(parts[1] / "part.npz", **arrays)
     assert message in _refused(tmp_path, *parts)
+
+
+def _shards_and_merge(tmp_path, args, count: int, tag: str = "") -> tuple:
+    """The unsharded command's folder and the merge of its `count` shards."""
+    whole = _invoke(*args, "--quiet", "--out", tmp_path / f"whole{tag}")
+    assert whole.exit_code == 0, whole.output
+    parts = []
+    for k in range(1, count + 1):
+        result = _invoke(*args, "--quiet", "--out", tmp_path / f"p{tag}{k}", "--shard", f"{k}/{count}")
+        assert result.exit_code == 0, result.output
+        parts.append(tmp_path / f"p{tag}{k}")
+    result = _invoke("merge", *parts, "--out", tmp_path / f"all{tag}")
+    assert result.exit_code == 0, result.output
+    return tmp_path / f"whole{tag}", tmp_path / f"all{tag}", parts
+
+
+def _same_files(whole, merged, wanted: set[str]) -> None:
+    names = {p.name for p in whole.iterdir() if not p.name.startswith(".")}
+    assert wanted <= names
+    for name in names:
+        assert (merged / name).read_bytes() == (whole / name).read_bytes(), name
+
+
+def _tusimple_set(tmp_path, clips: int = 5):
+    """Labels of `clips` clips and a detector's predictions of the labelled frames, in another
+    order than the labels' (a merge must add the frames up in the prediction file's order)."""
+    from roneld_eval.datasets.tusimple_synth import synth_tusimple
+
+    synth_tusimple(tmp_path / "t", clips=clips, seed=3, maps_format="lanes")
+    labels = tmp_path / "t" / "data" / "test_label.json"
+    lines = [line for line in (tmp_path / "t" / "maps" / "predictions.json").read_text().splitlines()
+             if '/20.jpg"' in line]
+    pred = tmp_path / "pred.json"
+    pred.write_text("".join(line + "\n" for line in lines[1::2] + lines[0::2]))
+    return labels, pred
+
+
+@pytest.mark.parametrize("count", [2, 3, 7])  # 7 shards of 5 clips: some are empty
+def test_merged_tusimple_shards_are_the_unsharded_file(tmp_path, count):
+    labels, pred = _tusimple_set(tmp_path)
+    whole, merged, _ = _shards_and_merge(tmp_path, ["score", "tusimple", "--labels", labels, "--pred", pred], count)
+    _same_files(whole, merged, {"official.csv"})
+
+
+def test_tusimple_shards_of_the_real_labels_merge_to_lane_pys_numbers(shared_data, tmp_path):
+    from test_score import real_tusimple_labels
+    from tusimple_perturbation import perturbed_predictions
+
+    labels = real_tusimple_labels(shared_data, tmp_path)
+    pred = tmp_path / "pred.json"  # 2,782 frames whose sums differ in the last bits with the order
+    lines = perturbed_predictions(labels.read_text().splitlines(keepends=True), 7, "harsh").splitlines(keepends=True)
+    pred.write_text("".join(lines[::-1]))
+    whole, merged, parts = _shards_and_merge(tmp_path, ["score", "tusimple", "--labels", labels, "--pred", pred], 4)
+    _same_files(whole, merged, {"official.csv"})
+    from roneld_eval.score import score_tusimple
+    from roneld_eval.shards import merge
+
+    _, score = merge(parts, tmp_path / "again")  # to the last bit, frames added in the prediction file's order
+    assert score == score_tusimple(labels, pred)
+
+
+def test_a_tusimple_merge_refuses_an_edited_prediction_file_or_a_part_of_other_frames(tmp_path):
+    labels, pred = _tusimple_set(tmp_path)
+    _, _, parts = _shards_and_merge(tmp_path, ["score", "tusimple", "--labels", labels, "--pred", pred], 2)
+    arrays = dict(np.load(parts[1] / "part.npz"))
+    arrays["cat_line"] = arrays["cat_line"] + 1  # the lines of other frames
+    np.savez(parts[1] / "part.npz", **arrays)
+    assert "not the prediction file's lines" in _refused(tmp_path, *parts)
+    pred.write_text(pred.read_text() + "\n")  # the predictions changed since the shards
+    assert "not those the shards of this `score tusimple` found" in _refused(tmp_path, *parts)
+
+
+def _vil100_set(tmp_path, pred_format: str):
+    """Three sequences of the golden sets, named for scenarios that pool across shards."""
+    from pathlib import Path
+
+    golden = Path(__file__).parent / "golden" / "vil100"
+    source, parts = (golden, ("anno_txt", "pred_txt")) if pred_format == "lines" else \
+        (golden / "acc_cases", ("anno_txt", "pred_png"))
+    sizes = json.loads((source / "test_sizes.json").read_text())
+    olds = sorted(sizes)
+    names = {f"{code}_{k}_frames": olds[k % len(olds)] for k, code in enumerate(("0", "13", "5", "3"))}
+    root = tmp_path / f"vil_{pred_format}"
+    for new, old in names.items():
+        for part in parts:
+            shutil.copytree(source / part / old, root / part / new)
+    (root / "sizes.json").write_text(json.dumps({new: sizes[old] for new, old in names.items()}))
+    return ["score", "vil100", "--labels", root / parts[0], "--pred-root", f"syn={root / parts[1]}",
+            "--pred-root", f"again={root / parts[1]}", "--pred-format", pred_format, "--sizes", root / "sizes.json",
+            "--iou", "0.3:0.8:0.1", "--workers", "1"]
+
+
+@pytest.mark.parametrize("pred_format, count", [("lines", 2), ("lines", 3), ("png", 3), ("lines", 6)])
+def test_merged_vil100_shards_are_the_unsharded_files(tmp_path, pred_format, count):
+    whole, merged, _ = _shards_and_merge(tmp_path, _vil100_set(tmp_path, pred_format), count)
+    _same_files(whole, merged, {"official.csv", "temporal.csv", "acc.csv", "summary.csv", "summary.md"})
+    if pred_format == "png":  # MMA-Net's Acc version, which needs every frame's numbers, is there
+        assert ",mmanet," in (whole / "acc.csv").read_text()
+
+
+def test_a_vil100_merge_refuses_other_sizes_than_its_shards_read(tmp_path):
+    args = _vil100_set(tmp_path, "lines")
+    _, _, parts = _shards_and_merge(tmp_path, args, 2)
+    sizes_file = args[args.index("--sizes") + 1]
+    sizes = json.loads(sizes_file.read_text())
+    for size in sizes.values():
+        size["width"] += 2
+    sizes_file.write_text(json.dumps(sizes))
+    assert "not those the shards of this `score vil100` found" in _refused(tmp_path, *parts)

@@ -224,6 +224,7 @@ class Vil100Tally:
         self.clips = {clip.clip_id: clip for clip in dataset.clips}
         self.center_ratio = center_ratio
         self.names: list[str] = []
+        self.relpaths: list[list[str]] = []  # per video, the frames scored
         self.scored: dict[str, list] = {"all": [], "ego": []}  # ScoredSequence per video
         self.current: dict[str, list[tuple[str, Vil100Official]]] = {method: [] for method in self.methods}
 
@@ -235,6 +236,7 @@ class Vil100Tally:
         frames = {frame.relpath: frame for frame in self.clips[clip_id].frames}
         scored = [frames[relpath] for relpath, _ in first]
         self.names.append(posixpath.dirname(scored[0].relpath) if scored else clip_id)
+        self.relpaths.append([frame.relpath for frame in scored])
         self.scored["all"].append(self._piece(scored, "all_lanes", lambda frame: frame.lanes))
         self.scored["ego"].append(self._piece(scored, "ego", lambda frame: _ego(frame, self.center_ratio)))
         self.current = {method: [] for method in self.methods}
@@ -261,13 +263,15 @@ class Vil100Tally:
         import pandas as pd
 
         from ..thresholds import parse_thresholds
-        from .vil100_score import COLUMNS, official_rows, temporal_rows
+        from .vil100_score import COLUMNS, official_rows, sequence_totals, temporal_rows
 
         thresholds = parse_thresholds(THRESHOLDS)
         joined = []
         for part in ("all", "ego"):
-            rows, _ = official_rows(self.names, self.methods, self.scored[part], thresholds)
-            temporal, _ = temporal_rows(self.names, self.methods, self.scored[part], thresholds)
+            totals = [sequence_totals(piece, relpaths, thresholds, True, ())
+                      for piece, relpaths in zip(self.scored[part], self.relpaths)]
+            rows, _ = official_rows(self.names, self.methods, totals, thresholds)
+            temporal, _ = temporal_rows(self.names, self.methods, totals, thresholds)
             by_key = {(r[0], r[1], r[2]): r[3:] for r in temporal}
             for row in rows:
                 if part == "ego" and row[1] != "all":

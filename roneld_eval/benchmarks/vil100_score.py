@@ -29,6 +29,7 @@ from ..metrics.vil100_official import PooledScore, SequenceScore, frame_miou, po
 from ..metrics.vil100_temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
 from ..output import Staging
 from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
+from ..shards import Merged, Sharding
 
 DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers report both
 LANE_WIDTH = 30  # evaluate_iou.py:22, for every sequence whatever its size
@@ -72,6 +73,62 @@ class ScoredSequence:
     # masks of another size than the sequence's (the script reads them at their own)
     truth_outside: list[str] = field(default_factory=list)
     odd_masks: list[list[str]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class SequenceTotals:
+    """A sequence reduced to what the tables need, as arrays a shard's part can hold: per method
+    and threshold TP, FP, FN and RVLD's stable, jump and missing pairs; per method its mIoU; per
+    frame and method each Acc version's accuracy, FP, FN and stopping lanes (means over frames in
+    frame order need the frames); per frame the flags behind the size warnings."""
+
+    counts: np.ndarray  # (methods, thresholds, 3) int64: tp, fp, fn
+    temporal: np.ndarray  # (methods, thresholds, 3) int64: stable, jump, missing (zeros without)
+    miou: np.ndarray  # (methods,) float64, the sequence's mIoU before printing
+    acc: np.ndarray  # (frames, methods, versions, 4) float64
+    truth_outside: np.ndarray  # (frames,) int64: 1 where the ground truth reaches past the size
+    odd_masks: np.ndarray  # (frames, methods) int64: 1 where a mask is of another size
+
+    def sequence_score(self, name: str, m: int, t: int) -> SequenceScore:
+        tp, fp, fn = (int(v) for v in self.counts[m, t])
+        return SequenceScore(name, tp, fp, fn, float(self.miou[m]))
+
+    def temporal_counts(self, m: int, t: int) -> TemporalCounts:
+        return TemporalCounts(*(int(v) for v in self.temporal[m, t]))
+
+    def acc_frames(self, m: int, v: int) -> list[AccFrame]:
+        return [AccFrame(float(a), float(p), float(n), int(k)) for a, p, n, k in self.acc[:, m, v].tolist()]
+
+
+def versions_of(pred_format: str) -> tuple[str, ...]:
+    """The Acc versions a prediction format gives: MMA-Net's reads instance masks only."""
+    return ACC_VERSIONS if pred_format == "png" else ACC_VERSIONS[1:]
+
+
+def sequence_totals(piece: ScoredSequence, relpaths: Sequence[str], thresholds: Thresholds, temporal: bool,
+                    versions: Sequence[str]) -> SequenceTotals:
+    n_methods, n_frames = len(piece.frames), len(relpaths)
+    counts = np.zeros((n_methods, len(thresholds.values), 3), np.int64)
+    temporal_counts = np.zeros_like(counts)
+    miou = np.zeros(n_methods)
+    acc = np.zeros((n_frames, n_methods, len(versions), 4))
+    for m, frames in enumerate(piece.frames):
+        for t, value in enumerate(thresholds.values):
+            score = sequence_score("", [r for r, _ in frames], [v for _, v in frames], value)
+            counts[m, t] = score.tp, score.fp, score.fn
+            miou[m] = score.miou
+            if temporal:
+                found = sequence_counts(piece.links, piece.assigned[m], value)
+                temporal_counts[m, t] = found.stable, found.jump, found.missing
+        for v, version in enumerate(versions):
+            for k, pair in enumerate(piece.acc[m]):
+                frame = pair[ACC_VERSIONS[::-1].index(version)]  # (RVLD's, MMA-Net's)
+                assert frame is not None
+                acc[k, m, v] = frame.accuracy, frame.fp, frame.fn, frame.stopping
+    outside = set(piece.truth_outside)
+    odd = [set(names) for names in piece.odd_masks] or [set()] * n_methods
+    return SequenceTotals(counts, temporal_counts, miou, acc, np.array([r in outside for r in relpaths], np.int64),
+                          np.array([[r in names for names in odd] for r in relpaths], np.int64).reshape(n_frames, -1))
 
 
 PRED_FORMATS = ("lines", "png")  # .lines.txt, or MMA-Net's instance masks (datasets.vil100_png)
@@ -126,19 +183,26 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                  sizes_file: str | Path | None = None, iou: str | None = None, width: int = LANE_WIDTH,
                  out: str | Path | None = None, workers: int | None = None, progress: bool = False,
                  announce: Callable[[str], None] | None = None, strict: bool = False,
-                 temporal: bool = True, pred_format: str = "lines") -> Vil100Score:
+                 temporal: bool = True, pred_format: str = "lines", shard: str | None = None,
+                 merged: Merged | None = None) -> Vil100Score | None:
     """Score `.lines.txt` predictions mirroring `labels` (`<sequence>/<frame>.lines.txt`).
 
     Sizes come from exactly one of `image_root`, `json_root` and `sizes_file`. `iou`: one
     threshold, a comma list or a grid (default 0.5 and 0.8). `temporal`: also RVLD's Rs, Rj and
     Rm with each threshold as tau. `pred_format`: "lines" (`.lines.txt`) or "png" (MMA-Net's
     instance masks `<sequence>/<frame>.png`, converted as its generate_iou_pred_txt.py converts
-    them). `out` gets official.csv, temporal.csv, summary.csv and summary.md.
+    them). `out` gets official.csv, temporal.csv, summary.csv and summary.md. With `shard`
+    ('I/N'), only that share of the sequences, written as a part to `out` (None is returned).
     """
     if pred_format not in PRED_FORMATS:
         raise ConfigError(f"prediction format must be one of {', '.join(PRED_FORMATS)}, got {pred_format!r}")
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
     check_lane_width(width)
+    sharding = Sharding("score vil100", shard, out, merged, dict(
+        labels=labels, pred_root=pred_root, list_file=list_file, image_root=image_root, json_root=json_root,
+        sizes_file=sizes_file, iou=iou, width=width, strict=strict, temporal=temporal, pred_format=pred_format),
+        paths=("labels", "list_file", "image_root", "json_root", "sizes_file"))
+    versions = versions_of(pred_format)
     with _taking(out, "score vil100") as folder:
         dataset = read_vil100(labels, list_file, image_root, json_root, sizes_file)
         relpaths = [relpath for frames in dataset.sequences.values() for relpath in frames]
@@ -152,17 +216,33 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             # Every VIL-100 test frame has one (40 are empty): a missing one is a wrong list or folder.
             warnings.insert(0, f"warning: {said}; they count as frames without lanes, as MMA-Net's evaluator "
                                "reads them")
-        roots = tuple(tree.root for tree in trees)
-        tasks = [(frames, dataset.labels, roots, *dataset.sizes[name], width, temporal, pred_format)
-                 for name, frames in dataset.sequences.items()]
-        scored = scored_pieces(_score_sequence, tasks, workers, progress, announce)
-        warnings += _size_warnings(dataset, scored, trees)
+        label_files = [labels_path(dataset.labels, relpath) for relpath in relpaths]
+        sizes = {name: list(size) for name, size in dataset.sizes.items()}  # the shards must have read them too
+        if merged is not None:
+            sharding.check_merged(relpaths, trees, label_files, _sequence_of, sizes)
+            totals = _merged_totals(sharding, dataset, len(trees), len(thresholds.values), len(versions))
+        else:
+            share = set(sharding.share(relpaths, _sequence_of))
+            roots = tuple(tree.root for tree in trees)
+            names = [name for name, frames in dataset.sequences.items() if frames[0] in share]
+            tasks = [(dataset.sequences[name], dataset.labels, roots, *dataset.sizes[name], width, temporal,
+                      pred_format) for name in names]
+            scored = scored_pieces(_score_sequence, tasks, workers, progress, announce)
+            totals = [sequence_totals(piece, dataset.sequences[name], thresholds, temporal, versions)
+                      for name, piece in zip(names, scored)]
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, relpaths, trees, label_files,
+                                    [r for name in names for r in dataset.sequences[name]],
+                                    _part_arrays(totals, len(trees), len(thresholds.values), len(versions)), sizes)
+                return None
+        warnings += _size_warnings(dataset, totals, trees)
         methods = tuple(tree.method for tree in trees)
         names = list(dataset.sequences)
-        rows, overall = official_rows(names, methods, scored, thresholds)
-        temporal_table, temporal_overall = (temporal_rows(names, methods, scored, thresholds) if temporal
+        rows, overall = official_rows(names, methods, totals, thresholds)
+        temporal_table, temporal_overall = (temporal_rows(names, methods, totals, thresholds) if temporal
                                             else ([], {}))
-        acc_table, acc_overall = acc_rows(names, methods, scored)
+        acc_table, acc_overall = acc_rows(names, methods, totals, versions)
         score = Vil100Score(PlainTable(COLUMNS, tuple(rows)),
                             PlainTable(TEMPORAL_COLUMNS, tuple(temporal_table)) if temporal else None,
                             thresholds, methods, len(relpaths), len(dataset.sequences), overall, temporal_overall,
@@ -180,32 +260,77 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
     return score
 
 
-def _size_warnings(dataset, scored: Sequence[ScoredSequence], trees) -> list[str]:
+def _sequence_of(relpath: str) -> str:
+    return relpath.split("/")[0]
+
+
+# A part's arrays: per sequence (counts, temporal, miou) and per frame (acc, flags), in list order.
+_PER_SEQUENCE = ("counts", "temporal", "miou")
+_PER_FRAME = ("acc", "truth_outside", "odd_masks")
+
+
+def _part_arrays(totals: Sequence[SequenceTotals], n_methods: int, n_thresholds: int,
+                 n_versions: int) -> dict[str, np.ndarray]:
+    shapes = {"counts": (n_methods, n_thresholds, 3), "temporal": (n_methods, n_thresholds, 3),
+              "miou": (n_methods,), "acc": (n_methods, n_versions, 4), "truth_outside": (), "odd_masks": (n_methods,)}
+    out = {}
+    for name in (*_PER_SEQUENCE, *_PER_FRAME):
+        arrays = [getattr(piece, name) for piece in totals]
+        dtype = np.float64 if name in ("miou", "acc") else np.int64
+        if name in _PER_SEQUENCE:
+            out[f"cat_{name}"] = np.array(arrays, dtype).reshape(-1, *shapes[name])
+        else:
+            out[f"cat_{name}"] = (np.concatenate(arrays).astype(dtype) if arrays
+                                  else np.zeros((0, *shapes[name]), dtype))
+    return out
+
+
+def _merged_totals(sharding: Sharding, dataset, n_methods: int, n_thresholds: int,
+                   n_versions: int) -> list[SequenceTotals]:
+    """The parts' arrays cut back into sequences, every shape and range checked."""
+    n_sequences, n_frames = len(dataset.sequences), dataset.n_frames
+    counts = sharding.merged_array("cat_counts", (n_sequences, n_methods, n_thresholds, 3), "i", within=(0, 1 << 40))
+    temporal = sharding.merged_array("cat_temporal", (n_sequences, n_methods, n_thresholds, 3), "i",
+                                     within=(0, 1 << 40))
+    miou = sharding.merged_array("cat_miou", (n_sequences, n_methods), "f", within=(0.0, 1.0))
+    acc = sharding.merged_array("cat_acc", (n_frames, n_methods, n_versions, 4), "f", within=(-1e6, 1e6))  # FP < 0
+    outside = sharding.merged_array("cat_truth_outside", (n_frames,), "i", within=(0, 1))
+    odd = sharding.merged_array("cat_odd_masks", (n_frames, n_methods), "i", within=(0, 1))
+    totals, first = [], 0
+    for s, frames in enumerate(dataset.sequences.values()):
+        end = first + len(frames)
+        totals.append(SequenceTotals(counts[s], temporal[s], miou[s], acc[first:end], outside[first:end],
+                                     odd[first:end]))
+        first = end
+    return totals
+
+
+def _size_warnings(dataset, totals: Sequence[SequenceTotals], trees) -> list[str]:
     """Said when a sequence's size looks wrong: the ground truth of half its frames or more reaching
     past it (a lane may leave the image now and then), or masks of another size."""
     out = []
-    for (name, size), piece in zip(dataset.sizes.items(), scored):
-        if 2 * len(piece.truth_outside) >= len(piece.frames[0] if piece.frames else []) > 0:
-            out.append(f"warning: {name}: the ground truth of {len(piece.truth_outside)} frames reaches beyond its "
-                       f"{size[0]}x{size[1]} size (first: {piece.truth_outside[0]}): is the size right?")
-        for tree, odd in zip(trees, piece.odd_masks):
+    for (name, size), piece in zip(dataset.sizes.items(), totals):
+        frames = dataset.sequences[name]
+        outside = [relpath for relpath, flag in zip(frames, piece.truth_outside) if flag]
+        if 2 * len(outside) >= len(frames) > 0:
+            out.append(f"warning: {name}: the ground truth of {len(outside)} frames reaches beyond its "
+                       f"{size[0]}x{size[1]} size (first: {outside[0]}): is the size right?")
+        for m, tree in enumerate(trees):
+            odd = [relpath for relpath, flag in zip(frames, piece.odd_masks[:, m]) if flag]
             if odd:
                 out.append(f"warning: {tree.method}: {len(odd)} masks of {name} are not {size[0]}x{size[1]} (first: "
                            f"{odd[0]}); each is read at its own size, as generate_iou_pred_txt.py reads it")
     return out
 
 
-def official_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence[ScoredSequence],
+def official_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence[SequenceTotals],
                   thresholds: Thresholds):
     """official.csv's rows (per sequence, per scenario, then 'all', at each threshold) and the
     pooled 'all' score per (method, threshold label)."""
     rows, overall = [], {}
     for m, method in enumerate(methods):
-        for value, label in zip(thresholds.values, thresholds.labels):
-            per_sequence = []
-            for name, piece in zip(names, scored):
-                frames = piece.frames[m]
-                per_sequence.append(sequence_score(name, [r for r, _ in frames], [v for _, v in frames], value))
+        for t, label in enumerate(thresholds.labels):
+            per_sequence = [piece.sequence_score(name, m, t) for name, piece in zip(names, totals)]
             for score in per_sequence:
                 rows.append(_row(method, score.sequence, label, score.tp, score.fp, score.fn, score.miou, 1))
             for code, scenario in enumerate(SCENARIOS):
@@ -220,14 +345,13 @@ def official_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence
     return rows, overall
 
 
-def temporal_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence[ScoredSequence],
+def temporal_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence[SequenceTotals],
                   thresholds: Thresholds):
     """temporal.csv's rows: per sequence, per scenario (its sequences' pairs pooled) and all."""
     rows, overall = [], {}
     for m, method in enumerate(methods):
-        for value, label in zip(thresholds.values, thresholds.labels):
-            per_sequence = {name: sequence_counts(piece.links, piece.assigned[m], value)
-                            for name, piece in zip(names, scored)}
+        for t, label in enumerate(thresholds.labels):
+            per_sequence = {name: piece.temporal_counts(m, t) for name, piece in zip(names, totals)}
             rows += [_temporal_row(method, name, label, counts) for name, counts in per_sequence.items()]
             for code, scenario in enumerate(SCENARIOS):
                 members = [counts for name, counts in per_sequence.items() if code in scenarios_of(name)]
@@ -240,17 +364,15 @@ def temporal_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence
     return rows, overall
 
 
-def acc_rows(names: Sequence[str], methods: Sequence[str], scored: Sequence[ScoredSequence]):
+def acc_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence[SequenceTotals],
+             versions: Sequence[str]):
     """acc.csv's rows (per sequence, per scenario, all; RVLD's version, and MMA-Net's where the
     predictions are instance masks) and the 'all' means per (method, version). A group's figures
     are means over its frames, as the scripts divide their sums by the number of frames."""
     rows, overall = [], {}
     for m, method in enumerate(methods):
-        for v, version in enumerate(ACC_VERSIONS):
-            found = {name: [frame[1 - v] for frame in piece.acc[m]] for name, piece in zip(names, scored)}
-            if any(frame is None for frames in found.values() for frame in frames):
-                continue  # MMA-Net's version reads instance masks: not lane files
-            per_sequence = {name: [frame for frame in frames if frame is not None] for name, frames in found.items()}
+        for v, version in enumerate(versions):
+            per_sequence = {name: piece.acc_frames(m, v) for name, piece in zip(names, totals)}
             groups = [(name, frames) for name, frames in per_sequence.items()]
             for code, scenario in enumerate(SCENARIOS):
                 members = [frame for name, frames in per_sequence.items() if code in scenarios_of(name)

@@ -167,18 +167,29 @@ def _other_frame_hint(key: str, labelled: Mapping[str, object]) -> str:
             f"reads it? `grep '/{frame.rsplit('/', 1)[1]}\"' FILE` keeps the scored ones)")
 
 
-def score_tusimple_files(labels: str | Path, predictions: str | Path) -> TusimpleScore:
-    """Score a TuSimple prediction file against a label file, as `lane.py pred label`."""
-    labels, predictions = Path(labels), Path(predictions)
-    gts = {}
+def read_labels(labels: str | Path) -> dict[str, dict]:
+    """The label file's records by frame, in file order (a frame labelled twice refused)."""
+    labels = Path(labels)
+    gts: dict[str, dict] = {}
     for number, record in read_tusimple_records(labels):
         key = normalise_relpath(record["raw_file"], labels, number)
         if key in gts:
             raise InputError(labels, f"{key} is labelled twice", line=number)
         check_h_samples(record["h_samples"], labels, number, IMAGE_HEIGHT)
         gts[key] = record
+    return gts
+
+
+def frame_scores(labels: str | Path, predictions: str | Path, gts: Mapping[str, dict],
+                 scored: frozenset[str] | None = None,
+                 checked_only: bool = False) -> tuple[list[int], list[tuple[float, float, float]]]:
+    """Each prediction line's number and (accuracy, fp, fn), in file order: of every labelled
+    frame, or of the frames in `scored` alone (a shard's share); with `checked_only`, the line
+    numbers alone. Every line is checked whatever the share: a prediction of an unlabelled or
+    twice-predicted frame is refused."""
+    labels, predictions = Path(labels), Path(predictions)
     seen: dict[str, int] = {}
-    scores = []
+    lines, scores = [], []
     for number, record in read_tusimple_records(predictions, predictions=True):
         key = normalise_relpath(record["raw_file"], predictions, number)
         if key not in gts:
@@ -187,6 +198,11 @@ def score_tusimple_files(labels: str | Path, predictions: str | Path) -> Tusimpl
         if key in seen:
             raise InputError(predictions, f"{key} is predicted twice (first on line {seen[key]})", line=number)
         seen[key] = number
+        if scored is not None and key not in scored:
+            continue
+        lines.append(number)
+        if checked_only:
+            continue
         gt = gts[key]
         try:
             scores.append(bench_frame(record["lanes"], gt["lanes"], gt["h_samples"], record["run_time"]))
@@ -194,9 +210,17 @@ def score_tusimple_files(labels: str | Path, predictions: str | Path) -> Tusimpl
             raise InputError(
                 predictions, f"each lane needs one value per h_samples row ({len(gt['h_samples'])})", line=number
             ) from None
-    missing = [key for key in gts if key not in seen]
+    wanted = gts if scored is None else [key for key in gts if key in scored]
+    missing = [key for key in wanted if key not in seen]
     if missing:
         raise InputError(
-            predictions, f"no prediction for {len(missing)} of {len(gts)} labelled frames (first: {missing[0]})"
+            predictions, f"no prediction for {len(missing)} of {len(wanted)} labelled frames (first: {missing[0]})"
         )
+    return lines, scores
+
+
+def score_tusimple_files(labels: str | Path, predictions: str | Path) -> TusimpleScore:
+    """Score a TuSimple prediction file against a label file, as `lane.py pred label`."""
+    gts = read_labels(labels)
+    _, scores = frame_scores(labels, predictions, gts)
     return mean_scores(scores, len(gts))
