@@ -105,7 +105,7 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
         if resume or overlays:
             raise ConfigError("--shard writes a part for `roneld-eval merge`, not a report: without --resume or "
                               "--overlays (draw pictures of the merged run with `roneld-eval show`)")
-        _run_shard(config, parse_shard(shard), out, progress, say)
+        _run_shard(config, requested, parse_shard(shard), out, progress, say)
         return None
     with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
         staging = Staging(folder)
@@ -150,15 +150,18 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
     return result
 
 
-def _run_shard(config: EvalConfig, shard, out: str | Path, progress: bool, say: Callable[[str], None]) -> None:
-    """One shard of a run: its clips evaluated and kept as a part (roneld_eval.run_parts)."""
+def _run_shard(config: EvalConfig, requested: EvalConfig, shard, out: str | Path, progress: bool,
+               say: Callable[[str], None]) -> None:
+    """One shard of a run: its clips evaluated and kept as a part (roneld_eval.run_parts), with
+    the configuration as requested (the bundled fixture by name), as a run's config.toml."""
     from .run_parts import PartWriter, write_run_part
 
     with terminate_as_interrupt(), OutputFolder(out, "run") as folder:
         staging = Staging(folder)
         writer = PartWriter(staging)
         result = evaluate(config, progress=progress, cache=writer, announce=say, shard=shard)
-        write_run_part(staging, config, shard, result.dataset, writer, __version__, result.wall_time_s)
+        write_run_part(staging, config, requested, shard, result.dataset, writer, __version__,
+                       result.wall_time_s)
         folder.commit()
 
 
@@ -167,7 +170,8 @@ def merge_run(parts, out: str | Path) -> RunResult:
     results come from the parts (run_parts.PartsCache), none is computed again."""
     from .run_parts import CONFIG, PartsCache, ground_truth, shards_wall_time
 
-    config = EvalConfig.from_toml(parts[0].path / CONFIG)
+    requested = EvalConfig.from_toml(parts[0].path / CONFIG)
+    config = with_fixture(requested)
     if config.plugins:  # a part is untrusted: merging it must not import code it names
         raise InputError(parts[0].path / CONFIG, "names plug-in methods; merge imports no code a part names: "
                                                  "run the whole evaluation unsharded, or merge without the plug-ins")
@@ -192,6 +196,9 @@ def merge_run(parts, out: str | Path) -> RunResult:
                              _nothing_scored(result.counts["clips"], result.skipped))
         if writer is not None:
             writer.close()
+        if config is not requested:  # the bundled fixture, recorded by name as the run records it
+            result.config = requested
+            result.fixture = config.dataset.name
         result.wall_time_s = shards_wall_time(parts)
         result.notes.append(f"merged from {len(parts)} shards: the wall time is the sum of theirs, the timings "
                             "each shard's own")

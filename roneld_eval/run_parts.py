@@ -54,16 +54,17 @@ class PartWriter:
         self.clip_ids.append(clip.clip_id)
 
 
-def write_run_part(staging, config: EvalConfig, shard: Shard, dataset: Dataset, writer: PartWriter,
-                   version: str, wall_time_s: float) -> None:
-    """part.json (beside the clips the writer wrote) and the configuration it was run with."""
+def write_run_part(staging, config: EvalConfig, requested: EvalConfig, shard: Shard, dataset: Dataset,
+                   writer: PartWriter, version: str, wall_time_s: float) -> None:
+    """part.json (beside the clips the writer wrote) and the configuration as requested: `config`
+    is the one it ran, the bundled fixture's paths filled in where `requested` names no data."""
     manifest = {
         "format": PART_FORMAT, "format_version": PART_VERSION, "command": "run", "version": version,
         "shard": [shard.index, shard.count], "settings": config_key(config, version),
         "ground_truth": ground_truth(dataset), "clips": writer.clip_ids, "wall_time_s": round(wall_time_s, 3),
     }
     staging.write_text(MANIFEST_NAME, json.dumps(manifest, indent=1, ensure_ascii=False) + "\n")
-    staging.write_text(CONFIG, config.to_toml())
+    staging.write_text(CONFIG, requested.to_toml())
 
 
 class PartsCache:

@@ -184,6 +184,20 @@ def test_a_merged_run_is_the_unsharded_run_but_for_its_clock(tmp_path, dataset):
     assert before == after
 
 
+def test_a_merged_run_of_the_bundled_fixture_names_it_as_the_run_does(tmp_path):
+    def fixture_run(out, *extra):
+        result = _invoke("run", "--workers", "1", "--quiet", "--out", out, *extra)
+        assert result.exit_code == 0, result.output
+        return out
+
+    whole = _files(fixture_run(tmp_path / "whole"))
+    parts = [fixture_run(tmp_path / f"p{k}", "--shard", f"{k}/2") for k in (1, 2)]
+    assert _invoke("merge", *parts, "--out", tmp_path / "merged").exit_code == 0
+    merged = _files(tmp_path / "merged")
+    assert "bundled CULane fixture" in merged["accuracy.md"].decode()  # not this machine's paths to it
+    assert [name for name in sorted(whole) if name not in TIMINGS and whole[name] != merged[name]] == []
+
+
 def test_a_merge_refuses_a_clip_whose_maps_changed_since_its_shard(culane_set, tmp_path):
     result = _invoke("synth", "--dataset", "culane", "--out", tmp_path / "set", "--clips", "2", "--frames", "3")
     assert result.exit_code == 0, result.output
