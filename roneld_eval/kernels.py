@@ -145,9 +145,9 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
     groups = _groups(needed)
     units = missing_units(groups)
     if units:
-        from .workers import default_workers
+        from .workers import worker_count
 
-        parallel = default_workers() if processes is None else max(1, processes)
+        parallel = worker_count(None if processes is None else max(1, processes))
         if cache_dir() is None:
             parallel = 1  # without a cache other processes cannot hand their work over
         bins = _schedule(units, parallel)

@@ -20,7 +20,7 @@ import io
 import math
 import os
 import posixpath
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -38,12 +38,12 @@ from .errors import ConfigError, InputError
 from .lanes_io import check_coordinates, read_culane_lines
 from .metrics.culane_official import (
     OFFICIAL_COLUMNS,
+    GroupCounts,
     ScoredFrames,
     evaluate_culane_frame,
     highlight_name,
     official_masks,
     summary_records,
-    sweep_records,
 )
 from .model import image_stem
 from .output import OutputFolder
@@ -366,13 +366,15 @@ def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | Non
 
     if kernel_groups:
         kernels.prepare(announce=announce, needed=kernel_groups)
+    from .workers import worker_count
+
     pieces = []
     with tqdm(total=sum(len(task[0]) for task in tasks), unit=unit, desc="scoring", disable=not progress) as bar:
-        if len(tasks) > 1 and workers != 1:
-            from .workers import default_workers, process_pool, stopping
+        if len(tasks) > 1 and worker_count(workers) != 1:
+            from .workers import process_pool, stopping
 
             died = "a worker process died (killed, or out of memory) while scoring: no result was written"
-            with stopping(process_pool(min(workers or default_workers(), len(tasks))), lambda: died) as pool:
+            with stopping(process_pool(min(worker_count(workers), len(tasks))), lambda: died) as pool:
                 for task, piece in zip(tasks, pool.map(function, tasks)):
                     pieces.append(piece)
                     bar.update(len(task[0]))
@@ -433,28 +435,29 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
             scored_relpaths = [frame.relpath for clip in clips for frame in clip.frames]
         else:
             scored_relpaths = relpaths
-        scored = _score_culane_frames(scored_relpaths, dataset, trees, width, workers, progress, announce)
+        pieces = _culane_pieces(scored_relpaths, dataset, trees, width, workers, progress, announce)
         if share is not None:
             assert folder is not None
-            _write_culane_part(folder, share, scored, dataset, relpaths, trees, warnings, iou, preset, width, strict)
+            _write_culane_part(folder, share, _joined(pieces, len(trees)), dataset, relpaths, trees, warnings, iou,
+                               preset, width, strict)
             return None
-        score = _culane_score(scored, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings)
+        score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings)
         if folder is not None:
             write_culane_score(folder, score, width)
     return score
 
 
-def _score_culane_frames(relpaths: list[str], dataset, trees, width: int, workers: int | None, progress: bool,
-                         announce) -> ScoredFrames:
-    """Every method's frame results on these frames, in their order."""
+def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int | None, progress: bool,
+                   announce) -> Iterator[ScoredFrames]:
+    """Every method's frame results on these frames, chunk after chunk, in their order."""
     image_width, image_height = dataset.image_width, dataset.image_height
     roots = tuple(tree.root for tree in trees)
     chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
     tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]
     if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
-        from .workers import default_workers
+        from .workers import worker_count
 
-        workers = min(workers or default_workers(), len(chunks))
+        workers = min(worker_count(workers), len(chunks))
     else:
         workers = 1
     from . import kernels
@@ -464,33 +467,42 @@ def _score_culane_frames(relpaths: list[str], dataset, trees, width: int, worker
         kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
     from tqdm import tqdm
 
-    pieces = []
     with tqdm(total=len(relpaths), unit="frame", desc="scoring", disable=not progress) as bar:
         if workers > 1:
             from .workers import process_pool, stopping
 
             died = "a worker process died (killed, or out of memory) while scoring: no result was written"
             with stopping(process_pool(workers), lambda: died) as pool:
-                for piece in pool.map(_score_frames, tasks):
-                    pieces.append(piece)
-                    bar.update(len(piece[0]))
+                for chunk, piece in zip(chunks, pool.map(_score_frames, tasks)):
+                    bar.update(len(chunk))
+                    yield ScoredFrames(tuple(chunk), *piece)
         else:
-            for piece in map(_score_frames, tasks):
-                pieces.append(piece)
-                bar.update(len(piece[0]))
-    n_methods = len(trees)
+            for chunk, task in zip(chunks, tasks):
+                piece = _score_frames(task)
+                bar.update(len(chunk))
+                yield ScoredFrames(tuple(chunk), *piece)
+
+
+def _joined(pieces: Iterable[ScoredFrames], n_methods: int) -> ScoredFrames:
+    """The pieces as one, frames in order (a shard keeps every frame's numbers in its part)."""
+    pieces = list(pieces)
     return ScoredFrames(
-        tuple(relpaths),
-        np.concatenate([p[0] for p in pieces]) if pieces else np.zeros(0, np.int64),
-        np.concatenate([p[1] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0), np.int64),
-        np.concatenate([p[2] for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
+        tuple(frame for piece in pieces for frame in piece.frames),
+        np.concatenate([p.n_gt for p in pieces]) if pieces else np.zeros(0, np.int64),
+        np.concatenate([p.n_pred for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0), np.int64),
+        np.concatenate([p.matched_iou for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
     )
 
 
-def _culane_score(scored: ScoredFrames, categories, thresholds: Thresholds, highlighted, trees, n_frames: int,
-                  warnings) -> CulaneScore:
+def _culane_score(pieces: Iterable[ScoredFrames], categories, thresholds: Thresholds, highlighted, trees,
+                  n_frames: int, warnings) -> CulaneScore:
+    """The tables from the frames' results, each piece added up and let go as it comes: every
+    method's numbers in memory at once are counts, not per-frame IoUs."""
     methods = [tree.method for tree in trees]
-    official = sweep_records(scored, methods, categories, thresholds.values, thresholds.labels)
+    counts = GroupCounts.zeros(len(methods), len(categories) + 1, thresholds.values)
+    for piece in pieces:
+        counts.add(piece, categories)
+    official = counts.records(methods, list(categories), thresholds.labels)
     summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
     return CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
                        PlainTable(tuple(summary_columns), tuple(summary)),
@@ -621,7 +633,7 @@ def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
                                          "frames of the list (and its categories) in order: not one command's shards")
     scored = ScoredFrames(tuple(frames), np.concatenate(n_gt), np.concatenate(n_pred, axis=1),
                           np.concatenate(matched, axis=1))
-    score = _culane_score(scored, categories, thresholds, highlighted, trees, settings["frames"], first["warnings"])
+    score = _culane_score([scored], categories, thresholds, highlighted, trees, settings["frames"], first["warnings"])
     with _taking(out, "score culane") as folder:
         assert folder is not None
         write_culane_score(folder, score, settings["width"])

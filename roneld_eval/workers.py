@@ -243,6 +243,16 @@ def alongside(task: Callable[[], object]) -> Iterator[None]:
         task()
 
 
+def worker_count(asked: int | None) -> int:
+    """Processes to work in: `asked`, or all usable cores when None; 1 (this process alone) in a
+    daemonic process, which may start none (a Dask worker running a shard is one)."""
+    import multiprocessing
+
+    if multiprocessing.current_process().daemon:
+        return 1
+    return asked or default_workers()
+
+
 def default_workers() -> int:
     """All cores this process may use."""
     try:

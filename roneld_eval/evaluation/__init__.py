@@ -22,7 +22,7 @@ from ..config import EvalConfig
 from ..thresholds import parse_thresholds
 from ..metrics.sweep import sweep_accuracy
 from ..model import Clip, Dataset, Frame
-from ..workers import default_workers
+from ..workers import default_workers, worker_count
 from .one_clip import effective_geometry, evaluate_clip
 from .plan import RunPlan, check_maps, describe_missing, plan
 from .pool import ClipCache, _clip_results, clip_inputs
@@ -48,7 +48,7 @@ def evaluate(
     started = time.perf_counter()
     planned = plan(config, dataset, announce, shard)
     clips, context = list(planned.clips), planned.context
-    workers = min(config.workers or default_workers(), max(len(clips), 1))
+    workers = min(worker_count(config.workers), max(len(clips), 1))
     # Compiled once here, before the workers fork, instead of in every worker at once.
     kernels.prepare(announce=announce or (lambda message: None), needed=context.kernel_groups())
     merged = _Merged(config, context.benchmark.tally(config.methods, planned.dataset, config), planned.skipped)

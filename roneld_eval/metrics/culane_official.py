@@ -164,26 +164,56 @@ def category_groups(frames: Sequence[str], categories: Mapping[str, frozenset[st
     return groups
 
 
+@dataclass
+class GroupCounts:
+    """What official.csv's rows are made of, summed over frames as they are scored (memory flat
+    in the number of frames): per category group (its lists, then 'all') the ground-truth lanes,
+    per method and group the predicted lanes, and the matched IoUs strictly above each threshold."""
+
+    limits: np.ndarray  # (thresholds,) float64
+    n_gt: np.ndarray  # (groups,) int64
+    n_pred: np.ndarray  # (methods, groups) int64
+    tp: np.ndarray  # (methods, groups, thresholds) int64
+
+    @classmethod
+    def zeros(cls, n_methods: int, n_groups: int, thresholds: Sequence[float]) -> "GroupCounts":
+        limits = np.asarray(thresholds, np.float64)
+        return cls(limits, np.zeros(n_groups, np.int64), np.zeros((n_methods, n_groups), np.int64),
+                   np.zeros((n_methods, n_groups, len(limits)), np.int64))
+
+    def add(self, scored: ScoredFrames, categories: Mapping[str, frozenset[str]]) -> None:
+        """Add these frames' counts (any number of frames: a chunk, or all at once)."""
+        lane_frame = scored.lane_frame
+        for g, (_, inside) in enumerate(category_groups(scored.frames, categories)):
+            self.n_gt[g] += int(scored.n_gt[inside].sum())
+            lanes = inside[lane_frame]
+            for m in range(len(self.n_pred)):
+                self.n_pred[m, g] += int(scored.n_pred[m, inside].sum())
+                # IoUs strictly above t: those sorted after t (side="right" puts equal ones before);
+                # a NaN is above nothing, as `NaN > t` is false.
+                ious = np.sort(np.where(np.isnan(scored.matched_iou[m, lanes]), -np.inf, scored.matched_iou[m, lanes]))
+                self.tp[m, g] += len(ious) - np.searchsorted(ious, self.limits, side="right")
+
+    def records(self, methods: Sequence[str], categories: Sequence[str],
+                labels: Sequence[str] | None = None) -> list[tuple]:
+        """sweep_rows' rows as plain tuples in OFFICIAL_COLUMNS order (Python str, int and float)."""
+        shown: list[str] | list[float] = list(labels) if labels is not None else [float(t) for t in self.limits]
+        rows = []
+        for m, method in enumerate(methods):
+            for g, name in enumerate([*categories, "all"]):
+                n_gt, n_pred = int(self.n_gt[g]), int(self.n_pred[m, g])
+                for label, tp in zip(shown, self.tp[m, g].tolist()):
+                    precision, recall, f1 = f_measure(tp, n_pred - tp, n_gt - tp)
+                    rows.append((method, name, label, tp, n_pred - tp, n_gt - tp, precision, recall, f1))
+        return rows
+
+
 def sweep_records(scored: ScoredFrames, methods: Sequence[str], categories: Mapping[str, frozenset[str]],
                   thresholds: Sequence[float], labels: Sequence[str] | None = None) -> list[tuple]:
     """sweep_rows' rows as plain tuples in OFFICIAL_COLUMNS order (Python str, int and float)."""
-    limits = np.asarray(thresholds, np.float64)
-    shown: list[str] | list[float] = list(labels) if labels is not None else [float(t) for t in thresholds]
-    lane_frame = scored.lane_frame
-    rows = []
-    for m, method in enumerate(methods):
-        for name, inside in category_groups(scored.frames, categories):
-            n_gt = int(scored.n_gt[inside].sum())
-            n_pred = int(scored.n_pred[m, inside].sum())
-            # IoUs strictly above t: those sorted after t (side="right" puts equal ones before);
-            # a NaN is above nothing, as `NaN > t` is false.
-            ious = scored.matched_iou[m, inside[lane_frame]]
-            ious = np.sort(np.where(np.isnan(ious), -np.inf, ious))
-            above = len(ious) - np.searchsorted(ious, limits, side="right")
-            for label, tp in zip(shown, above.tolist()):
-                precision, recall, f1 = f_measure(tp, n_pred - tp, n_gt - tp)
-                rows.append((method, name, label, tp, n_pred - tp, n_gt - tp, precision, recall, f1))
-    return rows
+    counts = GroupCounts.zeros(len(methods), len(categories) + 1, thresholds)
+    counts.add(scored, categories)
+    return counts.records(methods, list(categories), labels)
 
 
 def sweep_rows(scored: ScoredFrames, methods: Sequence[str], categories: Mapping[str, frozenset[str]],
