@@ -21,6 +21,7 @@ from .config import MAP_FORMATS, METHODS, EvalConfig, parse_setting
 from .presets import preset_names
 from .errors import ConfigError, RoneldEvalError
 from .output import DEFAULT_OUT
+from .cluster import executed
 
 
 class UsageProblem(click.ClickException):
@@ -115,11 +116,24 @@ def _announcer(quiet: bool):
 debug_option = click.option("--debug", is_flag=True, help="Show the full traceback of an error.")
 
 
-def shard_option(clips: str):
-    """A score command's --shard; `clips` says what its whole units are ("segments", ...)."""
-    return click.option("--shard", metavar="I/N",
-                        help=f"Score only shard I of N (whole {clips}, in list order) and write its part to --out; "
-                             "`roneld-eval merge` turns the N parts into this command's files.")
+def sharding_options(clips: str, verb: str = "Score"):
+    """--shard, --executor and --scheduler; `clips` says what a command's whole units are."""
+    def decorate(function):
+        for option in reversed((
+            click.option("--shard", metavar="I/N",
+                         help=f"{verb} only shard I of N (whole {clips}, in list order) and write its part to --out; "
+                              "`roneld-eval merge` turns the N parts into this command's files."),
+            click.option("--executor", type=click.Choice(("local", "dask")), default="local", show_default=True,
+                         help="dask: run the command as shards on a dask.distributed cluster (one a worker thread) "
+                              "and merge them into --out, the same files as here; the inputs must be at the same "
+                              "paths on its workers (pip install 'roneld-eval[cluster]')."),
+            click.option("--scheduler", metavar="ADDRESS",
+                         help="With --executor dask: a running scheduler (tcp://HOST:8786). Default: a local cluster "
+                              "of --workers processes, started for this command."),
+        )):
+            function = option(function)
+        return function
+    return decorate
 
 
 class _Command(click.Group):
@@ -204,14 +218,12 @@ def main():
                    "at which geometry; evaluate and write nothing (exit 0, or 2 with the problem).")
 @click.option("--out", type=click.Path(path_type=Path), default=Path(DEFAULT_OUT), show_default=True,
               help="Folder for the results (the default is ignored by this repository's git, never results/).")
-@click.option("--shard", metavar="I/N",
-              help="Evaluate only shard I of N (whole clips, in list order) and write its part to --out; "
-                   "`roneld-eval merge` turns the N parts into this run's results.")
+@sharding_options("clips", verb="Evaluate")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
 def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, plugins, pft_ablation, no_pft,
-        thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, dry_run, out, shard, quiet,
-        debug):
+        thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, dry_run, out, shard, executor,
+        scheduler, quiet, debug):
     """Evaluate the baseline, RONELD and any plug-in on a dataset's stored maps; write tables and curves.
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
@@ -276,13 +288,13 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         return config
 
     config = _guard(build, debug)
-    if dry_run and shard is not None:
-        _guard(_refuse, debug, "--dry-run checks the whole dataset's layout: run it without --shard")
+    if dry_run and (shard is not None or executor != "local"):
+        _guard(_refuse, debug, "--dry-run checks the whole dataset's layout here: run it without --shard or --executor")
     if dry_run:
         _dry_run(config, quiet, debug)
         return
-    result = _guard(api.run, debug, config, out, progress=not quiet, resume=resume, overlays=overlays,
-                    announce=_announcer(quiet), shard=shard)
+    result = _guard(executed, debug, executor, scheduler, "run", api.run, config, out, progress=not quiet,
+                    resume=resume, overlays=overlays, announce=_announcer(quiet), shard=shard)
     if result is None:  # a shard: its part is written
         shard_written(shard, out, quiet)
         return

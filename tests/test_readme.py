@@ -104,3 +104,43 @@ def test_the_examples_say_how_to_reach_the_command():
     first_bare = min(README.index(block) for block in shell_blocks(README)
                      if any(line.lstrip().startswith("roneld-eval") for line in block.splitlines()))
     assert "source .venv/bin/activate" in README[:first_bare]
+
+
+def test_the_submitit_recipe_runs_as_written(tmp_path, monkeypatch):
+    # The Python block run with a stand-in for submitit (each array task run here, in order) on a
+    # generated set at the block's paths: the same calls, the same merge.
+    import sys
+    import types
+
+    from roneld_eval.datasets.culane_synth import synth_lane_files
+    from roneld_eval.score import score_culane
+
+    block = next(b for b in re.findall(r"^```python\n(.*?)^```", README, flags=re.S | re.M) if "submitit" in b)
+    gt, pred = synth_lane_files(tmp_path / "set", 90)
+    for epoch in (1, 2):
+        (tmp_path / "work_dirs" / f"epoch_{epoch}").mkdir(parents=True)
+        (tmp_path / "work_dirs" / f"epoch_{epoch}" / "lines").symlink_to(pred)
+
+    class Job:
+        def __init__(self, value):
+            self.value = value
+
+        def result(self):
+            return self.value
+
+    class AutoExecutor:
+        def __init__(self, folder):
+            self.folder = folder
+
+        def update_parameters(self, **parameters):
+            assert parameters["slurm_array_parallelism"] == 8
+
+        def map_array(self, function, values):
+            return [Job(function(value)) for value in values]
+
+    monkeypatch.setitem(sys.modules, "submitit", types.SimpleNamespace(AutoExecutor=AutoExecutor))
+    monkeypatch.chdir(tmp_path)
+    exec(compile(block.replace("/data/CULane", str(gt)), "README.md", "exec"), {})
+    score_culane(gt, "work_dirs/epoch_*/lines", iou="0.5:0.95:0.05", out=tmp_path / "whole")
+    for name in ("official.csv", "summary.csv", "sweep.csv"):
+        assert (tmp_path / "sweep" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name

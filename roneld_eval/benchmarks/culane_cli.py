@@ -7,7 +7,8 @@ from pathlib import Path
 import click
 
 from ..config import MAX_LINE_THICKNESS
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_option, shard_written
+from ..cluster import executed
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
 
 
 @click.command("culane")
@@ -34,11 +35,11 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path),
               help="Folder for official.csv (every method, category and threshold), summary.csv and summary.md.")
-@shard_option("clips")
+@sharding_options("clips")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
 def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, preset, width, strict, workers, out,
-                         shard, quiet, debug):
+                         shard, executor, scheduler, quiet, debug):
     """Official CULane precision, recall and F1 per method and category, as SCNN's lane_evaluation
     computes them; with a grid, F1@50, F1@75 and mF1 as CLRNet reports them."""
     from .. import score as scoring  # not api: scoring needs none of the evaluation's imports
@@ -51,7 +52,8 @@ def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, pres
         roots += _guard(roots_from_file, debug, roots_file)
     if not roots:
         raise click.UsageError("give --pred-root or --pred-roots-from")
-    score = _guard(scoring.score_culane, debug, data_root, roots, list_file=list_file, iou=iou, width=width,
+    score = _guard(executed, debug, executor, scheduler, "score culane", scoring.score_culane,
+                   data_root, roots, list_file=list_file, iou=iou, width=width,
                    out=out, workers=workers, progress=not quiet, announce=_announcer(quiet), preset=preset,
                    strict=strict, shard=shard)
     if score is None:  # a shard: its part is written

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_option, shard_written
+from ..cluster import executed
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
 
 
 def _thresholds(context, parameter, value):
@@ -41,17 +42,18 @@ def _thresholds(context, parameter, value):
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv.")
-@shard_option("images")
+@sharding_options("images")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
 def score_curvelanes_command(labels, pred_roots, image_root, list_file, score_threshold, best_of, strict, workers,
-                             out, shard, quiet, debug):
+                             out, shard, executor, scheduler, quiet, debug):
     """CurveLanes precision, recall and F1 per method, as CondLaneNet's lane_metric.py computes them
     (the same as vega's LaneMetricCore; CurveLanes has no official tool)."""
     from .curvelanes_score import score_curvelanes
 
     _no_collections_at_exit()
-    score = _guard(score_curvelanes, debug, labels, list(pred_roots), image_root, list_file=list_file,
+    score = _guard(executed, debug, executor, scheduler, "score curvelanes", score_curvelanes,
+                   labels, list(pred_roots), image_root, list_file=list_file,
                    score_threshold=score_threshold, best_of=best_of, out=out, workers=workers, progress=not quiet,
                    announce=_announcer(quiet), strict=strict, shard=shard)
     if score is None:  # a shard: its part is written

@@ -7,7 +7,8 @@ from pathlib import Path
 import click
 
 from ..config import MAX_LINE_THICKNESS
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_option, shard_written
+from ..cluster import executed
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
 
 
 @click.command("llamas")
@@ -28,17 +29,19 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
 @click.option("--strict", is_flag=True, help="Stop when any label has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv, summary.csv and summary.md.")
-@shard_option("recordings")
+@sharding_options("recordings")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
-def score_llamas_command(labels, pred_roots, map_roots, iou, width, strict, workers, out, shard, quiet, debug):
+def score_llamas_command(labels, pred_roots, map_roots, iou, width, strict, workers, out, shard, executor, scheduler,
+                         quiet, debug):
     """Official LLAMAS precision, recall and F1 per method, as unsupervised_llamas'
     culane_metric/evaluate.py computes them, with the F1@0.75 and mF1 papers print; and the AP
     of probability maps per class, as its evaluation/evaluate_segmentation.py computes it."""
     from .llamas_score import score_llamas, summary_table
 
     _no_collections_at_exit()
-    score = _guard(score_llamas, debug, labels, list(pred_roots), iou=iou, width=width, out=out, workers=workers,
+    score = _guard(executed, debug, executor, scheduler, "score llamas", score_llamas,
+                   labels, list(pred_roots), iou=iou, width=width, out=out, workers=workers,
                    progress=not quiet, announce=_announcer(quiet), strict=strict, maps=list(map_roots), shard=shard)
     if score is None:  # a shard: its part is written
         shard_written(shard, out, quiet)

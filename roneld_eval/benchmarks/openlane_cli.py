@@ -7,7 +7,8 @@ from pathlib import Path
 import click
 
 from ..config import MAX_LINE_THICKNESS
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_option, shard_written
+from ..cluster import executed
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
 
 
 @click.command("openlane")
@@ -26,18 +27,19 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
 @click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv and summary.md.")
-@shard_option("segments")
+@sharding_options("segments")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
-def score_openlane_command(labels, pred_roots, list_file, iou, width, any_only, strict, workers, out, shard, quiet,
-                           debug):
+def score_openlane_command(labels, pred_roots, list_file, iou, width, any_only, strict, workers, out, shard, executor,
+                           scheduler, quiet, debug):
     """Official OpenLane 2D precision, recall and F1 per method, with lanes matched within their
     category (the evaluator's default) and whatever their category (its -k)."""
     from .openlane_score import MODES, score_openlane, summary_table
 
     _no_collections_at_exit()
     modes = MODES[1:] if any_only else MODES
-    score = _guard(score_openlane, debug, labels, list(pred_roots), list_file=list_file, iou=iou, width=width,
+    score = _guard(executed, debug, executor, scheduler, "score openlane", score_openlane,
+                   labels, list(pred_roots), list_file=list_file, iou=iou, width=width,
                    modes=modes, out=out, workers=workers, progress=not quiet, announce=_announcer(quiet),
                    strict=strict, shard=shard)
     if score is None:  # a shard: its part is written

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from ..cli import _guard, debug_option, shard_option, shard_written
+from ..cluster import executed
+from ..cli import _guard, debug_option, sharding_options, shard_written
 
 
 @click.command("tusimple")
@@ -15,15 +16,16 @@ from ..cli import _guard, debug_option, shard_option, shard_written
               help="Predictions, one JSON object per line: raw_file, lanes, h_samples, optional run_time (ms).")
 @click.option("--out", type=click.Path(path_type=Path),
               help="Folder for official.csv: accuracy, fp, fn, f1_ufld, f1_clrnet.")
-@shard_option("clips")
+@sharding_options("clips")
 @click.option("--quiet", is_flag=True, help="Print nothing.")
 @debug_option
-def score_tusimple_command(labels, pred, out, shard, quiet, debug):
+def score_tusimple_command(labels, pred, out, shard, executor, scheduler, quiet, debug):
     """Official TuSimple accuracy, FP and FN, as tusimple-benchmark's evaluate/lane.py computes them, and F1
     as UFLD-v2's lane2.py (f1_ufld) and CLRNet's tusimple_metric.py (f1_clrnet) compute it."""
     from .. import score as scoring
 
-    score = _guard(scoring.score_tusimple, debug, labels, pred, out, shard)
+    score = _guard(executed, debug, executor, scheduler, "score tusimple", scoring.score_tusimple, labels, pred, out,
+                   shard)
     if score is None:  # a shard: its part is written
         shard_written(shard, out, quiet)
         return

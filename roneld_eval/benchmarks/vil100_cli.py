@@ -7,7 +7,8 @@ from pathlib import Path
 import click
 
 from ..config import MAX_LINE_THICKNESS
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, shard_option, shard_written
+from ..cluster import executed
+from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
 
 
 @click.command("vil100")
@@ -41,17 +42,18 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
 @click.option("--out", type=click.Path(path_type=Path),
               help="Folder for official.csv (every method, sequence, scenario and threshold), temporal.csv and "
                    "summary.md.")
-@shard_option("sequences")
+@sharding_options("sequences")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option
 def score_vil100_command(labels, pred_roots, pred_format, list_file, image_root, json_root, sizes_file, iou, width,
-                         temporal, strict, workers, out, shard, quiet, debug):
+                         temporal, strict, workers, out, shard, executor, scheduler, quiet, debug):
     """Official VIL-100 F1 and mIoU per method, sequence and scenario, as MMA-Net's evaluate_iou.py
     and its CULane evaluator compute them (each sequence at its own size)."""
     from .vil100_score import score_vil100, summary_table
 
     _no_collections_at_exit()
-    score = _guard(score_vil100, debug, labels, list(pred_roots), list_file=list_file, image_root=image_root,
+    score = _guard(executed, debug, executor, scheduler, "score vil100", score_vil100,
+                   labels, list(pred_roots), list_file=list_file, image_root=image_root,
                    json_root=json_root, sizes_file=sizes_file, iou=iou, width=width, out=out, workers=workers,
                    progress=not quiet, announce=_announcer(quiet), strict=strict, temporal=temporal,
                    pred_format=pred_format, shard=shard)

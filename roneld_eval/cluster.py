@@ -1,0 +1,153 @@
+"""`--executor dask`: a command's shards run as tasks on a dask.distributed cluster and are merged
+here into the files one unsharded command writes (shards.merge), byte for byte.
+
+Each task calls the command's own library function with `shard="k/N"` into a scratch folder on
+its worker and sends the part's files back: the workers must see the inputs at the same paths
+(a shared file system), and nothing they write reaches the results but through the merge, which
+checks every part as untrusted input. Without a scheduler's address a local cluster of worker
+processes is started for the command and closed after it. Dask is an optional extra
+(`pip install 'roneld-eval[cluster]'`): nothing else imports this module.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+import tempfile
+import threading
+from pathlib import Path
+from typing import Any, Callable
+
+from .errors import ConfigError, InputError, RunInterrupted
+
+EXECUTORS = ("local", "dask")
+WORKER_WAIT_S = 60  # how long a remote scheduler may take to have one worker
+CONNECT_TIMEOUT_S = 20
+
+# A worker with several threads runs its shards one after another: compiled kernels and the
+# plug-in slot are process-wide.
+_ONE_AT_A_TIME = threading.Lock()
+
+
+def executed(executor: str, scheduler: str | None, command: str, function: Callable, *args, **kwargs):
+    """`function(*args, **kwargs)` here (executor "local"), or its shards on a Dask cluster
+    ("dask": the one at `scheduler`, or a local one) merged into its `out`. `function` is the
+    library function of `command`, taking `shard` and `out` (and returning None for a shard)."""
+    if executor not in EXECUTORS:
+        raise ConfigError(f"--executor must be one of {', '.join(EXECUTORS)}, got {executor!r}")
+    if executor == "local":
+        if scheduler is not None:
+            raise ConfigError("--scheduler is the address of a Dask scheduler: give it with --executor dask")
+        return function(*args, **kwargs)
+    arguments = inspect.signature(function).bind(*args, **kwargs).arguments
+    if arguments.get("shard") is not None:
+        raise ConfigError("--executor dask cuts the command into shards itself: give it without --shard")
+    if arguments.get("out") is None:
+        raise ConfigError("--executor dask merges the shards' parts into --out: give --out")
+    if arguments.get("resume") or arguments.get("overlays"):
+        raise ConfigError("--executor dask merges shards, which keep no report to resume or draw in: without --resume "
+                          "or --overlays (draw pictures of the merged run with `roneld-eval show`)")
+    if getattr(arguments.get("config"), "plugins", None):
+        raise ConfigError("--executor dask merges the shards' parts, and a merge imports no code a part names: run "
+                          "plug-in methods without it")
+    return on_dask(function, arguments, command, scheduler, _workers(arguments),
+                   arguments.get("announce") or (lambda message: None), bool(arguments.get("progress")))
+
+
+def _workers(arguments: dict) -> int | None:
+    config = arguments.get("config")
+    return getattr(config, "workers", None) if config is not None else arguments.get("workers")
+
+
+def shard_task(function: Callable, arguments: dict, shard: str) -> dict[str, bytes]:
+    """On a worker: one shard of the command into a scratch folder, its part's files back."""
+    with _ONE_AT_A_TIME, tempfile.TemporaryDirectory(prefix="roneld-eval-shard-") as scratch:
+        folder = Path(scratch) / "part"
+        function(**{**arguments, "out": folder, "shard": shard, **_quiet(function)})
+        return {path.relative_to(folder).as_posix(): path.read_bytes() for path in sorted(folder.rglob("*"))
+                if path.is_file() and not path.relative_to(folder).parts[0].startswith(".")}  # not the folder's marker
+
+
+def _quiet(function: Callable) -> dict[str, Any]:
+    """No progress bar or notes in a worker (its output is the worker's log)."""
+    names = inspect.signature(function).parameters
+    return {name: value for name, value in (("progress", False), ("announce", None)) if name in names}
+
+
+def on_dask(function: Callable, arguments: dict, command: str, scheduler: str | None, workers: int | None,
+            announce: Callable[[str], None], progress: bool):
+    """Every shard of the command as a task, then their parts merged into `arguments["out"]`."""
+    try:
+        import distributed
+    except ImportError:
+        raise ConfigError("--executor dask needs Dask: pip install 'roneld-eval[cluster]'") from None
+    from .output import OutputFolder
+    from .shards import merge
+
+    out = Path(arguments["out"])
+    with OutputFolder(out, command, nested={"show": "show"}):  # refused now, not after the work
+        pass
+    arguments = {name: value for name, value in arguments.items() if name not in ("out", "shard")}
+    with _client(distributed, scheduler, workers) as client:
+        threads = sum(client.nthreads().values())
+        count = max(1, threads)
+        announce(f"dask: {count} shard{'s' if count > 1 else ''} on {client.scheduler.address} "
+                 f"({len(client.nthreads())} worker{'s' if len(client.nthreads()) > 1 else ''}, {threads} threads)")
+        futures = {client.submit(shard_task, function, arguments, f"{k}/{count}", pure=False): k
+                   for k in range(1, count + 1)}
+        parts: dict[int, dict[str, bytes]] = {}
+        try:
+            from tqdm import tqdm
+
+            with tqdm(total=count, unit="shard", desc="shards", disable=not progress) as bar:
+                for future in distributed.as_completed(futures):
+                    parts[futures[future]] = _result(distributed, future, futures[future], count)
+                    bar.update(1)
+        finally:
+            for future in futures:
+                future.cancel()
+    with tempfile.TemporaryDirectory(prefix="roneld-eval-parts-") as scratch:
+        folders = []
+        for k in sorted(parts):
+            folder = Path(scratch) / f"{k}"
+            for name, data in parts[k].items():
+                target = folder / name
+                if not target.resolve().is_relative_to(folder.resolve()):
+                    raise InputError(folder, f"a worker sent a file outside its part ({name[:80]!r})")
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_bytes(data)
+            folders.append(folder)
+        return merge(folders, out)[1]
+
+
+def _result(distributed, future, k: int, count: int) -> dict[str, bytes]:
+    try:
+        return future.result()
+    except distributed.KilledWorker:
+        raise RunInterrupted(f"shard {k}/{count}: its Dask workers died (killed, or out of memory) while "
+                             "running it: no result was written") from None
+
+
+@contextlib.contextmanager
+def _client(distributed, address: str | None, workers: int | None):
+    """A Client of the scheduler at `address`, or of a local cluster started (and closed) here."""
+    if address is None:
+        import logging
+
+        from .workers import default_workers
+
+        with distributed.LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
+                                      dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+            with distributed.Client(cluster) as client:
+                yield client
+        return
+    try:
+        client = distributed.Client(address, timeout=CONNECT_TIMEOUT_S)
+    except (OSError, TimeoutError, ValueError) as error:
+        raise ConfigError(f"--scheduler {address}: no Dask scheduler answers there ({error})") from None
+    with client:
+        try:
+            client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+        except TimeoutError:
+            raise ConfigError(f"--scheduler {address}: no worker joined it within {WORKER_WAIT_S} s") from None
+        yield client
