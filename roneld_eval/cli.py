@@ -465,12 +465,30 @@ def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
     table_ablation (when runs hold the PFT ablation), table_runtime and table_official (.md and
     .tex), curves.png/.svg/.pdf, with --pair pairs.csv and table_pairs, and summary.json. Runs
     of one dataset must share frames, ground truth and thresholds.
+
+    Folders that `score` wrote for several prediction roots (sweep.csv) are checkpoint sweeps:
+    sweeps.csv, sweeps.md (each sweep's best checkpoint) and sweeps.png, for sweeps of the same
+    frames, lane width and thresholds.
     """
     from .comparison import compare as compare_runs, parse_label_options
+    from .comparison.sweeps import compare_sweeps, is_sweep
 
     _no_collections_at_exit()
 
     chosen = _guard(parse_label_options, debug, labels, runs)
+    sweeps = [run for run in runs if is_sweep(run)]
+    if sweeps:
+        others = [run for run in runs if not is_sweep(run)]
+        if others:
+            _guard(_refuse, debug, f"{sweeps[0]} is a checkpoint sweep (sweep.csv) and {others[0]} is not: compare "
+                                   "runs, or sweeps, not both at once")
+        if thresholds or pairs:
+            _guard(_refuse, debug, "--thresholds and --pair are for runs: a sweep compares its headline scores")
+        compared = _guard(compare_sweeps, debug, runs, out, chosen, allow_mixed)
+        if not quiet:
+            click.echo((Path(out) / "sweeps.md").read_text(encoding="utf-8"))
+            click.echo(f"{counted(len(compared.sweeps), 'sweep')} compared; results in {out}/")
+        return
     result = _guard(compare_runs, debug, runs, out, chosen, thresholds, pairs, allow_mixed)
     if not quiet:
         click.echo((Path(out) / "table_accuracy.md").read_text(encoding="utf-8"))

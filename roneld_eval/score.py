@@ -135,6 +135,7 @@ class CulaneScore:
     trees: tuple[PredictionTree, ...]
     n_frames: int
     warnings: tuple[str, ...] = ()  # e.g. a root where fewer than half the listed frames have a file
+    ground_truth: str = ""  # digest of the frames scored and their categories (sweep.json: what compare checks)
 
     @property
     def methods(self) -> tuple[str, ...]:
@@ -441,7 +442,8 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
             _write_culane_part(folder, share, _joined(pieces, len(trees)), dataset, relpaths, trees, warnings, iou,
                                preset, width, strict)
             return None
-        score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings)
+        score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings,
+                              _culane_ground_truth(relpaths, dataset.categories))
         if folder is not None:
             write_culane_score(folder, score, width)
     return score
@@ -495,7 +497,7 @@ def _joined(pieces: Iterable[ScoredFrames], n_methods: int) -> ScoredFrames:
 
 
 def _culane_score(pieces: Iterable[ScoredFrames], categories, thresholds: Thresholds, highlighted, trees,
-                  n_frames: int, warnings) -> CulaneScore:
+                  n_frames: int, warnings, ground_truth: str) -> CulaneScore:
     """The tables from the frames' results, each piece added up and let go as it comes: every
     method's numbers in memory at once are counts, not per-frame IoUs."""
     methods = [tree.method for tree in trees]
@@ -506,11 +508,11 @@ def _culane_score(pieces: Iterable[ScoredFrames], categories, thresholds: Thresh
     summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
     return CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
                        PlainTable(tuple(summary_columns), tuple(summary)),
-                       thresholds, highlighted, tuple(trees), n_frames, tuple(warnings))
+                       thresholds, highlighted, tuple(trees), n_frames, tuple(warnings), ground_truth)
 
 
 def write_culane_score(folder: OutputFolder, score: CulaneScore, width: int) -> None:
-    """official.csv, summary.csv, summary.md; with several methods sweep.csv and sweep.png too."""
+    """official.csv, summary.csv, summary.md; with several methods sweep.csv, sweep.json and sweep.png."""
     staging = Staging(folder)
     staging.write_text("official.csv", score.official_rows.to_csv())
     staging.write_text("summary.csv", score.summary_rows.to_csv())
@@ -518,11 +520,27 @@ def write_culane_score(folder: OutputFolder, score: CulaneScore, width: int) -> 
     if len(score.trees) > 1:
         from .sweeps import plot_sweep
 
-        table, _ = culane_sweep(score)
+        table, best = culane_sweep(score)
         staging.write_text("sweep.csv", table.to_csv())
+        staging.write_text("sweep.json", sweep_record("score culane", score.ground_truth, score.n_frames, width,
+                                                      score.thresholds.labels, table.columns[2:-1], best))
         plot_sweep(table, staging.file("sweep.png"), f"CULane, all frames: {len(score.trees)} methods, "
                                                       f"IoU {grid_text(score.thresholds)}")
     folder.commit()
+
+
+def sweep_record(command: str, ground_truth: str, n_frames: int, width: int, thresholds: Sequence[str],
+                 columns: Sequence[str], best: str | None) -> str:
+    """sweep.json: what a sweep was scored on and how, for `compare` to check sweeps against
+    each other (their sweep.csv alone names no frames)."""
+    import json
+
+    from .sweeps import SWEEP_FORMAT
+    from .version import __version__
+
+    return json.dumps({"format": SWEEP_FORMAT, "command": command, "version": __version__, "frames": n_frames,
+                       "ground_truth": ground_truth, "width": width, "thresholds": list(thresholds),
+                       "columns": list(columns), "best": best}, indent=1) + "\n"
 
 
 def culane_sweep(score: CulaneScore):
@@ -633,7 +651,8 @@ def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
                                          "frames of the list (and its categories) in order: not one command's shards")
     scored = ScoredFrames(tuple(frames), np.concatenate(n_gt), np.concatenate(n_pred, axis=1),
                           np.concatenate(matched, axis=1))
-    score = _culane_score([scored], categories, thresholds, highlighted, trees, settings["frames"], first["warnings"])
+    score = _culane_score([scored], categories, thresholds, highlighted, trees, settings["frames"], first["warnings"],
+                          first["list"])
     with _taking(out, "score culane") as folder:
         assert folder is not None
         write_culane_score(folder, score, settings["width"])

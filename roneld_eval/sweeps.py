@@ -14,6 +14,7 @@ from typing import Mapping, Sequence
 from .errors import ConfigError, InputError
 
 _WILDCARD = re.compile(r"[*?\[]")
+SWEEP_FORMAT = "roneld-eval sweep"
 
 
 def expand_roots(specs: Sequence) -> list:

@@ -107,3 +107,67 @@ def test_globs_of_several_wildcards_and_folders_named_with_equals_signs(checkpoi
     assert result.exit_code == 0, result.output
     names = [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")]
     assert sorted(names) == ["seed1/lr=0.01", "seed1/lr=0.1", "seed2/lr=0.01", "seed2/lr=0.1"]
+
+
+def _sweep(checkpoints, out, *extra, pattern="epoch_*", data=None):
+    result = _invoke("score", "culane", "--data-root", data or checkpoints / "set" / "data", "--pred-root",
+                     checkpoints / "ckpt" / pattern / "lines", "--iou", "0.50:0.95:0.05", "--quiet", "--out", out,
+                     *extra)
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_compare_puts_sweeps_side_by_side_and_names_each_ones_best(checkpoints, tmp_path):
+    every, early = _sweep(checkpoints, tmp_path / "every"), _sweep(checkpoints, tmp_path / "early", pattern="epoch_?")
+    result = _invoke("compare", every, early, "--label", f"{early}=first epochs", "--out", tmp_path / "c")
+    assert result.exit_code == 0, result.output
+    assert "2 sweeps compared" in result.output
+    rows = _rows(tmp_path / "c" / "sweeps.csv")
+    assert [(r["sweep"], r["method"]) for r in rows] == [("every", f"epoch_{e}") for e in EPOCHS] + \
+        [("first epochs", f"epoch_{e}") for e in (1, 2, 5)]
+    own = {r["method"]: r for r in _rows(tmp_path / "every" / "sweep.csv")}
+    best = next(r["method"] for r in own.values() if r["best"] == "True")
+    assert best in ("epoch_20", "epoch_40")  # the closest lanes: the latest epochs (the first on a tie)
+    assert [r["method"] for r in rows if r["best"] == "True"] == [best, "epoch_5"]
+    assert all(float(r["mF1"]) == float(own[r["method"]]["mF1"]) for r in rows[:len(EPOCHS)])  # read, not redone
+    table = (tmp_path / "c" / "sweeps.md").read_text()
+    assert f"| every | 6 | {best} |" in table and "| first epochs | 3 | epoch_5 |" in table
+    assert "12 frames, lanes 30 px wide, IoU 0.50..0.95 (10 thresholds)" in table
+    assert (tmp_path / "c" / "sweeps.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_sweeps_of_other_frames_or_a_run_beside_a_sweep_are_refused(checkpoints, tmp_path):
+    every = _sweep(checkpoints, tmp_path / "every")
+    import shutil
+
+    data = tmp_path / "data"  # the same frames, one of them in another category
+    shutil.copytree(checkpoints / "set" / "data", data)
+    splits = sorted((data / "list" / "test_split").iterdir())
+    moved = splits[0].read_text().splitlines()[0]
+    splits[0].write_text("".join(line + "\n" for line in splits[0].read_text().splitlines()[1:]))
+    splits[1].write_text(splits[1].read_text() + moved + "\n")
+    fewer = _sweep(checkpoints, tmp_path / "fewer", data=data)
+    result = _invoke("compare", every, fewer, "--out", tmp_path / "c")
+    assert result.exit_code == 2 and "differ in their frames" in result.output and "--allow-mixed" in result.output
+    assert not (tmp_path / "c" / "sweeps.csv").exists()
+    result = _invoke("compare", every, fewer, "--out", tmp_path / "c", "--allow-mixed")
+    assert result.exit_code == 0 and "compared anyway (--allow-mixed)" in (tmp_path / "c" / "sweeps.md").read_text()
+    run = _invoke("run", "--quiet", "--out", tmp_path / "run")
+    assert run.exit_code == 0, run.output
+    result = _invoke("compare", every, tmp_path / "run", "--out", tmp_path / "d")
+    assert result.exit_code == 2 and "compare runs, or sweeps, not both" in result.output
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda folder: (folder / "sweep.json").unlink(), "sweep.json: missing"),
+    (lambda folder: (folder / "sweep.csv").write_text((folder / "sweep.csv").read_text().replace("True", "False")),
+     "its best checkpoint (none) is not sweep.json's (epoch_"),
+    (lambda folder: (folder / "sweep.csv").write_text((folder / "sweep.csv").read_text().replace(",0.", ",1.")),
+     "a score outside [0, 1]"),
+])
+def test_an_edited_sweep_is_named_with_its_problem(checkpoints, tmp_path, edit, said):
+    every = _sweep(checkpoints, tmp_path / "every")
+    edit(every)
+    result = _invoke("compare", every, "--out", tmp_path / "c")
+    assert result.exit_code == 2 and said in result.output and len(result.output.strip().splitlines()) == 1, \
+        result.output

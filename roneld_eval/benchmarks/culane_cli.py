@@ -22,7 +22,7 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
 @click.option("--pred-roots-from", "roots_file", type=click.Path(path_type=Path),
               help="A file listing prediction roots, DIR or NAME=DIR a line (relative to the file), added to "
                    "--pred-root. With several methods, sweep.csv and sweep.png give each one's F1 over all "
-                   "frames and name the best.")
+                   "frames and name the best (sweep.json: on what; `roneld-eval compare` reads sweeps).")
 @click.option("--list", "list_file", type=click.Path(path_type=Path),
               help="List file (default <data-root>/list/test.txt).")
 @click.option("--iou", metavar="T|START:STOP:STEP",
