@@ -40,7 +40,7 @@ from .metrics.culane_official import (
     OFFICIAL_COLUMNS,
     GroupCounts,
     ScoredFrames,
-    evaluate_culane_frame,
+    frame_result,
     highlight_name,
     official_masks,
     summary_records,
@@ -51,9 +51,13 @@ from .report.tables import Table
 from .output import Staging
 from .shards import Merged, Sharding
 from .signals import terminate_as_interrupt
+from . import truth_cache
+from .truth_cache import TruthRuns
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from .metrics.raster import MaskSet
 
     from .metrics.tusimple_official import TusimpleScore
 
@@ -320,25 +324,36 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
 # ---- scoring lane files ----------------------------------------------------------------------
 
 
-def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One chunk of frames against every method: (n_gt, n_pred per method, matched IoUs per method)."""
-    relpaths, data_root, pred_roots, width, height, lane_width = args
+def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns | None]:
+    """One chunk of frames against every method: (n_gt, n_pred per method, matched IoUs per
+    method, and the ground truth as drawn when `keep_truth`). `truth`: (a checked entry of the
+    ground-truth cache, the chunk's first frame in it) to take the frames' drawn lanes from."""
+    relpaths, data_root, pred_roots, width, height, lane_width, truth, keep_truth = args
+    cached = None if truth is None else truth_cache.open_entry(truth[0])
     n_gt = np.zeros(len(relpaths), np.int64)
     n_pred = np.zeros((len(pred_roots), len(relpaths)), np.int64)
     ious: list[list[np.ndarray]] = [[] for _ in pred_roots]
+    drawn: list[tuple[int, MaskSet | None]] = []
     for k, relpath in enumerate(relpaths):
-        truth = read_frame_labels(data_root, relpath)
-        n_gt[k] = len(truth)
-        gt_masks = official_masks(truth, width, height, lane_width) if truth else None  # drawn once, for all
+        gt_masks: MaskSet | None
+        if cached is not None:
+            n_gt[k], gt_masks = cached.frame(truth[1] + k)
+        else:
+            lanes = read_frame_labels(data_root, relpath)
+            n_gt[k] = len(lanes)
+            gt_masks = official_masks(lanes, width, height, lane_width) if lanes else None  # drawn once, for all
+            if keep_truth:
+                drawn.append((len(lanes), gt_masks))
         for m, pred_root in enumerate(pred_roots):
             path = labels_path(pred_root, relpath)
             predictions = read_culane_lines(path)
             check_coordinates(predictions, path)
-            result = evaluate_culane_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
+            result = frame_result(int(n_gt[k]), gt_masks, predictions, width, height, lane_width)
             n_pred[m, k] = result.n_pred
             ious[m].append(result.matched_iou)
     matched = np.array([np.concatenate(parts) if parts else np.zeros(0) for parts in ious], np.float64)
-    return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum()))
+    kept = truth_cache.from_frames(drawn) if keep_truth and cached is None else None
+    return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum())), kept
 
 
 def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds, tuple[str, ...]]:
@@ -436,26 +451,38 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
             scored_relpaths = [frame.relpath for clip in clips for frame in clip.frames]
         else:
             scored_relpaths = relpaths
-        pieces = _culane_pieces(scored_relpaths, dataset, trees, width, workers, progress, announce)
+        say = announce or (lambda message: None)
+        key = truth_cache.truth_key(dataset.root, scored_relpaths, dataset.image_width, dataset.image_height,
+                                    width, labels_path) if truth_cache.enabled() else None
+        truth = None if key is None else truth_cache.load(key, len(scored_relpaths), dataset.image_width,
+                                                           dataset.image_height, say)
+        kept: list[TruthRuns] | None = [] if key is not None and truth is None else None
+        pieces = _culane_pieces(scored_relpaths, dataset, trees, width, workers, progress, announce, truth, kept)
         if share is not None:
             assert folder is not None
-            _write_culane_part(folder, share, _joined(pieces, len(trees)), dataset, relpaths, trees, warnings, iou,
-                               preset, width, strict)
+            joined = _joined(pieces, len(trees))
+            _keep_truth(key, kept, say)
+            _write_culane_part(folder, share, joined, dataset, relpaths, trees, warnings, iou, preset, width, strict)
             return None
         score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings,
                               _culane_ground_truth(relpaths, dataset.categories))
+        _keep_truth(key, kept, say)
         if folder is not None:
             write_culane_score(folder, score, width)
     return score
 
 
 def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int | None, progress: bool,
-                   announce) -> Iterator[ScoredFrames]:
-    """Every method's frame results on these frames, chunk after chunk, in their order."""
+                   announce, truth: Path | None = None, kept: list[TruthRuns] | None = None) -> Iterator[ScoredFrames]:
+    """Every method's frame results on these frames, chunk after chunk, in their order. `truth`:
+    a checked entry of the ground-truth cache holding these frames; else, with `kept` given, the
+    ground truth as drawn is appended to it chunk by chunk."""
     image_width, image_height = dataset.image_width, dataset.image_height
     roots = tuple(tree.root for tree in trees)
     chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
-    tasks = [(chunk, dataset.root, roots, image_width, image_height, width) for chunk in chunks]
+    tasks = [(chunk, dataset.root, roots, image_width, image_height, width,
+              None if truth is None else (str(truth), i * CHUNK_FRAMES), kept is not None)
+             for i, chunk in enumerate(chunks)]
     if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
         from .workers import worker_count
 
@@ -477,12 +504,25 @@ def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int
             with stopping(process_pool(workers), lambda: died) as pool:
                 for chunk, piece in zip(chunks, pool.map(_score_frames, tasks)):
                     bar.update(len(chunk))
-                    yield ScoredFrames(tuple(chunk), *piece)
+                    yield _piece(chunk, piece, kept)
         else:
             for chunk, task in zip(chunks, tasks):
                 piece = _score_frames(task)
                 bar.update(len(chunk))
-                yield ScoredFrames(tuple(chunk), *piece)
+                yield _piece(chunk, piece, kept)
+
+
+def _piece(chunk: list[str], piece: tuple, kept: list[TruthRuns] | None) -> ScoredFrames:
+    n_gt, n_pred, matched, truth = piece
+    if kept is not None and truth is not None:
+        kept.append(truth)
+    return ScoredFrames(tuple(chunk), n_gt, n_pred, matched)
+
+
+def _keep_truth(key: str | None, kept: list[TruthRuns] | None, say: Callable[[str], None]) -> None:
+    """The ground truth drawn by this command, cached for the next ones (when it was not already)."""
+    if key is not None and kept is not None:
+        truth_cache.save(key, truth_cache.joined(kept), say)
 
 
 def _joined(pieces: Iterable[ScoredFrames], n_methods: int) -> ScoredFrames:

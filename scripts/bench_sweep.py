@@ -2,7 +2,9 @@
 first, peak memory against the number of roots, and the same work over 2 shards plus merge
 against one process. Generated lane files (`culane_synth.synth_lane_files`: the official
 scorer's awkward cases), every root the same predictions under another name (a symlink), so
-each costs what a real checkpoint costs; each command in a fresh process, one worker.
+each costs what a real checkpoint costs; each command in a fresh process, one worker, without
+the ground-truth cache (what one pass shares between methods; bench_truth_cache.py measures the
+cache).
 
     python scripts/bench_sweep.py [--frames 2000] [--roots 1,2,10,50]
 """
@@ -10,6 +12,7 @@ each costs what a real checkpoint costs; each command in a fresh process, one wo
 from __future__ import annotations
 
 import argparse
+import os
 import resource
 import subprocess
 import sys
@@ -18,13 +21,14 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+UNCACHED = {**os.environ, "RONELD_EVAL_TRUTH_CACHE": "0"}
 
 
 def measured(command: list[str]) -> tuple[float, float, float]:
     """(wall s, CPU s of the process, its peak resident MB) of one command in a fresh process."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    subprocess.run(command, check=True, cwd=REPO, stdout=subprocess.DEVNULL)
+    subprocess.run(command, check=True, cwd=REPO, stdout=subprocess.DEVNULL, env=UNCACHED)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -66,7 +70,7 @@ def main() -> None:
         start = time.perf_counter()
         for k in (1, 2):
             subprocess.run([*base, "--pred-roots-from", str(listing), "--out", str(work / f"s{k}"), "--shard",
-                            f"{k}/2"], check=True, cwd=REPO, stdout=subprocess.DEVNULL)
+                            f"{k}/2"], check=True, cwd=REPO, stdout=subprocess.DEVNULL, env=UNCACHED)
         subprocess.run([sys.executable, "-m", "roneld_eval", "merge", str(work / "s1"), str(work / "s2"), "--out",
                         str(work / "merged")], check=True, cwd=REPO, stdout=subprocess.DEVNULL)
         sharded = time.perf_counter() - start

@@ -82,6 +82,13 @@ def lane_map(height: int = 288, width: int = 800, xs=None, value: int = 220, sig
     return np.rint(plane).astype(np.uint8)
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _truth_cache(tmp_path_factory):
+    """The ground truth the tests draw is cached in a folder of the session, not the user's (whose
+    newest entries it would push out); commands the tests start in processes inherit it."""
+    os.environ["RONELD_EVAL_TRUTH_CACHE"] = str(tmp_path_factory.mktemp("truth-cache"))
+
+
 @pytest.fixture(scope="session")
 def fixture_run(tmp_path_factory):
     """One run of the bundled CULane fixture with the ablation and lanes, shared by tests."""

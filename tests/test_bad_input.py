@@ -519,7 +519,7 @@ def test_a_killed_worker_ends_scoring_clearly(tmp_path, monkeypatch):
     from roneld_eval import score
 
     gt, pred = synth_lane_files(tmp_path / "lanes", frames=450, seed=1)
-    original = score.evaluate_culane_frame
+    original = score.frame_result
     parent = os.getpid()
 
     def dying(*args, **kwargs):
@@ -528,7 +528,7 @@ def test_a_killed_worker_ends_scoring_clearly(tmp_path, monkeypatch):
         return original(*args, **kwargs)
 
     # Workers are forked, so they see the patched name that _score_frames looks up.
-    monkeypatch.setattr(score, "evaluate_culane_frame", dying)
+    monkeypatch.setattr(score, "frame_result", dying)
     with pytest.raises(RunInterrupted, match="worker process died .* while scoring"):
         api.score_culane(gt, pred, workers=2, out=tmp_path / "out")
     assert not (tmp_path / "out" / "official.csv").exists()
@@ -547,7 +547,7 @@ def test_a_signal_while_scoring_leaves_no_pool_traceback(tmp_path, monkeypatch, 
     from roneld_eval.datasets.culane_synth import synth_lane_files
 
     gt, pred = synth_lane_files(tmp_path / "lanes", frames=1200, seed=1)
-    original = score.evaluate_culane_frame
+    original = score.frame_result
     parent = os.getpid()
 
     def slow(*args, **kwargs):
@@ -555,7 +555,7 @@ def test_a_signal_while_scoring_leaves_no_pool_traceback(tmp_path, monkeypatch, 
             time.sleep(0.005)
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(score, "evaluate_culane_frame", slow)
+    monkeypatch.setattr(score, "frame_result", slow)
     timer = threading.Timer(1.0, os.kill, (parent, signal.SIGTERM))
     timer.start()
     try:

@@ -385,8 +385,8 @@ def test_a_key_that_cannot_be_replaced_is_said_and_nothing_is_reused(dataset, tm
 
 _KEY_RACE = """
 import sys
-from roneld_eval.cache import _secret_key
-print(_secret_key(lambda message: None).hex())
+from roneld_eval.secret_key import secret_key
+print(secret_key(lambda message: None).hex())
 """
 
 

@@ -83,6 +83,17 @@ def evaluate_culane_frame(
     return matched_result(gt.ious(pred))
 
 
+def frame_result(n_gt: int, gt_masks: MaskSet | None, pred_lanes: Sequence[Lane], width: int, height: int,
+                 lane_width: int) -> CulaneFrameResult:
+    """evaluate_culane_frame of ground truth already drawn: its number of lanes and their masks
+    (None without lanes)."""
+    n_pred = len(pred_lanes)
+    if n_gt == 0 or n_pred == 0:
+        return CulaneFrameResult(n_gt, n_pred, np.full(n_gt, UNMATCHED))
+    assert gt_masks is not None
+    return matched_result(gt_masks.ious(official_masks(pred_lanes, width, height, lane_width)))
+
+
 def _mask_set(masks: MaskSet | Sequence[LaneMask | None]) -> MaskSet:
     if isinstance(masks, (LaneRuns, MaskList)):
         return masks
