@@ -17,9 +17,14 @@ from typing import Callable
 KEY_BYTES = 32
 
 
-def key_path() -> Path:
+def cache_home() -> Path:
+    """The tool's folder in this user's cache ($XDG_CACHE_HOME, else ~/.cache)."""
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "roneld-eval" / "cache-key"
+    return Path(base) / "roneld-eval"
+
+
+def key_path() -> Path:
+    return cache_home() / "cache-key"
 
 
 def _read_key(path: Path) -> tuple[bytes | None, str | None]:

@@ -5,7 +5,7 @@ every later `score culane` of the same frames, labels and protocol, whatever the
 The key is a SHA-256 of this version, the image size, the lane width and, frame by frame in
 order, each frame's name and its label file's bytes: an edited label, another list or width is
 another key, never a stale hit. An entry is a folder of plain .npy arrays (no pickles) with a
-keyed checksum (HMAC-SHA256, the per-user secret of roneld_eval.cache) over their digests; it is
+keyed checksum (HMAC-SHA256, the per-user secret of roneld_eval.secret_key) over their digests; it is
 checked before use, field by field, and one that fails is drawn again with a note. The newest
 few entries are kept (`MAX_ENTRIES`) in ~/.cache/roneld-eval/truth ($XDG_CACHE_HOME honoured);
 RONELD_EVAL_TRUTH_CACHE names another folder, or is 0 to neither read nor write.
@@ -43,8 +43,9 @@ def cache_root() -> Path:
     chosen = os.environ.get("RONELD_EVAL_TRUTH_CACHE", "")
     if chosen and chosen != "0":
         return Path(chosen)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "roneld-eval" / "truth"
+    from .secret_key import cache_home
+
+    return cache_home() / "truth"
 
 
 def truth_key(root: Path, relpaths: Sequence[str], width: int, height: int, lane_width: int,

@@ -114,3 +114,18 @@ def interrupt_after(monkeypatch, finished: int):
 
     monkeypatch.setattr(evaluation.one_clip, "evaluate_clip", interrupting)
     return lambda: monkeypatch.setattr(evaluation.one_clip, "evaluate_clip", original)
+
+
+@pytest.fixture(scope="module")
+def culane_set(tmp_path_factory):
+    """A generated CULane set of 5 clips of 6 frames with a detector's lane files (maps/): what
+    the shard and cluster tests split and merge."""
+    from click.testing import CliRunner
+
+    from roneld_eval.cli import main
+
+    out = tmp_path_factory.mktemp("lanes") / "set"
+    result = CliRunner().invoke(main, ["synth", "--dataset", "culane", "--out", str(out), "--clips", "5", "--frames",
+                                       "6", "--maps-format", "lanes"])
+    assert result.exit_code == 0, result.output
+    return out

@@ -26,15 +26,6 @@ def _same_files(whole, other, skip=()) -> list[str]:
     return names
 
 
-@pytest.fixture(scope="module")
-def culane_set(tmp_path_factory):
-    out = tmp_path_factory.mktemp("cluster") / "set"
-    result = _invoke("synth", "--dataset", "culane", "--out", out, "--clips", "5", "--frames", "6", "--maps-format",
-                     "lanes")
-    assert result.exit_code == 0, result.output
-    return out
-
-
 def _score(culane_set, out, *extra):
     return _invoke("score", "culane", "--data-root", culane_set / "data", "--pred-root", f"a={culane_set / 'maps'}",
                    "--pred-root", f"b={culane_set / 'maps'}", "--iou", "0.3:0.7:0.1", "--out", out, *extra)

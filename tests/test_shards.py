@@ -39,15 +39,6 @@ def _invoke(*args):
     return CliRunner().invoke(main, [str(a) for a in args])
 
 
-@pytest.fixture(scope="module")
-def culane_set(tmp_path_factory):
-    out = tmp_path_factory.mktemp("shards") / "set"
-    result = _invoke("synth", "--dataset", "culane", "--out", out, "--clips", "5", "--frames", "6", "--maps-format",
-                     "lanes")
-    assert result.exit_code == 0, result.output
-    return out
-
-
 def _score(culane_set, out, *extra):
     result = _invoke("score", "culane", "--data-root", culane_set / "data", "--pred-root", f"a={culane_set / 'maps'}",
                      "--pred-root", f"b={culane_set / 'maps'}", "--iou", "0.3:0.7:0.1", "--workers", "1", "--quiet",

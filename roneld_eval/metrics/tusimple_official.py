@@ -217,10 +217,3 @@ def frame_scores(labels: str | Path, predictions: str | Path, gts: Mapping[str, 
             predictions, f"no prediction for {len(missing)} of {len(wanted)} labelled frames (first: {missing[0]})"
         )
     return lines, scores
-
-
-def score_tusimple_files(labels: str | Path, predictions: str | Path) -> TusimpleScore:
-    """Score a TuSimple prediction file against a label file, as `lane.py pred label`."""
-    gts = read_labels(labels)
-    _, scores = frame_scores(labels, predictions, gts)
-    return mean_scores(scores, len(gts))
