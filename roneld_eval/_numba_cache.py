@@ -20,7 +20,7 @@ before us, and the user's own cached functions keep numba's defaults.
 numba's own locator names an entry's folder after the absolute path of its source folder, so
 every clone, virtual environment or install of the same code compiled everything again (a
 second clone's first run: 32 s). Ours (`_ContentLocator`) names it after the content of the
-three kernel modules and numba's version instead: the same code finds the same machine code
+kernel modules and numba's version instead: the same code finds the same machine code
 wherever it is installed, and any change to a kernel module (a callee's too) is a new folder.
 numba still checks each entry against its source file's content and the CPU it was made for.
 """
@@ -48,7 +48,9 @@ numba_config: Any = _numba_config
 
 _PACKAGE = Path(__file__).resolve().parent
 # Every module holding kernels: they call only one another, and use no other module's globals.
-KERNEL_MODULES = ("extract/_kernels.py", "maps/_kernels.py", "metrics/_kernels.py")
+KERNEL_MODULES = ("extract/_kernels.py", "maps/_kernels.py") + tuple(
+    f"metrics/_kernels/{name}.py" for name in ("cxx", "spline", "canvas", "run_tables", "runs", "lanes", "matching")
+)
 
 
 @functools.lru_cache(maxsize=None)

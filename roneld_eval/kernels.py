@@ -15,7 +15,7 @@ process at once, in the middle of the first clip. Instead:
   mode included, so that no compile or first-call import lands in a timed region.
 
 Kernel groups: "roneld" and "baseline" (extract/_kernels.ENTRY_SIGNATURES), "official" and
-"paper" (metrics/_kernels.ENTRY_SIGNATURES; both bring "tables"), and "maps" (decoding PNG
+"paper" (metrics/_kernels/__init__.py ENTRY_SIGNATURES; both bring "tables"), and "maps" (decoding PNG
 maps, maps/_kernels.ENTRY_SIGNATURES). `groups_for` says which a run needs. Nothing here
 changes a result: it only decides when compiling happens.
 The extractors' and the maps' kernels (and their modules) are imported only when one of their
@@ -246,8 +246,9 @@ def dispatchers() -> dict[str, object]:
     """Every numba kernel of the package by qualified name ("roneld_eval.extract._kernels.frame_lanes"),
     each with `.signatures` (the argument types compiled in this process)."""
     found = {}
-    for module in _kernel_modules():
-        for name, value in vars(module).items():
-            if hasattr(value, "signatures") and hasattr(value, "py_func"):
-                found[f"{module.__name__}.{name}"] = value
+    for package in _kernel_modules():
+        for module in getattr(package, "MODULES", (package,)):
+            for name, value in vars(module).items():
+                if hasattr(value, "signatures") and hasattr(value, "py_func") and value.__module__ == module.__name__:
+                    found[f"{module.__name__}.{name}"] = value
     return found

@@ -264,7 +264,9 @@ def test_units_are_balanced_over_processes():
 def test_every_kernel_is_listed():
     names = set(kernels.dispatchers())
     for module in ("extract", "metrics", "maps"):
-        source = (PACKAGE / module / "_kernels.py").read_text()
+        package = PACKAGE / module / "_kernels"
+        files = sorted(package.glob("*.py")) if package.is_dir() else [PACKAGE / module / "_kernels.py"]
+        source = "".join(path.read_text() for path in files)
         assert source.count("@cached_njit(") == sum(name.startswith(f"roneld_eval.{module}.") for name in names)
 
 
