@@ -156,3 +156,24 @@ def test_report_renders_in_chromium(fixture_run, tmp_path):
 
     image = cv2.imread(str(shot))
     assert image is not None and (image < 200).mean() > 0.02  # text, tables and figures, not a blank page
+
+
+def test_the_contact_sheet_has_one_legend_above_its_pictures(fixture_run, tmp_path):
+    import cv2
+
+    _, run_dir = fixture_run
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--worst", "4", "--out", str(tmp_path / "show")])
+    assert result.exit_code == 0, result.output
+    pictures = [cv2.imread(str(path)) for path in sorted((tmp_path / "show" / "overlays").glob("*.png"))]
+    sheet = cv2.imread(str(tmp_path / "show" / "overlays.png"))
+    gap, cell, width = 8, pictures[0].shape[0], pictures[0].shape[1]
+    legend_height = sheet.shape[0] - (2 * (cell + gap) + gap)
+    assert legend_height > 0 and (sheet[:legend_height] < 128).any()  # the legend, drawn once, on top
+    legend_zone = 24 * 5 + 12  # the legend's rows in a picture of its own (5 lines of 24 px)
+    for k in range(4):
+        r, c = divmod(k, 2)
+        y, x = legend_height + gap + r * (cell + gap), gap + c * (width + gap)
+        panel = sheet[y:y + cell, x:x + width]
+        same = [p for p in pictures if np.array_equal(p[legend_zone:], panel[legend_zone:])]
+        assert len(same) == 1  # each picture in the sheet as drawn, below the legend's rows
+        assert not np.array_equal(same[0][:legend_zone], panel[:legend_zone])  # and without a legend of its own

@@ -28,6 +28,8 @@ STYLES = {  # colour, thickness at OUTPUT_WIDTH, dashed
        for name, facts in METHOD_TABLE.items()},
 }
 FONT = cv2.FONT_HERSHEY_SIMPLEX
+LegendEntry = tuple[str, tuple[int, int, int] | None, bool]  # text, line colour (None: text only), dashed
+LEGEND_ROW = 24  # pixels per legend line
 
 
 @dataclass(frozen=True)
@@ -39,6 +41,14 @@ class FramePicture:
     lanes: dict[str, tuple[Lane | None, Lane | None]]  # method -> (left, right)
     ious: dict[str, dict[str, float]]  # method -> side -> IoU
     other_ground_truth: tuple[Lane, ...] = ()
+
+
+@dataclass(frozen=True)
+class Overlays:
+    """Drawn frames without a legend, (relpath, picture) each, and the legend they share."""
+
+    pictures: list[tuple[str, np.ndarray]]
+    legend: list[LegendEntry]
 
 
 def worst_frames(per_frame: pd.DataFrame, count: int, first: str = "baseline", second: str | None = None) -> list[str]:
@@ -110,14 +120,41 @@ def _point_at_height(points: np.ndarray, y: float) -> tuple[float, float]:
     return float(np.interp(y, ys, xs)), float(y)
 
 
-def draw_frame(picture: FramePicture, background: np.ndarray, model: str, caption: str = "",
-               protocol: str = "") -> np.ndarray:
-    """One annotated picture (BGR), OUTPUT_WIDTH wide, with a legend and a caption bar.
 
-    The legend names each method from its method name and says what the numbers are: each
-    lane's IoU under the paper's protocol, `protocol` saying how it was drawn (e.g. "ground
-    truth 16 px, predictions 30 px on 800x288 maps").
-    """
+
+def legend_entries(methods: list[str], model: str, protocol: str = "") -> list[LegendEntry]:
+    """What a legend says: each line style's name, and what the numbers are: each lane's IoU
+    under the paper's protocol, `protocol` saying how it was drawn (e.g. "ground truth 16 px,
+    predictions 30 px on 800x288 maps")."""
+    entries: list[LegendEntry] = [("ground truth", STYLES["ground truth"][0], False)]
+    entries += [(display_name(method, model), *STYLES.get(method, (CYAN, 3, True))[::2]) for method in methods]
+    entries.append((f"numbers: each lane's IoU ({protocol or 'the paper' + chr(39) + 's protocol'})", None, False))
+    return entries
+
+
+def draw_legend(image: np.ndarray, entries: list[LegendEntry]) -> np.ndarray:
+    """The legend drawn into the top left of `image` (changed in place, and returned)."""
+    for row, (text, sample_colour, dashed) in enumerate(entries):
+        y = LEGEND_ROW + LEGEND_ROW * row
+        x = 52 if sample_colour is not None else 12
+        overlay = image.copy()
+        cv2.rectangle(overlay, (6, y - 17), (max(250, x + cv2.getTextSize(text, FONT, 0.55, 1)[0][0] + 8), y + 7),
+                      (0, 0, 0), -1)
+        cv2.addWeighted(overlay, 0.6, image, 0.4, 0, dst=image)
+        if sample_colour is not None:  # a sample of the line, dashed as drawn
+            _polyline(image, np.array([[12.0, y - 5], [44.0, y - 5]]), sample_colour, 4, dashed)
+        cv2.putText(image, text, (x, y), FONT, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
+    return image
+
+
+def legend_strip(entries: list[LegendEntry]) -> np.ndarray:
+    """The legend alone on white, OUTPUT_WIDTH wide: the one legend of a contact sheet."""
+    return draw_legend(np.full((LEGEND_ROW * len(entries) + LEGEND_ROW // 2, OUTPUT_WIDTH, 3), 255, np.uint8), entries)
+
+
+def draw_frame(picture: FramePicture, background: np.ndarray, model: str, caption: str = "") -> np.ndarray:
+    """One annotated picture (BGR), OUTPUT_WIDTH wide, with a caption bar and no legend: a
+    figure of its own gets one with draw_legend, a contact sheet one for all its pictures."""
     height, width = background.shape[:2]
     scale = OUTPUT_WIDTH / width
     image = cv2.resize(background, (OUTPUT_WIDTH, round(height * scale)), interpolation=cv2.INTER_AREA)
@@ -139,20 +176,6 @@ def draw_frame(picture: FramePicture, background: np.ndarray, model: str, captio
             if iou is not None:
                 anchor = _point_at_height(points, out_height * (0.62 + 0.12 * rank))
                 _label(image, f"{iou:.2f}", anchor, colour)
-    legend: list[tuple[str, tuple[int, int, int] | None, bool]] = [("ground truth", STYLES["ground truth"][0], False)]
-    legend += [
-        (display_name(method, model), *STYLES.get(method, (CYAN, 3, True))[::2]) for method in picture.lanes]
-    legend.append((f"numbers: each lane's IoU ({protocol or 'the paper' + chr(39) + 's protocol'})", None, False))
-    for row, (text, sample_colour, dashed) in enumerate(legend):
-        y = 24 + 24 * row
-        x = 52 if sample_colour is not None else 12
-        overlay = image.copy()
-        cv2.rectangle(overlay, (6, y - 17), (max(250, x + cv2.getTextSize(text, FONT, 0.55, 1)[0][0] + 8), y + 7),
-                      (0, 0, 0), -1)
-        cv2.addWeighted(overlay, 0.6, image, 0.4, 0, dst=image)
-        if sample_colour is not None:  # a sample of the line, dashed as drawn
-            _polyline(image, np.array([[12.0, y - 5], [44.0, y - 5]]), sample_colour, 4, dashed)
-        cv2.putText(image, text, (x, y), FONT, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
     bar = np.full((34, OUTPUT_WIDTH, 3), 255, np.uint8)
     text = caption or picture.relpath
     size = min(0.55, 0.55 * (OUTPUT_WIDTH - 16) / cv2.getTextSize(text, FONT, 0.55, 1)[0][0])  # never cut off
@@ -160,8 +183,9 @@ def draw_frame(picture: FramePicture, background: np.ndarray, model: str, captio
     return np.vstack([image, bar])
 
 
-def contact_sheet(pictures: list[np.ndarray], columns: int = 2, gap: int = 8) -> np.ndarray:
-    """Pictures in a grid on white, each scaled to the same width."""
+def contact_sheet(pictures: list[np.ndarray], legend: np.ndarray | None = None, columns: int = 2,
+                  gap: int = 8) -> np.ndarray:
+    """Pictures in a grid on white, each scaled to the same width, under one `legend` strip."""
     if not pictures:
         return np.full((10, 10, 3), 255, np.uint8)
     width = OUTPUT_WIDTH
@@ -174,4 +198,8 @@ def contact_sheet(pictures: list[np.ndarray], columns: int = 2, gap: int = 8) ->
         r, c = divmod(k, columns)
         y, x = gap + r * (cell + gap), gap + c * (width + gap)
         sheet[y:y + picture.shape[0], x:x + width] = picture
+    if legend is not None:
+        top = np.full((legend.shape[0], sheet.shape[1], 3), 255, np.uint8)
+        top[:, gap:gap + legend.shape[1]] = legend[:, :sheet.shape[1] - gap]
+        sheet = np.vstack([top, sheet])
     return sheet

@@ -17,7 +17,7 @@ from ..evaluation import FrameOutcome, RunContext, evaluate_clip
 from ..maps import load_maps
 from ..metrics.paper import ego_lanes
 from ..model import Clip, Dataset, Frame
-from .overlays import FramePicture, draw_frame, heat_map
+from .overlays import FramePicture, Overlays, draw_frame, heat_map, legend_entries
 from .tables import display_name
 
 
@@ -87,9 +87,9 @@ def background(config: EvalConfig, frame: Frame) -> np.ndarray:
 
 
 def frame_pictures(config: EvalConfig, dataset: Dataset, frames: Sequence[str], methods: Sequence[str],
-                   protocol: str = "") -> list[tuple[str, np.ndarray]]:
-    """(relpath, picture) for each frame. `protocol` says in a few words how the IoUs written
-    beside the lanes were measured."""
+                   protocol: str = "") -> Overlays:
+    """(relpath, picture) for each frame, and their legend. `protocol` says in a few words how
+    the IoUs written beside the lanes were measured."""
     wanted = list(dict.fromkeys(frames))
     methods = [m for m in methods if m in config.methods] or list(config.methods)
     clip_of, outcomes = replay(config, dataset, wanted, methods)
@@ -112,6 +112,5 @@ def frame_pictures(config: EvalConfig, dataset: Dataset, frames: Sequence[str], 
             + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in ious.items())
             for m, ious in picture.ious.items())
         title = f"{relpath}   {scores}"
-        pictures.append((relpath, draw_frame(picture, background(config, frame), config.model, title,
-                                             protocol=protocol)))
-    return pictures
+        pictures.append((relpath, draw_frame(picture, background(config, frame), config.model, title)))
+    return Overlays(pictures, legend_entries(methods, config.model, protocol))

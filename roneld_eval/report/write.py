@@ -10,9 +10,8 @@ import contextlib
 import json
 import math
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
-import numpy as np
 
 from ..benchmarks import Benchmark
 from ..errors import InputError
@@ -21,6 +20,9 @@ from ..model import Frame, image_stem
 from ..output import OutputFolder, Staging  # noqa: F401 (Staging: its old home)
 from ..workers import alongside
 from . import tables
+
+if TYPE_CHECKING:  # overlays imports OpenCV, which a run without pictures does not need
+    from .overlays import Overlays
 
 
 class LaneWriter:
@@ -100,17 +102,19 @@ def config_record(result: RunResult) -> str:
     return header + "\n" + result.config.to_toml()
 
 
-def write_pictures(staging: Staging, pictures: list[tuple[str, np.ndarray]]) -> None:
-    """overlays/<frame>.png for each picture and overlays.png, the contact sheet."""
+def write_pictures(staging: Staging, overlays: Overlays) -> None:
+    """overlays/<frame>.png for each picture, each with the legend, and overlays.png, the
+    contact sheet, with the legend once above them all."""
     import cv2
 
-    from .overlays import contact_sheet
+    from .overlays import contact_sheet, draw_legend, legend_strip
 
-    for relpath, image in pictures:
+    for relpath, image in overlays.pictures:
         name = image_stem(relpath).replace("/", "__") + ".png"
-        if not cv2.imwrite(str(staging.file(f"overlays/{name}")), image):
+        if not cv2.imwrite(str(staging.file(f"overlays/{name}")), draw_legend(image.copy(), overlays.legend)):
             raise InputError(staging.out_dir / "overlays" / name, "cannot write")
-    if pictures and not cv2.imwrite(str(staging.file("overlays.png")), contact_sheet([image for _, image in pictures])):
+    sheet = contact_sheet([image for _, image in overlays.pictures], legend_strip(overlays.legend))
+    if overlays.pictures and not cv2.imwrite(str(staging.file("overlays.png")), sheet):
         raise InputError(staging.out_dir / "overlays.png", "cannot write")
 
 
