@@ -177,3 +177,36 @@ def test_the_contact_sheet_has_one_legend_above_its_pictures(fixture_run, tmp_pa
         same = [p for p in pictures if np.array_equal(p[legend_zone:], panel[legend_zone:])]
         assert len(same) == 1  # each picture in the sheet as drawn, below the legend's rows
         assert not np.array_equal(same[0][:legend_zone], panel[:legend_zone])  # and without a legend of its own
+
+
+def _ink_lines(rows: np.ndarray) -> list[int]:
+    """Heights of the runs of rows holding dark text, top to bottom."""
+    heights, run = [], 0
+    for inked in (rows.min(axis=(1, 2)) < 100).tolist() + [False]:
+        if inked:
+            run += 1
+        elif run:
+            heights.append(run)
+            run = 0
+    return heights
+
+
+def test_report_shows_the_sheet_with_legible_captions_and_legend(fixture_run, tmp_path):
+    import cv2
+
+    _, run_dir = fixture_run
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--worst", "2", "--out", str(tmp_path / "show")])
+    assert result.exit_code == 0, result.output
+    sheet = cv2.imread(str(tmp_path / "show" / "overlays.png"))
+    shown = 1100 / sheet.shape[1]  # report.html's column is 1,100 px wide at most
+    column = sheet[:, 8:8 + 1000]  # the first picture's column
+    bar = len(column)  # the caption bar: the rows below the picture's image, which is dark
+    while np.median(column[bar - 1]) > 60:
+        bar -= 1
+    lines = _ink_lines(column[bar:])
+    # frame, then the scores; a line of capitals and digits 10 px or more high as shown (7.6 px before)
+    assert len(lines) == 2 and min(lines) * shown >= 10, lines
+    image_top = 0  # the legend: the rows above the first dark row of the picture's image
+    while np.median(column[image_top]) > 60:
+        image_top += 1
+    assert image_top * shown >= 5 * 20, image_top  # five legend lines, 20 px or more apart as shown

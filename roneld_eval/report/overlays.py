@@ -30,6 +30,7 @@ STYLES = {  # colour, thickness at OUTPUT_WIDTH, dashed
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 LegendEntry = tuple[str, tuple[int, int, int] | None, bool]  # text, line colour (None: text only), dashed
 LEGEND_ROW = 24  # pixels per legend line
+CAPTION_SCALE, CAPTION_LINE = 1.0, 36  # caption font scale, and pixels per caption line
 
 
 @dataclass(frozen=True)
@@ -132,24 +133,27 @@ def legend_entries(methods: list[str], model: str, protocol: str = "") -> list[L
     return entries
 
 
-def draw_legend(image: np.ndarray, entries: list[LegendEntry]) -> np.ndarray:
-    """The legend drawn into the top left of `image` (changed in place, and returned)."""
+def draw_legend(image: np.ndarray, entries: list[LegendEntry], scale: int = 1) -> np.ndarray:
+    """The legend drawn into the top left of `image` (changed in place, and returned), `scale`
+    times its size in a picture of its own."""
     for row, (text, sample_colour, dashed) in enumerate(entries):
-        y = LEGEND_ROW + LEGEND_ROW * row
-        x = 52 if sample_colour is not None else 12
+        y = (LEGEND_ROW + LEGEND_ROW * row) * scale
+        x = (52 if sample_colour is not None else 12) * scale
         overlay = image.copy()
-        cv2.rectangle(overlay, (6, y - 17), (max(250, x + cv2.getTextSize(text, FONT, 0.55, 1)[0][0] + 8), y + 7),
-                      (0, 0, 0), -1)
+        right = max(250 * scale, x + cv2.getTextSize(text, FONT, 0.55 * scale, scale)[0][0] + 8 * scale)
+        cv2.rectangle(overlay, (6 * scale, y - 17 * scale), (right, y + 7 * scale), (0, 0, 0), -1)
         cv2.addWeighted(overlay, 0.6, image, 0.4, 0, dst=image)
         if sample_colour is not None:  # a sample of the line, dashed as drawn
-            _polyline(image, np.array([[12.0, y - 5], [44.0, y - 5]]), sample_colour, 4, dashed)
-        cv2.putText(image, text, (x, y), FONT, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
+            _polyline(image, np.array([[12.0, y - 5], [44.0, y - 5]]) * [scale, 1], sample_colour, 4 * scale, dashed)
+        cv2.putText(image, text, (x, y), FONT, 0.55 * scale, (255, 255, 255), scale, cv2.LINE_AA)
     return image
 
 
-def legend_strip(entries: list[LegendEntry]) -> np.ndarray:
-    """The legend alone on white, OUTPUT_WIDTH wide: the one legend of a contact sheet."""
-    return draw_legend(np.full((LEGEND_ROW * len(entries) + LEGEND_ROW // 2, OUTPUT_WIDTH, 3), 255, np.uint8), entries)
+def legend_strip(entries: list[LegendEntry], width: int, scale: int) -> np.ndarray:
+    """The legend alone on white, `width` wide, `scale` times its size in a picture: the one
+    legend of a contact sheet, as legible there as the pictures' captions."""
+    strip = np.full(((LEGEND_ROW * len(entries) + LEGEND_ROW // 2) * scale, width, 3), 255, np.uint8)
+    return draw_legend(strip, entries, scale)
 
 
 def draw_frame(picture: FramePicture, background: np.ndarray, model: str, caption: str = "") -> np.ndarray:
@@ -176,10 +180,14 @@ def draw_frame(picture: FramePicture, background: np.ndarray, model: str, captio
             if iou is not None:
                 anchor = _point_at_height(points, out_height * (0.62 + 0.12 * rank))
                 _label(image, f"{iou:.2f}", anchor, colour)
-    bar = np.full((34, OUTPUT_WIDTH, 3), 255, np.uint8)
-    text = caption or picture.relpath
-    size = min(0.55, 0.55 * (OUTPUT_WIDTH - 16) / cv2.getTextSize(text, FONT, 0.55, 1)[0][0])  # never cut off
-    cv2.putText(bar, text, (8, 23), FONT, size, (0, 0, 0), 1, cv2.LINE_AA)
+    # Caption text about 22 px high in the picture: still 12 px where a report shows two
+    # pictures side by side in a 1,100 px column (a single line at 0.55 came out about 7 px).
+    lines = (caption or picture.relpath).split("\n")
+    bar = np.full((CAPTION_LINE * len(lines) + 12, OUTPUT_WIDTH, 3), 255, np.uint8)
+    for row, text in enumerate(lines):
+        fit = (OUTPUT_WIDTH - 16) / cv2.getTextSize(text, FONT, CAPTION_SCALE, 2)[0][0]  # never cut off
+        cv2.putText(bar, text, (8, CAPTION_LINE * (row + 1)), FONT, CAPTION_SCALE * min(1.0, fit), (0, 0, 0), 2,
+                    cv2.LINE_AA)
     return np.vstack([image, bar])
 
 

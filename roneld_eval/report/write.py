@@ -107,13 +107,15 @@ def write_pictures(staging: Staging, overlays: Overlays) -> None:
     contact sheet, with the legend once above them all."""
     import cv2
 
-    from .overlays import contact_sheet, draw_legend, legend_strip
+    from .overlays import OUTPUT_WIDTH, contact_sheet, draw_legend, legend_strip
 
     for relpath, image in overlays.pictures:
         name = image_stem(relpath).replace("/", "__") + ".png"
         if not cv2.imwrite(str(staging.file(f"overlays/{name}")), draw_legend(image.copy(), overlays.legend)):
             raise InputError(staging.out_dir / "overlays" / name, "cannot write")
-    sheet = contact_sheet([image for _, image in overlays.pictures], legend_strip(overlays.legend))
+    columns = 2
+    sheet = contact_sheet([image for _, image in overlays.pictures],
+                          legend_strip(overlays.legend, columns * OUTPUT_WIDTH, scale=columns), columns)
     if overlays.pictures and not cv2.imwrite(str(staging.file("overlays.png")), sheet):
         raise InputError(staging.out_dir / "overlays.png", "cannot write")
 
