@@ -732,6 +732,24 @@ def test_latex_tables_compile_in_a_two_column_paper_without_overfull_boxes(compa
     assert (many / "table_accuracy.tex").read_text().count("\\begin{tabular}") >= 3
 
 
+def test_an_ablation_of_two_models_fits_where_it_says(runs, tmp_path):
+    """Its spanning model names are what make it wide: a `table` must fit one column with them."""
+    from roneld_eval.comparison.tables import COLUMN_GAP_PT, NARROW_PT, text_pt
+
+    out = tmp_path / "two"
+    result = CliRunner().invoke(main, ["compare", str(runs["cu_scnn"]), str(runs["cu_enet"]), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    tex = (out / "table_ablation.tex").read_text()
+    names = re.findall(r"\\multicolumn\{2\}\{c\}\{([^}]*)\}", tex)
+    assert names == ["CULane, SCNN + RONELD", "CULane, ENet-SAD + RONELD"]
+    if "\\begin{table}" in tex:
+        assert text_pt("threshold") + sum(text_pt(name) + COLUMN_GAP_PT for name in names) <= NARROW_PT
+    else:
+        assert "\\begin{table*}" in tex and "spanning both columns" in tex
+    if shutil.which("pdflatex") is not None:
+        assert "Overfull \\hbox" not in compile_tables(out, tmp_path)
+
+
 # ---- the real clip ---------------------------------------------------------------------------------
 
 def test_real_clip_as_two_models(real_clip_tree, tmp_path):
