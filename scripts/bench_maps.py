@@ -3,6 +3,8 @@
 For each map format (npy, npz, grey PNG as `roneld-eval synth --maps-format scnn-png` writes
 it, RGB PNG as the authors' real clip stores it: 976x351 grey repeated in R, G and B), on the
 same files:
+- a library alone: the same stack as numpy (np.load) or OpenCV (cv2.imread, one grey channel)
+  read it, none of our code in the path, in ms per frame on one process;
 - the decode floor: the fastest way found to read a frame's files into the same (C, H, W)
   uint8 stack, skipping every check (npy: one read; npz: libdeflate on the member; PNG:
   libdeflate and the row filters undone on one channel only, by load_maps' own kernel), against
@@ -16,7 +18,7 @@ is linked as several videos to reach --frames and skipped when absent. Medians o
 With --before, load_maps and the run are also timed with their libdeflate paths switched off,
 which is how every map was read before (np.load, OpenCV).
 
-    python scripts/bench_maps.py [--frames 600] [--repeats 3] [--workers N] [--before]
+    python scripts/bench_maps.py [--frames 600] [--repeats 3] [--workers N] [--before] [--loads-only]
 """
 
 from __future__ import annotations
@@ -106,6 +108,28 @@ def floor_png(stem: Path) -> np.ndarray:
 
 
 FLOORS = {"npy": floor_npy, "npz": floor_npz, "scnn-png": floor_png}
+
+
+# ---- the same stack read by a well-kept library alone, none of our code: np.load, OpenCV ---------
+
+def library_npy(stem: Path) -> np.ndarray:
+    return np.load(stem.parent / (stem.name + ".npy"))
+
+
+def library_npz(stem: Path) -> np.ndarray:
+    with np.load(stem.parent / (stem.name + ".npz")) as archive:
+        return archive["probs"]
+
+
+def library_png(stem: Path) -> np.ndarray:
+    """OpenCV's PNG decoder (libpng and zlib), one channel kept, as load_maps keeps one."""
+    import cv2
+
+    return np.stack([cv2.imread(str(stem.parent / f"{stem.name}_{k}_avg.png"), cv2.IMREAD_GRAYSCALE)
+                     for k in range(1, CHANNELS + 1)])
+
+
+LIBRARIES = {"npy": library_npy, "npz": library_npz, "scnn-png": library_png}
 
 
 # ---- the sets ---------------------------------------------------------------------------------------
@@ -222,6 +246,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=600, help="frames per set (several hundred)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--loads-only", action="store_true", help="time the loads only, not whole runs")
     parser.add_argument("--workers", type=int, default=default_workers())
     parser.add_argument("--before", action="store_true",
                         help="also time load_maps and the run as maps were read before")
@@ -239,7 +264,7 @@ def main() -> None:
         sets.append(("RGB PNG (real clip)", "scnn-png", real))
     print(f"{args.workers} worker(s) for the runs and the floor's processes; medians of {args.repeats}; "
           f"sets in {workspace}")
-    print(f"{'format':22s} {'frames':>6s} {'floor ms':>9s} {'load_maps ms':>12s} {'ratio':>6s}   "
+    print(f"{'format':22s} {'frames':>6s} {'library ms':>10s} {'floor ms':>9s} {'load_maps ms':>12s} {'ratio':>6s}   "
           f"{'floor fr/s':>10s} {'run fr/s':>9s} {'ratio':>6s} {'peak RSS':>9s}")
     for label, fmt, folder in sets:
         config = EvalConfig.preset("scnn-culane").with_overrides(**{"maps.format": fmt}).maps
@@ -248,21 +273,28 @@ def main() -> None:
         stems = [map_stem(maps_root, relpath) for relpath in frames]
         reference = load_maps(maps_root, frames[0], config).probabilities
         assert np.array_equal(FLOORS[fmt](stems[0]), reference), f"the {label} floor reads other values"
+        assert np.array_equal(LIBRARIES[fmt](stems[0]), reference), f"the {label} library reads other values"
         load = functools.partial(load_stack, maps_root, config)
         per_frame_ms(load, frames, 1)  # the page cache
         tool_ms = per_frame_ms(load, frames, args.repeats)
         floor_ms = per_frame_ms(FLOORS[fmt], stems, args.repeats)
+        library_ms = per_frame_ms(LIBRARIES[fmt], stems, args.repeats)
+        line = (f"{label:22s} {len(frames):6d} {library_ms:10.2f} {floor_ms:9.2f} {tool_ms:12.2f} "
+                f"{tool_ms / floor_ms:5.2f}x")
+        if args.loads_only:
+            print(line)
+            continue
         floor_fps = floor_frames_per_s(fmt, stems, args.workers, args.repeats)
         run_fps, peak_mb = whole_run(folder, fmt, args.workers, args.repeats)
-        print(f"{label:22s} {len(frames):6d} {floor_ms:9.2f} {tool_ms:12.2f} {tool_ms / floor_ms:5.2f}x   "
-              f"{floor_fps:10.0f} {run_fps:9.0f} {floor_fps / run_fps:5.1f}x {peak_mb:7.0f} MB")
+        print(f"{line}   {floor_fps:10.0f} {run_fps:9.0f} {floor_fps / run_fps:5.1f}x {peak_mb:7.0f} MB")
         if args.before:
             with as_before():
                 before_ms = per_frame_ms(load, frames, args.repeats)
             before_fps, before_mb = whole_run(folder, fmt, args.workers, args.repeats, before=True)
-            print(f"{'  as before':22s} {'':6s} {'':9s} {before_ms:12.2f} {before_ms / floor_ms:5.2f}x   "
+            print(f"{'  as before':22s} {'':6s} {'':10s} {'':9s} {before_ms:12.2f} {before_ms / floor_ms:5.2f}x   "
                   f"{'':10s} {before_fps:9.0f} {floor_fps / before_fps:5.1f}x {before_mb:7.0f} MB")
-    print("ms: per frame, one process (4 channel maps, then the stack's maximum). fr/s: frames per second, "
+    print("ms: per frame, one process (4 channel maps, then the stack's maximum); ratio: load_maps / floor. "
+          "fr/s: frames per second, "
           "the floor decoding with the runs' number of processes. peak RSS: the run's largest process.")
 
 
