@@ -121,8 +121,6 @@ def _point_at_height(points: np.ndarray, y: float) -> tuple[float, float]:
     return float(np.interp(y, ys, xs)), float(y)
 
 
-
-
 def legend_entries(methods: list[str], model: str, protocol: str = "") -> list[LegendEntry]:
     """What a legend says: each line style's name, and what the numbers are: each lane's IoU
     under the paper's protocol, `protocol` saying how it was drawn (e.g. "ground truth 16 px,
@@ -180,8 +178,8 @@ def draw_frame(picture: FramePicture, background: np.ndarray, model: str, captio
             if iou is not None:
                 anchor = _point_at_height(points, out_height * (0.62 + 0.12 * rank))
                 _label(image, f"{iou:.2f}", anchor, colour)
-    # Caption text about 22 px high in the picture: still 12 px where a report shows two
-    # pictures side by side in a 1,100 px column (a single line at 0.55 came out about 7 px).
+    # Capitals 20 px high in the picture: still 10.9 px where report.html shows two pictures
+    # side by side in its 1,100 px column (one line at scale 0.55 came out 7.6 px there).
     lines = (caption or picture.relpath).split("\n")
     bar = np.full((CAPTION_LINE * len(lines) + 12, OUTPUT_WIDTH, 3), 255, np.uint8)
     for row, text in enumerate(lines):

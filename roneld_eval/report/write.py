@@ -12,7 +12,6 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
-
 from ..benchmarks import Benchmark
 from ..errors import InputError
 from ..evaluation import FrameOutcome, RunResult
@@ -113,10 +112,12 @@ def write_pictures(staging: Staging, overlays: Overlays) -> None:
         name = image_stem(relpath).replace("/", "__") + ".png"
         if not cv2.imwrite(str(staging.file(f"overlays/{name}")), draw_legend(image.copy(), overlays.legend)):
             raise InputError(staging.out_dir / "overlays" / name, "cannot write")
-    columns = 2
+    if not overlays.pictures:
+        return
+    columns = 2  # the sheet is shown at about half size: its legend is drawn at twice a picture's
     sheet = contact_sheet([image for _, image in overlays.pictures],
                           legend_strip(overlays.legend, columns * OUTPUT_WIDTH, scale=columns), columns)
-    if overlays.pictures and not cv2.imwrite(str(staging.file("overlays.png")), sheet):
+    if not cv2.imwrite(str(staging.file("overlays.png")), sheet):
         raise InputError(staging.out_dir / "overlays.png", "cannot write")
 
 
