@@ -154,7 +154,7 @@ def legend_strip(entries: list[LegendEntry], width: int, scale: int) -> np.ndarr
     return draw_legend(strip, entries, scale)
 
 
-def draw_frame(picture: FramePicture, background: np.ndarray, model: str, caption: str = "") -> np.ndarray:
+def draw_frame(picture: FramePicture, background: np.ndarray, caption: str = "") -> np.ndarray:
     """One annotated picture (BGR), OUTPUT_WIDTH wide, with a caption bar and no legend: a
     figure of its own gets one with draw_legend, a contact sheet one for all its pictures."""
     height, width = background.shape[:2]

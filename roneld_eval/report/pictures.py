@@ -112,5 +112,5 @@ def frame_pictures(config: EvalConfig, dataset: Dataset, frames: Sequence[str], 
             + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in ious.items())
             for m, ious in picture.ious.items())
         title = f"{relpath}\n{scores}"
-        pictures.append((relpath, draw_frame(picture, background(config, frame), config.model, title)))
+        pictures.append((relpath, draw_frame(picture, background(config, frame), title)))
     return Overlays(pictures, legend_entries(methods, config.model, protocol))
