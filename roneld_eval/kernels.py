@@ -2,13 +2,13 @@
 
 numba compiles a kernel the first time it meets new argument types and keeps the machine code
 in its on-disk cache (roneld_eval._numba_cache), so only the first run after an install (or an
-upgrade) compiles: about 20 s of CPU time. Left to itself, that happens inside every worker
-process at once, in the middle of the first clip. Instead:
+upgrade) compiles: about 60 s of CPU time on the machine this is developed on. Left to itself,
+that happens inside every worker process at once, in the middle of the first clip. Instead:
 
 - `prepare()` runs once in the main process before the workers start. It looks the kernels up
   in the cache (index files only, ~2 ms); when some are missing it says so through `announce`
-  and compiles them, independent groups in parallel processes that share numba's cache (one
-  share in this process itself, which workers forked later inherit).
+  and compiles them in parallel processes that share numba's cache, in `STEPS` that hand the
+  kernels they compiled to the steps that call them through that cache.
 - `warm_up()` runs in every process that evaluates (each worker as it starts, and the main
   process before evaluating in-process): it loads from the cache what the process lacks
   (~0.4 s, the workers in parallel) and runs every extractor's code path once, RONELD's curve
@@ -27,6 +27,8 @@ from __future__ import annotations
 import contextlib
 import gc
 import time
+from dataclasses import dataclass
+from multiprocessing.connection import wait
 from types import ModuleType
 from typing import Any, Callable, Iterable
 
@@ -39,12 +41,42 @@ EXTRACTION = ("roneld", "baseline")
 SCORING = ("official", "paper")
 LOADING = ("maps",)
 
-# Groups compiled in the same process, because their kernels share callees (the rasteriser),
-# and the seconds each unit takes to compile from nothing on one core of the 2-core machine
-# this is developed on (scripts/bench_cold.py): to balance processes and announce a duration.
-_UNITS = {"roneld": ("roneld",), "baseline": ("baseline",), "scoring": ("tables", "official", "paper"),
-          "maps": ("maps",)}
-_UNIT_COMPILE_S = {"roneld": 9.0, "baseline": 1.0, "scoring": 32.0, "maps": 1.0}
+@dataclass(frozen=True)
+class Step:
+    """Kernels compiled together, in one process, after the steps whose kernels they call: those
+    are then loaded from numba's cache, not compiled again, so a long chain of callers and
+    callees (the scoring kernels, about 40 s on one core) can spread over processes."""
+
+    name: str
+    groups: frozenset[str]  # the kernel groups that need it (a scoring group brings "tables")
+    kernels: tuple[str, ...]  # by name: entries of those groups' ENTRY_SIGNATURES, or CALLEE_SIGNATURES
+    after: tuple[str, ...] = ()  # steps whose kernels these call
+    seconds: float = 1.0  # compiling it from nothing on one core (scripts/bench_cold.py --steps)
+
+    @property
+    def callees_only(self) -> bool:
+        """Whether it exists only so that later steps need not compile its kernels."""
+        return self.groups == _CALLEES
+
+
+_CALLEES = frozenset({"callees"})
+_TABLES = frozenset({"tables"})
+# Callees before their callers. The seconds (scripts/bench_cold.py --steps, on the 2-core
+# machine this is developed on; the first step of a process includes numba's own start) decide
+# the order in which processes take the steps up (in_order).
+STEPS = (
+    Step("raster tables", _TABLES, ("short_quad_extras", "step_extras", "clip_extras"), seconds=8.8),
+    Step("lane runs", _CALLEES, ("rasterise_runs",), seconds=22.1),
+    Step("lane pixels", _CALLEES, ("official_pixels", "map_spline_pixels"), seconds=4.2),
+    Step("lane sets", frozenset({"official", "paper"}), ("lane_set_runs", "lane_set_ious"),
+         after=("lane runs", "lane pixels"), seconds=5.2),
+    Step("overlaps", _TABLES, ("overlap", "run_overlap"), seconds=1.0),
+    Step("matching", frozenset({"official"}), ("matched_ious",), seconds=2.7),
+    Step("roneld", frozenset({"roneld"}), ("frame_lanes", "track_lanes", "choose_active"), seconds=7.2),
+    Step("baseline", frozenset({"baseline"}), ("row_argmax",), seconds=0.4),
+    Step("maps", frozenset({"maps"}), ("unfilter_grey",), seconds=1.0),
+)
+_STEP_NAMED = {step.name: step for step in STEPS}
 
 
 def _kernel_modules(groups: Iterable[str] | None = None) -> tuple[ModuleType, ...]:
@@ -96,40 +128,54 @@ def _entries(groups: Iterable[str]) -> list[tuple[object, tuple]]:
     return entries
 
 
-def _compile_units(units: tuple[str, ...], done: Any = None) -> None:
-    """Compile (or load) every kernel of these units; in a compiling process, into the cache.
-    `done`: a shared counter of compiled kernels, for the progress lines."""
-    for unit in units:
-        for kernel, signature in _entries(_UNITS[unit]):
-            compile_now(kernel, signature)
-            if done is not None:
-                with done.get_lock():
-                    done.value += 1
+def _step_entries(step: Step) -> list[tuple[object, tuple]]:
+    """(kernel, argument types) of a step, each once."""
+    if step.callees_only:
+        listed = metric_kernels.CALLEE_SIGNATURES
+    else:
+        listed = _entries(group for group in step.groups if group != "tables") if step.groups != _TABLES \
+            else metric_kernels.ENTRY_SIGNATURES["tables"]
+    entries: list[tuple[object, tuple]] = []
+    for kernel, signature in listed:
+        if getattr(kernel, "__name__", "") in step.kernels and (kernel, signature) not in entries:
+            entries.append((kernel, signature))
+    return entries
 
 
-def _schedule(units: list[str], processes: int) -> list[list[str]]:
-    """Units in at most `processes` bins of about equal compile time, heaviest bin first."""
-    bins: list[list[str]] = [[] for _ in range(max(1, min(processes, len(units))))]
-    for unit in sorted(units, key=lambda name: -_UNIT_COMPILE_S[name]):
-        min(bins, key=lambda b: sum(_UNIT_COMPILE_S[name] for name in b)).append(unit)
-    return sorted(bins, key=lambda b: -sum(_UNIT_COMPILE_S[name] for name in b))
+def _steps(groups: Iterable[str]) -> list[Step]:
+    """The steps that compile these kernel groups, callees first (a scoring group brings "tables")."""
+    groups = set(groups)
+    if groups & set(SCORING):
+        groups.add("tables")
+    wanted = [step for step in STEPS if step.groups & groups]
+    needed_first = {name for step in wanted for name in step.after}
+    return [step for step in STEPS if step in wanted or step.name in needed_first]
 
 
-def missing_units(needed: Iterable[str] | None = None) -> list[str]:
-    """The compile units of `needed` groups that neither this process nor numba's cache holds.
+def missing_steps(needed: Iterable[str] | None = None) -> list[Step]:
+    """The compile steps of `needed` groups that neither this process nor numba's cache holds.
+    A step of callees only is missing only while a step that calls them is.
 
     A kernel whose presence cannot be told (see `_numba_cache.in_cache`) counts as present:
     it is then compiled where it is loaded, without an announcement.
     """
-    groups = set(_groups(needed))
-    units = []
-    for unit, members in _UNITS.items():
-        if not groups & set(members):
-            continue
-        wanted = [group for group in members if group in groups or group == "tables"]
-        if any(in_cache(kernel, signature) is False for kernel, signature in _entries(wanted)):
-            units.append(unit)
-    return units
+    steps = _steps(_groups(needed))
+    missing = [step for step in steps if not step.callees_only
+               and any(in_cache(kernel, signature) is False for kernel, signature in _step_entries(step))]
+    called = {name for step in missing for name in step.after}
+    return [step for step in steps if step in missing or step.name in called]
+
+
+def in_order(steps: list[Step]) -> list[Step]:
+    """The steps in the order processes take them up: the longest chain of steps still to follow
+    first (by their measured seconds), so a step always comes before the steps that call its kernels."""
+    names = {step.name for step in steps}
+
+    def chain(step: Step) -> float:
+        return step.seconds + max((chain(other) for other in steps if step.name in other.after), default=0.0)
+
+    assert all(name in names for step in steps for name in step.after), "a step without the steps it calls"
+    return sorted(steps, key=lambda step: (-chain(step), STEPS.index(step)))
 
 
 def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str] | None = None,
@@ -137,67 +183,109 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
     """Make sure numba's cache holds every kernel of the `needed` groups (default: all).
 
     Call once in the main process before worker processes start. When the cache lacks some
-    (the first run after an install or an upgrade), `announce` (if given) receives one line,
-    "compiling kernels for this installation (once; about N s)", and they are compiled in up to
-    `processes` (default: the usable cores) processes at once. Nothing else happens when the
+    (the first run after an install or an upgrade), `announce` (if given) receives one line
+    saying so, and they are compiled in up to `processes` (default: the usable cores) processes
+    at once, with a line on how far it is every PROGRESS_EVERY_S. Nothing else happens when the
     cache is warm. Each evaluating process then calls `warm_up`.
     """
-    groups = _groups(needed)
-    units = missing_units(groups)
-    if units:
+    steps = missing_steps(needed)
+    if steps:
         from .workers import worker_count
 
         parallel = worker_count(None if processes is None else max(1, processes))
         if cache_dir() is None:
             parallel = 1  # without a cache other processes cannot hand their work over
-        bins = _schedule(units, parallel)
-        total = sum(len(_entries(_UNITS[unit])) for unit in units)
+        parallel = min(parallel, len(steps))
+        total = sum(len(_step_entries(step)) for step in steps)
         if announce is not None:
-            announce(f"compiling {total} numba kernels for this installation in {len(bins)} "
-                     f"process{'es' if len(bins) > 1 else ''} (once: later runs and installs of this version "
+            announce(f"compiling {total} numba kernels for this installation in {parallel} "
+                     f"process{'es' if parallel > 1 else ''} (once: later runs and installs of this version "
                      f"load them from the cache); progress every {PROGRESS_EVERY_S:g} s")
-        _compile_in_parallel(bins, announce, total)
+        _compile_in_parallel(in_order(steps), parallel, announce, total)
 
 
 # How often a compile says how far it is: a first run must never look hung.
 PROGRESS_EVERY_S = 5.0
 
 
-def _compile_in_child(units: tuple[str, ...], done: Any = None) -> None:
-    """A compiling process: the parent alone decides about Ctrl-C and termination."""
+_TO_DO, _TAKEN, _DONE = 0, 1, 2  # a step's state in a compile shared between processes
+
+
+def _take(order: list[Step], state: Any) -> tuple[Step | None, bool]:
+    """(the first step of `order` still to do whose callees are done, taken now; whether any
+    step is still to do)."""
+    with state.get_lock():
+        for step in order:
+            if state[STEPS.index(step)] == _TO_DO and all(
+                    state[STEPS.index(_STEP_NAMED[name])] == _DONE for name in step.after):
+                state[STEPS.index(step)] = _TAKEN
+                return step, True
+        return None, any(state[STEPS.index(step)] == _TO_DO for step in order)
+
+
+def _compile_step(step: Step, done: Any = None) -> None:
+    """Compile (or load) every kernel of this step; in a compiling process, into the cache.
+    `done`: a shared counter of compiled kernels, for the progress lines."""
+    for kernel, signature in _step_entries(step):
+        compile_now(kernel, signature)
+        if done is not None:
+            with done.get_lock():
+                done.value += 1
+
+
+def _compile_in_child(order: list[Step], done: Any, state: Any) -> None:
+    """A compiling process: takes up steps until none is left (the parent alone decides about
+    Ctrl-C and termination)."""
     from .workers import leave_signals_to_parent
 
     leave_signals_to_parent()
-    _compile_units(units, done)
+    while True:
+        step, more = _take(order, state)
+        if step is None:
+            if not more:
+                return
+            time.sleep(0.02)  # what is left calls kernels another process is compiling
+            continue
+        _compile_step(step, done)
+        with state.get_lock():
+            state[STEPS.index(step)] = _DONE
 
 
-def _compile_in_parallel(bins: list[list[str]], announce: Callable[[str], None] | None = None,
+def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[str], None] | None = None,
                          total: int = 0) -> None:
-    """Each bin in a process of its own; the results reach this process and the workers through
-    numba's cache (`warm_up` loads them, and compiles whatever a failed one left).
+    """The steps in `processes` processes, each taking up the next step it can (`_take`); the
+    results reach this process and the workers through numba's cache (`warm_up` loads them, and
+    compiles whatever a failed one left).
 
     This process only waits, so Ctrl-C or SIGTERM ends the wait at once and cleanly: an
-    interrupted compile inside numba itself would surface as numba's own RuntimeError.
-    Without a cache folder the single bin is compiled here, as nothing could hand it over.
+    interrupted compile inside numba itself would surface as numba's own RuntimeError. A
+    process that fails ends the others (they may be waiting for its steps).
+    Without a cache folder the steps are compiled here, as nothing could hand them over.
     """
     if cache_dir() is None:
-        for units in bins:
-            _compile_units(tuple(units))
+        for step in order:
+            _compile_step(step)
         return
     from .workers import pool_context
 
     context = pool_context()
     done = context.Value("i", 0)
-    helpers = [context.Process(target=_compile_in_child, args=(tuple(b), done), daemon=True) for b in bins]
+    state = context.Array("b", [_TO_DO if step in order else _DONE for step in STEPS])
+    helpers = [context.Process(target=_compile_in_child, args=(order, done, state), daemon=True)
+               for _ in range(processes)]
     start = time.monotonic()
     try:
         for helper in helpers:
             helper.start()
-        while any(helper.is_alive() for helper in helpers):
+        alive = helpers
+        while alive:
             deadline = time.monotonic() + PROGRESS_EVERY_S
-            for helper in helpers:
-                helper.join(max(0.0, deadline - time.monotonic()))
-            if announce is not None and any(helper.is_alive() for helper in helpers):
+            while alive and time.monotonic() < deadline:
+                wait([helper.sentinel for helper in alive], max(0.0, deadline - time.monotonic()))
+                if any(helper.exitcode not in (None, 0) for helper in helpers):
+                    return  # the others are ended below; warm_up compiles what is missing
+                alive = [helper for helper in helpers if helper.is_alive()]
+            if announce is not None and alive:
                 announce(f"compiling kernels: {done.value} of {total} done, {time.monotonic() - start:.0f} s")
     finally:
         for helper in helpers:

@@ -7,6 +7,11 @@ wall times per worker count (the median of the warm runs), their ratio, and the 
 printed to say it was compiling, if any. The code measured is this checkout's (PYTHONPATH).
 
     python scripts/bench_cold.py [--workers 2,1] [--cold-runs 1] [--warm-runs 3]
+    python scripts/bench_cold.py --steps    # each compile step's seconds, from nothing, on one core
+
+--steps gives the seconds roneld_eval.kernels.STEPS carries, by which a first run orders its
+compile over processes: each step compiled from nothing in one fresh process, in that order (a
+step's callees then come from the cache, as in a first run).
 """
 
 from __future__ import annotations
@@ -45,14 +50,45 @@ def timed_run(cache_dir: Path, workers: int, scratch: Path) -> tuple[float, str]
     return elapsed, said[0] if said else ""
 
 
+_STEP_SECONDS = """
+import sys, time
+from roneld_eval import kernels
+for step in kernels.in_order(kernels._steps(kernels.GROUPS)):
+    start = time.perf_counter()
+    kernels._compile_step(step)
+    print(f"{step.name}\t{time.perf_counter() - start:.1f}\t{step.seconds:g}", flush=True)
+"""
+
+
+def step_seconds(scratch: Path) -> None:
+    """Each compile step's seconds from nothing, one process, beside the seconds STEPS carries."""
+    cache_dir = scratch / "numba-steps"
+    cache_dir.mkdir()
+    done = subprocess.run([sys.executable, "-c", _STEP_SECONDS], env=environment(cache_dir), cwd=scratch,
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.exit(f"compiling failed ({done.returncode}):\n{done.stderr}")
+    print(f"{'step':<14}  {'measured s':>10}  {'STEPS says':>10}")
+    for line in done.stdout.splitlines():
+        name, measured, said = line.split("\t")
+        print(f"{name:<14}  {measured:>10}  {said:>10}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", default="2,1", help="comma-separated worker counts (default 2,1)")
     parser.add_argument("--cold-runs", type=int, default=1, help="cold runs per worker count (slow)")
     parser.add_argument("--warm-runs", type=int, default=3, help="warm runs per worker count")
+    parser.add_argument("--steps", action="store_true", help="only each compile step's seconds, on one core")
     args = parser.parse_args()
     print(f"code: {REPO}; {os.cpu_count()} cores; fixture run through `python -m roneld_eval run`")
     scratch = Path(tempfile.mkdtemp(prefix="roneld-bench-cold-"))
+    if args.steps:
+        try:
+            step_seconds(scratch)
+        finally:
+            shutil.rmtree(scratch, ignore_errors=True)
+        return
     rows = []
     try:
         for workers in [int(w) for w in args.workers.split(",")]:

@@ -199,17 +199,19 @@ def test_a_run_on_png_maps_decodes_them_in_the_workers_only(tmp_path):
 
 
 def test_prepare_announces_compiling_only_when_something_is_missing(monkeypatch):
-    said, compiled_units = [], []
-    monkeypatch.setattr(kernels, "_compile_in_parallel", lambda bins, announce, total: compiled_units.extend(bins))
-    monkeypatch.setattr(kernels, "missing_units", lambda needed: ["scoring", "roneld"])
+    said, compiled = [], []
+    monkeypatch.setattr(kernels, "_compile_in_parallel",
+                        lambda order, processes, announce, total: compiled.append((order, processes)))
+    steps = kernels._steps(("roneld", "paper"))
+    monkeypatch.setattr(kernels, "missing_steps", lambda needed: steps)
     kernels.prepare(announce=said.append, needed=("roneld", "paper"), processes=2)
     assert len(said) == 1 and said[0].startswith("compiling ") and " numba kernels for this installation in 2 " \
         "processes (once: later runs and installs of this version load them from the cache)" in said[0]
     assert " about " not in said[0]  # no duration it cannot keep
-    assert sorted(compiled_units) == [["roneld"], ["scoring"]]  # two processes, one unit each
+    assert compiled == [(kernels.in_order(steps), 2)]
 
     said.clear()
-    monkeypatch.setattr(kernels, "missing_units", lambda needed: [])
+    monkeypatch.setattr(kernels, "missing_steps", lambda needed: [])
     kernels.prepare(announce=said.append)
     assert said == []
 
@@ -219,7 +221,7 @@ import sys
 from roneld_eval import kernels
 kernels.PROGRESS_EVERY_S = 0.2
 kernels.prepare(announce=print, needed=("baseline",), processes=1)
-print("missing", kernels.missing_units(("baseline",)))
+print("missing", kernels.missing_steps(("baseline",)))
 """
 
 
@@ -241,7 +243,7 @@ def test_a_compile_says_how_far_it_is_and_a_copy_elsewhere_reuses_it(tmp_path):
 
     shutil.copytree(PACKAGE, copy / "roneld_eval", ignore=shutil.ignore_patterns("__pycache__"))
     again = subprocess.run([sys.executable, "-c", "import roneld_eval, sys; from roneld_eval import kernels; "
-                            "print(roneld_eval.__file__); print(kernels.missing_units(('baseline',)))"],
+                            "print(roneld_eval.__file__); print(kernels.missing_steps(('baseline',)))"],
                            env=env, capture_output=True, text=True, timeout=120, cwd=copy)
     assert again.returncode == 0, again.stderr
     assert again.stdout.splitlines() == [str(copy / "roneld_eval" / "__init__.py"), "[]"]
@@ -252,13 +254,55 @@ def test_what_this_process_holds_counts_as_cached(warm):
 
     kernel, signature = _kernels.ENTRY_SIGNATURES["roneld"][0]
     assert in_cache(kernel, signature) is True
-    assert kernels.missing_units() == []
+    assert kernels.missing_steps() == []
 
 
-def test_units_are_balanced_over_processes():
-    assert kernels._schedule(["roneld", "baseline", "scoring"], 2) == [["scoring"], ["roneld", "baseline"]]
-    assert kernels._schedule(["roneld", "baseline", "scoring"], 1) == [["scoring", "roneld", "baseline"]]
-    assert kernels._schedule(["baseline"], 8) == [["baseline"]]
+def test_every_entry_is_compiled_by_one_step_and_callees_come_first():
+    by_steps = [(kernel, signature) for step in kernels.STEPS if not step.callees_only
+                for kernel, signature in kernels._step_entries(step)]
+    entries = kernels._entries(kernels.GROUPS)
+    assert sorted(map(repr, by_steps)) == sorted(map(repr, dict.fromkeys(entries)))  # each once, none left out
+    assert all(kernels._step_entries(step) for step in kernels.STEPS)  # no step names a kernel it lacks
+    for needed in (kernels.GROUPS, ("official",), ("baseline", "paper"), ("roneld",)):
+        order = kernels.in_order(kernels._steps(needed))
+        for position, step in enumerate(order):
+            assert all(name in [earlier.name for earlier in order[:position]] for name in step.after)
+    assert [step.name for step in kernels._steps(("roneld",))] == ["roneld"]
+    assert "matching" not in [step.name for step in kernels._steps(("paper",))]  # official scores only
+
+
+def test_a_step_of_callees_is_compiled_only_for_the_steps_that_call_them(monkeypatch):
+    cached = {"lane sets": True, "lane runs": False, "lane pixels": False}
+
+    def in_cache(kernel, signature):
+        step = next(step for step in kernels.STEPS if kernel.__name__ in step.kernels)
+        return cached.get(step.name, True)
+
+    monkeypatch.setattr(kernels, "in_cache", in_cache)
+    assert kernels.missing_steps(("official",)) == []  # lane_set_runs holds its callees' code
+    cached["lane sets"] = False
+    assert [step.name for step in kernels.missing_steps(("official",))] == ["lane runs", "lane pixels", "lane sets"]
+
+
+_CALLEES_LISTED = """
+import sys
+from roneld_eval import kernels
+from roneld_eval.metrics import _kernels
+for step in kernels.in_order(kernels._steps(("official", "paper"))):
+    kernels._compile_step(step)  # in this process, as one compiling process of prepare() does
+for kernel, signature in _kernels.CALLEE_SIGNATURES:
+    print(kernel.__name__, len(kernel.signatures), tuple(signature) in kernel.signatures)
+"""
+
+
+def test_the_callees_compiled_first_are_those_their_callers_use(tmp_path):
+    # Listed with other argument types than lane_set_runs passes, they would be compiled twice.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-c", _CALLEES_LISTED], env=env, capture_output=True, text=True,
+                          timeout=600, cwd=REPO)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[:-1] == [f"{name} 1 True" for name in
+                                             ("rasterise_runs", "official_pixels", "map_spline_pixels")]
 
 
 def test_every_kernel_is_listed():

@@ -445,9 +445,9 @@ def row_argmax(maps, rows):
 # ---- the argument types the extractors call the kernels above with --------------------------
 # numba compiles one specialisation per tuple of argument types, where it is first called.
 # roneld_eval.kernels compiles these ahead of a run, so that no call inside a timed region
-# compiles. Maps come writable (PNG, float maps) or read-only (memory-mapped uint8 .npy):
-# numba tells them apart, so both are listed.
-_MAPS = (types.Array(types.uint8, 3, "C"), types.Array(types.uint8, 3, "C", readonly=True))
+# compiles. Maps come writable (PNG, float maps) or read-only (memory-mapped uint8 .npy), which
+# numba would compile apart (4 s more of a first run): the extractors pass them read-only.
+_MAPS = types.Array(types.uint8, 3, "C", readonly=True)
 _FIELDS = types.Array(types.float64, 2, "C")
 _VALUES = types.Array(types.float64, 1, "C")
 _ROWS = types.Array(types.int64, 1, "C")
@@ -455,10 +455,11 @@ _I, _F = types.int64, types.float64
 
 ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     # roneld.current_lanes, roneld_step
-    "roneld": [(frame_lanes, (maps, _I, _I, _I, _I, _F)) for maps in _MAPS] + [
+    "roneld": [
+        (frame_lanes, (_MAPS, _I, _I, _I, _I, _F)),
         (track_lanes, (_FIELDS, _FIELDS, _VALUES, _F, _F, _F, _F)),
         (choose_active, (_FIELDS, _F, _F, types.boolean)),
     ],
     # baseline.baseline_lanes
-    "baseline": [(row_argmax, (maps, _ROWS)) for maps in _MAPS],
+    "baseline": [(row_argmax, (_MAPS, _ROWS))],
 }

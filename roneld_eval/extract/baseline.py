@@ -19,7 +19,7 @@ from ..config import BaselineParams
 
 from ..thresholds import parse_rows
 from ..geometry import MapGeometry
-from ..model import EGO_CHANNELS, FrameMaps, Lane
+from ..model import EGO_CHANNELS, FrameMaps, Lane, read_only
 from ._kernels import row_argmax
 from .protocol import Prediction, ego_pair
 
@@ -55,7 +55,8 @@ def baseline_lanes(maps: FrameMaps, params: BaselineParams, geometry: MapGeometr
         rows = None  # sampled for the other size
     if rows is None:
         rows = sample_rows(params, geometry)
-    columns, values = row_argmax(probabilities, rows.map_rows)  # first maximum, as MATLAB's max
+    # The first maximum, as MATLAB's max; read-only: one compiled specialisation for every kind of maps
+    columns, values = row_argmax(read_only(probabilities), rows.map_rows)
     found = values.astype(np.float64) / 255.0 > params.threshold
     xs = _round_half_up((columns + 1) * geometry.image_width, geometry.map_width) - 1
     lanes: list[Lane | None] = []

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..config import RoneldParams
 from ..geometry import MapGeometry
-from ..model import EGO_CHANNELS, FrameMaps, Lane
+from ..model import EGO_CHANNELS, FrameMaps, Lane, read_only
 from . import _kernels
 from .protocol import Prediction
 
@@ -89,7 +89,7 @@ def current_lanes(maps: np.ndarray, constants: RoneldConstants = CONSTANTS):
     Returns (fields, points) as in RoneldState (weights 0).
     """
     counts, xs, ys, fields = _kernels.frame_lanes(
-        maps,
+        read_only(maps),  # one compiled specialisation for every kind of maps
         constants.rows_per_point,
         constants.min_straight_points,
         constants.min_curve_points,

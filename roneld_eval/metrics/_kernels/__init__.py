@@ -109,6 +109,16 @@ ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     # paper.ego_masks and side_ious (raster.map_mask_set): the same kernels
     "paper": [(lane_set_runs, _LANE_SET), (lane_set_ious, _SET_IOUS)],
 }
+# Kernels that the entries above call, listed with the argument types their callers pass, so that
+# a first run can compile them in another process beforehand (roneld_eval.kernels.STEPS): a
+# caller then loads them from numba's cache instead of compiling them itself.
+_LANE = types.Array(types.float64, 2, "C")  # lane_set_runs' points[starts[i]:starts[i + 1]]
+_PIXELS = types.Array(types.int64, 1, "C")
+CALLEE_SIGNATURES: list[tuple[Any, tuple]] = [
+    (rasterise_runs, (_PIXELS, _PIXELS, _I, _I, _I) + _TABLES + _STEPS),
+    (official_pixels, (_LANE,)),
+    (map_spline_pixels, (_LANE, _B, _F, _F, _F, _B)),
+]
 # The pixel-by-pixel references the runs are tested and benchmarked against (metrics.reference),
 # and one lane at a time (raster.official_mask, map_mask: tests and benchmarks): compiled only
 # where they are used, so that a first run of the tool does not pay for them.
