@@ -86,7 +86,7 @@ def with_absolute_paths(config: EvalConfig) -> EvalConfig:
 
 def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progress: bool = True,
         resume: bool = False, overlays: int = 0, announce: Callable[[str], None] | None = None,
-        shard: str | None = None) -> RunResult | None:
+        shard: str | None = None, timings: bool = True) -> RunResult | None:
     """Evaluate every configured method and write the report to `out` (see the README).
 
     Finished clips are kept in `out` while the run goes on; after an interruption,
@@ -95,6 +95,7 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
     `announce` receives one-line notes (the geometry used, what resume reused).
     The folder `out` is the run's own: see roneld_eval.output. With `shard` ('I/N') only that
     share of the clips is evaluated and `out` gets its part for `merge` (None is returned).
+    `timings=False` leaves what the clock measured out of the report (RunResult.timed).
     """
     requested = with_absolute_paths(config or default_config())
     config = with_fixture(requested)
@@ -102,9 +103,9 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
     if shard is not None:
         from .shards import parse_shard
 
-        if resume or overlays:
-            raise ConfigError("--shard writes a part for `roneld-eval merge`, not a report: without --resume or "
-                              "--overlays (draw pictures of the merged run with `roneld-eval show`)")
+        if resume or overlays or not timings:
+            raise ConfigError("--shard writes a part for `roneld-eval merge`, not a report: without --resume, "
+                              "--overlays (draw pictures of the merged run with `roneld-eval show`) or --no-timings")
         _run_shard(config, requested, parse_shard(shard), out, progress, say)
         return None
     with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
@@ -137,6 +138,7 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
                 from .report.pictures import frame_pictures
 
                 write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods), protocol))
+            result.timed = timings
             stage_report(result, staging)
             folder.commit(then=cache.discard)  # a signal meanwhile waits, then says the results are complete
         except RunInterrupted:

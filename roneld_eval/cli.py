@@ -219,11 +219,14 @@ def main():
 @click.option("--out", type=click.Path(path_type=Path), default=Path(DEFAULT_OUT), show_default=True,
               help="Folder for the results (the default is ignored by this repository's git, never results/).")
 @sharding_options("clips", verb="Evaluate")
+@click.option("--no-timings", is_flag=True,
+              help="Leave what the clock measures (runtime per frame, wall time) out of the report, so that running "
+                   "again writes the same bytes (how results/ is written).")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
 def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, plugins, pft_ablation, no_pft,
         thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, dry_run, out, shard, executor,
-        scheduler, quiet, debug):
+        scheduler, no_timings, quiet, debug):
     """Evaluate the baseline, RONELD and any plug-in on a dataset's stored maps; write tables and curves.
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
@@ -294,7 +297,7 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         _dry_run(config, quiet, debug)
         return
     result = _guard(executed, debug, executor, scheduler, "run", api.run, config, out, progress=not quiet,
-                    resume=resume, overlays=overlays, announce=_announcer(quiet), shard=shard)
+                    resume=resume, overlays=overlays, announce=_announcer(quiet), shard=shard, timings=not no_timings)
     if result is None:  # a shard: its part is written
         shard_written(shard, out, quiet)
         return

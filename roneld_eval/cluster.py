@@ -44,9 +44,9 @@ def executed(executor: str, scheduler: str | None, command: str, function: Calla
         raise ConfigError("--executor dask cuts the command into shards itself: give it without --shard")
     if arguments.get("out") is None:
         raise ConfigError("--executor dask merges the shards' parts into --out: give --out")
-    if arguments.get("resume") or arguments.get("overlays"):
-        raise ConfigError("--executor dask merges shards, which keep no report to resume or draw in: without --resume "
-                          "or --overlays (draw pictures of the merged run with `roneld-eval show`)")
+    if arguments.get("resume") or arguments.get("overlays") or arguments.get("timings") is False:
+        raise ConfigError("--executor dask merges shards, which keep no report to resume or draw in: without --resume, "
+                          "--overlays (draw pictures of the merged run with `roneld-eval show`) or --no-timings")
     if getattr(arguments.get("config"), "plugins", None):
         raise ConfigError("--executor dask merges the shards' parts, and a merge imports no code a part names: run "
                           "plug-in methods without it")

@@ -75,7 +75,8 @@ def test_executor_options_that_do_not_go_together_are_one_line(culane_set, tmp_p
 
 
 def test_a_run_on_dask_refuses_what_a_merge_cannot_give(tmp_path):
-    for extra, said in ((["--overlays", "2"], "without --resume or --overlays"),
+    for extra, said in ((["--overlays", "2"], "without --resume, --overlays"),
+                        (["--no-timings"], "or --no-timings"),
                         (["--method", "mine=plugin_extractors:shifted"], "a merge imports no code a part names")):
         result = _invoke("run", "--executor", "dask", "--out", tmp_path / "o", *extra)
         assert result.exit_code == 2 and said in result.output, result.output

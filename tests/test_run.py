@@ -21,6 +21,50 @@ def test_fixture_accuracy_equals_the_committed_results(fixture_run):
         "main command and say why in the commit")
 
 
+def _refresh_command() -> list[str]:
+    """The README's command that refreshes results/, as arguments after `roneld-eval`."""
+    import re
+    import shlex
+
+    (line,) = re.findall(r"^roneld-eval (run .* --out results)$", (REPO / "README.md").read_text(), re.M)
+    return shlex.split(line)
+
+
+def _files(folder):
+    return {str(path.relative_to(folder)): path.read_bytes() for path in sorted(folder.rglob("*")) if path.is_file()}
+
+
+def test_refreshing_results_changes_nothing(tmp_path):
+    # Refreshing results/ used to change four files every time (the timings in runtime.csv/.md,
+    # summary.json's wall time, report.html), whatever the code did.
+    from click.testing import CliRunner
+
+    from roneld_eval.cli import main
+
+    arguments = _refresh_command()
+    assert "--no-timings" in arguments
+    arguments[-1] = str(tmp_path / "results")
+    result = CliRunner().invoke(main, arguments + ["--quiet"])
+    assert result.exit_code == 0, result.output
+    committed, written = _files(REPO / "results"), _files(tmp_path / "results")
+    assert sorted(written) == sorted(committed)
+    versions = json.loads(committed["summary.json"])["versions"]
+    here = json.loads(written["summary.json"])["versions"]
+    same_libraries = {k: v for k, v in versions.items() if k != "platform"} == \
+        {k: v for k, v in here.items() if k != "platform"}
+    for name, data in written.items():
+        if name == "summary.json":  # the machine it ran on is a fact about that run
+            mine, theirs = json.loads(data), json.loads(committed[name])
+            mine["versions"]["platform"] = theirs["versions"]["platform"] = ""
+            if not same_libraries:
+                mine["versions"], theirs["versions"] = {}, {}
+            assert mine == theirs
+        elif same_libraries or name.rsplit(".", 1)[-1] in ("csv", "md", "tex", "toml"):
+            # Pictures (and report.html, which holds them) are compared where the libraries that
+            # drew them are those that drew the committed ones.
+            assert data == committed[name], f"results/{name} differs from what the README's refresh writes"
+
+
 def test_run_writes_every_output(fixture_run):
     result, out = fixture_run
     names = {p.name for p in out.iterdir()}

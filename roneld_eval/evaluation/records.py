@@ -103,6 +103,9 @@ class RunResult:
     gains: pd.DataFrame | None = None
     # What a reader should know that left nothing out (maps of several sizes, each rescaled)
     notes: list[str] = field(default_factory=list)
+    # Whether the report shows what the clock measured (runtime per frame, wall time); without it
+    # the same run writes the same bytes (`run --no-timings`, how results/ is written).
+    timed: bool = True
 
 
 

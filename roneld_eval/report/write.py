@@ -87,7 +87,7 @@ def summary(result: RunResult) -> dict:
         "versions": result.versions,
         "counts": result.counts,
         "skipped": result.skipped,
-        "wall_time_s": round(result.wall_time_s, 3),
+        "wall_time_s": round(result.wall_time_s, 3) if result.timed else None,
         "rerun": "roneld-eval run --config config.toml",
         **extra,
     })
@@ -119,6 +119,28 @@ def write_pictures(staging: Staging, overlays: Overlays) -> None:
                           legend_strip(overlays.legend, columns * OUTPUT_WIDTH, scale=columns), columns)
     if not cv2.imwrite(str(staging.file("overlays.png")), sheet):
         raise InputError(staging.out_dir / "overlays.png", "cannot write")
+
+
+UNTIMED = ("Not measured: this run was written with --no-timings, which leaves out what the clock measures "
+           "(runtime per frame and the wall time), so that running it again writes the same bytes.")
+
+
+def _stage_runtime(result: RunResult, staging: Staging, source: str, protocol, model: str) -> None:
+    """runtime.csv and runtime.md: Table V, or, for an untimed run, the frames alone and why."""
+    if not result.timed:
+        frames = result.runtime[["method", "frames"]].assign(mean_ms=math.nan, median_ms=math.nan, p95_ms=math.nan)
+        staging.write_csv("runtime.csv", frames, "%.4f")
+        staging.write_text("runtime.md", f"# Runtime per frame on {source}\n\n{UNTIMED}\n")
+        return
+    staging.write_csv("runtime.csv", result.runtime, "%.4f")
+    skewed = [str(row["method"]) for row in result.runtime.to_dict("records") if row["mean_ms"] > row["p95_ms"]]
+    skew_note = (f"\n\nA mean above its 95th percentile ({', '.join(skewed)}): fewer than one frame in 20 took far "
+                 "longer than the rest (a slow disk read, the machine busy with other work), and the median is the "
+                 "typical frame." if skewed else "")
+    staging.write_text("runtime.md", f"# Runtime per frame on {source}\n\n"
+                       f"Milliseconds per frame of extraction alone (after numba warm-up), map loading apart, "
+                       f"on {protocol.map_size()}.\n\n" + tables.runtime_table(result.runtime, model).to_markdown()
+                       + skew_note)
 
 
 def write_report(result: RunResult, out_dir: str | Path) -> list[Path]:
@@ -163,15 +185,7 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         staging.write_text("ablation.tex", ablation.to_latex(
             f"Accuracy of {tables.display_name('roneld', model)} with and without preceding frame tracking (PFT) "
             f"on {source}. {paper_note}", f"tab:pft-{result.dataset.name}"))
-    staging.write_csv("runtime.csv", result.runtime, "%.4f")
-    skewed = [str(row["method"]) for row in result.runtime.to_dict("records") if row["mean_ms"] > row["p95_ms"]]
-    skew_note = (f"\n\nA mean above its 95th percentile ({', '.join(skewed)}): fewer than one frame in 20 took far "
-                 "longer than the rest (a slow disk read, the machine busy with other work), and the median is the "
-                 "typical frame." if skewed else "")
-    staging.write_text("runtime.md", f"# Runtime per frame on {source}\n\n"
-                       f"Milliseconds per frame of extraction alone (after numba warm-up), map loading apart, "
-                       f"on {protocol.map_size()}.\n\n" + tables.runtime_table(result.runtime, model).to_markdown()
-                       + skew_note)
+    _stage_runtime(result, staging, source, protocol, model)
     staging.write_csv("per_frame.csv", result.per_frame, "%.10g")
     staging.write_csv("official.csv", result.official, "%.6f")
     staging.write_text("config.toml", config_record(result))
