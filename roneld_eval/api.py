@@ -7,6 +7,7 @@ the official formats, `synthesize` writes a generated dataset. The bundled fixtu
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import replace
@@ -111,45 +112,64 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
     with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
         staging = Staging(folder)
         cache = ResultCache(folder.path, config, __version__, resume, note=say)
-        try:
-            writer = LaneWriter(staging, benchmark_for(config.dataset.name)) if config.save_lanes else None
-            try:
-                result = evaluate(config, progress=progress, lane_sink=writer, cache=cache, announce=say)
-            except RunInterrupted as error:  # a worker died: say what is kept for --resume
-                raise RunInterrupted(_unfinished(str(error), cache), exit_code=error.exit_code) from None
-            if resume:
-                say(f"resume: {cache.summary()}")
-            if not result.counts["labelled_frames"]:
-                raise InputError(config.maps.root or config.dataset.data_root,
-                                 _nothing_scored(result.counts["clips"], result.skipped))
-            if writer is not None:
-                writer.close()
-            if config is not requested:
-                # Record the bundled fixture by name, not by this machine's paths, so the written
-                # config.toml reruns anywhere.
-                result.config = requested
-                result.fixture = config.dataset.name
+        with _kept_for_resume(cache):
+            result = _evaluated(config, requested, staging, cache, progress, resume, say)
             if overlays:
-                from .report.overlays import worst_frames
-                from .report.write import write_pictures
-
-                chosen = worst_frames(result.per_frame, overlays)
-                protocol = Protocol.of_run(result).paper_short()
-                from .report.pictures import frame_pictures
-
-                write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods), protocol))
+                _stage_pictures(staging, config, result, overlays)
             result.timed = timings
             stage_report(result, staging)
             folder.commit(then=cache.discard)  # a signal meanwhile waits, then says the results are complete
-        except RunInterrupted:
-            raise  # finished clips stay for --resume
-        except KeyboardInterrupt as error:  # Ctrl-C, SIGTERM or SIGHUP, evaluating or writing the report
-            reason, code = interruption_name(error)
-            raise RunInterrupted(_unfinished(reason, cache), exit_code=code) from None
-        except BaseException:
-            cache.discard()  # bad input or a bug: nothing to resume from
-            raise
     return result
+
+
+@contextlib.contextmanager
+def _kept_for_resume(cache: ResultCache):
+    """Finished clips stay in the cache for --resume when the run is interrupted (a worker died,
+    Ctrl-C, SIGTERM or SIGHUP, evaluating or writing the report), and go on any other failure."""
+    try:
+        yield
+    except RunInterrupted:
+        raise
+    except KeyboardInterrupt as error:
+        reason, code = interruption_name(error)
+        raise RunInterrupted(_unfinished(reason, cache), exit_code=code) from None
+    except BaseException:
+        cache.discard()  # bad input or a bug: nothing to resume from
+        raise
+
+
+def _evaluated(config: EvalConfig, requested: EvalConfig, staging: Staging, cache: ResultCache, progress: bool,
+               resume: bool, say: Callable[[str], None]) -> RunResult:
+    """The run's result, its lanes staged (with save_lanes); it must have scored a frame."""
+    writer = LaneWriter(staging, benchmark_for(config.dataset.name)) if config.save_lanes else None
+    try:
+        result = evaluate(config, progress=progress, lane_sink=writer, cache=cache, announce=say)
+    except RunInterrupted as error:  # a worker died: say what is kept for --resume
+        raise RunInterrupted(_unfinished(str(error), cache), exit_code=error.exit_code) from None
+    if resume:
+        say(f"resume: {cache.summary()}")
+    if not result.counts["labelled_frames"]:
+        raise InputError(config.maps.root or config.dataset.data_root,
+                         _nothing_scored(result.counts["clips"], result.skipped))
+    if writer is not None:
+        writer.close()
+    if config is not requested:
+        # Record the bundled fixture by name, not by this machine's paths, so the written
+        # config.toml reruns anywhere.
+        result.config = requested
+        result.fixture = config.dataset.name
+    return result
+
+
+def _stage_pictures(staging: Staging, config: EvalConfig, result: RunResult, overlays: int) -> None:
+    """The `overlays` frames where the methods differ most, drawn."""
+    from .report.overlays import worst_frames
+    from .report.pictures import frame_pictures
+    from .report.write import write_pictures
+
+    chosen = worst_frames(result.per_frame, overlays)
+    protocol = Protocol.of_run(result).paper_short()
+    write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods), protocol))
 
 
 def _run_shard(config: EvalConfig, requested: EvalConfig, shard, out: str | Path, progress: bool,

@@ -96,11 +96,7 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
     read for its size): the checks a run makes before it starts, and `run --dry-run` alone.
     With a `shard` (shards.Shard) only its share of the dataset's clips is planned; the plan's
     dataset stays whole."""
-    if config.dataset.data_root is None or config.maps.root is None:
-        raise ConfigError("a run needs both a data root and a maps root")
-    maps_root = Path(config.maps.root)
-    if not maps_root.is_dir():
-        raise InputError(maps_root, "maps root not found")
+    maps_root = _maps_root(config)
     skipped: list[str] = []
     if dataset is None:
         dataset = _read(config, skipped)
@@ -109,16 +105,7 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
             f"the configuration's image size {config.dataset.image_width}x{config.dataset.image_height} does not "
             f"match {dataset.name}'s {dataset.image_width}x{dataset.image_height}"
         )
-    if shard is not None:  # the share is cut from the list alone, before any clip is left out
-        from dataclasses import replace
-
-        from ..shards import shard_range
-
-        share = shard_range([len(clip.frames) for clip in dataset.clips], shard)
-        clips = _clips_with_maps(replace(dataset, clips=dataset.clips[share.start:share.stop]), maps_root, config,
-                                 skipped)
-    else:
-        clips = _clips_with_maps(dataset, maps_root, config, skipped)
+    clips = _clips_with_maps(_share(dataset, shard), maps_root, config, skipped)
     context = RunContext(config, maps_root, None if dataset.labels_loaded else dataset.root,
                          data_root=Path(dataset.root),
                          label_file=None if dataset.source_file is None else Path(dataset.source_file))
@@ -131,6 +118,29 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
     if geometry is not None:
         say(f"geometry: {geometry.describe()}")
     return RunPlan(dataset, tuple(clips), context, tuple(skipped), geometry)
+
+
+def _maps_root(config: EvalConfig) -> Path:
+    """The configured maps root, which must be a folder (and a data root configured)."""
+    if config.dataset.data_root is None or config.maps.root is None:
+        raise ConfigError("a run needs both a data root and a maps root")
+    maps_root = Path(config.maps.root)
+    if not maps_root.is_dir():
+        raise InputError(maps_root, "maps root not found")
+    return maps_root
+
+
+def _share(dataset: Dataset, shard) -> Dataset:
+    """The dataset with a shard's share of its clips (all without a shard), cut from the list
+    alone, before any clip is left out."""
+    if shard is None:
+        return dataset
+    from dataclasses import replace
+
+    from ..shards import shard_range
+
+    share = shard_range([len(clip.frames) for clip in dataset.clips], shard)
+    return replace(dataset, clips=dataset.clips[share.start:share.stop])
 
 
 def _read(config: EvalConfig, skipped: list[str]) -> Dataset:
