@@ -5,17 +5,16 @@ source in a comment, and every number has a range (RANGES). Presets, TOML files,
 (`parse_setting`) and the library all build the same dataclasses, which check types and
 ranges when built, so a bad value is one ConfigError wherever it comes from. Stages receive
 only their own part. `EvalConfig.to_dict()` is what `summary.json` records, and `to_toml()`
-writes a file `--config` reads back to an equal configuration.
+writes a file `--config` reads back to an equal configuration. A value is checked against its
+field in config_values; plug-in methods are plugin_methods'; presets, thresholds and the TOML
+writer are modules of their own.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import difflib
-import math
-import numbers
 import os
-import re
 import stat
 import sys
 from dataclasses import dataclass, field, fields, replace
@@ -36,45 +35,24 @@ from .presets import nearest, preset_path, resolve_config_path
 from .thresholds import TALLEST_IMAGE, parse_rows, parse_thresholds
 from .toml_text import toml_key, toml_value
 from .methods import METHOD_TABLE
+from .config_values import Range, typed
+from .plugin_methods import (  # noqa: F401 (METHODS: where callers find it)
+    METHODS,
+    PLUGIN_TIME_LIMIT_S,
+    PluginMethod,
+    check_method_name,
+    methods_from_table,
+)
+from . import plugin_methods
 
 # "scnn-png": <frame>_<k>_avg.png + <frame>.exist.txt; "llamas-png": <frame>.json_<c>.png (LLAMAS's
 # segmentation format); "lanes": another detector's lane files, rendered into maps (roneld_eval.maps.lanes).
 MAP_FORMATS = ("npy", "npz", "scnn-png", "llamas-png", "lanes")
-# The built-in extractors (roneld_eval.extract.registry); plug-ins add their own names.
-METHODS = tuple(METHOD_TABLE)
 # Those that output the two ego lanes only (RONELD keeps the active lanes): their official F1
 # over all lanes counts the outer lanes as missed, which a reader must be told.
 EGO_LANES_ONLY = frozenset(name for name, facts in METHOD_TABLE.items() if facts.ego_lanes_only)
-# A plug-in's name becomes a folder (lanes/NAME/) and a column value: letters, digits, - _ . +
-METHOD_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}")
-# Python's entry-point group where installed packages register extractors by name.
-ENTRY_POINT_GROUP = "roneld_eval.extractors"
-# Seconds a plug-in may take on one frame before the run stops (or skips the frame).
-PLUGIN_TIME_LIMIT_S = 60.0
 ON_ERROR = ("fail", "skip")
 
-
-
-@dataclass(frozen=True)
-class Range:
-    """The documented range of a numeric setting: low and high, each included unless open."""
-
-    low: float | None = None
-    high: float | None = None
-    low_open: bool = False
-    high_open: bool = False
-
-    def __contains__(self, value) -> bool:
-        if self.low is not None and (value <= self.low if self.low_open else value < self.low):
-            return False
-        if self.high is not None and (value >= self.high if self.high_open else value > self.high):
-            return False
-        return True
-
-    def __str__(self) -> str:
-        if self.high is None:
-            return f"{'>' if self.low_open else '>='} {self.low:g}"
-        return f"in {'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
 
 
 # The thinnest line the rasteriser draws as OpenCV does (see RANGES).
@@ -133,67 +111,6 @@ def _qualified(section: str, name: str) -> str:
     return f"{section}.{name}" if section else name
 
 
-def _typed(qualified: str, annotation: str, value: Any) -> Any:
-    """`value` as the field's type wants it (ints stay ints, numbers become floats), or ConfigError."""
-    optional = "None" in annotation
-    base = annotation.split("|")[0].strip()
-    if value is None:
-        if optional:
-            return None
-        raise ConfigError(f"{qualified} needs a value")
-    if base.startswith("tuple"):
-        if isinstance(value, str):
-            value = [part.strip() for part in value.split(",") if part.strip()]
-        if not isinstance(value, (list, tuple)) or not all(isinstance(item, str) for item in value):
-            raise ConfigError(f"{qualified} must be a list of names or a comma-separated string, got {value!r}")
-        return tuple(_checked_text(qualified, item) for item in value)
-    if base == "bool":
-        if not isinstance(value, bool):
-            raise ConfigError(f"{qualified} must be true or false, got {value!r}")
-        return value
-    if base == "int":
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-            raise ConfigError(f"{qualified} must be an integer, got {_shown(value)}")
-        value = int(value)
-    elif base == "float":
-        if isinstance(value, bool) or not isinstance(value, numbers.Real):
-            raise ConfigError(f"{qualified} must be a number, got {_shown(value)}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise ConfigError(f"{qualified} must be a finite number, got {value}")
-    elif base == "str":
-        if isinstance(value, os.PathLike):
-            value = os.fspath(value)
-        if not isinstance(value, str):
-            hint = f' (write it in quotes: "{value}")' if isinstance(value, (int, float)) else ""
-            raise ConfigError(f"{qualified} must be a string, got {_shown(value)}{hint}")
-        return _checked_text(qualified, value)
-    else:  # pragma: no cover - every field type is handled above
-        return value
-    limits = RANGES.get(qualified)
-    if limits is not None and value not in limits:
-        raise ConfigError(f"{qualified} must be {limits}, got {value if isinstance(value, int) else f'{value:g}'}")
-    return value
-
-
-def _shown(value: Any) -> str:
-    return f"the text {value!r}" if isinstance(value, str) else repr(value)
-
-
-def _checked_text(qualified: str, text: str) -> str:
-    """Text config.toml can hold and a path can carry: valid Unicode, no NUL character."""
-    try:
-        text.encode("utf-8")
-    except UnicodeEncodeError:
-        raise ConfigError(
-            f"{qualified} is not valid Unicode text (a name that is not UTF-8: {text!a}); "
-            "rename it, or run under a UTF-8 locale such as LC_ALL=C.UTF-8"
-        ) from None
-    if "\0" in text:
-        raise ConfigError(f"{qualified} holds a NUL character: {text!a}")
-    return text
-
-
 def _check_fields(record, section: str) -> None:
     """Type- and range-check every field of a config dataclass in place (normalised: 1 -> 1.0)."""
     for item in fields(record):
@@ -205,7 +122,8 @@ def _check_fields(record, section: str) -> None:
             if not isinstance(value, section_type):
                 raise ConfigError(f"[{item.name}] must be a {section_type.__name__}, got {value!r}")
             continue
-        checked = _typed(_qualified(section, item.name), str(item.type), value)
+        qualified = _qualified(section, item.name)
+        checked = typed(qualified, str(item.type), value, RANGES.get(qualified))
         if checked is not value:
             object.__setattr__(record, item.name, checked)
 
@@ -338,101 +256,6 @@ class OfficialParams:
         _check_fields(self, "official")
 
 @dataclass(frozen=True)
-class PluginMethod:
-    """An extractor outside the package: its method name, its factory as "module:callable"
-    (or "path/to/file.py:callable"), the seconds it may take per frame, and its parameters."""
-
-    name: str
-    entry: str
-    params: tuple[tuple[str, Any], ...] = ()
-    time_limit_s: float = PLUGIN_TIME_LIMIT_S
-
-    def __post_init__(self):
-        check_method_name(self.name)
-        if self.name in METHODS:
-            raise ConfigError(f"method {self.name!r} is built in; give the plug-in another name")
-        if not isinstance(self.entry, str) or not _ENTRY.fullmatch(self.entry.strip()):
-            raise ConfigError(f"method {self.name!r}: entry must be 'module:callable' or 'file.py:callable', "
-                              f"got {self.entry!r}")
-        object.__setattr__(self, "entry", _checked_text(f"methods.{self.name}.entry", self.entry.strip()))
-        limit = self.time_limit_s
-        if isinstance(limit, bool) or not isinstance(limit, numbers.Real) or not 0 < limit <= 86_400:
-            raise ConfigError(f"methods.{self.name}.time_limit_s must be a number of seconds in (0, 86400], "
-                              f"got {limit!r}")
-        object.__setattr__(self, "time_limit_s", float(limit))
-        params = dict(self.params)
-        for key, value in params.items():
-            if not isinstance(key, str) or key in ("entry", "time_limit_s"):
-                raise ConfigError(f"methods.{self.name}: bad parameter name {key!r}")
-            _check_param(f"methods.{self.name}.{key}", value)
-        object.__setattr__(self, "params", tuple(params.items()))
-
-    def to_table(self) -> dict[str, Any]:
-        """The method's [methods.NAME] table as written to config.toml."""
-        table: dict[str, Any] = {"entry": self.entry}
-        if self.time_limit_s != PLUGIN_TIME_LIMIT_S:
-            table["time_limit_s"] = self.time_limit_s
-        table.update(self.params)
-        return table
-
-
-# module.sub:callable.attr, or a .py file path then :callable
-_ENTRY = re.compile(r"(?:[A-Za-z_][\w]*(?:\.[A-Za-z_][\w]*)*|[^:\0]+\.py):[A-Za-z_][\w]*(?:\.[A-Za-z_][\w]*)*")
-
-
-def check_method_name(name: Any) -> str:
-    """A method name that can be a folder and a table cell, or ConfigError."""
-    if not isinstance(name, str) or not METHOD_NAME.fullmatch(name):
-        raise ConfigError(f"bad method name {name!r}: use letters, digits and - _ . + (at most 64, starting "
-                          f"with a letter or digit)")
-    return name
-
-
-def _check_param(qualified: str, value: Any) -> None:
-    """Plug-in parameters are TOML scalars or lists of them (what config.toml can write back)."""
-    if isinstance(value, (list, tuple)):
-        for item in value:
-            _check_param(qualified, item)
-        return
-    if isinstance(value, str):
-        _checked_text(qualified, value)
-    elif isinstance(value, float) and not math.isfinite(value):
-        raise ConfigError(f"{qualified} must be a finite number, got {value}")
-    elif not isinstance(value, (bool, int, float)):
-        raise ConfigError(f"{qualified} must be a number, text, true/false or a list of them, got {_shown(value)}")
-
-
-def _methods_from_table(table: dict[str, Any]) -> tuple[tuple[str, ...], tuple[PluginMethod, ...]]:
-    """[methods.NAME] tables -> (method names in order, plug-ins among them)."""
-    names, plugins = [], []
-    for name, settings in table.items():
-        check_method_name(name)
-        if not isinstance(settings, dict):
-            raise ConfigError(f"[methods.{name}] must be a table (entry = \"module:callable\", parameters)")
-        names.append(name)
-        if name in METHODS:
-            if settings:
-                raise ConfigError(f"[methods.{name}] is built in and takes no settings here (its parameters are "
-                                  f"in [{'baseline' if name == 'baseline' else 'roneld'}])")
-            continue
-        if "entry" not in settings:
-            raise ConfigError(f"[methods.{name}] needs entry = \"module:callable\"")
-        settings = dict(settings)
-        entry = settings.pop("entry")
-        limit = settings.pop("time_limit_s", PLUGIN_TIME_LIMIT_S)
-        plugins.append(PluginMethod(name, entry, tuple(settings.items()), limit))
-    return tuple(names), tuple(plugins)
-
-
-def installed_extractors() -> dict[str, str]:
-    """Extractors installed packages register under the entry-point group: name -> entry."""
-    from importlib.metadata import entry_points
-
-    return {point.name: point.value for point in entry_points(group=ENTRY_POINT_GROUP)}
-
-
-
-@dataclass(frozen=True)
 class EvalConfig:
     """Everything a run needs; validated once when built."""
 
@@ -496,7 +319,7 @@ class EvalConfig:
             if method in METHODS:
                 continue
             if method not in defined:
-                installed = installed_extractors() if installed is None else installed
+                installed = plugin_methods.installed_extractors() if installed is None else installed
                 if method not in installed:
                     known = list(METHODS) + sorted(set(defined) | set(installed))
                     raise ConfigError(f"unknown method {method!r}{nearest(method, known)}; choose from "
@@ -549,7 +372,7 @@ class EvalConfig:
                 if key not in known:
                     raise ConfigError(f"unknown key {key!r}")
                 if key == "methods" and isinstance(value, dict):
-                    kwargs["methods"], kwargs["plugins"] = _methods_from_table(value)
+                    kwargs["methods"], kwargs["plugins"] = methods_from_table(value)
                     continue
                 section_type = _SECTION_TYPES.get(key)
                 if section_type is None:

@@ -276,9 +276,9 @@ def test_a_plugin_module_is_found_on_the_path_and_in_the_current_directory(tmp_p
 
 
 def test_installed_extractors_are_found_by_name(monkeypatch):
-    from roneld_eval import config as config_module
+    from roneld_eval import plugin_methods
 
-    monkeypatch.setattr(config_module, "installed_extractors", lambda: {"ufld-fix": "pkg.module:make"})
+    monkeypatch.setattr(plugin_methods, "installed_extractors", lambda: {"ufld-fix": "pkg.module:make"})
     config = EvalConfig(methods=("baseline", "ufld-fix"))
     assert config.plugins == (PluginMethod("ufld-fix", "pkg.module:make"),)
     # Recorded with its entry, so the written config.toml reruns without the lookup.
