@@ -143,10 +143,10 @@ def compare_sweeps(folders: Sequence[str | Path], out: str | Path, labels: Mappi
     """sweeps.csv, sweeps.md and sweeps.png of these sweeps into `out`."""
     from ..output import OutputFolder, Staging
     from ..signals import terminate_as_interrupt
-    from . import _labels
+    from .comparable import run_labels
 
     with terminate_as_interrupt(), OutputFolder(out, "compare") as folder:
-        chosen = _labels(folders, labels or {})
+        chosen = run_labels(folders, labels or {})
         sweeps = tuple(read_sweep(path, chosen.get(k)) for k, path in enumerate(folders))
         names = [sweep.label for sweep in sweeps]
         twice = sorted({name for name in names if names.count(name) > 1})

@@ -9,6 +9,8 @@ of running off the page. Nothing here reads files or computes a metric.
 
 from __future__ import annotations
 
+from decimal import Decimal
+
 import math
 import re
 from dataclasses import dataclass
@@ -329,3 +331,27 @@ def wrap_words(text: str, width: int = 14) -> tuple[str, ...]:
         else:
             lines.append(word)
     return tuple(lines) or ("",)
+
+
+# ---- thresholds as the tables name them ----------------------------------------------------------
+
+def grid_text(grid: tuple[Decimal, ...]) -> str:
+    if len(grid) == 1:
+        return f"{grid[0]}"
+    steps = {grid[k + 1] - grid[k] for k in range(len(grid) - 1)}
+    step = f" step {steps.pop()}" if len(steps) == 1 else ""
+    return f"{grid[0]}..{grid[-1]}{step}, {len(grid)} thresholds"
+
+
+def threshold_label(threshold: Decimal) -> str:
+    """0.3 -> '0.30' (as accuracy.csv writes thresholds: at least two decimals)."""
+    exponent = threshold.normalize().as_tuple().exponent
+    assert isinstance(exponent, int), threshold  # thresholds are finite
+    places = max(2, -exponent)
+    return f"{threshold:.{places}f}"
+
+
+def short_threshold(threshold: Decimal) -> str:
+    """0.30 -> '0.3', as the paper prints thresholds."""
+    text = f"{threshold.normalize():f}"
+    return text if "." in text else text + ".0"
