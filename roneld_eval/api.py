@@ -253,9 +253,10 @@ def _unfinished(reason: str, cache: ResultCache) -> str:
     return f"{reason}: no result was written; {kept}"
 
 
-# ---- scoring lane files: roneld_eval.score ---------------------------------------------------
+# ---- scoring lane files: benchmarks/*_score.py ----------------------------------------------
 
-from .score import CulaneScore, score_culane, score_tusimple  # noqa: E402  (re-exported, see __all__)
+from .benchmarks.culane_score import CulaneScore, score_culane  # noqa: E402  (re-exported, see __all__)
+from .benchmarks.tusimple_score import score_tusimple  # noqa: E402  (re-exported, see __all__)
 
 
 __all__ = ["run", "show", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",

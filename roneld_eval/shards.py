@@ -249,7 +249,7 @@ def check_part_arrays(part: Part, n_methods: int, n_categories: int) -> dict[str
 
 # The commands whose parts merge, and where their merger lives (module:function): each takes the
 # checked parts in shard order and the output folder, and writes what one unsharded command writes.
-MERGERS = {"score culane": "roneld_eval.score:merge_culane_parts", "run": "roneld_eval.api:merge_run"}
+MERGERS = {"score culane": "roneld_eval.benchmarks.culane_score:merge_culane_parts", "run": "roneld_eval.api:merge_run"}
 
 
 def merge(folders: Sequence[str | Path], out: str | Path):
@@ -282,7 +282,7 @@ def merge(folders: Sequence[str | Path], out: str | Path):
 # find the frames and prediction trees the shards had.
 
 RERUN_COMMANDS = {
-    "score tusimple": "roneld_eval.score:score_tusimple",
+    "score tusimple": "roneld_eval.benchmarks.tusimple_score:score_tusimple",
     "score vil100": "roneld_eval.benchmarks.vil100_score:score_vil100",
     "score openlane": "roneld_eval.benchmarks.openlane_score:score_openlane",
     "score curvelanes": "roneld_eval.benchmarks.curvelanes_score:score_curvelanes",

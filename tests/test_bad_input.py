@@ -516,7 +516,7 @@ def test_same_numbers_on_every_run(sets, tmp_path):
 def test_a_killed_worker_ends_scoring_clearly(tmp_path, monkeypatch):
     from roneld_eval.datasets.culane_synth import synth_lane_files
 
-    from roneld_eval import score
+    from roneld_eval.benchmarks import culane_score as score
 
     gt, pred = synth_lane_files(tmp_path / "lanes", frames=450, seed=1)
     original = score.frame_result
@@ -542,7 +542,7 @@ def test_a_signal_while_scoring_leaves_no_pool_traceback(tmp_path, monkeypatch, 
     import threading
     import time
 
-    from roneld_eval import score
+    from roneld_eval.benchmarks import culane_score as score
     from roneld_eval.signals import Terminated
     from roneld_eval.datasets.culane_synth import synth_lane_files
 

@@ -782,7 +782,7 @@ def test_sigterm_while_working_is_one_line_and_leaves_nothing(command, runs, tmp
 
     import roneld_eval.api as api_module
     import roneld_eval.comparison as comparison
-    import roneld_eval.score as scoring
+    import roneld_eval.benchmarks.culane_score as scoring
 
     def terminated(*args, **kwargs):
         os.kill(os.getpid(), signal.SIGTERM)

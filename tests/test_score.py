@@ -24,7 +24,9 @@ from roneld_eval.errors import ConfigError, InputError
 from roneld_eval.metrics.culane_official import CulaneFrameResult, ScoredFrames, highlight_name, sum_counts, sweep_rows
 from roneld_eval.metrics.tusimple_official import TusimpleScore, f1_clrnet, f1_ufld
 from roneld_eval.report.tables import Table
-from roneld_eval.score import SCORE_PRESETS, PlainTable, first_threshold_table, score_culane, score_tusimple
+from roneld_eval.benchmarks.culane_score import SCORE_PRESETS, first_threshold_table, score_culane
+from roneld_eval.benchmarks.tusimple_score import score_tusimple
+from roneld_eval.score import PlainTable
 from roneld_eval.datasets.culane_synth import synth_lane_files
 
 GRID = "0.50:0.95:0.05"
@@ -246,7 +248,7 @@ def test_the_console_shows_the_summary_and_the_files_hold_everything(lanes, tmp_
 @pytest.mark.parametrize("command", ["culane", "tusimple"])
 def test_a_foreign_out_is_refused_before_any_scoring(lanes, tmp_path, monkeypatch, command):
     import roneld_eval.metrics.tusimple_official as tusimple_official
-    import roneld_eval.score as scoring
+    import roneld_eval.benchmarks.culane_score as scoring
 
     def no_work(*args, **kwargs):
         raise AssertionError("scored before the output folder was checked")

@@ -398,7 +398,7 @@ def test_tusimple_shards_of_the_real_labels_merge_to_lane_pys_numbers(shared_dat
     pred.write_text("".join(lines[::-1]))
     whole, merged, parts = _shards_and_merge(tmp_path, ["score", "tusimple", "--labels", labels, "--pred", pred], 4)
     _same_files(whole, merged, {"official.csv"})
-    from roneld_eval.score import score_tusimple
+    from roneld_eval.benchmarks.tusimple_score import score_tusimple
     from roneld_eval.shards import merge
 
     _, score = merge(parts, tmp_path / "again")  # to the last bit, frames added in the prediction file's order

@@ -1,4 +1,4 @@
-"""`roneld-eval score culane`: the command-line face of score.score_culane."""
+"""`roneld-eval score culane`: the command-line face of culane_score.score_culane."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
               help="List file (default <data-root>/list/test.txt).")
 @click.option("--iou", metavar="T|START:STOP:STEP",
               help="IoU threshold, or a grid scored in one pass (e.g. 0.50:0.95:0.05 for mF1). Default: 0.5.")
-@click.option("--preset", type=click.Choice(["clrnet"]),  # score.SCORE_PRESETS (a test keeps them equal)
+@click.option("--preset", type=click.Choice(["clrnet"]),  # culane_score.SCORE_PRESETS (a test keeps them equal)
               help="A paper family's grid: clrnet is --iou 0.50:0.95:0.05 with F1@50, F1@75 and mF1.")
 @click.option("--width", default=30, show_default=True, type=click.IntRange(min=2, max=MAX_LINE_THICKNESS),
               help="Lane width in pixels at 1640x590.")
@@ -42,7 +42,7 @@ def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, pres
                          shard, executor, scheduler, quiet, debug):
     """Official CULane precision, recall and F1 per method and category, as SCNN's lane_evaluation
     computes them; with a grid, F1@50, F1@75 and mF1 as CLRNet reports them."""
-    from .. import score as scoring  # not api: scoring needs none of the evaluation's imports
+    from . import culane_score as scoring  # not api: scoring needs none of the evaluation's imports
 
     _no_collections_at_exit()
     roots = list(pred_roots)
@@ -64,7 +64,7 @@ def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, pres
     if not quiet:
         _print_culane_score(score, width)
         if len(score.trees) > 1:
-            from ..score import culane_sweep
+            from .culane_score import culane_sweep
 
             _, best = culane_sweep(score)
             column = score.summary_rows.columns[-1]
@@ -74,7 +74,7 @@ def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, pres
 
 
 def _print_culane_score(score, width: int) -> None:
-    from ..score import first_threshold_table, grid_text, summary_table
+    from .culane_score import first_threshold_table, grid_text, summary_table
 
     grid = grid_text(score.thresholds)
     click.echo(f"{score.n_frames:,} frames, {len(score.trees)} method{'s' if len(score.trees) > 1 else ''}, "

@@ -1,4 +1,4 @@
-"""`roneld-eval score tusimple`: the command-line face of score.score_tusimple."""
+"""`roneld-eval score tusimple`: the command-line face of tusimple_score.score_tusimple."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ from ..cli import _guard, debug_option, sharding_options, shard_written
 def score_tusimple_command(labels, pred, out, shard, executor, scheduler, quiet, debug):
     """Official TuSimple accuracy, FP and FN, as tusimple-benchmark's evaluate/lane.py computes them, and F1
     as UFLD-v2's lane2.py (f1_ufld) and CLRNet's tusimple_metric.py (f1_clrnet) compute it."""
-    from .. import score as scoring
+    from . import tusimple_score as scoring
 
     score = _guard(executed, debug, executor, scheduler, "score tusimple", scoring.score_tusimple, labels, pred, out,
                    shard)
