@@ -438,7 +438,24 @@ def test_tusimple_angle_thresholds_are_numpys_as_lane_py_computes_them(shared_da
     pred = tmp_path / "pred.json"
     pred.write_text(text)
     score = score_tusimple(labels, pred)
+    # lane.py's thresholds are numpy's here: as the math module's where numpy has no SIMD arctan
+    # and cos of its own (no AVX-512), else as on the machine the tools ran on for the golden.
+    from roneld_eval.metrics.tusimple_official import PIXEL_THRESHOLD, lane_slope, lane_threshold
+
+    truth = [json.loads(line) for line in labels.read_text().splitlines()]
+    thresholds = []
+    for i, j in sorted({(i, j) for i, j, _, _ in golden["edits"]}):
+        xs, ys = np.array(truth[i]["lanes"][j], float), np.array(truth[i]["h_samples"], float)
+        thresholds.append((lane_threshold(xs, ys), PIXEL_THRESHOLD / math.cos(math.atan(lane_slope(xs, ys)))))
     ufld, clrnet = golden["lane2"], golden["tusimple_metric"]
+    if all(numpy == maths for numpy, maths in thresholds):
+        expected = golden["math_module_gives"]  # what lane.py computes on this machine
+        assert (score.accuracy, score.fp, score.fn, score.f1_ufld, score.f1_clrnet) == \
+            (expected["accuracy"], expected["fp"], expected["fn"], expected["f1_ufld"], expected["f1_clrnet"])
+        return
+    if not all(numpy != maths for numpy, maths in thresholds):
+        pytest.skip("numpy's arctan and cos differ from the math module's for some of the 9 lanes only here: "
+                    "the golden has no value for that")
     assert (score.accuracy, score.fp, score.fn, score.f1_ufld, score.f1_clrnet) == \
         (ufld["Accuracy"], ufld["FP"], ufld["FN"], ufld["F1"], clrnet["F1_score"])
 
