@@ -4,8 +4,7 @@ A worker ignores Ctrl-C (the main process decides what happens), dies with its p
 parent-death signal, and a check of the parent's pid as it starts), and is killed after a
 short grace when the pool is stopped, so a stopped (SIGSTOP) or stuck worker cannot keep the
 main process from exiting. Every fork holds Ctrl-C, SIGTERM and SIGHUP back until the child has
-its own handlers, and defers them in the parent until the fork is over. `alongside` runs one
-task in such a process beside the caller (a figure while another is drawn).
+its own handlers, and defers them in the parent until the fork is over.
 """
 
 from __future__ import annotations
@@ -198,49 +197,6 @@ def stopping(executor: ProcessPoolExecutor,
         stop_pool(executor)
         raise
     stop_pool(executor, finished=True)
-
-
-@contextlib.contextmanager
-def alongside(task: Callable[[], object]) -> Iterator[None]:
-    """Run `task` in a forked process while the block runs, and wait for it at the block's end.
-
-    For independent work at the end of a run, such as drawing one figure while another is
-    drawn here. Where no process can be forked (not Linux, or fork fails) or the task fails
-    there, it runs here after the block instead, so its error is raised as usual. If the block
-    fails or is interrupted, the process is killed and reaped before the error goes on: it
-    never writes after its caller has given up.
-    """
-    pid = 0
-    done = False  # the task, there
-    try:
-        if sys.platform == "linux":
-            parent = os.getpid()
-            # Signals wait for the end of the fork, here and in the child (see process_pool); one
-            # raised then leaves through the finally below, which ends the child.
-            with _forking(), contextlib.suppress(OSError):
-                pid = os.fork()
-                if pid == 0:  # pragma: no cover - the child (coverage is not gathered there)
-                    code = 1
-                    try:
-                        _become_child(parent)
-                        task()
-                        code = 0
-                    finally:
-                        os._exit(code)  # never the parent's cleanup, atexit or buffered output
-        yield
-        if pid:
-            status = os.waitpid(pid, 0)[1]
-            pid = 0
-            done = os.waitstatus_to_exitcode(status) == 0
-    finally:
-        # Still ours and unreaped (a signal may come between waitpid and `pid = 0`: a reaped
-        # child's pid may be another process's by now), then killed and reaped.
-        with contextlib.suppress(OSError):
-            if pid and os.waitpid(pid, os.WNOHANG) == (0, 0):
-                os.kill(pid, signal.SIGKILL)
-                os.waitpid(pid, 0)
-    if not done:
-        task()
 
 
 def worker_count(asked: int | None) -> int:

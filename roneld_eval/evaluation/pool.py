@@ -9,7 +9,6 @@ import functools
 import os
 import queue
 import signal
-import threading
 import time
 from collections import deque
 from concurrent.futures import Future
@@ -114,7 +113,6 @@ def _pooled(clips: Sequence[Clip], context: RunContext, workers: int, cached: di
             todo: Sequence[int], keep: Callable[[int, ClipResult], ClipResult],
             advance: Callable[[int], object], plugins: bool) -> Iterator[ClipResult]:
     """_clip_results in a process pool of `workers`."""
-    plotting: threading.Thread | None = None
     calls = PluginCalls(workers, pool_context()) if plugins else None
     pool = process_pool(workers, initializer=_init_worker, initargs=(context, calls))
     schedule = _Schedule(pool, clips, todo, context, workers, advance)
@@ -127,14 +125,7 @@ def _pooled(clips: Sequence[Clip], context: RunContext, workers: int, cached: di
                 advance(len(clip.frames))
                 continue
             schedule.start_more()
-            if plotting is None:
-                # The workers exist now (none forks later); the idle main process meanwhile
-                # imports the plotting library the report needs.
-                plotting = threading.Thread(target=_import_plotting, daemon=True)
-                plotting.start()
             yield keep(index, schedule.result(index))
-    if plotting is not None:
-        plotting.join()  # the report must not use matplotlib while that thread is still importing it
 
 
 class _PoolGuard:
@@ -247,10 +238,3 @@ class _Schedule:
             self.done[index] = error
             return
         self.advance(len(self.clips[index].frames))
-
-
-def _import_plotting() -> None:
-    try:
-        import matplotlib.pyplot  # noqa: F401
-    except Exception:  # pragma: no cover - the report raises it properly later
-        pass

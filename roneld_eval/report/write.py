@@ -6,7 +6,6 @@ appear only when the output folder commits them, all together.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 from pathlib import Path
@@ -17,7 +16,6 @@ from ..errors import InputError
 from ..evaluation import FrameOutcome, RunResult
 from ..model import Frame, image_stem
 from ..output import OutputFolder, Staging  # noqa: F401 (Staging: its old home)
-from ..workers import alongside
 from . import tables
 
 if TYPE_CHECKING:  # overlays imports OpenCV, which a run without pictures does not need
@@ -192,20 +190,16 @@ def stage_report(result: RunResult, staging: Staging) -> None:
     staging.write_text("summary.json", json.dumps(summary(result), indent=2) + "\n")
     from .plots import accuracy_figure, category_figure, save_figure  # matplotlib: imported only to draw
 
-    other_figure: contextlib.AbstractContextManager = contextlib.nullcontext()
+    figure = accuracy_figure(result.accuracy, model, source, protocol)
+    save_figure(figure, staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg"))
     if result.dataset.categories:
         from ..metrics.sweep import category_accuracy
 
         threshold = config.official.iou_threshold
         by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
         staging.write_csv("categories.csv", by_category, "%.6f")
-        png = staging.file("categories.png")
-        # Each figure takes a quarter of a second, and by now the run's other cores idle.
-        other_figure = alongside(lambda: save_figure(
-            category_figure(by_category, result.official, model, f"{threshold:g}", protocol), png))
-    with other_figure:
-        figure = accuracy_figure(result.accuracy, model, source, protocol)
-        save_figure(figure, staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg"))
+        save_figure(category_figure(by_category, result.official, model, f"{threshold:g}", protocol),
+                    staging.file("categories.png"))
     from .html import build_html
 
     staging.write_text("report.html", build_html(staging.path))
