@@ -826,3 +826,16 @@ def test_the_legend_lies_inside_the_figure(models, datasets, tmp_path):
     assert 0 <= box.x0 and box.x1 <= width and 0 <= box.y0 and box.y1 <= height, (box, width, height)
     for ax in figure.axes:  # and below the panels, not over them
         assert box.y1 <= ax.get_window_extent().y0
+
+
+def test_an_untimed_run_s_runtime_is_said_to_be_unmeasured(fixture_run, tmp_path):
+    # results/ is written with run --no-timings: its runtime is n/a, and the table says why.
+    from conftest import REPO
+
+    _, timed = fixture_run
+    result = CliRunner().invoke(main, ["compare", str(REPO / "results"), str(timed), "--label",
+                                       f"{REPO / 'results'}=Untimed", "--out", str(tmp_path / "c"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    text = (tmp_path / "c" / "table_runtime.md").read_text()
+    assert "n/a for Untimed: written with `run --no-timings`" in text
+    assert "| CULane | Untimed | n/a |" in text and "| CULane | SCNN | n/a |" not in text

@@ -258,12 +258,22 @@ def runtime_grid(groups: Sequence[Group]) -> Grid:
                 rules_after=(len(rows) - 2,))
 
 
+def _untimed_note(groups: Sequence[Group]) -> str:
+    """Why a run's runtime is n/a: it was written with `run --no-timings`."""
+    untimed = [run.label for group in groups for run in group.runs
+               if len(run.runtime) and run.runtime["mean_ms"].isna().all()]
+    if not untimed:
+        return ""
+    return (f"n/a for {', '.join(dict.fromkeys(untimed))}: written with `run --no-timings`, which records no "
+            "timings.")
+
+
 def runtime_files(groups: Sequence[Group], notes) -> dict[str, str]:
     grid = runtime_grid(groups)
     text = " ".join(filter(None, [
         "Runtime: mean milliseconds per frame of lane extraction alone (after numba warm-up; map loading apart), "
         "as each run measured it on its own machine; the Mean row averages the rows above.",
-        _seeds_note(groups)]))
+        _untimed_note(groups), _seeds_note(groups)]))
     markdown = "# Runtime per frame: Table V\n\n" + text + "\n\n" + grid.to_markdown() + "".join(
         f"\n{note}\n" for note in notes)
     return {"table_runtime.md": markdown, "table_runtime.tex": grid.to_latex(text, "tab:compare-runtime", list(notes))}
