@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import os
 import time
 from dataclasses import dataclass
 from multiprocessing.connection import wait
@@ -233,12 +234,14 @@ def _compile_step(step: Step, done: Any = None) -> None:
                 done.value += 1
 
 
-def _compile_in_child(order: list[Step], done: Any, state: Any) -> None:
+def _compile_in_child(order: list[Step], done: Any, state: Any, parent: int) -> None:
     """A compiling process: takes up steps until none is left (the parent alone decides about
-    Ctrl-C and termination)."""
-    from .workers import leave_signals_to_parent
+    Ctrl-C and termination; killed with it, so a first run killed while compiling leaves nothing
+    behind)."""
+    from .workers import die_with_parent, leave_signals_to_parent
 
     leave_signals_to_parent()
+    die_with_parent(parent)
     while True:
         step, more = _take(order, state)
         if step is None:
@@ -271,7 +274,7 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
     context = pool_context()
     done = context.Value("i", 0)
     state = context.Array("b", [_TO_DO if step in order else _DONE for step in STEPS])
-    helpers = [context.Process(target=_compile_in_child, args=(order, done, state), daemon=True)
+    helpers = [context.Process(target=_compile_in_child, args=(order, done, state, os.getpid()), daemon=True)
                for _ in range(processes)]
     start = time.monotonic()
     try:

@@ -60,6 +60,12 @@ def _become_child(parent_pid: int) -> None:
     leave_signals_to_parent()
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _PARENT_SIGNALS)
+    die_with_parent(parent_pid)
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """In a forked child: killed when its parent dies (Linux parent-death signal, armed before the
+    parent's pid is checked, so a parent that died meanwhile is seen), even by SIGKILL."""
     if sys.platform == "linux":
         with contextlib.suppress(OSError, AttributeError):
             libc = ctypes.CDLL(None, use_errno=True)

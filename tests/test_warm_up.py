@@ -9,6 +9,7 @@ No timings here.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import subprocess
@@ -351,3 +352,47 @@ def test_this_process_caches_outside_the_package():
     assert folder is not None and not folder.resolve().is_relative_to(PACKAGE)
     for name, kernel in kernels.dispatchers().items():
         assert not Path(kernel._cache._cache_path).resolve().is_relative_to(PACKAGE), name
+
+
+_KILLED_WHILE_COMPILING = """
+from roneld_eval import kernels
+kernels.prepare(announce=print, needed=("official", "roneld"), processes=1)  # 40 s or more
+"""
+
+
+def _children_of(pid: int) -> set[int]:
+    found: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        with contextlib.suppress(OSError):
+            found |= {int(child) for child in (task / "children").read_text().split()}
+    return found
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the parent-death signal is Linux's")
+def test_a_first_run_killed_while_compiling_leaves_no_compiling_process(tmp_path):
+    # Compiling processes used to go on for tens of seconds after a kill -9 of the command.
+    import time
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    process = subprocess.Popen([sys.executable, "-c", _KILLED_WHILE_COMPILING], env=env, cwd=REPO,
+                               stdout=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None and process.stdout.readline().startswith("compiling ")
+        deadline = time.monotonic() + 30
+        while not _children_of(process.pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        children = _children_of(process.pid)
+        assert children, "no compiling process was started"
+        time.sleep(0.5)  # inside numba's compile by now
+        process.kill()
+        process.wait(timeout=30)
+        deadline = time.monotonic() + 5  # what is left compiles for much longer
+        while any(Path(f"/proc/{child}").exists() for child in children) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        alive = [child for child in children if Path(f"/proc/{child}").exists()
+                 and "Z" not in (Path(f"/proc/{child}/stat").read_text().split()[2:3] or ["Z"])]
+        assert alive == []
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
