@@ -42,22 +42,6 @@ MANIFEST_FORMAT = "roneld-eval output folder"
 # Entries of the tool's own bookkeeping: never results, never foreign.
 _OWN_NAMES = {MANIFEST, LOCK, JOURNAL, CACHE, MANIFEST + ".tmp", JOURNAL + ".tmp"}
 
-# Lock descriptors of this process: forked workers close them so that a worker outliving its
-# parent does not keep the folder locked.
-_HELD_LOCKS: set[int] = set()
-
-
-def _close_inherited_locks() -> None:
-    for descriptor in list(_HELD_LOCKS):
-        with contextlib.suppress(OSError):
-            os.close(descriptor)
-    _HELD_LOCKS.clear()
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_close_inherited_locks)
-
-
 def is_own_entry(name: str) -> bool:
     """True for the tool's bookkeeping entries (lock, manifest, cache, staging, trash)."""
     return name in _OWN_NAMES or name.startswith((STAGING_PREFIX, TRASH_PREFIX))
@@ -214,14 +198,12 @@ class OutputFolder:
         os.ftruncate(descriptor, 0)
         os.write(descriptor, str(os.getpid()).encode())
         self._lock = descriptor
-        _HELD_LOCKS.add(descriptor)
 
     def _release_lock(self) -> None:
         if self._lock is None:
             return
         with contextlib.suppress(OSError):
             os.unlink(self.path / LOCK)
-        _HELD_LOCKS.discard(self._lock)
         with contextlib.suppress(OSError):
             os.close(self._lock)
         self._lock = None
