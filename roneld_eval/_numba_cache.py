@@ -118,7 +118,9 @@ def user_cache_dir() -> Path:
 def cache_dir() -> Path | None:
     """The folder numba caches our kernels in (see the module's docstring), None if none is writable."""
     chosen = numba_config.CACHE_DIR or os.environ.get("NUMBA_CACHE_DIR")
-    if chosen:
+    # A chosen folder that cannot be written (read-only, or a file) is passed over: numba would
+    # otherwise write its cache beside the package's sources.
+    if chosen and _writable(Path(chosen)):
         return Path(chosen)
     candidates = (user_cache_dir, lambda: Path(tempfile.gettempdir()) / f"roneld-eval-{_user_name()}" / "numba")
     for candidate in candidates:

@@ -285,8 +285,12 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
             deadline = time.monotonic() + PROGRESS_EVERY_S
             while alive and time.monotonic() < deadline:
                 wait([helper.sentinel for helper in alive], max(0.0, deadline - time.monotonic()))
-                if any(helper.exitcode not in (None, 0) for helper in helpers):
-                    return  # the others are ended below; warm_up compiles what is missing
+                ended = [helper.exitcode for helper in helpers if helper.exitcode not in (None, 0)]
+                if ended:  # the others may wait for its steps: they are ended below
+                    if announce is not None:
+                        announce(f"a compiling process ended (exit status {ended[0]}): what is left compiles "
+                                 "where it is first needed, without progress lines")
+                    return
                 alive = [helper for helper in helpers if helper.is_alive()]
             if announce is not None and alive:
                 announce(f"compiling kernels: {done.value} of {total} done, {time.monotonic() - start:.0f} s")

@@ -347,6 +347,17 @@ def test_a_numba_cache_dir_the_user_set_is_kept(tmp_path):
     assert all(Path(p).is_relative_to(tmp_path / "mine") for p in json.loads(done.stdout).values())
 
 
+def test_a_numba_cache_dir_that_cannot_be_written_is_passed_over(tmp_path):
+    # numba fell back to the package's own __pycache__ folders for a NUMBA_CACHE_DIR it could not use.
+    (tmp_path / "a-file").write_text("")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "a-file"), XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO)] + [p for p in [env.get("PYTHONPATH")] if p])
+    done = subprocess.run([sys.executable, "-c", _CACHE_PATHS, "roneld-first"], env=env, capture_output=True,
+                          text=True, check=True)
+    paths = json.loads(done.stdout).values()
+    assert paths and all(Path(p).is_relative_to(tmp_path / "xdg" / "roneld-eval" / "numba") for p in paths)
+
+
 def test_this_process_caches_outside_the_package():
     folder = cache_dir()
     assert folder is not None and not folder.resolve().is_relative_to(PACKAGE)

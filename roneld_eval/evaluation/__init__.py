@@ -50,7 +50,7 @@ def evaluate(
     clips, context = list(planned.clips), planned.context
     workers = min(worker_count(config.workers), max(len(clips), 1))
     # Compiled once here, before the workers fork, instead of in every worker at once.
-    kernels.prepare(announce=announce or (lambda message: None), needed=context.kernel_groups())
+    kernels.prepare(announce=announce or (lambda message: None), needed=context.kernel_groups(), processes=workers)
     merged = _Merged(config, context.benchmark.tally(config.methods, planned.dataset, config), planned.skipped)
     bar = _progress_bar(sum(len(clip.frames) for clip in clips), progress)
     try:
