@@ -131,11 +131,7 @@ def _entries(groups: Iterable[str]) -> list[tuple[object, tuple]]:
 
 def _step_entries(step: Step) -> list[tuple[object, tuple]]:
     """(kernel, argument types) of a step, each once."""
-    if step.callees_only:
-        listed = metric_kernels.CALLEE_SIGNATURES
-    else:
-        listed = _entries(group for group in step.groups if group != "tables") if step.groups != _TABLES \
-            else metric_kernels.ENTRY_SIGNATURES["tables"]
+    listed = metric_kernels.CALLEE_SIGNATURES if step.callees_only else _entries(step.groups)
     entries: list[tuple[object, tuple]] = []
     for kernel, signature in listed:
         if getattr(kernel, "__name__", "") in step.kernels and (kernel, signature) not in entries:
