@@ -74,60 +74,65 @@ def _clip_line(width, height, x1, y1, x2, y2):
 
 
 @cached_njit(nogil=True)
-def _fixed_line(canvas, x0, y0, width, height, x1, y1, x2, y2):
-    """OpenCV's Line2: a 1-px line between 16-bit fixed-point ends (the quad's outline)."""
+def line2_pixels(x1, y1, x2, y2, width, height):
+    """(xs, ys): the pixels of OpenCV's Line2, a 1-px line between 16-bit fixed-point ends (a
+    quad's outline), the far end first as Line2 sets it; clipped to the (width, height) image
+    as cv::clipLine does, so there are at most max(width, height) + 2."""
     inside, x1, y1, x2, y2 = _clip_line(np.int64(width) << XY_SHIFT, np.int64(height) << XY_SHIFT, x1, y1, x2, y2)
     if not inside:
-        return
+        return np.empty(0, np.int64), np.empty(0, np.int64)
     dx = x2 - x1
     dy = y2 - y1
-    ax = abs(dx)
-    ay = abs(dy)
-    if ax > ay:
+    steep = abs(dx) <= abs(dy)
+    if not steep:
         if dx < 0:
             dy = -dy
             x1, x2 = x2, x1
             y1, y2 = y2, y1
-        y_step = c_div(dy * XY_ONE, ax | 1)
+        step = c_div(dy * XY_ONE, abs(dx) | 1)
         count = (x2 - x1) >> XY_SHIFT
-        _pixel(canvas, x0, y0, width, height, (x2 + HALF) >> XY_SHIFT, (y2 + HALF) >> XY_SHIFT)
-        x = (x1 + HALF) >> XY_SHIFT
-        y = y1 + HALF
-        while count >= 0:
-            _pixel(canvas, x0, y0, width, height, x, y >> XY_SHIFT)
-            x += 1
-            y += y_step
-            count -= 1
     else:
         if dy < 0:
             dx = -dx
             x1, x2 = x2, x1
             y1, y2 = y2, y1
-        x_step = c_div(dx * XY_ONE, ay | 1)
+        step = c_div(dx * XY_ONE, abs(dy) | 1)
         count = (y2 - y1) >> XY_SHIFT
-        _pixel(canvas, x0, y0, width, height, (x2 + HALF) >> XY_SHIFT, (y2 + HALF) >> XY_SHIFT)
+    xs = np.empty(count + 2, np.int64)
+    ys = np.empty(count + 2, np.int64)
+    xs[0] = (x2 + HALF) >> XY_SHIFT
+    ys[0] = (y2 + HALF) >> XY_SHIFT
+    if not steep:
+        x = (x1 + HALF) >> XY_SHIFT
+        y = y1 + HALF
+    else:
         x = x1 + HALF
         y = (y1 + HALF) >> XY_SHIFT
-        while count >= 0:
-            _pixel(canvas, x0, y0, width, height, x >> XY_SHIFT, y)
-            x += x_step
+    for k in range(1, count + 2):
+        if not steep:
+            xs[k] = x
+            ys[k] = y >> XY_SHIFT
+            x += 1
+            y += step
+        else:
+            xs[k] = x >> XY_SHIFT
+            ys[k] = y
+            x += step
             y += 1
-            count -= 1
+    return xs, ys
 
 
 @cached_njit(nogil=True)
-def _fill_quad(canvas, x0, y0, width, height, ax, ay, bx, by, cx, cy, dx, dy):
-    """OpenCV's FillConvexPoly for 4 fixed-point vertices (shift 16, LINE_8): outline, then scanlines."""
-    qx = (ax, bx, cx, dx)
-    qy = (ay, by, cy, dy)
+def quad_scanlines(qx, qy, width, height):
+    """(first, lefts, rights): the scanlines of OpenCV's FillConvexPoly for 4 fixed-point
+    vertices (shift 16, LINE_8), image row first + k from lefts[k] to rights[k] (not clipped in
+    x); rows above the image and below it are left out. The quad's outline is line2_pixels'."""
     npts = 4
     imin = 0
     xmin = qx[0]
     xmax = qx[0]
     ymin = qy[0]
     ymax = qy[0]
-    px = qx[npts - 1]
-    py = qy[npts - 1]
     for i in range(npts):
         if qy[i] < ymin:
             ymin = qy[i]
@@ -135,19 +140,20 @@ def _fill_quad(canvas, x0, y0, width, height, ax, ay, bx, by, cx, cy, dx, dy):
         ymax = max(ymax, qy[i])
         xmax = max(xmax, qx[i])
         xmin = min(xmin, qx[i])
-        _fixed_line(canvas, x0, y0, width, height, px, py, qx[i], qy[i])
-        px = qx[i]
-        py = qy[i]
     xmin = (xmin + HALF) >> XY_SHIFT
     xmax = (xmax + HALF) >> XY_SHIFT
     ymin = (ymin + HALF) >> XY_SHIFT
     ymax = (ymax + HALF) >> XY_SHIFT
     # C++ compares these after a cast to int: far-away (e.g. NaN) points wrap and bail out here.
     if to_int32(xmax) < 0 or to_int32(ymax) < 0 or to_int32(xmin) >= width or to_int32(ymin) >= height:
-        return
+        return np.int64(0), np.empty(0, np.int64), np.empty(0, np.int64)
     ymax = min(ymax, height - 1)
     y = to_int32(ymin)
     last = to_int32(ymax)
+    first = max(y, 0)
+    lefts = np.empty(max(last - first + 1, 0), np.int64)
+    rights = np.empty(lefts.size, np.int64)
+    found = 0
     index0 = imin
     index1 = imin
     edge_x0 = np.int64(-XY_ONE)
@@ -193,10 +199,12 @@ def _fill_quad(canvas, x0, y0, width, height, ax, ay, bx, by, cx, cy, dx, dy):
         if edges < 0:
             break
         if y >= 0:
-            if edge_x0 > edge_x1:
-                _span(canvas, x0, y0, width, height, y, (edge_x1 + HALF) >> XY_SHIFT, (edge_x0 + HALF) >> XY_SHIFT)
-            else:
-                _span(canvas, x0, y0, width, height, y, (edge_x0 + HALF) >> XY_SHIFT, (edge_x1 + HALF) >> XY_SHIFT)
+            # Rows from `first` on come one by one: the jump below stops at row 0.
+            left = min(edge_x0, edge_x1)
+            right = max(edge_x0, edge_x1)
+            lefts[found] = (left + HALF) >> XY_SHIFT
+            rights[found] = (right + HALF) >> XY_SHIFT
+            found += 1
             edge_x0 += step0
             edge_x1 += step1
             y += 1
@@ -210,6 +218,28 @@ def _fill_quad(canvas, x0, y0, width, height, ax, ay, bx, by, cx, cy, dx, dy):
             y += jump
         if y > last:
             break
+    return np.int64(first), lefts[:found], rights[:found]
+
+
+@cached_njit(nogil=True)
+def quad_corners(ax, ay, bx, by, thickness):
+    """(drawn, qx, qy): the corners, in 16-bit fixed point, of the quad ThickLine draws between two
+    integer points; drawn is False for a point (no quad)."""
+    p0x = np.int64(ax) << XY_SHIFT
+    p0y = np.int64(ay) << XY_SHIFT
+    p1x = np.int64(bx) << XY_SHIFT
+    p1y = np.int64(by) << XY_SHIFT
+    dx = (p0x - p1x) / XY_ONE
+    dy = (p1y - p0y) / XY_ONE
+    r = dx * dx + dy * dy
+    if not abs(r) > DBL_EPSILON:
+        return False, (p0x, p0x, p0x, p0x), (p0y, p0y, p0y, p0y)
+    odd = thickness & 1
+    half_thickness = np.int64(thickness) << (XY_SHIFT - 1)
+    r = (half_thickness + odd * XY_ONE * 0.5) / math.sqrt(r)
+    dpx = np.int64(np.rint(dy * r))
+    dpy = np.int64(np.rint(dx * r))
+    return True, (p0x + dpx, p0x - dpx, p1x - dpx, p1x + dpx), (p0y + dpy, p0y - dpy, p1y - dpy, p1y + dpy)
 
 
 @cached_njit(nogil=True)
@@ -240,24 +270,22 @@ def disc_half_widths(radius):
 
 @cached_njit(nogil=True)
 def _segment_quad(canvas, x0, y0, width, height, ax, ay, bx, by, thickness):
-    """The filled quad ThickLine draws between two integer points (nothing for a point)."""
-    p0x = np.int64(ax) << XY_SHIFT
-    p0y = np.int64(ay) << XY_SHIFT
-    p1x = np.int64(bx) << XY_SHIFT
-    p1y = np.int64(by) << XY_SHIFT
-    dx = (p0x - p1x) / XY_ONE
-    dy = (p1y - p0y) / XY_ONE
-    r = dx * dx + dy * dy
-    if abs(r) > DBL_EPSILON:
-        odd = thickness & 1
-        half_thickness = np.int64(thickness) << (XY_SHIFT - 1)
-        r = (half_thickness + odd * XY_ONE * 0.5) / math.sqrt(r)
-        dpx = np.int64(np.rint(dy * r))
-        dpy = np.int64(np.rint(dx * r))
-        _fill_quad(
-            canvas, x0, y0, width, height,
-            p0x + dpx, p0y + dpy, p0x - dpx, p0y - dpy, p1x - dpx, p1y - dpy, p1x + dpx, p1y + dpy,
-        )
+    """The filled quad ThickLine draws between two integer points (nothing for a point):
+    FillConvexPoly's outline, then its scanlines."""
+    drawn, qx, qy = quad_corners(ax, ay, bx, by, thickness)
+    if not drawn:
+        return
+    px = qx[3]
+    py = qy[3]
+    for i in range(4):
+        xs, ys = line2_pixels(px, py, qx[i], qy[i], width, height)
+        for k in range(xs.size):
+            _pixel(canvas, x0, y0, width, height, xs[k], ys[k])
+        px = qx[i]
+        py = qy[i]
+    first, lefts, rights = quad_scanlines(qx, qy, width, height)
+    for k in range(lefts.size):
+        _span(canvas, x0, y0, width, height, first + k, lefts[k], rights[k])
 
 
 @cached_njit(nogil=True)

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from ..._numba_cache import cached_njit
-from .canvas import _segment_quad, disc_half_widths
-from .cxx import HALF, XY_ONE, XY_SHIFT
+from .canvas import _segment_quad, disc_half_widths, quad_corners
+from .cxx import HALF, XY_SHIFT
 
 
 STEP_REACH = 8  # steps up to this many pixels (in x and in y) have their quads in step_extras' table
@@ -45,10 +44,9 @@ def step_extras(thickness, reach):
             direction = (dx + reach) * side + (dy + reach)
             quad = np.zeros((size, size), np.uint8)
             _segment_quad(quad, zero, zero, size, size, centre, centre, centre + dx, centre + dy, thickness)
-            length = math.sqrt(float(dx * dx + dy * dy))  # as _segment_quad computes its corners
-            r = ((np.int64(thickness) << (XY_SHIFT - 1)) + (thickness & 1) * XY_ONE * 0.5) / length
-            info[direction, 1] = abs(np.int64(np.rint(dy * r)))
-            info[direction, 2] = abs(np.int64(np.rint(-dx * r)))
+            _, qx, qy = quad_corners(centre, centre, centre + dx, centre + dy, thickness)
+            info[direction, 1] = abs(qx[0] - (np.int64(centre) << XY_SHIFT))
+            info[direction, 2] = abs(qy[0] - (np.int64(centre) << XY_SHIFT))
             # Bridged: on the rows both discs reach, disc, quad and disc leave no gap.
             info[direction, 0] = 1
             for y in range(max(centre, centre + dy) - radius, min(centre, centre + dy) + radius + 1):

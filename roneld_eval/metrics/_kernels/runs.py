@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..._numba_cache import cached_njit
-from .canvas import _clip_line, _low_high, disc_half_widths, polyline_box, rasterise_with_area
-from .cxx import DBL_EPSILON, HALF, XY_ONE, XY_SHIFT, c_div, to_int32
+from .canvas import (_low_high, disc_half_widths, line2_pixels, polyline_box, quad_corners, quad_scanlines,
+                     rasterise_with_area)
+from .cxx import HALF, XY_SHIFT
 from .run_tables import STEP_REACH, _clipped_edge, _quad_unclipped
 
 
@@ -56,209 +55,47 @@ def _merge_run(lo, hi, counts, row, left, right):
 
 
 @cached_njit(nogil=True)
-def _add_span(lo, hi, counts, x0, y0, x1, y1, width, height, y, left, right):
-    """_span for runs: pixels left..right of image row y, clipped to the image and to the box
-    (x0, y0)..(x1, y1) the arrays' rows cover. False when the row has no slot left."""
-    if y < 0 or y >= height or y < y0 or y >= y1:
-        return True
-    left = max(left, 0, x0)
-    right = min(right, width - 1, x1 - 1)
-    if right < left:
-        return True
-    row = y - y0
-    if counts[row] == 1 and left <= hi[row, 0] + 1 and right >= lo[row, 0] - 1:
-        lo[row, 0] = min(lo[row, 0], left)
-        hi[row, 0] = max(hi[row, 0], right)
-        return True
-    return _merge_run(lo, hi, counts, row, left, right)
-
-
-@cached_njit(nogil=True)
-def _add_fixed_line(lo, hi, counts, x0, y0, x1, y1, width, height, ax, ay, bx, by):
-    """_fixed_line for runs (the same pixels: OpenCV's Line2 between 16-bit fixed-point ends)."""
-    inside, ax, ay, bx, by = _clip_line(np.int64(width) << XY_SHIFT, np.int64(height) << XY_SHIFT, ax, ay, bx, by)
-    if not inside:
-        return True
-    dx = bx - ax
-    dy = by - ay
-    steep = abs(dx) <= abs(dy)
-    if not steep:
-        if dx < 0:
-            dy = -dy
-            ax, bx = bx, ax
-            ay, by = by, ay
-        step = c_div(dy * XY_ONE, abs(dx) | 1)
-        count = (bx - ax) >> XY_SHIFT
-    else:
-        if dy < 0:
-            dx = -dx
-            ax, bx = bx, ax
-            ay, by = by, ay
-        step = c_div(dx * XY_ONE, abs(dy) | 1)
-        count = (by - ay) >> XY_SHIFT
-    # The far end first, as Line2 draws it (the order changes nothing in a union).
-    end_x = (bx + HALF) >> XY_SHIFT
-    end_y = (by + HALF) >> XY_SHIFT
-    if not _add_span(lo, hi, counts, x0, y0, x1, y1, width, height, end_y, end_x, end_x):
-        return False
-    if not steep:
-        x = (ax + HALF) >> XY_SHIFT
-        y = ay + HALF
-    else:
-        x = ax + HALF
-        y = (ay + HALF) >> XY_SHIFT
-    while count >= 0:
-        if not steep:
-            px = x
-            py = y >> XY_SHIFT
-        else:
-            px = x >> XY_SHIFT
-            py = y
-        if 0 <= px < width and 0 <= py < height and x0 <= px < x1 and y0 <= py < y1:
-            row = py - y0
-            if counts[row] == 1 and lo[row, 0] - 1 <= px <= hi[row, 0] + 1:
-                lo[row, 0] = min(lo[row, 0], px)
-                hi[row, 0] = max(hi[row, 0], px)
-            elif not _merge_run(lo, hi, counts, row, px, px):
-                return False
-        if not steep:
-            x += 1
-            y += step
-        else:
-            x += step
-            y += 1
-        count -= 1
-    return True
-
-
-@cached_njit(nogil=True)
 def _add_quad(lo, hi, counts, x0, y0, x1, y1, width, height, ax, ay, bx, by, thickness):
-    """_segment_quad for runs: the filled quad ThickLine draws between two integer points
-    (_fill_quad's scanlines, then its outline: the same pixels in another order)."""
-    p0x = np.int64(ax) << XY_SHIFT
-    p0y = np.int64(ay) << XY_SHIFT
-    p1x = np.int64(bx) << XY_SHIFT
-    p1y = np.int64(by) << XY_SHIFT
-    ddx = (p0x - p1x) / XY_ONE
-    ddy = (p1y - p0y) / XY_ONE
-    r = ddx * ddx + ddy * ddy
-    if not abs(r) > DBL_EPSILON:
+    """_segment_quad for runs: the filled quad ThickLine draws between two integer points, its
+    scanlines and its outline (canvas.py's walks, each pixel or span added as a run)."""
+    drawn, qx, qy = quad_corners(ax, ay, bx, by, thickness)
+    if not drawn:
         return True
-    odd = thickness & 1
-    half_thickness = np.int64(thickness) << (XY_SHIFT - 1)
-    r = (half_thickness + odd * XY_ONE * 0.5) / math.sqrt(r)
-    dpx = np.int64(np.rint(ddy * r))
-    dpy = np.int64(np.rint(ddx * r))
-    qx = (p0x + dpx, p0x - dpx, p1x - dpx, p1x + dpx)
-    qy = (p0y + dpy, p0y - dpy, p1y - dpy, p1y + dpy)
-    npts = 4
-    imin = 0
-    xmin = qx[0]
-    xmax = qx[0]
-    ymin = qy[0]
-    ymax = qy[0]
-    for i in range(npts):
-        if qy[i] < ymin:
-            ymin = qy[i]
-            imin = i
-        ymax = max(ymax, qy[i])
-        xmax = max(xmax, qx[i])
-        xmin = min(xmin, qx[i])
-    xmin = (xmin + HALF) >> XY_SHIFT
-    xmax = (xmax + HALF) >> XY_SHIFT
-    ymin = (ymin + HALF) >> XY_SHIFT
-    ymax = (ymax + HALF) >> XY_SHIFT
-    filled = not (to_int32(xmax) < 0 or to_int32(ymax) < 0 or to_int32(xmin) >= width or to_int32(ymin) >= height)
-    if filled:
-        top = max(y0, 0)
-        bottom = min(y1, height)
-        leftmost = max(x0, 0)
-        rightmost = min(x1, width) - 1
-        ymax = min(ymax, height - 1)
-        y = to_int32(ymin)
-        last = to_int32(ymax)
-        index0 = imin
-        index1 = imin
-        edge_x0 = np.int64(-XY_ONE)
-        edge_x1 = np.int64(-XY_ONE)
-        step0 = np.int64(0)
-        step1 = np.int64(0)
-        end0 = y
-        end1 = y
-        edges = npts
-        while True:
-            for e in range(2):
-                if y >= (end0 if e == 0 else end1):
-                    idx0 = index0 if e == 0 else index1
-                    di = 1 if e == 0 else npts - 1
-                    idx = idx0 + di
-                    if idx >= npts:
-                        idx -= npts
-                    while True:
-                        more = edges > 0
-                        edges -= 1
-                        if not more:
-                            break
-                        ty = to_int32((qy[idx] + HALF) >> XY_SHIFT)
-                        if ty > y:
-                            xs = qx[idx0]
-                            xe = qx[idx]
-                            step = c_div((xe - xs) * 2 + (ty - y), 2 * (ty - y))
-                            if e == 0:
-                                end0 = ty
-                                step0 = step
-                                edge_x0 = xs
-                                index0 = idx
-                            else:
-                                end1 = ty
-                                step1 = step
-                                edge_x1 = xs
-                                index1 = idx
-                            break
-                        idx0 = idx
-                        idx += di
-                        if idx >= npts:
-                            idx -= npts
-            if edges < 0:
-                break
-            if y >= 0:
-                if edge_x0 > edge_x1:
-                    left = (edge_x1 + HALF) >> XY_SHIFT
-                    right = (edge_x0 + HALF) >> XY_SHIFT
-                else:
-                    left = (edge_x0 + HALF) >> XY_SHIFT
-                    right = (edge_x1 + HALF) >> XY_SHIFT
-                # _add_span, its usual case inline
-                left = max(left, leftmost)
-                right = min(right, rightmost)
-                if top <= y < bottom and left <= right:
-                    row = y - y0
-                    if counts[row] == 1 and left <= hi[row, 0] + 1 and right >= lo[row, 0] - 1:
-                        lo[row, 0] = min(lo[row, 0], left)
-                        hi[row, 0] = max(hi[row, 0], right)
-                    elif counts[row] == 0:
-                        lo[row, 0] = left
-                        hi[row, 0] = right
-                        counts[row] = 1
-                    elif not _merge_run(lo, hi, counts, row, left, right):
-                        return False
-                edge_x0 += step0
-                edge_x1 += step1
-                y += 1
-            else:
-                jump = min(end0, end1, 0, last + 1) - y
-                if jump <= 0:
-                    jump = 1
-                edge_x0 += step0 * jump
-                edge_x1 += step1 * jump
-                y += jump
-            if y > last:
-                break
-    px = qx[npts - 1]
-    py = qy[npts - 1]
-    for i in range(npts):
-        if not _add_fixed_line(lo, hi, counts, x0, y0, x1, y1, width, height, px, py, qx[i], qy[i]):
-            return False
+    top = max(y0, 0)
+    bottom = min(y1, height)
+    leftmost = max(x0, 0)
+    rightmost = min(x1, width) - 1
+    first, lefts, rights = quad_scanlines(qx, qy, width, height)
+    for k in range(lefts.size):
+        y = first + k
+        left = max(lefts[k], leftmost)
+        right = min(rights[k], rightmost)
+        # kept to the image and the box as _span keeps it; the usual case of _merge_run inline
+        if top <= y < bottom and left <= right:
+            row = y - y0
+            if counts[row] == 1 and left <= hi[row, 0] + 1 and right >= lo[row, 0] - 1:
+                lo[row, 0] = min(lo[row, 0], left)
+                hi[row, 0] = max(hi[row, 0], right)
+            elif counts[row] == 0:
+                lo[row, 0] = left
+                hi[row, 0] = right
+                counts[row] = 1
+            elif not _merge_run(lo, hi, counts, row, left, right):
+                return False
+    px = qx[3]
+    py = qy[3]
+    for i in range(4):
+        xs, ys = line2_pixels(px, py, qx[i], qy[i], width, height)
+        for k in range(xs.size):
+            x = xs[k]
+            y = ys[k]
+            if 0 <= x < width and 0 <= y < height and x0 <= x < x1 and y0 <= y < y1:
+                row = y - y0
+                if counts[row] == 1 and lo[row, 0] - 1 <= x <= hi[row, 0] + 1:
+                    lo[row, 0] = min(lo[row, 0], x)
+                    hi[row, 0] = max(hi[row, 0], x)
+                elif not _merge_run(lo, hi, counts, row, x, x):
+                    return False
         px = qx[i]
         py = qy[i]
     return True
@@ -269,8 +106,8 @@ _NO_PIXEL = np.int64(1 << 40)  # chain_lo of a row no disc has reached; chain_hi
 
 @cached_njit(nogil=True)
 def _add_chain(lo, hi, counts, x0, y0, x1, y1, width, height, chain_lo, chain_hi, pad, first_row, last_row):
-    """Add a chain's rows (chain_lo/chain_hi, index = image row - y0 + pad) as _add_span would,
-    and empty them again."""
+    """Add a chain's rows (chain_lo/chain_hi, index = image row - y0 + pad) as _add_quad adds
+    its scanlines, and empty them again."""
     top = max(y0, 0)
     bottom = min(y1, height)
     leftmost = max(x0, 0)
