@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
+from roneld_eval.benchmarks import benchmark_for
 from roneld_eval.cli import main
 from roneld_eval.config import MapsConfig
 from roneld_eval.errors import InputError
@@ -21,6 +22,8 @@ from roneld_eval.datasets.tusimple_synth import synth_tusimple
 
 GEOMETRY = MapGeometry(1640, 590, 800, 288)
 MAPS = MapsConfig(format="lanes")
+CULANE_LANES = benchmark_for("culane").detector_lanes
+TUSIMPLE_LANES = benchmark_for("tusimple").detector_lanes
 
 
 def lane(*points) -> Lane:
@@ -63,14 +66,14 @@ def test_culane_lane_files_with_scores(tmp_path):
     stem.parent.mkdir(parents=True)
     stem.with_name("00000.lines.txt").write_text("600 589 780 250 \n1000 589 860 250 \n")
     stem.with_name("00000.scores.txt").write_text("0.5\n1\n")
-    maps = load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5)
+    maps = load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5, CULANE_LANES)
     assert maps.probabilities[1].max() == 128 and maps.probabilities[2].max() == 255
     stem.with_name("00000.scores.txt").write_text("0.5\n")
     with pytest.raises(InputError, match="1 scores for 2 lanes"):
-        load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5)
+        load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5, CULANE_LANES)
     stem.with_name("00000.scores.txt").write_text("0.5\n1.5\n")
     with pytest.raises(InputError, match=r"00000.scores.txt:2: lane score '1.5' is not a number in \[0, 1\]"):
-        load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5)
+        load_maps(tmp_path, "d/v.MP4/00000.jpg", MAPS, GEOMETRY, 0.5, CULANE_LANES)
 
 
 def test_tusimple_prediction_files(tmp_path):
@@ -78,13 +81,13 @@ def test_tusimple_prediction_files(tmp_path):
     record = {"raw_file": "clips/a/1.jpg", "lanes": [[400 + y // 4 for y in rows]], "h_samples": rows}
     (tmp_path / "predictions.json").write_text(json.dumps(record) + "\n")
     geometry = MapGeometry(1280, 720, 800, 288)
-    maps = load_maps(tmp_path, "clips/a/1.jpg", MAPS, geometry, 0.5)
+    maps = load_maps(tmp_path, "clips/a/1.jpg", MAPS, geometry, 0.5, TUSIMPLE_LANES)
     assert maps.existence[1] == 1.0 and len(maps.lanes) == 1
     # A frame without a line has no lanes (a detector's file may hold only labelled frames).
-    assert load_maps(tmp_path, "clips/a/2.jpg", MAPS, geometry, 0.5).lanes == ()
+    assert load_maps(tmp_path, "clips/a/2.jpg", MAPS, geometry, 0.5, TUSIMPLE_LANES).lanes == ()
     (tmp_path / "predictions.json").write_text((json.dumps(record) + "\n") * 2)
     with pytest.raises(InputError, match="clips/a/1.jpg has lanes twice"):
-        load_maps(tmp_path, "clips/a/1.jpg", MAPS, geometry, 0.5)
+        load_maps(tmp_path, "clips/a/1.jpg", MAPS, geometry, 0.5, TUSIMPLE_LANES)
 
 
 def test_the_detector_row_is_the_saved_baseline_exactly_on_the_real_clip(real_clip_tree, tmp_path):
@@ -135,4 +138,4 @@ def test_a_tusimple_prediction_file_for_other_paths_is_refused(tmp_path):
 def test_json_no_parser_can_hold_is_one_error(tmp_path, line):
     (tmp_path / "predictions.json").write_text(line + "\n")
     with pytest.raises(InputError, match="predictions.json:1: not JSON this tool can read"):
-        load_maps(tmp_path, "a/1.jpg", MAPS, MapGeometry(1280, 720, 800, 288), 0.5)
+        load_maps(tmp_path, "a/1.jpg", MAPS, MapGeometry(1280, 720, 800, 288), 0.5, TUSIMPLE_LANES)

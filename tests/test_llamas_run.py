@@ -247,3 +247,26 @@ def _invoke_synth_lanes(tmp_path):
                                        "--frames", "4"])
     assert result.exit_code == 0, result.output
     return result
+
+
+def test_saved_lanes_are_read_back_where_score_llamas_looks_for_them(tmp_path):
+    """`run --save-lanes` names a frame's file by its key (<recording>/<frame>, as evaluate.py
+    does); `--maps-format lanes` reads the same names back, also with the recordings one folder
+    below the data root (where the key is not the frame's path)."""
+    labels, maps = _synth(tmp_path, clips=2, frames=3)
+    root = tmp_path / "root"
+    (root / "labels").mkdir(parents=True)
+    (root / "maps").mkdir()
+    labels.rename(root / "labels" / "valid")
+    maps.rename(root / "maps" / "valid")
+    first = tmp_path / "from-maps"
+    result = CliRunner().invoke(main, ["run", "--dataset", "llamas", "--data-root", str(root / "labels"),
+                                       "--maps-root", str(root / "maps"), "--methods", "baseline", "--save-lanes",
+                                       "--workers", "1", "--quiet", "--out", str(first)])
+    assert result.exit_code == 0, result.output
+    second = tmp_path / "from-lanes"
+    result = CliRunner().invoke(main, ["run", "--dataset", "llamas", "--data-root", str(root / "labels"),
+                                       "--maps-root", str(first / "lanes" / "baseline"), "--maps-format", "lanes",
+                                       "--methods", "baseline", "--workers", "1", "--quiet", "--out", str(second)])
+    assert result.exit_code == 0, result.output
+    assert _rows(second / "official.csv") == _rows(first / "official.csv")

@@ -72,6 +72,9 @@ class Benchmark(Protocol):
     kernel_groups: tuple[str, ...]
     # said after "maps missing for N frames of K clips" (what a clip needs), or ""
     missing_maps_hint: str
+    # a detector's lane files in its official prediction format, what `run --maps-format lanes`
+    # reads back (maps.lanes.LinesPerFrame or JsonLinesFile, the inverse of `lane_file`), or None
+    detector_lanes: Any
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:
@@ -134,9 +137,10 @@ _OWN = __name__.split(".")[0] + "."
 # What every benchmark must have, and what `run` needs besides (a benchmark scored from lane
 # files only has default_preset None and need not have these).
 REQUIRED = ("display_name", "image_size", "default_preset", "frames_per_clip", "fixture", "score_command")
-RUN_REQUIRED = ("kernel_groups", "missing_maps_hint", "read", "with_labels", "synthesize", "label_paths",
-                "prepare", "score", "tally", "decode", "lane_file", "official_columns", "official_optional",
-                "official_key", "official_protocol", "official_note", "check_official", "official_comparison")
+RUN_REQUIRED = ("kernel_groups", "missing_maps_hint", "detector_lanes", "read", "with_labels", "synthesize",
+                "label_paths", "prepare", "score", "tally", "decode", "lane_file", "official_columns",
+                "official_optional", "official_key", "official_protocol", "official_note", "check_official",
+                "official_comparison")
 
 
 @functools.cache

@@ -14,6 +14,7 @@ from . import LaneFile
 from ..datasets.culane import IMAGE_HEIGHT, IMAGE_WIDTH, labels_path, read_culane, with_labels
 from ..json_fields import json_number, read_count, read_float, read_list
 from ..lanes_io import format_culane_lines
+from ..maps.lanes import LinesPerFrame
 from ..metrics.culane_official import (OFFICIAL_COLUMNS, CulaneFrameResult, f_measure, matched_result,
                                        official_masks)
 from ..metrics.paper import ego_lanes
@@ -58,6 +59,7 @@ class CulaneBenchmark:
     fixture: str | None = "culane"
     kernel_groups = ("official",)
     missing_maps_hint = ""
+    detector_lanes = LinesPerFrame()  # what run --save-lanes writes
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:

@@ -17,6 +17,7 @@ from ..config import EvalConfig
 from ..errors import ConfigError
 from ..json_fields import json_number, read_count, read_float, read_list
 from ..lanes_io import format_culane_lines
+from ..maps.lanes import LinesPerFrame
 from ..model import Clip, Dataset, Frame, Lane
 from . import LaneFile
 
@@ -59,6 +60,13 @@ class _Truth:
     lane_width: int
 
 
+def _prediction_name(relpath: str) -> str:
+    """Where a frame's lanes lie under a prediction folder: its key (evaluate.py's naming)."""
+    from ..datasets.llamas import frame_key
+
+    return frame_key(relpath)
+
+
 class LlamasBenchmark:
     name = "llamas"
     display_name = "LLAMAS"
@@ -69,6 +77,7 @@ class LlamasBenchmark:
     fixture: str | None = None
     kernel_groups: tuple[str, ...] = ()  # its official scoring is OpenCV's drawing and scipy's
     missing_maps_hint = ""
+    detector_lanes = LinesPerFrame(name_of=_prediction_name)  # what run --save-lanes writes
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:
@@ -151,10 +160,9 @@ class LlamasBenchmark:
         return LlamasOfficial(*parts)
 
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
-        from ..datasets.llamas import frame_key
 
         # where `score llamas --pred-root lanes/METHOD` looks: <recording>/<frame>.lines.txt
-        return LaneFile(f"{method}/{frame_key(frame.relpath)}.lines.txt", format_culane_lines(lanes))
+        return LaneFile(f"{method}/{_prediction_name(frame.relpath)}.lines.txt", format_culane_lines(lanes))
 
     def score_command(self):
         from .llamas_cli import score_llamas_command

@@ -14,8 +14,11 @@ from . import LaneFile
 from ..datasets.tusimple import IMAGE_HEIGHT, IMAGE_WIDTH, read_tusimple
 from ..json_fields import json_number, read_float, read_list
 from ..lanes_io import format_tusimple_record, sample_lane_at_rows, tusimple_xs
+from ..maps.lanes import JsonLinesFile
 from ..metrics.tusimple_official import PIXEL_THRESHOLD, POINT_THRESHOLD, bench_frame, mean_scores
 from ..model import Clip, Dataset, Frame, Lane
+
+PREDICTIONS_FILE = "predictions.json"  # the official prediction file: a JSON line per frame
 
 if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors
     import pandas as pd
@@ -50,6 +53,7 @@ class TusimpleBenchmark:
     fixture: str | None = "tusimple"
     kernel_groups: tuple[str, ...] = ()
     missing_maps_hint = " (each TuSimple clip needs maps for all its 20 frames)"
+    detector_lanes = JsonLinesFile(PREDICTIONS_FILE)  # what run --save-lanes writes
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:
@@ -89,7 +93,7 @@ class TusimpleBenchmark:
         rows = frame.h_samples or ()
         lanes_xs = [sample_lane_at_rows(lane, rows) for lane in lanes]
         text = format_tusimple_record(frame.relpath, lanes_xs, rows, 0) + "\n"
-        return LaneFile(f"{method}/predictions.json", text, append=True)
+        return LaneFile(f"{method}/{PREDICTIONS_FILE}", text, append=True)
 
     def score_command(self):
         from .tusimple_cli import score_tusimple_command

@@ -17,6 +17,7 @@ import numpy as np
 from ..config import EvalConfig
 from ..json_fields import json_number, read_count, read_float, read_list
 from ..lanes_io import format_culane_lines
+from ..maps.lanes import LinesPerFrame
 from ..model import Clip, Dataset, Frame, Lane
 from . import LaneFile
 
@@ -77,6 +78,7 @@ class Vil100Benchmark:
     fixture: str | None = None
     kernel_groups = ("official",)
     missing_maps_hint = ""
+    detector_lanes = LinesPerFrame()  # what run --save-lanes writes
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:

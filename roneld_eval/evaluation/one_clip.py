@@ -206,7 +206,7 @@ def _predictions(extractors: list[tuple[Method, Extractor, bool]], maps: FrameMa
 
 def frame_map_path(context: RunContext, frame: Frame) -> Path:
     """The file to name when a frame's maps are wrong: the first map image where there are several."""
-    path = required_paths(context.maps_root, frame.relpath, context.config.maps)[0]
+    path = required_paths(context.maps_root, frame.relpath, context.config.maps, context.lane_files)[0]
     if context.config.maps.format == "scnn-png":  # path is the .exist.txt beside the PNGs
         images, _ = scnn_png_paths(map_stem(context.maps_root, frame.relpath), context.config.maps.lane_channels)
         path = next((image for image in images if image.is_file()), path)

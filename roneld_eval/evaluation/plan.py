@@ -17,16 +17,17 @@ from ..maps import map_size, required_paths
 from ..model import Clip, Dataset
 from ..wording import counted
 from .one_clip import effective_geometry, frame_map_path
-from .records import RunContext
+from .records import RunContext, lane_files_of
 
 
 def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tuple[str, Path]]:
     """(clip id, missing file) for every frame whose maps are missing, or cannot even be looked
     at (a folder without permission). A map that is there but unreadable is refused on loading."""
     missing = []
+    lane_files = lane_files_of(config)
     for clip in dataset.clips:
         for frame in clip.frames:
-            for path in required_paths(maps_root, frame.relpath, config.maps):
+            for path in required_paths(maps_root, frame.relpath, config.maps, lane_files):
                 try:
                     path.stat()
                 except (OSError, ValueError):
@@ -58,10 +59,11 @@ def _root_hint(maps_root: Path, dataset: Dataset, config: EvalConfig) -> str:
     first = dataset.clips[0].frames[0].relpath if dataset.clips and dataset.clips[0].frames else None
     if first is None:
         return ""
+    lane_files = lane_files_of(config)
 
     def holds(root: Path) -> bool:
         try:
-            return all(path.exists() for path in required_paths(root, first, config.maps))
+            return all(path.exists() for path in required_paths(root, first, config.maps, lane_files))
         except (OSError, ValueError):
             return False
 
@@ -110,10 +112,9 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
                          data_root=Path(dataset.root),
                          label_file=None if dataset.source_file is None else Path(dataset.source_file))
     say = announce or (lambda message: None)
-    if config.maps.format == "lanes":
-        from ..maps.lanes import check_coverage
-
-        check_coverage(maps_root, [f.relpath for clip in clips for f in clip.frames if f.labelled], say)
+    if context.lane_files is not None:
+        context.lane_files.check_coverage(maps_root, [f.relpath for clip in clips for f in clip.frames if f.labelled],
+                                          say)
     geometry = _first_geometry(clips, context, dataset.frame_sizes)
     if geometry is not None:
         say(f"geometry: {geometry.describe()}")
@@ -127,6 +128,9 @@ def _maps_root(config: EvalConfig) -> Path:
     maps_root = Path(config.maps.root)
     if not maps_root.is_dir():
         raise InputError(maps_root, "maps root not found")
+    if config.maps.format == "lanes" and lane_files_of(config) is None:
+        raise ConfigError(f"--maps-format lanes: benchmark {config.dataset.name!r} declares no format for a "
+                          "detector's lane files")
     return maps_root
 
 
@@ -179,7 +183,7 @@ def _first_geometry(clips: Sequence[Clip], context: RunContext,
             where = str(frame_map_path(context, frame))
             try:
                 width, height = map_size(context.maps_root, frame.relpath, config.maps, config.geometry_of(frame),
-                                         config.roneld.center_ratio)
+                                         config.roneld.center_ratio, context.lane_files)
                 check_map_shape(config.geometry, width, height, where)
             except InputError:
                 return None  # reported, or skipped, where the clip is evaluated

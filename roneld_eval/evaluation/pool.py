@@ -57,7 +57,7 @@ def clip_inputs(clip: Clip, context: RunContext) -> list[Path]:
     """Every file evaluating this clip reads: its maps and its labels (what resume must check)."""
     paths = []
     for frame in clip.frames:
-        paths += required_paths(context.maps_root, frame.relpath, context.config.maps)
+        paths += required_paths(context.maps_root, frame.relpath, context.config.maps, context.lane_files)
     return paths + context.benchmark.label_paths(clip, context.data_root, context.label_file)
 
 

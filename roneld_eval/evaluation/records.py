@@ -53,6 +53,14 @@ class ClipResult:
     plugin_code: dict[str, str] = field(default_factory=dict)
 
 
+def lane_files_of(config: EvalConfig):
+    """The format `--maps-format lanes` reads (maps.lanes.LaneFileFormat): the benchmark's
+    declared `detector_lanes`; None for maps in another format."""
+    if config.maps.format != "lanes":
+        return None
+    return benchmark_for(config.dataset.name).detector_lanes
+
+
 @dataclass(frozen=True)
 class RunContext:
     """Everything a worker needs besides the clip."""
@@ -71,11 +79,16 @@ class RunContext:
     def benchmark(self) -> Benchmark:
         return benchmark_for(self.config.dataset.name)
 
+    @cached_property
+    def lane_files(self):
+        """The benchmark's format of a detector's lane files, what `--maps-format lanes` reads."""
+        return lane_files_of(self.config)
+
     def load(self, frame: Frame) -> FrameMaps:
         """One frame's maps (lane files are drawn into maps with the configured geometry)."""
         config = self.config
         return load_maps(self.maps_root, frame.relpath, config.maps, config.geometry_of(frame),
-                         config.roneld.center_ratio)
+                         config.roneld.center_ratio, self.lane_files)
 
     def kernel_groups(self) -> tuple[str, ...]:
         """The numba kernel groups this run executes (see roneld_eval.kernels)."""

@@ -96,30 +96,37 @@ def pngs_without_existence(exist: Path) -> str:
     return ""
 
 
-def required_paths(root: Path, relpath: str, config: MapsConfig) -> list[Path]:
-    """Files that must exist for a frame's maps to load (PNGs of absent lanes may be missing)."""
-    stem = map_stem(root, relpath)
+def required_paths(root: Path, relpath: str, config: MapsConfig, lane_files=None) -> list[Path]:
+    """Files that must exist for a frame's maps to load (PNGs of absent lanes may be missing);
+    for lane files (format "lanes"), those of the benchmark's format `lane_files`
+    (maps.lanes.LaneFileFormat)."""
     if config.format == "lanes":
-        from .lanes import lane_files
-
-        return lane_files(stem, root)
+        return _lane_format(lane_files).files(root, relpath)
+    stem = map_stem(root, relpath)
     return [stem.with_name(stem.name + _FORMAT_SUFFIXES[config.format])]
 
 
+def _lane_format(lane_files):
+    if lane_files is None:
+        raise InputError(None, "--maps-format lanes: this benchmark declares no format for a detector's lane files")
+    return lane_files
+
+
 def load_maps(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry | None = None,
-              center_ratio: float = 0.5) -> FrameMaps:
+              center_ratio: float = 0.5, lane_files=None) -> FrameMaps:
     """The maps of one frame in the canonical form, or an InputError naming the bad file.
 
-    Lane files (format "lanes") are drawn into maps of the configured size: they need the
-    map-to-image `geometry` and the ego position (`center_ratio`) that orders the channels.
+    Lane files (format "lanes", in the benchmark's format `lane_files`) are drawn into maps of
+    the configured size: they need the map-to-image `geometry` and the ego position
+    (`center_ratio`) that orders the channels.
     """
-    stem = map_stem(root, relpath)
     if config.format == "lanes":
         from .lanes import load_lane_maps
 
         if geometry is None:
             raise InputError(None, "lane files become maps only with the run's geometry")
-        return load_lane_maps(root, relpath, stem, config, geometry, center_ratio)
+        return load_lane_maps(root, relpath, _lane_format(lane_files), config, geometry, center_ratio)
+    stem = map_stem(root, relpath)
     if config.format == "npy":
         return load_npy(stem.with_name(stem.name + _FORMAT_SUFFIXES["npy"]), config)
     if config.format == "npz":
@@ -132,7 +139,7 @@ def load_maps(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometr
 
 
 def map_size(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry | None = None,
-             center_ratio: float = 0.5) -> tuple[int, int]:
+             center_ratio: float = 0.5, lane_files=None) -> tuple[int, int]:
     """(width, height) of a frame's maps, as `load_maps` would give them. For PNG maps, from the
     first PNG's header: nothing is decoded, so a process that only asks this (the run's main
     process) never loads the decoding kernel, nor numba with it (0.3 s and 50 MB)."""
@@ -144,7 +151,7 @@ def map_size(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry
             size = png_size(path)
             if size is not None:
                 return size
-    maps = load_maps(root, relpath, config, geometry, center_ratio)
+    maps = load_maps(root, relpath, config, geometry, center_ratio, lane_files)
     return maps.width, maps.height
 
 

@@ -1,13 +1,15 @@
 """Another detector's lanes, drawn into the probability maps RONELD reads (`--maps-format lanes`).
 
 Detectors that output lane lists (CLRNet, LaneATT, UFLD) have no maps. This reads their lanes
-in the official formats and draws each into a map channel, so that RONELD runs on them as on a
-segmentation model's output:
+in their benchmark's official prediction format and draws each into a map channel, so that
+RONELD runs on them as on a segmentation model's output. A benchmark declares its format
+(`Benchmark.detector_lanes`), one of the two forms the benchmarks' formats take:
 
-- CULane: ``<maps-root>/<rel stem>.lines.txt`` mirrored as `run --save-lanes` writes it, with an
-  optional ``<stem>.scores.txt`` beside it (one confidence in [0, 1] per lane line).
-- TuSimple: ``<maps-root>/predictions.json``, one JSON line per frame (the official prediction
-  format, optionally with ``"scores": [...]`` per lane); a frame with no line has no lanes.
+- `LinesPerFrame`: ``<maps-root>/<name>.lines.txt`` per frame, mirrored as `run --save-lanes`
+  writes it (`name` the image path without extension, or what the benchmark names a frame by),
+  with an optional ``<name>.scores.txt`` beside it (one confidence in [0, 1] per lane line).
+- `JsonLinesFile`: ``<maps-root>/<file>``, one JSON line per frame (``raw_file``, ``lanes``,
+  ``h_samples``, optionally ``"scores": [...]`` per lane); a frame with no line has no lanes.
 
 Drawing: maps of the configured size (`maps.width` x `maps.height` over the crop rows). In each
 map row that a lane spans, its x is interpolated linearly between its points and a ridge is
@@ -30,38 +32,85 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..config import MapsConfig
-from ..datasets._paths import normalise_relpath
+from ..datasets._paths import normalise_relpath, under_root
 from ..errors import InputError
 from ..geometry import MapGeometry
 from ..lanes_io import (check_coordinates, decode_text, lane_from_tusimple, parse_culane_lines, read_bytes,
                         read_tusimple_records)
-from ..model import EGO_CHANNELS, FrameMaps, Lane
+from ..model import EGO_CHANNELS, FrameMaps, Lane, image_stem
 
-TUSIMPLE_FILE = "predictions.json"
 SCORES_SUFFIX = ".scores.txt"
 # Half the width of a drawn lane, beyond its centre pixel, on an 800-px-wide map.
 RIDGE_HALF_WIDTH_PX = 4
 
-
-def lane_files(stem: Path, root: Path) -> list[Path]:
-    """The file that must exist for a frame's lanes: the TuSimple file, else its .lines.txt."""
-    tusimple = root / TUSIMPLE_FILE
-    if tusimple.is_file():
-        return [tusimple]
-    return [stem.with_name(stem.name + ".lines.txt")]
+LanesAndScores = tuple[tuple[Lane, ...], tuple[float, ...]]
 
 
-def load_lane_maps(root: Path, relpath: str, stem: Path, config: MapsConfig, geometry: MapGeometry,
-                   center_ratio: float) -> FrameMaps:
-    """One frame's lanes (from either format) drawn into (C, H, W) uint8 maps."""
-    tusimple = root / TUSIMPLE_FILE
-    if tusimple.is_file():
-        lanes, scores = _tusimple_frames(tusimple).get(relpath, ((), ()))
-    else:
-        path = stem.with_name(stem.name + ".lines.txt")
+@dataclass(frozen=True)
+class LinesPerFrame:
+    """A `.lines.txt` per frame under the root: one lane per line, `x y x y ...` in image pixels."""
+
+    # what a frame's file is named by, from its image path (default: the path without extension)
+    name_of: Callable[[str], str] | None = None
+    suffix: str = ".lines.txt"
+
+    def _stem(self, root: Path, relpath: str) -> Path:
+        return under_root(root, self.name_of(relpath) if self.name_of else image_stem(relpath))
+
+    def files(self, root: Path, relpath: str) -> list[Path]:
+        """The file that must exist for a frame's lanes."""
+        stem = self._stem(root, relpath)
+        return [stem.with_name(stem.name + self.suffix)]
+
+    def read(self, root: Path, relpath: str) -> LanesAndScores:
+        stem = self._stem(root, relpath)
+        path = stem.with_name(stem.name + self.suffix)
         lanes = parse_culane_lines(decode_text(read_bytes(path), path), path)
         check_coordinates(lanes, path)
-        scores = _read_scores(stem.with_name(stem.name + SCORES_SUFFIX), len(lanes))
+        return lanes, _read_scores(stem.with_name(stem.name + SCORES_SUFFIX), len(lanes))
+
+    def check_coverage(self, root: Path, labelled: Sequence[str], say: Callable[[str], None]) -> None:
+        """Nothing to check ahead: a missing file is refused as missing maps are."""
+
+
+@dataclass(frozen=True)
+class JsonLinesFile:
+    """One file under the root holding a JSON line per frame, its image path in `raw_file`."""
+
+    name: str
+
+    def files(self, root: Path, relpath: str) -> list[Path]:
+        return [root / self.name]
+
+    def read(self, root: Path, relpath: str) -> LanesAndScores:
+        return _json_frames(root / self.name).get(relpath, ((), ()))
+
+    def check_coverage(self, root: Path, labelled: Sequence[str], say: Callable[[str], None]) -> None:
+        """The file must hold lanes for the frames that are scored: none found is a wrong file or
+        raw_file paths in another form (an InputError), fewer than half a warning."""
+        path = root / self.name
+        if not path.is_file() or not labelled:
+            return
+        frames = _json_frames(path)
+        missing = [relpath for relpath in labelled if relpath not in frames]
+        if len(missing) == len(labelled):
+            example = next(iter(frames), None)
+            found = f"; its first line is for {example!r}" if example is not None else "; it holds no line"
+            raise InputError(path, f"no line for any of the {len(labelled)} labelled frames (first looked for: "
+                                   f"{missing[0]!r}){found}: raw_file must be the image path relative to the "
+                                   f"dataset root")
+        if len(missing) * 2 > len(labelled):
+            say(f"warning: {path} has lanes for only {len(labelled) - len(missing)} of {len(labelled)} labelled "
+                f"frames (first without: {missing[0]}); the others count as frames without lanes")
+
+
+LaneFileFormat = LinesPerFrame | JsonLinesFile
+
+
+def load_lane_maps(root: Path, relpath: str, lane_files: LaneFileFormat, config: MapsConfig,
+                   geometry: MapGeometry, center_ratio: float) -> FrameMaps:
+    """One frame's lanes drawn into (C, H, W) uint8 maps."""
+    lanes, scores = lane_files.read(root, relpath)
     return draw_lane_maps(lanes, scores, config, geometry, center_ratio)
 
 
@@ -146,26 +195,6 @@ def _score(value, path, line: int | None) -> float:
     return number
 
 
-def check_coverage(root: Path, labelled: Sequence[str], say: Callable[[str], None]) -> None:
-    """A TuSimple prediction file must hold lanes for the frames that are scored: none found is
-    a wrong file or raw_file paths in another form (an InputError), fewer than half a warning.
-    (CULane lane files are one per frame and missing ones are refused as missing maps are.)"""
-    path = root / TUSIMPLE_FILE
-    if not path.is_file() or not labelled:
-        return
-    frames = _tusimple_frames(path)
-    missing = [relpath for relpath in labelled if relpath not in frames]
-    if len(missing) == len(labelled):
-        example = next(iter(frames), None)
-        found = f"; its first line is for {example!r}" if example is not None else "; it holds no line"
-        raise InputError(path, f"no line for any of the {len(labelled)} labelled frames (first looked for: "
-                               f"{missing[0]!r}){found}: raw_file must be the image path relative to the "
-                               f"dataset root")
-    if len(missing) * 2 > len(labelled):
-        say(f"warning: {path} has lanes for only {len(labelled) - len(missing)} of {len(labelled)} labelled "
-            f"frames (first without: {missing[0]}); the others count as frames without lanes")
-
-
 @dataclass(frozen=True)
 class _FileKey:
     path: str
@@ -173,14 +202,14 @@ class _FileKey:
     modified_ns: int
 
 
-_TUSIMPLE_CACHE: dict[_FileKey, dict[str, tuple[tuple[Lane, ...], tuple[float, ...]]]] = {}
+_JSON_CACHE: dict[_FileKey, dict[str, LanesAndScores]] = {}
 
 
-def _tusimple_frames(path: Path) -> dict[str, tuple[tuple[Lane, ...], tuple[float, ...]]]:
-    """relpath -> (lanes, scores) of a TuSimple prediction file, read once per process."""
+def _json_frames(path: Path) -> dict[str, LanesAndScores]:
+    """relpath -> (lanes, scores) of a JSON-lines prediction file, read once per process."""
     info = os.stat(path)
     key = _FileKey(str(path), info.st_size, info.st_mtime_ns)
-    frames = _TUSIMPLE_CACHE.get(key)
+    frames = _JSON_CACHE.get(key)
     if frames is not None:
         return frames
     frames = {}
@@ -197,6 +226,6 @@ def _tusimple_frames(path: Path) -> dict[str, tuple[tuple[Lane, ...], tuple[floa
         if not isinstance(scores, list) or len(scores) != len(lanes):
             raise InputError(path, "scores must be a list with one number in [0, 1] per lane", line=number)
         frames[relpath] = (lanes, tuple(_score(value, path, number) for value in scores))
-    _TUSIMPLE_CACHE.clear()  # one file at a time: memory stays flat
-    _TUSIMPLE_CACHE[key] = frames
+    _JSON_CACHE.clear()  # one file at a time: memory stays flat
+    _JSON_CACHE[key] = frames
     return frames

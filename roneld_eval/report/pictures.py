@@ -14,6 +14,7 @@ from ..config import EvalConfig
 from ..datasets import load_labels
 from ..errors import ConfigError, InputError
 from ..evaluation import FrameOutcome, RunContext, evaluate_clip
+from ..evaluation.records import lane_files_of
 from ..maps import load_maps
 from ..metrics.paper import ego_lanes
 from ..model import Clip, Dataset, Frame
@@ -78,7 +79,8 @@ def background(config: EvalConfig, frame: Frame) -> np.ndarray:
     geometry = config.geometry_of(frame)
     size = geometry.image_size
     if image is None:
-        maps = load_maps(maps_root, frame.relpath, config.maps, geometry, config.roneld.center_ratio)
+        maps = load_maps(maps_root, frame.relpath, config.maps, geometry, config.roneld.center_ratio,
+                         lane_files_of(config))
         crop_bottom = geometry.crop_top_px + geometry.crop_height_px
         return heat_map(np.asarray(maps.probabilities), *size, geometry.crop_top_px, crop_bottom)
     if image.shape[:2] != size[::-1]:

@@ -21,6 +21,7 @@ import numpy as np
 from roneld_eval.benchmarks import LaneFile
 from roneld_eval.errors import InputError
 from roneld_eval.lanes_io import format_culane_lines, read_culane_lines
+from roneld_eval.maps.lanes import LinesPerFrame
 from roneld_eval.model import Clip, Dataset, Frame
 from roneld_eval.synth import Camera, SynthResult, _write_maps, channel_lanes, clip_style, render_maps, scene_sequence
 
@@ -75,6 +76,7 @@ class ToyBenchmark:
     fixture = None
     kernel_groups: tuple[str, ...] = ()
     missing_maps_hint = ""
+    detector_lanes = LinesPerFrame(suffix=".lanes.txt")  # as lane_file writes them
     official_columns = {"method": "text", "frames": "count", "gt_lanes": "count", "pred_lanes": "count",
                         "clips": "count", "exact_clips": "count"}
     official_optional: dict[str, str] = {}
