@@ -23,6 +23,7 @@ import pytest
 from click.testing import CliRunner
 
 from roneld_eval import api
+from roneld_eval.benchmarks import benchmark_for
 from roneld_eval.cli import main
 from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.geometry import EffectiveGeometry
@@ -188,7 +189,8 @@ def test_figures_state_their_configuration(fixture_result):
     categories = pd.DataFrame({"category": ["normal", "normal"], "method": ["baseline", "roneld"],
                                "accuracy": [0.5, 0.7]})
     official = pd.DataFrame({"category": ["normal", "normal"], "method": ["baseline", "roneld"], "f1": [0.6, 0.8]})
-    figure = category_figure(categories, official, "SCNN", "0.4", protocol)
+    panel = benchmark_for("culane").category_panel(official)
+    figure = category_figure(categories, panel, "SCNN", "0.4", protocol)
     text = figure_texts(figure)
     plt.close(figure)
     assert "IoU > 0.4" in text and "IoU > 0.5" not in text
@@ -198,9 +200,15 @@ def test_figures_state_their_configuration(fixture_result):
     assert "SCNN + RONELD outputs the two ego lanes only: F1 over all lanes counts the outer lanes" in \
         " ".join(text.split())
     only_baseline = category_figure(categories[categories["method"] == "baseline"],
-                                    official[official["method"] == "baseline"], "SCNN", "0.4", protocol)
+                                    benchmark_for("culane").category_panel(official[official["method"] == "baseline"]),
+                                    "SCNN", "0.4", protocol)
     assert "ego lanes only" not in figure_texts(only_baseline)
     plt.close(only_baseline)
+    # A benchmark without an official score by category: the accuracy panel alone, nothing of CULane's.
+    accuracy_only = category_figure(categories, None, "SCNN", "0.4", protocol)
+    assert len(accuracy_only.axes) == 1 and "CULane" not in figure_texts(accuracy_only)
+    assert "ego lanes only" not in figure_texts(accuracy_only)
+    plt.close(accuracy_only)
 
 
 # ---- 3. no interval over fewer than MIN_CLIPS clips ----------------------------------------------

@@ -57,6 +57,17 @@ class LaneFile:
     append: bool = False
 
 
+@dataclass(frozen=True)
+class CategoryPanel:
+    """categories.png's second panel: a benchmark's official score per category (columns method,
+    category, score in [0, 1]), its title, and what to say where a method outputs the ego lanes
+    only (which an all-lanes score counts against it)."""
+
+    table: "pd.DataFrame"
+    title: str
+    ego_lanes_note: str
+
+
 class Benchmark(Protocol):
     """What the tool needs of a benchmark."""
 
@@ -129,6 +140,10 @@ class Benchmark(Protocol):
     def official_comparison(self, groups: Sequence[Any]) -> tuple[Any, str]:
         """compare's official table of run groups of this benchmark (a comparison Grid), and its text."""
 
+    def category_panel(self, official: "pd.DataFrame") -> CategoryPanel | None:
+        """Its official score by category beside the paper's accuracy in categories.png (drawn
+        where the dataset has categories), or None to show the accuracy alone."""
+
 
 ENTRY_POINT_GROUP = "roneld_eval.benchmarks"
 
@@ -140,7 +155,7 @@ REQUIRED = ("display_name", "image_size", "default_preset", "frames_per_clip", "
 RUN_REQUIRED = ("kernel_groups", "missing_maps_hint", "detector_lanes", "read", "with_labels", "synthesize",
                 "label_paths", "prepare", "score", "tally", "decode", "lane_file", "official_columns",
                 "official_optional", "official_key", "official_protocol", "official_note", "check_official",
-                "official_comparison")
+                "official_comparison", "category_panel")
 
 
 @functools.cache

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 from ..config import EvalConfig
-from . import LaneFile
+from . import CategoryPanel, LaneFile
 from ..datasets.culane import IMAGE_HEIGHT, IMAGE_WIDTH, labels_path, read_culane, with_labels
 from ..json_fields import json_number, read_count, read_float, read_list
 from ..lanes_io import format_culane_lines
@@ -128,6 +128,12 @@ class CulaneBenchmark:
                 + (f"; {protocol.official()}." if protocol is not None else "."))
 
     # official.csv as compare reads it back: required and optional columns, and its key
+    def category_panel(self, official: pd.DataFrame) -> CategoryPanel:
+        return CategoryPanel(official[["method", "category", "f1"]].rename(columns={"f1": "score"}),
+                             "Official CULane F1, all lanes",
+                             "F1 over all lanes counts the outer lanes as missed (compare on the 'ego' row of "
+                             "official.csv)")
+
     official_columns = {"method": "text", "category": "text", "tp": "count", "fp": "count", "fn": "count",
                         "f1": "optional number"}
     official_optional: dict[str, str] = {}

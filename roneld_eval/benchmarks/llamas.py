@@ -183,6 +183,9 @@ class LlamasBenchmark:
                 + (f"; {text}." if text else "."))
 
     # official.csv as compare reads it back
+    def category_panel(self, official):
+        return None  # its datasets have no categories
+
     official_columns = {"method": "text", "category": "text", "threshold": "text", "tp": "count", "fp": "count",
                         "fn": "count", "f1": "optional number", "mf1": "optional number"}
     official_optional: dict[str, str] = {}

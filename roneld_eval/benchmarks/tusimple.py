@@ -107,6 +107,9 @@ class TusimpleBenchmark:
         return (f"TuSimple's evaluate/lane.py: a point matches within {PIXEL_THRESHOLD} px (slope-corrected), "
                 f"a lane when {POINT_THRESHOLD:.0%} of its points match.")
 
+    def category_panel(self, official):
+        return None  # its datasets have no categories
+
     official_columns = {"method": "text", "accuracy": "optional number", "fp": "optional number",
                         "fn": "optional number"}
     official_optional = {"f1_clrnet": "optional number"}

@@ -180,6 +180,9 @@ class Vil100Benchmark:
                 + (f"; {text}." if text else "."))
 
     # official.csv as compare reads it back
+    def category_panel(self, official):
+        return None  # its datasets have no categories
+
     official_columns = {"method": "text", "category": "text", "threshold": "text", "tp": "count", "fp": "count",
                         "fn": "count", "f1": "optional number", "miou": "optional number"}
     official_optional = {"rs": "optional number", "rj": "optional number", "rm": "optional number"}

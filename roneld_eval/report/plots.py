@@ -21,6 +21,7 @@ matplotlib.rcParams["text.parse_math"] = False
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from ..benchmarks import CategoryPanel  # noqa: E402
 from ..config import EGO_LANES_ONLY  # noqa: E402
 from ..methods import METHOD_TABLE  # noqa: E402
 from ..errors import InputError  # noqa: E402
@@ -88,9 +89,10 @@ def save_figure(figure, png: Path, svg: Path | None = None) -> None:
 HATCHES = {name: facts.hatch for name, facts in METHOD_TABLE.items()}
 
 
-def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, model: str, threshold_label: str,
+def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model: str, threshold_label: str,
                     protocol: Protocol | None = None):
-    """Grouped bars per CULane category: the paper's accuracy (left) and the official F1 (right).
+    """Grouped bars per category: the paper's accuracy (left) and, where the benchmark gives one
+    (`Benchmark.category_panel`), its official score by category (right).
 
     `threshold_label`: the IoU threshold of both panels (the official one); `protocol`: the
     configuration stated under the bars.
@@ -100,9 +102,9 @@ def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, mod
     names = [c for c in dict.fromkeys(categories["category"])]
     methods = list(dict.fromkeys(categories["method"]))
     panels = [("accuracy", categories, f"Ego-lane accuracy, paper's protocol (IoU > {threshold_label})")]
-    if official is not None and "f1" in official.columns:
-        panels.append(("f1", official[official["category"].isin(names)],
-                       f"Official CULane F1, all lanes (IoU > {threshold_label})"))
+    if panel is not None:
+        panels.append(("score", panel.table[panel.table["category"].isin(names)],
+                       f"{panel.title} (IoU > {threshold_label})"))
     figure, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.6), dpi=150, squeeze=False)
     width = 0.8 / max(len(methods), 1)
     positions = np.arange(len(names))
@@ -125,9 +127,9 @@ def category_figure(categories: pd.DataFrame, official: pd.DataFrame | None, mod
         if len(panels) > 1:
             note.append(f"F1: {protocol.official()}.")
     ego_only = [display_name(method, model) for method in methods if method in EGO_LANES_ONLY]
-    if len(panels) > 1 and ego_only:
+    if panel is not None and ego_only:
         note.append(f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: "
-                    f"F1 over all lanes counts the outer lanes as missed (compare on the 'ego' row of official.csv).")
+                    f"{panel.ego_lanes_note}.")
     bottom = _note(figure, note, 100 * len(panels))
     figure.tight_layout(rect=(0, bottom, 1, 0.92))
     return figure

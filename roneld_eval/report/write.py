@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
-from ..benchmarks import Benchmark
+from ..benchmarks import Benchmark, benchmark_for
 from ..errors import InputError
 from ..evaluation import FrameOutcome, RunResult
 from ..model import Frame, image_stem
@@ -198,7 +198,8 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         threshold = config.official.iou_threshold
         by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
         staging.write_csv("categories.csv", by_category, "%.6f")
-        save_figure(category_figure(by_category, result.official, model, f"{threshold:g}", protocol),
+        panel = benchmark_for(result.dataset.name).category_panel(result.official)
+        save_figure(category_figure(by_category, panel, model, f"{threshold:g}", protocol),
                     staging.file("categories.png"))
     from .html import build_html
 

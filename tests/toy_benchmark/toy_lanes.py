@@ -77,6 +77,9 @@ class ToyBenchmark:
     kernel_groups: tuple[str, ...] = ()
     missing_maps_hint = ""
     detector_lanes = LinesPerFrame(suffix=".lanes.txt")  # as lane_file writes them
+    def category_panel(self, official):
+        return None  # its datasets have no categories
+
     official_columns = {"method": "text", "frames": "count", "gt_lanes": "count", "pred_lanes": "count",
                         "clips": "count", "exact_clips": "count"}
     official_optional: dict[str, str] = {}
