@@ -9,7 +9,8 @@ every top-level entry it wrote. The next command into the same folder:
   does not write are removed, new ones renamed in, the manifest written last. Signals that
   arrive during the commit are held until it is over, and a failing rename undoes the commit,
   so readers see the complete old results or the complete new ones. A commit cut short by
-  SIGKILL or a power cut is recorded in a journal that the next command rolls forward.
+  SIGKILL or a power cut leaves its journal behind: readers (`show`, `compare`) refuse the
+  folder as incomplete, and the next command into it replaces every entry the journal names.
 """
 
 from __future__ import annotations
@@ -108,6 +109,7 @@ class OutputFolder:
         self.nested = nested or {}
         self.previous: dict | None = None
         self.committed = False
+        self.incomplete = False  # an earlier commit was cut short: its journal is still here
         self._lock: int | None = None
         self._staging: Path | None = None
 
@@ -122,11 +124,9 @@ class OutputFolder:
             raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
         self._take_lock()
         try:
-            plan = self._read_journal()
-            self._check_ownership(plan)
-            if plan is not None:
-                self._finish(plan)
-                self._check_ownership(None)
+            cut_short = self._read_journal()
+            self.incomplete = cut_short is not None
+            self._check_ownership(cut_short)
             self._remove_leftovers()
         except BaseException:
             self._release_lock()
@@ -213,11 +213,10 @@ class OutputFolder:
             self.path.rmdir()  # only when nothing at all is left (a run into a new folder that failed)
 
     def _read_journal(self) -> dict | None:
-        """The plan of a commit a killed process left half done, checked name by name (or None).
-
-        Every name must be a plain entry of this folder (staging and trash with their prefixes),
-        so a forged journal cannot make the tool touch anything outside it.
-        """
+        """What a commit cut short by a kill was putting in place (or None): its command and the
+        entries it was replacing and writing, each a plain entry of this folder, so that a forged
+        journal cannot make the tool touch anything outside it. The journal stays until this
+        command's own commit replaces those entries: the folder is incomplete until then."""
         journal = self.path / JOURNAL
         if not (journal.exists() or journal.is_symlink()):
             return None
@@ -225,11 +224,6 @@ class OutputFolder:
             plan = _read_json(journal)
             if not isinstance(plan, dict) or not isinstance(plan.get("command"), str):
                 raise ValueError("not a commit plan")
-            staging, trash = plan.get("staging"), plan.get("trash")
-            if not (isinstance(staging, str) and staging.startswith(STAGING_PREFIX) and _plain_file_name(staging)):
-                raise ValueError("bad staging folder name")
-            if not (isinstance(trash, str) and trash.startswith(TRASH_PREFIX) and _plain_file_name(trash)):
-                raise ValueError("bad trash folder name")
             for key in ("entries", "old"):
                 names = plan.get(key)
                 if not isinstance(names, list) or not all(isinstance(n, str) and _plain_name(n) for n in names):
@@ -238,15 +232,6 @@ class OutputFolder:
             raise InputError(journal, f"an earlier commit into this folder was cut short and its journal cannot "
                                       f"be trusted ({error}); remove the folder and run again") from None
         return plan
-
-    def _finish(self, plan: dict) -> None:
-        """Roll a cut-short commit forward: its staging folder held the complete results."""
-        try:
-            self._apply(plan, undo_on_error=False)
-        except OSError as error:
-            raise InputError(self.path / JOURNAL, f"an earlier commit into this folder was cut short and cannot "
-                                                  f"be finished ({error.strerror}); remove the folder and run "
-                                                  f"again") from None
 
     def _remove_leftovers(self) -> None:
         """Staging and trash folders of earlier killed commands (only in a folder that is ours)."""
@@ -276,8 +261,9 @@ class OutputFolder:
         if command is not None and command != self.command:
             raise InputError(self.path, f"holds the results of `roneld-eval {command}`; write the "
                                         f"results of `roneld-eval {self.command}` to another folder")
-        if manifest is not None or nested:
-            entries = (manifest["entries"] if manifest is not None else []) + sorted(nested)
+        if manifest is not None or nested or plan is not None:
+            # After a cut-short commit, some of its entries may be old and some new: all go.
+            entries = sorted(listed | set(nested))
             self.previous = {"command": self.command, "entries": entries}
 
     def _is_nested(self, entry: Path) -> bool:
@@ -312,27 +298,22 @@ class OutputFolder:
             trash: Path | None = None
             try:
                 trash = Path(tempfile.mkdtemp(prefix=TRASH_PREFIX, dir=self.path))
-                plan = {"staging": staging.name, "trash": trash.name, "entries": entries, "old": old,
-                        "command": self.command}
-                _write_atomically(self.path / JOURNAL, json.dumps(plan))
+                _write_atomically(self.path / JOURNAL, json.dumps({"command": self.command, "entries": entries,
+                                                                   "old": old}))
             except OSError as error:  # a full disk: no journal, so nothing was moved yet
                 if trash is not None:
                     shutil.rmtree(trash, ignore_errors=True)
                 raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
-            self._apply(plan, undo_on_error=True)
+            self._apply(staging, trash, entries, old)
             self._staging = None
             self.committed = True
             if then is not None:
                 then()
         return [self.path / name for name in entries]
 
-    def _apply(self, plan: dict, undo_on_error: bool) -> None:
-        """Move old entries to the trash and staged ones in, write the manifest, drop the journal."""
-        staging, trash = self.path / plan["staging"], self.path / plan["trash"]
-        entries = [str(name) for name in plan["entries"]]
-        if not all(_plain_name(name) for name in entries + list(plan["old"])):
-            raise ValueError("a name in the journal is not a plain file name")
-        trash.mkdir(exist_ok=True)
+    def _apply(self, staging: Path, trash: Path, entries: list[str], old: list[str]) -> None:
+        """Move old entries to the trash and staged ones in, write the manifest, drop the journal;
+        on a failing rename, undo the renames and leave the earlier results as they were."""
         renames: list[tuple[Path, Path]] = []  # done so far, to undo in reverse on failure
 
         def move(source: Path, target: Path) -> None:
@@ -340,26 +321,21 @@ class OutputFolder:
             renames.append((source, target))
 
         try:
-            for name in entries + [n for n in plan["old"] if n not in entries]:
-                target, new = self.path / name, staging / name
-                staged = name in entries and (new.exists() or new.is_symlink())
-                # An older entry goes to the trash, unless a killed commit already put it there
-                # or already put the new one in its place.
-                if (target.exists() or target.is_symlink()) and not (trash / name).exists() and \
-                        (staged or name not in entries):
+            for name in entries + [n for n in old if n not in entries]:
+                target = self.path / name
+                if target.exists() or target.is_symlink():
                     move(target, trash / name)
-                if staged:
-                    move(new, target)
+                if name in entries:
+                    move(staging / name, target)
             _write_atomically(self.path / MANIFEST, json.dumps(
-                {"format": MANIFEST_FORMAT, "command": plan["command"], "entries": entries}, indent=1) + "\n")
+                {"format": MANIFEST_FORMAT, "command": self.command, "entries": entries}, indent=1) + "\n")
         except OSError as error:
-            if not undo_on_error:
-                raise
             for source, target in reversed(renames):
                 with contextlib.suppress(OSError):
                     os.rename(target, source)
-            with contextlib.suppress(OSError):
-                os.unlink(self.path / JOURNAL)
+            if not self.incomplete:  # else the folder is as incomplete as before: the journal stays
+                with contextlib.suppress(OSError):
+                    os.unlink(self.path / JOURNAL)
             _remove(trash)
             where = getattr(error, "filename", None) or self.path
             raise InputError(where, f"cannot put the results in place ({error.strerror}); "

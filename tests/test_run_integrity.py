@@ -161,6 +161,26 @@ def test_a_failing_move_during_the_commit_leaves_the_old_results(dataset, tmp_pa
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == [output.MANIFEST]
 
 
+def test_a_failing_move_in_a_folder_left_incomplete_keeps_it_marked_incomplete(dataset, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    (out / output.JOURNAL).write_text(json.dumps({"command": "run", "entries": ["accuracy.csv"], "old": []}))
+    original, calls = os.rename, []
+
+    def failing(source, target):
+        calls.append(source)
+        if len(calls) == 3:
+            raise OSError(28, "No space left on device", str(target))
+        return original(source, target)
+
+    monkeypatch.setattr(output.os, "rename", failing)
+    assert invoke(run_args(dataset, out)).exit_code == 2
+    monkeypatch.setattr(output.os, "rename", original)
+    assert (out / output.JOURNAL).exists()  # still incomplete: readers refuse it
+    result = invoke(["show", "--run", str(out), "--worst", "1"])
+    assert result.exit_code == 2 and "incomplete" in result.output
+
+
 @pytest.mark.parametrize("number", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
 def test_a_signal_during_the_commit_is_held_until_it_is_complete(dataset, tmp_path, monkeypatch, number):
     out = tmp_path / "out"
@@ -182,7 +202,7 @@ def test_a_signal_during_the_commit_is_held_until_it_is_complete(dataset, tmp_pa
     assert not (out / output.CACHE).exists()
 
 
-def test_a_commit_cut_short_by_a_kill_is_finished_by_the_next_command(dataset, tmp_path):
+def test_a_commit_cut_short_by_a_kill_is_refused_by_readers_and_replaced_by_the_next_run(dataset, tmp_path):
     out = tmp_path / "out"
     assert invoke(run_args(dataset, out, "--pft-ablation")).exit_code == 0
     child = os.fork()
@@ -203,13 +223,22 @@ def test_a_commit_cut_short_by_a_kill_is_finished_by_the_next_command(dataset, t
     _, status = os.waitpid(child, 0)
     assert os.waitstatus_to_exitcode(status) == 9
     assert (out / output.JOURNAL).exists()
-    with output.OutputFolder(out, "run"):
-        pass  # opening the folder finishes the commit
+    # Half the entries are the old run's, half the killed one's: no reader takes them for results.
+    result = invoke(["show", "--run", str(out), "--worst", "1"])
+    assert result.exit_code == 2 and "incomplete" in result.output, result.output
+    # A command that opens the folder and fails before its commit leaves it as incomplete as it was.
+    with pytest.raises(RuntimeError):
+        with output.OutputFolder(out, "run"):
+            raise RuntimeError("failed before committing")
+    assert (out / output.JOURNAL).exists()
+    # The next run replaces every entry of both: the old run's ablation.md goes too.
+    assert invoke(run_args(dataset, out)).exit_code == 0
     names = set(os.listdir(out))
     assert output.JOURNAL not in names and not [n for n in names if n.startswith((".staging", ".trash"))]
-    assert "0.35" in (out / "accuracy.csv").read_text() and "ablation.md" not in names
+    assert ",0.31," in (out / "accuracy.csv").read_text() and "ablation.md" not in names  # the full sweep
     manifest = json.loads((out / output.MANIFEST).read_text())
     assert sorted(manifest["entries"]) == sorted(names - {output.MANIFEST, output.CACHE})
+    assert invoke(["show", "--run", str(out), "--worst", "1"]).exit_code == 0
 
 
 # ---- resume: only what is still true is reused ----------------------------------------------
@@ -665,12 +694,15 @@ def test_a_pft_ablation_without_roneld_is_refused(tmp_path):
 # ---- found by an attacker's pass -----------------------------------------------------------
 
 
+# The journal names only the entries a cut-short commit was replacing and writing (the next
+# command replaces them): each must be a plain entry of the folder.
 @pytest.mark.parametrize("plan", [
-    {"staging": "../victim", "trash": ".trash-x", "entries": [], "old": [], "command": "run"},
-    {"staging": ".staging-x", "trash": "/tmp", "entries": [], "old": [], "command": "run"},
-    {"staging": ".", "trash": ".trash-x", "entries": [], "old": [], "command": "run"},
-    {"staging": ".staging-x", "trash": ".trash-x", "entries": ["../victim"], "old": [], "command": "run"},
-], ids=["staging-outside", "trash-absolute", "staging-dot", "entry-outside"])
+    {"entries": ["../victim"], "old": [], "command": "run"},
+    {"entries": [], "old": ["../victim"], "command": "run"},
+    {"entries": [], "old": [str(Path("/tmp").resolve())], "command": "run"},
+    {"entries": ["."], "old": [], "command": "run"},
+    {"entries": [], "old": [".roneld-cache"], "command": "run"},
+], ids=["entry-outside", "old-outside", "old-absolute", "entry-dot", "old-own-entry"])
 def test_a_forged_journal_touches_nothing(dataset, tmp_path, plan):
     victim = tmp_path / "victim"
     victim.mkdir()
@@ -688,8 +720,7 @@ def test_a_journal_in_a_folder_with_foreign_files_is_not_acted_on(dataset, tmp_p
     (out / ".staging-drafts").mkdir(parents=True)
     (out / ".staging-drafts" / "ch1.tex").write_text("draft")
     (out / "thesis.tex").write_text("mine")
-    (out / output.JOURNAL).write_text(json.dumps(
-        {"staging": ".staging-drafts", "trash": ".trash-x", "entries": ["ch1.tex"], "old": [], "command": "run"}))
+    (out / output.JOURNAL).write_text(json.dumps({"entries": ["ch1.tex"], "old": [], "command": "run"}))
     result = invoke(run_args(dataset, out))
     assert result.exit_code == 2 and "thesis.tex" in result.output
     assert (out / ".staging-drafts" / "ch1.tex").read_text() == "draft" and not (out / "ch1.tex").exists()
