@@ -169,13 +169,16 @@ def in_cache(kernel, signature: tuple) -> bool | None:
     None when that cannot be told (numba's cache internals changed, or no cache).
 
     Reads only the kernel's small cache index (numba.core.caching: the key is the one
-    `Dispatcher.compile` looks up), never the machine code.
+    `Dispatcher.compile` looks up) and whether the data file it names is there, never the
+    machine code: an index whose data files were deleted by hand means compiling, announced.
     """
     if tuple(signature) in getattr(kernel, "overloads", {}):
         return True
     try:
         cache = kernel._cache
         key = cache._index_key(tuple(signature), kernel.targetctx.codegen())
-        return key in cache._cache_file._load_index()
+        files = cache._cache_file
+        data_name = files._load_index().get(key)
+        return data_name is not None and os.path.isfile(files._data_path(data_name))
     except Exception:
         return None

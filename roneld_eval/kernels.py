@@ -193,7 +193,9 @@ def prepare(announce: Callable[[str], None] | None = None, needed: Iterable[str]
         if cache_dir() is None:
             parallel = 1  # without a cache other processes cannot hand their work over
         parallel = min(parallel, len(steps))
-        total = sum(len(_step_entries(step)) for step in steps)
+        # Counted: what is compiled, not the callees a missing step only loads from the cache.
+        total = sum(in_cache(kernel, signature) is not True for step in steps
+                    for kernel, signature in _step_entries(step))
         if announce is not None:
             announce(f"compiling {total} numba kernels for this installation in {parallel} "
                      f"process{'es' if parallel > 1 else ''} (once: later runs and installs of this version "
@@ -222,10 +224,11 @@ def _take(order: list[Step], state: Any) -> tuple[Step | None, bool]:
 
 def _compile_step(step: Step, done: Any = None) -> None:
     """Compile (or load) every kernel of this step; in a compiling process, into the cache.
-    `done`: a shared counter of compiled kernels, for the progress lines."""
+    `done`: a shared counter of compiled kernels (not those loaded), for the progress lines."""
     for kernel, signature in _step_entries(step):
+        compiled = done is not None and in_cache(kernel, signature) is not True
         compile_now(kernel, signature)
-        if done is not None:
+        if compiled:
             with done.get_lock():
                 done.value += 1
 

@@ -285,6 +285,50 @@ def test_a_step_of_callees_is_compiled_only_for_the_steps_that_call_them(monkeyp
     assert [step.name for step in kernels.missing_steps(("official",))] == ["lane runs", "lane pixels", "lane sets"]
 
 
+def test_the_announced_count_is_of_the_kernels_compiled_not_the_callees_loaded(monkeypatch):
+    # With the callees in the cache and their caller missing, 5 were announced where 2 compile.
+    cached = {"lane sets": False}
+
+    def in_cache(kernel, signature):
+        step = next(step for step in kernels.STEPS if kernel.__name__ in step.kernels)
+        return cached.get(step.name, True)
+
+    monkeypatch.setattr(kernels, "in_cache", in_cache)
+    totals, said = [], []
+    monkeypatch.setattr(kernels, "_compile_in_parallel",
+                        lambda order, processes, announce, total: totals.append(total))
+    kernels.prepare(announce=said.append, needed=("official",), processes=1)
+    callers = kernels._step_entries(kernels._STEP_NAMED["lane sets"])
+    assert totals == [len(callers)] == [2] and said[0].startswith("compiling 2 numba kernels")
+
+
+_INDEX_WITHOUT_CODE = """
+import sys
+from roneld_eval import kernels
+if sys.argv[1] == "compile":
+    kernels.prepare(needed=("baseline",), processes=1)
+print([step.name for step in kernels.missing_steps(("baseline",))])
+"""
+
+
+def test_a_cache_index_whose_machine_code_was_deleted_counts_as_missing(tmp_path):
+    # It was taken for present, and the run then compiled silently where the kernel was loaded.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def missing(*args):
+        done = subprocess.run([sys.executable, "-c", _INDEX_WITHOUT_CODE, *args], env=env, capture_output=True,
+                              text=True, timeout=300, cwd=REPO)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.strip()
+
+    assert missing("compile") == "[]"
+    code = list((tmp_path / "cache").rglob("*.nbc"))
+    assert code and list((tmp_path / "cache").rglob("*.nbi"))
+    for path in code:
+        path.unlink()
+    assert missing("look") == "['baseline']"
+
+
 _CALLEES_LISTED = """
 import sys
 from roneld_eval import kernels
