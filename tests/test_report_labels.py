@@ -189,7 +189,7 @@ def test_figures_state_their_configuration(fixture_result):
     categories = pd.DataFrame({"category": ["normal", "normal"], "method": ["baseline", "roneld"],
                                "accuracy": [0.5, 0.7]})
     official = pd.DataFrame({"category": ["normal", "normal"], "method": ["baseline", "roneld"], "f1": [0.6, 0.8]})
-    panel = benchmark_for("culane").category_panel(official)
+    panel = benchmark_for("culane").category_panel(official, protocol)
     figure = category_figure(categories, panel, "SCNN", "0.4", protocol)
     text = figure_texts(figure)
     plt.close(figure)
@@ -199,9 +199,9 @@ def test_figures_state_their_configuration(fixture_result):
     # lanes only: the figure says so, not a reader's guess of a regression.
     assert "SCNN + RONELD outputs the two ego lanes only: F1 over all lanes counts the outer lanes" in \
         " ".join(text.split())
-    only_baseline = category_figure(categories[categories["method"] == "baseline"],
-                                    benchmark_for("culane").category_panel(official[official["method"] == "baseline"]),
-                                    "SCNN", "0.4", protocol)
+    baseline_panel = benchmark_for("culane").category_panel(official[official["method"] == "baseline"], protocol)
+    only_baseline = category_figure(categories[categories["method"] == "baseline"], baseline_panel, "SCNN", "0.4",
+                                    protocol)
     assert "ego lanes only" not in figure_texts(only_baseline)
     plt.close(only_baseline)
     # A benchmark without an official score by category: the accuracy panel alone, nothing of CULane's.

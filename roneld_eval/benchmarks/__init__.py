@@ -60,11 +60,14 @@ class LaneFile:
 @dataclass(frozen=True)
 class CategoryPanel:
     """categories.png's second panel: a benchmark's official score per category (columns method,
-    category, score in [0, 1]), its title, and what to say where a method outputs the ego lanes
-    only (which an all-lanes score counts against it)."""
+    category, score in [0, 1]), its title, the score's short name and the run's settings behind
+    it (None when not known), and what to say where a method outputs the ego lanes only (which
+    an all-lanes score counts against it)."""
 
     table: "pd.DataFrame"
     title: str
+    score_name: str
+    settings: str | None
     ego_lanes_note: str
 
 
@@ -140,7 +143,7 @@ class Benchmark(Protocol):
     def official_comparison(self, groups: Sequence[Any]) -> tuple[Any, str]:
         """compare's official table of run groups of this benchmark (a comparison Grid), and its text."""
 
-    def category_panel(self, official: "pd.DataFrame") -> CategoryPanel | None:
+    def category_panel(self, official: "pd.DataFrame", protocol: Any) -> CategoryPanel | None:
         """Its official score by category beside the paper's accuracy in categories.png (drawn
         where the dataset has categories), or None to show the accuracy alone."""
 

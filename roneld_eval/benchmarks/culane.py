@@ -27,6 +27,13 @@ if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extr
     from ..extract.protocol import Prediction
 
 
+def _official_settings(protocol) -> str:
+    """The official CULane protocol as the run drew it (`protocol`: report.tables.Protocol)."""
+    g = protocol.geometry
+    return (f"all lanes drawn {g.official_lane_width_px} px wide at {g.image_width}x{g.image_height}, "
+            f"a match counts when IoU > {g.official_iou_threshold:g}")
+
+
 @dataclass(frozen=True)
 class CulaneOfficial:
     """One frame of one method: the official outcome over all lanes, and over the ego lanes
@@ -121,19 +128,20 @@ class CulaneBenchmark:
         return score_culane_command
 
     def official_protocol(self, protocol) -> str | None:
-        return protocol.official()
+        return _official_settings(protocol)
 
     def official_note(self, protocol) -> str:
         return ("SCNN's CULane evaluator per category, and 'ego': the two ego lanes only"
-                + (f"; {protocol.official()}." if protocol is not None else "."))
+                + (f"; {_official_settings(protocol)}." if protocol is not None else "."))
 
-    # official.csv as compare reads it back: required and optional columns, and its key
-    def category_panel(self, official: pd.DataFrame) -> CategoryPanel:
+    def category_panel(self, official: pd.DataFrame, protocol) -> CategoryPanel:
         return CategoryPanel(official[["method", "category", "f1"]].rename(columns={"f1": "score"}),
-                             "Official CULane F1, all lanes",
+                             "Official CULane F1, all lanes", "F1",
+                             None if protocol is None else _official_settings(protocol),
                              "F1 over all lanes counts the outer lanes as missed (compare on the 'ego' row of "
                              "official.csv)")
 
+    # official.csv as compare reads it back: required and optional columns, and its key
     official_columns = {"method": "text", "category": "text", "tp": "count", "fp": "count", "fn": "count",
                         "f1": "optional number"}
     official_optional: dict[str, str] = {}

@@ -107,7 +107,7 @@ class TusimpleBenchmark:
         return (f"TuSimple's evaluate/lane.py: a point matches within {PIXEL_THRESHOLD} px (slope-corrected), "
                 f"a lane when {POINT_THRESHOLD:.0%} of its points match.")
 
-    def category_panel(self, official):
+    def category_panel(self, official, protocol):
         return None  # its datasets have no categories
 
     official_columns = {"method": "text", "accuracy": "optional number", "fp": "optional number",

@@ -180,7 +180,7 @@ class Vil100Benchmark:
                 + (f"; {text}." if text else "."))
 
     # official.csv as compare reads it back
-    def category_panel(self, official):
+    def category_panel(self, official, protocol):
         return None  # its datasets have no categories
 
     official_columns = {"method": "text", "category": "text", "threshold": "text", "tp": "count", "fp": "count",

@@ -124,8 +124,8 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
     note = []
     if protocol is not None:
         note.append(f"Accuracy: {protocol.paper()}.")
-        if len(panels) > 1:
-            note.append(f"F1: {protocol.official()}.")
+        if panel is not None and panel.settings is not None:
+            note.append(f"{panel.score_name}: {panel.settings}.")
     ego_only = [display_name(method, model) for method in methods if method in EGO_LANES_ONLY]
     if panel is not None and ego_only:
         note.append(f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: "

@@ -123,12 +123,6 @@ class Protocol:
         return (f"ground truth {g.gt_thickness_px} px, predictions {g.pred_thickness_px} px "
                 f"on {g.map_width}x{g.map_height} maps")
 
-    def official(self) -> str:
-        """The official CULane protocol as this run drew it."""
-        g = self.geometry
-        return (f"all lanes drawn {g.official_lane_width_px} px wide at {g.image_width}x{g.image_height}, "
-                f"a match counts when IoU > {g.official_iou_threshold:g}")
-
     def interval(self) -> str:
         """How the intervals of Acc. Inc. were made, and when they are absent."""
         over = "clips" if self.clips is None else clips_text(self.clips)

@@ -198,7 +198,7 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         threshold = config.official.iou_threshold
         by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
         staging.write_csv("categories.csv", by_category, "%.6f")
-        panel = benchmark_for(result.dataset.name).category_panel(result.official)
+        panel = benchmark_for(result.dataset.name).category_panel(result.official, protocol)
         save_figure(category_figure(by_category, panel, model, f"{threshold:g}", protocol),
                     staging.file("categories.png"))
     from .html import build_html
