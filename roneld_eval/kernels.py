@@ -212,14 +212,14 @@ _TO_DO, _TAKEN, _DONE = 0, 1, 2  # a step's state in a compile shared between pr
 
 def _take(order: list[Step], state: Any) -> tuple[Step | None, bool]:
     """(the first step of `order` still to do whose callees are done, taken now; whether any
-    step is still to do)."""
+    step is not done yet: one taken may come back, should its process end)."""
     with state.get_lock():
         for step in order:
             if state[STEPS.index(step)] == _TO_DO and all(
                     state[STEPS.index(_STEP_NAMED[name])] == _DONE for name in step.after):
                 state[STEPS.index(step)] = _TAKEN
                 return step, True
-        return None, any(state[STEPS.index(step)] == _TO_DO for step in order)
+        return None, any(state[STEPS.index(step)] != _DONE for step in order)
 
 
 def _compile_step(step: Step, done: Any = None) -> None:
@@ -233,10 +233,12 @@ def _compile_step(step: Step, done: Any = None) -> None:
                 done.value += 1
 
 
-def _compile_in_child(order: list[Step], done: Any, state: Any, parent: int) -> None:
+def _compile_in_child(order: list[Step], done: Any, state: Any, parent: int, taken: Any = None,
+                      index: int = 0) -> None:
     """A compiling process: takes up steps until none is left (the parent alone decides about
     Ctrl-C and termination; killed with it, so a first run killed while compiling leaves nothing
-    behind)."""
+    behind). `taken[index]`: the step it is compiling, so that the parent can hand it to another
+    process should this one end."""
     from .workers import die_with_parent, leave_signals_to_parent
 
     leave_signals_to_parent()
@@ -248,6 +250,8 @@ def _compile_in_child(order: list[Step], done: Any, state: Any, parent: int) -> 
                 return
             time.sleep(0.02)  # what is left calls kernels another process is compiling
             continue
+        if taken is not None:
+            taken[index] = STEPS.index(step)
         _compile_step(step, done)
         with state.get_lock():
             state[STEPS.index(step)] = _DONE
@@ -260,8 +264,9 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
     compiles whatever a failed one left).
 
     This process only waits, so Ctrl-C or SIGTERM ends the wait at once and cleanly: an
-    interrupted compile inside numba itself would surface as numba's own RuntimeError. A
-    process that fails ends the others (they may be waiting for its steps).
+    interrupted compile inside numba itself would surface as numba's own RuntimeError. The step
+    of a process that ends (killed, out of memory) goes back to the others; when none is left,
+    what remains compiles where it is first needed.
     Without a cache folder the steps are compiled here, as nothing could hand them over.
     """
     if cache_dir() is None:
@@ -273,8 +278,10 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
     context = pool_context()
     done = context.Value("i", 0)
     state = context.Array("b", [_TO_DO if step in order else _DONE for step in STEPS])
-    helpers = [context.Process(target=_compile_in_child, args=(order, done, state, os.getpid()), daemon=True)
-               for _ in range(processes)]
+    taken = context.Array("i", [-1] * processes, lock=False)
+    helpers = [context.Process(target=_compile_in_child, args=(order, done, state, os.getpid(), taken, index),
+                               daemon=True)
+               for index in range(processes)]
     start = time.monotonic()
     try:
         for helper in helpers:
@@ -284,12 +291,14 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
             deadline = time.monotonic() + PROGRESS_EVERY_S
             while alive and time.monotonic() < deadline:
                 wait([helper.sentinel for helper in alive], max(0.0, deadline - time.monotonic()))
-                ended = [helper.exitcode for helper in helpers if helper.exitcode not in (None, 0)]
-                if ended:  # the others may wait for its steps: they are ended below
-                    if announce is not None:
-                        announce(f"a compiling process ended (exit status {ended[0]}): what is left compiles "
-                                 "where it is first needed, without progress lines")
-                    return
+                for index, helper in enumerate(helpers):
+                    if helper in alive and helper.exitcode not in (None, 0):
+                        _hand_back(state, taken[index])
+                        left = len(alive) - 1
+                        if announce is not None:
+                            announce(f"a compiling process ended (exit status {helper.exitcode}): "
+                                     + (f"its work goes to the other{'s' if left > 1 else ''}" if left else
+                                        "what is left compiles where it is first needed, without progress lines"))
                 alive = [helper for helper in helpers if helper.is_alive()]
             if announce is not None and alive:
                 announce(f"compiling kernels: {done.value} of {total} done, {time.monotonic() - start:.0f} s")
@@ -298,6 +307,15 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
             if helper.is_alive():
                 helper.kill()
                 helper.join()
+
+
+def _hand_back(state: Any, step: int) -> None:
+    """A step whose process ended before it was done: to do again, by another process."""
+    if step < 0:
+        return
+    with state.get_lock():
+        if state[step] == _TAKEN:
+            state[step] = _TO_DO
 
 
 def warm_up(needed: Iterable[str] | None = None) -> None:

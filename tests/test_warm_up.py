@@ -302,6 +302,39 @@ def test_the_announced_count_is_of_the_kernels_compiled_not_the_callees_loaded(m
     assert totals == [len(callers)] == [2] and said[0].startswith("compiling 2 numba kernels")
 
 
+_ONE_PROCESS_DIES = """
+import os, sys
+from roneld_eval import kernels
+kernels.PROGRESS_EVERY_S = 0.2
+compile_step = kernels._compile_step
+
+
+def dies_once(step, done=None):
+    if step.name == "roneld" and not os.path.exists(sys.argv[1]):
+        open(sys.argv[1], "w").close()
+        os._exit(9)  # as a kill -9 of this compiling process
+    compile_step(step, done)
+
+
+kernels._compile_step = dies_once  # the compiling processes are forked: they see it
+kernels.prepare(announce=print, needed=("roneld", "baseline"), processes=2)
+print("missing", [step.name for step in kernels.missing_steps(("roneld", "baseline"))])
+"""
+
+
+def test_a_compiling_process_that_dies_hands_its_step_to_the_other(tmp_path):
+    # One killed compiling process ended the healthy one too, and the rest compiled silently.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-c", _ONE_PROCESS_DIES, str(tmp_path / "died")], env=env,
+                          capture_output=True, text=True, timeout=300, cwd=REPO)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert (tmp_path / "died").exists()
+    ended = lines.index("a compiling process ended (exit status 9): its work goes to the other")
+    assert lines[-1] == "missing []"  # the other process compiled the dead one's step, here nothing
+    assert any(line.startswith("compiling kernels: ") for line in lines[ended:]), lines  # still said
+
+
 _INDEX_WITHOUT_CODE = """
 import sys
 from roneld_eval import kernels
