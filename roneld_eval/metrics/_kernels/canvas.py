@@ -74,13 +74,14 @@ def _clip_line(width, height, x1, y1, x2, y2):
 
 
 @cached_njit(nogil=True)
-def line2_pixels(x1, y1, x2, y2, width, height):
-    """(xs, ys): the pixels of OpenCV's Line2, a 1-px line between 16-bit fixed-point ends (a
-    quad's outline), the far end first as Line2 sets it; clipped to the (width, height) image
-    as cv::clipLine does, so there are at most max(width, height) + 2."""
+def line2_pixels(x1, y1, x2, y2, width, height, xs, ys):
+    """How many pixels OpenCV's Line2 sets, a 1-px line between 16-bit fixed-point ends (a
+    quad's outline), written to xs[:count], ys[:count], the far end first as Line2 sets it;
+    clipped to the (width, height) image as cv::clipLine does, so at most max(width, height) + 2
+    (the arrays' size: the caller's, so that a lane's many quads allocate nothing)."""
     inside, x1, y1, x2, y2 = _clip_line(np.int64(width) << XY_SHIFT, np.int64(height) << XY_SHIFT, x1, y1, x2, y2)
     if not inside:
-        return np.empty(0, np.int64), np.empty(0, np.int64)
+        return 0
     dx = x2 - x1
     dy = y2 - y1
     steep = abs(dx) <= abs(dy)
@@ -98,8 +99,6 @@ def line2_pixels(x1, y1, x2, y2, width, height):
             y1, y2 = y2, y1
         step = c_div(dx * XY_ONE, abs(dy) | 1)
         count = (y2 - y1) >> XY_SHIFT
-    xs = np.empty(count + 2, np.int64)
-    ys = np.empty(count + 2, np.int64)
     xs[0] = (x2 + HALF) >> XY_SHIFT
     ys[0] = (y2 + HALF) >> XY_SHIFT
     if not steep:
@@ -119,14 +118,15 @@ def line2_pixels(x1, y1, x2, y2, width, height):
             ys[k] = y
             x += step
             y += 1
-    return xs, ys
+    return count + 2
 
 
 @cached_njit(nogil=True)
-def quad_scanlines(qx, qy, width, height):
-    """(first, lefts, rights): the scanlines of OpenCV's FillConvexPoly for 4 fixed-point
-    vertices (shift 16, LINE_8), image row first + k from lefts[k] to rights[k] (not clipped in
-    x); rows above the image and below it are left out. The quad's outline is line2_pixels'."""
+def quad_scanlines(qx, qy, width, height, lefts, rights):
+    """(first, count): the scanlines of OpenCV's FillConvexPoly for 4 fixed-point vertices
+    (shift 16, LINE_8), image row first + k from lefts[k] to rights[k] for k < count (not
+    clipped in x; the arrays hold `height`); rows above the image and below it are left out.
+    The quad's outline is line2_pixels'."""
     npts = 4
     imin = 0
     xmin = qx[0]
@@ -146,13 +146,11 @@ def quad_scanlines(qx, qy, width, height):
     ymax = (ymax + HALF) >> XY_SHIFT
     # C++ compares these after a cast to int: far-away (e.g. NaN) points wrap and bail out here.
     if to_int32(xmax) < 0 or to_int32(ymax) < 0 or to_int32(xmin) >= width or to_int32(ymin) >= height:
-        return np.int64(0), np.empty(0, np.int64), np.empty(0, np.int64)
+        return np.int64(0), np.int64(0)
     ymax = min(ymax, height - 1)
     y = to_int32(ymin)
     last = to_int32(ymax)
     first = max(y, 0)
-    lefts = np.empty(max(last - first + 1, 0), np.int64)
-    rights = np.empty(lefts.size, np.int64)
     found = 0
     index0 = imin
     index1 = imin
@@ -218,7 +216,14 @@ def quad_scanlines(qx, qy, width, height):
             y += jump
         if y > last:
             break
-    return np.int64(first), lefts[:found], rights[:found]
+    return np.int64(first), np.int64(found)
+
+
+@cached_njit(nogil=True)
+def line_buffers(width, height):
+    """Two arrays that hold line2_pixels' pixels and quad_scanlines' rows on such an image."""
+    size = max(np.int64(width), np.int64(height)) + 2
+    return np.empty(size, np.int64), np.empty(size, np.int64)
 
 
 @cached_njit(nogil=True)
@@ -275,17 +280,17 @@ def _segment_quad(canvas, x0, y0, width, height, ax, ay, bx, by, thickness):
     drawn, qx, qy = quad_corners(ax, ay, bx, by, thickness)
     if not drawn:
         return
+    xs, ys = line_buffers(width, height)
     px = qx[3]
     py = qy[3]
     for i in range(4):
-        xs, ys = line2_pixels(px, py, qx[i], qy[i], width, height)
-        for k in range(xs.size):
+        for k in range(line2_pixels(px, py, qx[i], qy[i], width, height, xs, ys)):
             _pixel(canvas, x0, y0, width, height, xs[k], ys[k])
         px = qx[i]
         py = qy[i]
-    first, lefts, rights = quad_scanlines(qx, qy, width, height)
-    for k in range(lefts.size):
-        _span(canvas, x0, y0, width, height, first + k, lefts[k], rights[k])
+    first, count = quad_scanlines(qx, qy, width, height, xs, ys)
+    for k in range(count):
+        _span(canvas, x0, y0, width, height, first + k, xs[k], ys[k])
 
 
 @cached_njit(nogil=True)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..._numba_cache import cached_njit
-from .canvas import (_low_high, disc_half_widths, line2_pixels, polyline_box, quad_corners, quad_scanlines,
-                     rasterise_with_area)
+from .canvas import (_low_high, disc_half_widths, line2_pixels, line_buffers, polyline_box, quad_corners,
+                     quad_scanlines, rasterise_with_area)
 from .cxx import HALF, XY_SHIFT
 from .run_tables import STEP_REACH, _clipped_edge, _quad_unclipped
 
@@ -57,19 +57,21 @@ def _merge_run(lo, hi, counts, row, left, right):
 @cached_njit(nogil=True)
 def _add_quad(lo, hi, counts, x0, y0, x1, y1, width, height, ax, ay, bx, by, thickness):
     """_segment_quad for runs: the filled quad ThickLine draws between two integer points, its
-    scanlines and its outline (canvas.py's walks, each pixel or span added as a run)."""
+    scanlines and its outline (canvas.py's walks, each pixel or span added as a run); the
+    buffers: line_buffers(width, height)."""
     drawn, qx, qy = quad_corners(ax, ay, bx, by, thickness)
     if not drawn:
         return True
+    first_buffer, second_buffer = line_buffers(width, height)
     top = max(y0, 0)
     bottom = min(y1, height)
     leftmost = max(x0, 0)
     rightmost = min(x1, width) - 1
-    first, lefts, rights = quad_scanlines(qx, qy, width, height)
-    for k in range(lefts.size):
+    first, count = quad_scanlines(qx, qy, width, height, first_buffer, second_buffer)
+    for k in range(count):
         y = first + k
-        left = max(lefts[k], leftmost)
-        right = min(rights[k], rightmost)
+        left = max(first_buffer[k], leftmost)
+        right = min(second_buffer[k], rightmost)
         # kept to the image and the box as _span keeps it; the usual case of _merge_run inline
         if top <= y < bottom and left <= right:
             row = y - y0
@@ -85,10 +87,9 @@ def _add_quad(lo, hi, counts, x0, y0, x1, y1, width, height, ax, ay, bx, by, thi
     px = qx[3]
     py = qy[3]
     for i in range(4):
-        xs, ys = line2_pixels(px, py, qx[i], qy[i], width, height)
-        for k in range(xs.size):
-            x = xs[k]
-            y = ys[k]
+        for k in range(line2_pixels(px, py, qx[i], qy[i], width, height, first_buffer, second_buffer)):
+            x = first_buffer[k]
+            y = second_buffer[k]
             if 0 <= x < width and 0 <= y < height and x0 <= x < x1 and y0 <= y < y1:
                 row = y - y0
                 if counts[row] == 1 and lo[row, 0] - 1 <= x <= hi[row, 0] + 1:
