@@ -325,15 +325,15 @@ def check_finished_run(run_dir: Path) -> None:
     """Stop unless `run_dir` holds the complete results of `roneld-eval run`."""
     if not run_dir.is_dir():
         raise InputError(run_dir, "not found: give a folder written by `roneld-eval run`")
+    if os.path.lexists(run_dir / JOURNAL):  # also a first commit cut short, before any manifest
+        raise InputError(run_dir, "its results are incomplete (a command was killed while putting them in "
+                                  "place); run it again into this folder")
     manifest = read_manifest(run_dir, INPUT_RUN_REMEDY)
     if manifest is None:
         raise InputError(run_dir, "not a folder written by `roneld-eval run` (it has no run manifest)")
     if manifest["command"] != "run":
         raise InputError(run_dir, f"not a folder written by `roneld-eval run` (`roneld-eval {manifest['command']}` "
                                   f"wrote it)")
-    if (run_dir / JOURNAL).exists():
-        raise InputError(run_dir, "its results are incomplete (a run was killed while putting them in place); "
-                                  "run it again into this folder")
     for name in ("config.toml", "per_frame.csv"):
         if name not in manifest["entries"] or not (run_dir / name).is_file():
             raise InputError(run_dir / name, "missing from this run folder")

@@ -18,6 +18,8 @@ from __future__ import annotations
 import contextlib
 import errno
 import fcntl
+import hashlib
+import hmac
 import json
 import os
 import shutil
@@ -94,6 +96,31 @@ def _read_json(path: Path):
         return json.loads(handle.read(MAX_RECORD_BYTES).decode("utf-8"))
 
 
+def read_journal(folder: Path) -> dict | None:
+    """What a commit into `folder` cut short by a kill was putting in place (or None): its
+    command and the entries it was replacing and writing, each a plain entry of the folder,
+    signed with this user's key, so that a forged journal can make the tool touch nothing, in the folder or
+    outside it. The journal stays until this command's own commit replaces those entries:
+    the folder is incomplete until then."""
+    journal = Path(folder) / JOURNAL
+    if not (journal.exists() or journal.is_symlink()):
+        return None
+    try:
+        plan = _read_json(journal)
+        if not isinstance(plan, dict) or not isinstance(plan.get("command"), str):
+            raise ValueError("not a commit plan")
+        if not hmac.compare_digest(str(plan.get("mac", "")), _journal_mac(plan)):
+            raise ValueError("not signed with this user's key")
+        for key in ("entries", "old"):
+            names = plan.get(key)
+            if not isinstance(names, list) or not all(isinstance(n, str) and _plain_name(n) for n in names):
+                raise ValueError(f"bad {key} list")
+    except (OSError, ValueError, UnicodeError, RecursionError) as error:
+        raise InputError(journal, f"an earlier commit into this folder was cut short and its journal cannot "
+                                  f"be trusted ({error}); remove the folder and run again") from None
+    return plan
+
+
 class OutputFolder:
     """Exclusive use of an output folder by one command (see the module docstring).
 
@@ -124,7 +151,7 @@ class OutputFolder:
             raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
         self._take_lock()
         try:
-            cut_short = self._read_journal()
+            cut_short = read_journal(self.path)
             self.incomplete = cut_short is not None
             self._check_ownership(cut_short)
             self._remove_leftovers()
@@ -212,26 +239,6 @@ class OutputFolder:
         with contextlib.suppress(OSError):
             self.path.rmdir()  # only when nothing at all is left (a run into a new folder that failed)
 
-    def _read_journal(self) -> dict | None:
-        """What a commit cut short by a kill was putting in place (or None): its command and the
-        entries it was replacing and writing, each a plain entry of this folder, so that a forged
-        journal cannot make the tool touch anything outside it. The journal stays until this
-        command's own commit replaces those entries: the folder is incomplete until then."""
-        journal = self.path / JOURNAL
-        if not (journal.exists() or journal.is_symlink()):
-            return None
-        try:
-            plan = _read_json(journal)
-            if not isinstance(plan, dict) or not isinstance(plan.get("command"), str):
-                raise ValueError("not a commit plan")
-            for key in ("entries", "old"):
-                names = plan.get(key)
-                if not isinstance(names, list) or not all(isinstance(n, str) and _plain_name(n) for n in names):
-                    raise ValueError(f"bad {key} list")
-        except (OSError, ValueError, UnicodeError, RecursionError) as error:
-            raise InputError(journal, f"an earlier commit into this folder was cut short and its journal cannot "
-                                      f"be trusted ({error}); remove the folder and run again") from None
-        return plan
 
     def _remove_leftovers(self) -> None:
         """Staging and trash folders of earlier killed commands (only in a folder that is ours)."""
@@ -271,10 +278,11 @@ class OutputFolder:
         if command is None or not entry.is_dir() or entry.is_symlink():
             return False
         try:
-            manifest = read_manifest(entry)
+            # A nested command killed in its first commit left a journal and no manifest yet.
+            record = read_manifest(entry) or read_journal(entry)
         except InputError:
             return False
-        return manifest is not None and manifest["command"] == command
+        return record is not None and record["command"] == command
 
     # ---- writing ------------------------------------------------------------------------
 
@@ -298,8 +306,8 @@ class OutputFolder:
             trash: Path | None = None
             try:
                 trash = Path(tempfile.mkdtemp(prefix=TRASH_PREFIX, dir=self.path))
-                _write_atomically(self.path / JOURNAL, json.dumps({"command": self.command, "entries": entries,
-                                                                   "old": old}))
+                plan = {"command": self.command, "entries": entries, "old": old}
+                _write_atomically(self.path / JOURNAL, json.dumps({**plan, "mac": _journal_mac(plan)}))
             except OSError as error:  # a full disk: no journal, so nothing was moved yet
                 if trash is not None:
                     shutil.rmtree(trash, ignore_errors=True)
@@ -343,6 +351,15 @@ class OutputFolder:
         os.unlink(self.path / JOURNAL)
         _remove(trash)
         _remove(staging)
+
+
+def _journal_mac(plan: dict) -> str:
+    """The journal's keyed checksum (this user's secret key, as the caches'): the names it gives
+    are replaced by the next command, so a journal someone else wrote must not name them."""
+    from .secret_key import secret_key
+
+    text = json.dumps([plan.get("command"), plan.get("entries"), plan.get("old")], sort_keys=True)
+    return hmac.new(secret_key(lambda note: None), text.encode("utf-8", "surrogatepass"), hashlib.sha256).hexdigest()
 
 
 def _read_small(descriptor: int) -> str:

@@ -121,8 +121,13 @@ def read_part(folder: Path) -> Part:
     from .lanes_io import parse_json, read_bytes
     from .limits import CONFIG, MAP
 
+    from .output import JOURNAL
+
     folder = Path(folder)
     path = folder / MANIFEST_NAME
+    if os.path.lexists(folder / JOURNAL):
+        raise InputError(folder, "its part is incomplete (the command that wrote it was killed while putting it "
+                                 "in place): score the shard again into this folder")
     if not path.exists() and folder.is_dir():
         raise InputError(folder, f"not a partial result (no {MANIFEST_NAME}: written by a command given --shard I/N)")
     data = read_bytes(path, limit=CONFIG)

@@ -164,7 +164,7 @@ def test_a_failing_move_during_the_commit_leaves_the_old_results(dataset, tmp_pa
 def test_a_failing_move_in_a_folder_left_incomplete_keeps_it_marked_incomplete(dataset, tmp_path, monkeypatch):
     out = tmp_path / "out"
     assert invoke(run_args(dataset, out)).exit_code == 0
-    (out / output.JOURNAL).write_text(json.dumps({"command": "run", "entries": ["accuracy.csv"], "old": []}))
+    (out / output.JOURNAL).write_text(signed({"command": "run", "entries": ["accuracy.csv"], "old": []}))
     original, calls = os.rename, []
 
     def failing(source, target):
@@ -709,10 +709,43 @@ def test_a_forged_journal_touches_nothing(dataset, tmp_path, plan):
     (victim / "thesis.tex").write_text("mine")
     out = tmp_path / "out"
     out.mkdir()
-    (out / output.JOURNAL).write_text(json.dumps(plan))
+    (out / output.JOURNAL).write_text(signed(plan))  # even signed with the user's key
     result = invoke(run_args(dataset, out))
     assert result.exit_code == 2 and "cannot be trusted" in result.output
     assert (victim / "thesis.tex").read_text() == "mine" and (out / output.JOURNAL).exists()
+
+
+def signed(plan: dict) -> str:
+    return json.dumps({**plan, "mac": output._journal_mac(plan)})
+
+
+def test_a_show_killed_in_its_first_commit_inside_a_run_does_not_block_the_next_run(dataset, tmp_path):
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    show = out / "show"
+    show.mkdir()
+    (show / "worst.png").write_bytes(b"half")
+    (show / output.JOURNAL).write_text(signed({"command": "show", "entries": ["worst.png"], "old": []}))
+    result = invoke(["show", "--run", str(out), "--worst", "1"])
+    assert result.exit_code == 0, result.output  # show finishes what it began
+    (show / output.MANIFEST).unlink()
+    (show / output.JOURNAL).write_text(signed({"command": "show", "entries": ["worst.png"], "old": []}))
+    assert invoke(run_args(dataset, out)).exit_code == 0  # was: "holds files roneld-eval did not write (show)"
+    assert not show.exists()
+
+
+def test_a_journal_not_signed_with_the_users_key_names_nothing_the_run_removes(dataset, tmp_path):
+    # Names in a journal are what the next command replaces: an unsigned one made a run delete
+    # a file of the user's beside the results.
+    out = tmp_path / "out"
+    assert invoke(run_args(dataset, out)).exit_code == 0
+    (out / "mydata.txt").write_text("precious")
+    for forged in ({"command": "run", "entries": [], "old": ["mydata.txt"]},
+                   {"command": "run", "entries": [], "old": ["mydata.txt"], "mac": "0" * 64}):
+        (out / output.JOURNAL).write_text(json.dumps(forged))
+        result = invoke(run_args(dataset, out))
+        assert result.exit_code == 2 and "not signed with this user's key" in result.output, result.output
+        assert (out / "mydata.txt").read_text() == "precious"
 
 
 def test_a_journal_in_a_folder_with_foreign_files_is_not_acted_on(dataset, tmp_path):
@@ -720,7 +753,7 @@ def test_a_journal_in_a_folder_with_foreign_files_is_not_acted_on(dataset, tmp_p
     (out / ".staging-drafts").mkdir(parents=True)
     (out / ".staging-drafts" / "ch1.tex").write_text("draft")
     (out / "thesis.tex").write_text("mine")
-    (out / output.JOURNAL).write_text(json.dumps({"entries": ["ch1.tex"], "old": [], "command": "run"}))
+    (out / output.JOURNAL).write_text(signed({"entries": ["ch1.tex"], "old": [], "command": "run"}))
     result = invoke(run_args(dataset, out))
     assert result.exit_code == 2 and "thesis.tex" in result.output
     assert (out / ".staging-drafts" / "ch1.tex").read_text() == "draft" and not (out / "ch1.tex").exists()
@@ -744,12 +777,18 @@ def test_a_deeply_nested_record_is_one_line(dataset, tmp_path, name):
     assert result.exit_code == 2 and result.output.count("\n") == 1 and name in result.output
 
 
-def test_show_refuses_a_run_whose_commit_was_cut_short(dataset, tmp_path):
+@pytest.mark.parametrize("left", ["journal", "dangling link", "first commit"])
+def test_show_refuses_a_run_whose_commit_was_cut_short(dataset, tmp_path, left):
     out = tmp_path / "out"
     assert invoke(run_args(dataset, out)).exit_code == 0
-    (out / output.JOURNAL).write_text("{}")
+    if left == "dangling link":
+        (out / output.JOURNAL).symlink_to(tmp_path / "nowhere")
+    else:
+        (out / output.JOURNAL).write_text("{}")
+    if left == "first commit":  # killed before any manifest was written
+        (out / output.MANIFEST).unlink()
     result = invoke(["show", "--run", str(out), "--worst", "1"])
-    assert result.exit_code == 2 and "incomplete" in result.output
+    assert result.exit_code == 2 and "incomplete" in result.output, result.output
 
 
 def test_a_label_edited_with_its_old_mtime_is_still_seen(dataset, tmp_path, monkeypatch):

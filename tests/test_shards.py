@@ -270,6 +270,14 @@ def test_a_merge_into_one_of_its_parts_is_refused_and_leaves_the_part(three_part
     assert (p2 / "part.npz").read_bytes() == before
 
 
+def test_a_part_whose_commit_was_cut_short_is_refused(three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    copy = tmp_path / "p2"
+    shutil.copytree(p2, copy)
+    (copy / ".roneld-commit.json").write_text("{}")  # what a kill during its commit leaves
+    assert "its part is incomplete" in _refused(tmp_path, p1, copy, p3)
+
+
 def test_culane_parts_scored_against_other_labels_are_refused(culane_set, three_parts, tmp_path):
     p1, p2, p3 = three_parts
     data = tmp_path / "data"
