@@ -30,6 +30,8 @@ from __future__ import annotations
 import functools
 import getpass
 import os
+import pickle
+import stat
 import sys
 import tempfile
 from pathlib import Path
@@ -80,6 +82,29 @@ class _ContentLocator(_numba_caching.UserProvidedCacheLocator):
         if not ours or not _DECORATING:
             return None
         return super().from_function(py_func, py_file)
+
+
+class _CheckedCacheFile(_numba_caching.IndexDataCacheFile):
+    """numba's cache files, a damaged entry read as a missing one (compiled again and written
+    over) instead of an error in every process that loads it: numba passes over only OSError,
+    and a truncated or overwritten .nbc raised EOFError or MemoryError from pickle."""
+
+    def load(self, key):
+        try:
+            return super().load(key)
+        except _DAMAGED:
+            return None
+
+    def _load_index(self):
+        try:
+            return super()._load_index()
+        except _DAMAGED:
+            return {}  # saving then writes a sound index
+
+
+# What unpickling damaged bytes raises (pickle's own errors, or what its opcodes then meet).
+_DAMAGED = (EOFError, MemoryError, ValueError, TypeError, AttributeError, ImportError, IndexError, KeyError,
+            pickle.UnpicklingError)
 
 
 _DECORATING = False  # True only while cached_njit decorates: numba asks every locator, for every function
@@ -148,10 +173,14 @@ def cached_njit(**options):
         numba_config.CACHE_DIR = str(folder)
         _DECORATING = True
         try:
-            return numba.njit(cache=True, **options)(function)
+            dispatcher = numba.njit(cache=True, **options)(function)
         finally:
             _DECORATING = False
             numba_config.CACHE_DIR = previous
+        files = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+        if type(files) is _numba_caching.IndexDataCacheFile:
+            files.__class__ = _CheckedCacheFile
+        return dispatcher
 
     return decorate
 
@@ -179,6 +208,11 @@ def in_cache(kernel, signature: tuple) -> bool | None:
         key = cache._index_key(tuple(signature), kernel.targetctx.codegen())
         files = cache._cache_file
         data_name = files._load_index().get(key)
-        return data_name is not None and os.path.isfile(files._data_path(data_name))
+        if data_name is None:
+            return False
+        data = os.stat(files._data_path(data_name))
+        return stat.S_ISREG(data.st_mode) and data.st_size > 0
+    except FileNotFoundError:
+        return False
     except Exception:
         return None

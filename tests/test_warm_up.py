@@ -362,6 +362,36 @@ def test_a_cache_index_whose_machine_code_was_deleted_counts_as_missing(tmp_path
     assert missing("look") == "['baseline']"
 
 
+_LOAD_BASELINE = """
+import numpy as np
+from roneld_eval import kernels
+kernels.warm_up(("baseline",))
+from roneld_eval.extract import _kernels
+print("loaded")
+"""
+
+
+@pytest.mark.parametrize("damage", ["code emptied", "code overwritten", "index emptied"])
+def test_a_damaged_cache_entry_is_compiled_again_not_an_error(tmp_path, damage):
+    # A truncated .nbc made every worker fail to start ('EOFError: Ran out of input'), and with
+    # --workers 1 the run said only 'interrupted'.
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def load():
+        return subprocess.run([sys.executable, "-c", _LOAD_BASELINE], env=env, capture_output=True, text=True,
+                              timeout=300, cwd=REPO)
+
+    assert load().returncode == 0
+    suffix = ".nbi" if damage == "index emptied" else ".nbc"
+    files = list((tmp_path / "cache").rglob("*" + suffix))
+    assert files
+    for path in files:
+        path.write_bytes(os.urandom(200) if damage == "code overwritten" else b"")
+    again = load()
+    assert again.returncode == 0 and again.stdout.strip() == "loaded", again.stderr
+    assert load().returncode == 0  # and written over: sound again
+
+
 _CALLEES_LISTED = """
 import sys
 from roneld_eval import kernels
