@@ -300,7 +300,7 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
                                      + (f"its work goes to the other{'s' if left > 1 else ''}" if left else
                                         "what is left compiles where it is first needed, without progress lines"))
                 alive = [helper for helper in helpers if helper.is_alive()]
-            if announce is not None and alive:
+            if announce is not None and (alive or done.value):  # the last line says it is over
                 announce(f"compiling kernels: {done.value} of {total} done, {time.monotonic() - start:.0f} s")
     finally:
         for helper in helpers:

@@ -237,6 +237,8 @@ def test_a_compile_says_how_far_it_is_and_a_copy_elsewhere_reuses_it(tmp_path):
     assert lines[0].startswith("compiling ") and "numba kernels for this installation in 1 process" in lines[0]
     progress = [line for line in lines if line.startswith("compiling kernels: ")]
     assert progress and all(" done, " in line for line in progress), lines
+    total = int(lines[0].split()[1])
+    assert lines[-2].startswith(f"compiling kernels: {total} of {total} done, ")  # the last line says it is over
     assert lines[-1] == "missing []"
     copy = tmp_path / "elsewhere"
     copy.mkdir()
