@@ -100,10 +100,12 @@ def _kernel_modules(groups: Iterable[str] | None = None) -> tuple[ModuleType, ..
 def groups_for(methods, benchmark, maps_format: str | None = None) -> tuple[str, ...]:
     """The kernel groups a run needs: its methods' (extract.registry.Method.kernel_groups), its
     benchmark's official scoring, the paper's protocol, which every run scores with, and for
-    PNG maps ("scnn-png") their decoding."""
+    PNG maps (maps.DECODED_FORMATS) their decoding."""
     needed = [group for method in methods for group in method.kernel_groups]
     needed += list(benchmark.kernel_groups) + ["paper"]
-    if maps_format == "scnn-png":
+    from .maps import DECODED_FORMATS
+
+    if maps_format in DECODED_FORMATS:
         needed.append("maps")
     return tuple(dict.fromkeys(needed))
 

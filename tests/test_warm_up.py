@@ -169,6 +169,8 @@ def test_groups_follow_the_methods_and_the_dataset():
     # PNG maps are decoded by a kernel of their own; other formats need none.
     config = EvalConfig.preset("scnn-culane")
     assert kernels.groups_for(methods_of(config), benchmark_for("culane"), "scnn-png")[-1] == "maps"
+    # LLAMAS's PNGs go through the same decoder: compiled (and announced) before the workers.
+    assert kernels.groups_for(methods_of(config), benchmark_for("llamas"), "llamas-png")[-1] == "maps"
     assert "maps" not in kernels.groups_for(methods_of(config), benchmark_for("culane"), "npz")
     with pytest.raises(ValueError, match="unknown kernel groups"):
         kernels.warm_up(["roneld", "sideways"])

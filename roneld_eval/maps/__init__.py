@@ -22,6 +22,8 @@ from .llamas_png import llamas_png_paths, load_llamas_png
 from .scnn_png import load_scnn_png, png_size, scnn_png_paths
 
 FORMATS = ("npy", "npz", "scnn-png", "llamas-png")
+# Formats whose maps this package's numba kernels decode (maps/_kernels.py): a run compiles them first.
+DECODED_FORMATS = frozenset({"scnn-png", "llamas-png"})
 
 
 def map_stem(root: Path, relpath: str) -> Path:
