@@ -99,11 +99,11 @@ def _read_json(path: Path):
 def read_journal(folder: Path) -> dict | None:
     """What a commit into `folder` cut short by a kill was putting in place (or None): its
     command and the entries it was replacing and writing, each a plain entry of the folder,
-    signed with this user's key, so that a forged journal can make the tool touch nothing, in the folder or
-    outside it. The journal stays until this command's own commit replaces those entries:
-    the folder is incomplete until then."""
+    signed with this user's key, so that a forged journal can make the tool touch nothing, in
+    the folder or outside it. The journal stays until the next commit into the folder replaces
+    those entries: the folder is incomplete until then."""
     journal = Path(folder) / JOURNAL
-    if not (journal.exists() or journal.is_symlink()):
+    if not os.path.lexists(journal):
         return None
     try:
         plan = _read_json(journal)
@@ -238,7 +238,6 @@ class OutputFolder:
     def _remove_if_empty(self) -> None:
         with contextlib.suppress(OSError):
             self.path.rmdir()  # only when nothing at all is left (a run into a new folder that failed)
-
 
     def _remove_leftovers(self) -> None:
         """Staging and trash folders of earlier killed commands (only in a folder that is ours)."""

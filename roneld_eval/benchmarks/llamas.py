@@ -160,7 +160,6 @@ class LlamasBenchmark:
         return LlamasOfficial(*parts)
 
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
-
         # where `score llamas --pred-root lanes/METHOD` looks: <recording>/<frame>.lines.txt
         return LaneFile(f"{method}/{_prediction_name(frame.relpath)}.lines.txt", format_culane_lines(lanes))
 
@@ -182,10 +181,10 @@ class LlamasBenchmark:
                 "as CLRNet computes it; 'ego': the two ego lanes against each method's two active lanes"
                 + (f"; {text}." if text else "."))
 
-    # official.csv as compare reads it back
     def category_panel(self, official, protocol):
         return None  # its datasets have no categories
 
+    # official.csv as compare reads it back
     official_columns = {"method": "text", "category": "text", "threshold": "text", "tp": "count", "fp": "count",
                         "fn": "count", "f1": "optional number", "mf1": "optional number"}
     official_optional: dict[str, str] = {}

@@ -179,10 +179,10 @@ class Vil100Benchmark:
                 "mIoU; RVLD's temporal metrics (4d90de1) Rs, Rj, Rm with each threshold as tau"
                 + (f"; {text}." if text else "."))
 
-    # official.csv as compare reads it back
     def category_panel(self, official, protocol):
         return None  # its datasets have no categories
 
+    # official.csv as compare reads it back
     official_columns = {"method": "text", "category": "text", "threshold": "text", "tp": "count", "fp": "count",
                         "fn": "count", "f1": "optional number", "miou": "optional number"}
     official_optional = {"rs": "optional number", "rj": "optional number", "rm": "optional number"}

@@ -77,6 +77,7 @@ class ToyBenchmark:
     kernel_groups: tuple[str, ...] = ()
     missing_maps_hint = ""
     detector_lanes = LinesPerFrame(suffix=".lanes.txt")  # as lane_file writes them
+
     def category_panel(self, official, protocol):
         return None  # its datasets have no categories
 

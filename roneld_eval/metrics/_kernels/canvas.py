@@ -78,7 +78,7 @@ def line2_pixels(x1, y1, x2, y2, width, height, xs, ys):
     """How many pixels OpenCV's Line2 sets, a 1-px line between 16-bit fixed-point ends (a
     quad's outline), written to xs[:count], ys[:count], the far end first as Line2 sets it;
     clipped to the (width, height) image as cv::clipLine does, so at most max(width, height) + 2
-    (the arrays' size: the caller's, so that a lane's many quads allocate nothing)."""
+    (line_buffers' size: the caller allocates them once for a quad's outline and scanlines)."""
     inside, x1, y1, x2, y2 = _clip_line(np.int64(width) << XY_SHIFT, np.int64(height) << XY_SHIFT, x1, y1, x2, y2)
     if not inside:
         return 0

@@ -57,8 +57,7 @@ def _merge_run(lo, hi, counts, row, left, right):
 @cached_njit(nogil=True)
 def _add_quad(lo, hi, counts, x0, y0, x1, y1, width, height, ax, ay, bx, by, thickness):
     """_segment_quad for runs: the filled quad ThickLine draws between two integer points, its
-    scanlines and its outline (canvas.py's walks, each pixel or span added as a run); the
-    buffers: line_buffers(width, height)."""
+    scanlines and its outline (canvas.py's walks, each pixel or span added as a run)."""
     drawn, qx, qy = quad_corners(ax, ay, bx, by, thickness)
     if not drawn:
         return True
