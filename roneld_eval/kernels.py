@@ -235,8 +235,7 @@ def _compile_step(step: Step, done: Any = None) -> None:
                 done.value += 1
 
 
-def _compile_in_child(order: list[Step], done: Any, state: Any, parent: int, taken: Any = None,
-                      index: int = 0) -> None:
+def _compile_in_child(order: list[Step], done: Any, state: Any, parent: int, taken: Any, index: int) -> None:
     """A compiling process: takes up steps until none is left (the parent alone decides about
     Ctrl-C and termination; killed with it, so a first run killed while compiling leaves nothing
     behind). `taken[index]`: the step it is compiling, so that the parent can hand it to another
@@ -252,8 +251,7 @@ def _compile_in_child(order: list[Step], done: Any, state: Any, parent: int, tak
                 return
             time.sleep(0.02)  # what is left calls kernels another process is compiling
             continue
-        if taken is not None:
-            taken[index] = STEPS.index(step)
+        taken[index] = STEPS.index(step)
         _compile_step(step, done)
         with state.get_lock():
             state[STEPS.index(step)] = _DONE
@@ -293,15 +291,18 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
             deadline = time.monotonic() + PROGRESS_EVERY_S
             while alive and time.monotonic() < deadline:
                 wait([helper.sentinel for helper in alive], max(0.0, deadline - time.monotonic()))
-                for index, helper in enumerate(helpers):
-                    if helper in alive and helper.exitcode not in (None, 0):
+                # Each exit status read once: a process that ends between two reads must not
+                # leave the living ones without being handed back.
+                statuses = [(index, helper, helper.exitcode) for index, helper in enumerate(helpers)
+                            if helper in alive]
+                alive = [helper for _, helper, status in statuses if status is None]
+                for index, _, status in statuses:
+                    if status not in (None, 0):
                         _hand_back(state, taken[index])
-                        left = len(alive) - 1
                         if announce is not None:
-                            announce(f"a compiling process ended (exit status {helper.exitcode}): "
-                                     + (f"its work goes to the other{'s' if left > 1 else ''}" if left else
+                            announce(f"a compiling process ended (exit status {status}): "
+                                     + (f"its work goes to the other{'s' if len(alive) > 1 else ''}" if alive else
                                         "what is left compiles where it is first needed, without progress lines"))
-                alive = [helper for helper in helpers if helper.is_alive()]
             if announce is not None and (alive or done.value):  # the last line says it is over
                 announce(f"compiling kernels: {done.value} of {total} done, {time.monotonic() - start:.0f} s")
     finally:
