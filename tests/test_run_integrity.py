@@ -140,23 +140,30 @@ def test_leftovers_of_a_killed_run_are_removed(dataset, tmp_path):
     assert not [p for p in out.iterdir() if p.name.startswith((".staging", ".trash"))]
 
 
+def renames_failing_at(monkeypatch, failing: int) -> list:
+    """The output folder's renames, the `failing`-th one refused as a full disk refuses it; the
+    sources renamed (or tried), in order."""
+    original, calls = os.rename, []
+
+    def rename(source, target):
+        calls.append(source)
+        if len(calls) == failing:
+            raise OSError(28, "No space left on device", str(target))
+        return original(source, target)
+
+    monkeypatch.setattr(output.os, "rename", rename)
+    return calls
+
+
 def test_a_failing_move_during_the_commit_leaves_the_old_results(dataset, tmp_path, monkeypatch):
     out = tmp_path / "out"
     assert invoke(run_args(dataset, out, "--pft-ablation")).exit_code == 0
     before = snapshot(out)
-    original, calls = os.rename, []
-
-    def failing(source, target):
-        calls.append(source)
-        if len(calls) == 7:
-            raise OSError(28, "No space left on device", str(target))
-        return original(source, target)
-
-    monkeypatch.setattr(output.os, "rename", failing)
+    calls = renames_failing_at(monkeypatch, 7)
     result = invoke(run_args(dataset, out, "--thresholds", "0.30:0.40:0.05"))
     assert result.exit_code == 2 and "earlier results are unchanged" in result.output
     assert len(calls) > 7  # the undo ran
-    monkeypatch.setattr(output.os, "rename", original)
+    monkeypatch.undo()
     assert snapshot(out) == before
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == [output.MANIFEST]
 
@@ -165,17 +172,9 @@ def test_a_failing_move_in_a_folder_left_incomplete_keeps_it_marked_incomplete(d
     out = tmp_path / "out"
     assert invoke(run_args(dataset, out)).exit_code == 0
     (out / output.JOURNAL).write_text(signed({"command": "run", "entries": ["accuracy.csv"], "old": []}))
-    original, calls = os.rename, []
-
-    def failing(source, target):
-        calls.append(source)
-        if len(calls) == 3:
-            raise OSError(28, "No space left on device", str(target))
-        return original(source, target)
-
-    monkeypatch.setattr(output.os, "rename", failing)
+    renames_failing_at(monkeypatch, 3)
     assert invoke(run_args(dataset, out)).exit_code == 2
-    monkeypatch.setattr(output.os, "rename", original)
+    monkeypatch.undo()
     assert (out / output.JOURNAL).exists()  # still incomplete: readers refuse it
     result = invoke(["show", "--run", str(out), "--worst", "1"])
     assert result.exit_code == 2 and "incomplete" in result.output
