@@ -21,7 +21,7 @@ from typing import Any, Iterable, Literal, overload
 import numpy as np
 
 from .errors import InputError
-from .limits import JSON_LINES, TEXT, SizeLimit
+from .limits import JSON_LINES, LANES, TEXT, SizeLimit
 from .model import Lane
 
 # A decimal number as C++'s `istream >> double` reads it (no Python-only spellings such
@@ -196,7 +196,10 @@ def parse_culane_lines(text: str, path) -> tuple[Lane, ...]:
     """
     lanes = []
     clean = not text.translate(_NOT_NUMERIC)
-    for number, line in enumerate(split_lines(text), start=1):
+    lines = split_lines(text)
+    if len(lines) > LANES.count:
+        raise InputError(path, LANES.problem(len(lines)))
+    for number, line in enumerate(lines, start=1):
         tokens = line.split()
         try:
             if not clean:
@@ -281,6 +284,8 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
     lanes = record["lanes"]
     if not isinstance(lanes, list) or not all(isinstance(lane, list) for lane in lanes):
         raise InputError(path, "lanes must be a list of lists of x values", line=number)
+    if len(lanes) > LANES.count:
+        raise InputError(path, LANES.problem(len(lanes)), line=number)
     for index, lane in enumerate(lanes):
         if not all(_is_number(value) for value in lane):
             raise InputError(path, f"lane {index} holds a value that is not a finite number", line=number)

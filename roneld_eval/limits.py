@@ -53,3 +53,32 @@ RUN_TABLE = SizeLimit("a run's table (per_frame.csv, accuracy.csv, ...)", "RONEL
 CACHE_ENTRY = SizeLimit("a resume cache entry", "RONELD_EVAL_MAX_CACHE_ENTRY_MIB", 64)
 
 ALL = (TEXT, CONFIG, JSON_LINES, MAP, RUN_TABLE, CACHE_ENTRY)
+
+
+@dataclass(frozen=True)
+class CountLimit:
+    """The bound on how many lanes one frame's labels or predictions may hold: each is drawn and
+    kept as a mask, so a 2 MB lane file of 90,000 short lanes took 1.1 GB and 4 s for one frame
+    (a 16 MiB one, eight times that); the benchmarks' frames hold at most some 20."""
+
+    what: str  # "one frame's labels or predictions"
+    variable: str  # the environment variable that raises it
+    default: int
+
+    @property
+    def count(self) -> int:
+        raw = os.environ.get(self.variable, "").strip()
+        if not raw:
+            return self.default
+        if not re.fullmatch(r"[0-9]{1,9}", raw, re.ASCII) or int(raw) < 1:
+            raise ConfigError(f"{self.variable}={raw!r}: give the most lanes one file may hold, a whole number "
+                              "from 1 up")
+        return int(raw)
+
+    def problem(self, count: int) -> str:
+        """Why a file of `count` lanes is refused."""
+        return (f"too many lanes ({count:,}): {self.what} may hold at most {self.count:,} lanes "
+                f"(raise it with {self.variable}=N)")
+
+
+LANES = CountLimit("one frame's labels or predictions", "RONELD_EVAL_MAX_LANES", 1000)

@@ -366,6 +366,39 @@ def test_a_size_limit_can_be_raised_and_a_bad_one_is_named(sets, monkeypatch):
     assert result.exit_code == 0, result.output
 
 
+def test_a_lane_file_of_too_many_lanes_is_refused_and_the_bound_can_be_raised(tmp_path, monkeypatch):
+    # 90,000 two-point lanes in 2 MB, well under the 16 MiB size bound, took 1.1 GB and 4 s for one frame.
+    for folder, text in (("gt", "100 580 200 400 300 300\n"), ("pred", "100 580 200 400\n" * 1001)):
+        (tmp_path / folder / "d").mkdir(parents=True)
+        (tmp_path / folder / "d" / "f.lines.txt").write_text(text)
+    (tmp_path / "list.txt").write_text("d/f.jpg\n")
+    args = ["score", "culane", "--data-root", str(tmp_path / "gt"), "--pred-root", str(tmp_path / "pred"),
+            "--list", str(tmp_path / "list.txt"), "--quiet", "--out", str(tmp_path / "out")]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert (f"{tmp_path / 'pred' / 'd' / 'f.lines.txt'}: too many lanes (1,001): one frame's labels or predictions "
+            "may hold at most 1,000 lanes (raise it with RONELD_EVAL_MAX_LANES=N)") in result.output
+    assert not (tmp_path / "out").exists()
+    monkeypatch.setenv("RONELD_EVAL_MAX_LANES", "1001")
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0 and (tmp_path / "out" / "official.csv").is_file(), result.output
+    for odd in ("many", "0", "1e3", "-5", "\u00b2", "9999999999"):
+        monkeypatch.setenv("RONELD_EVAL_MAX_LANES", odd)
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 2 and f"RONELD_EVAL_MAX_LANES={odd!r}: give the most lanes" in result.output, odd
+
+
+def test_a_tusimple_frame_of_too_many_lanes_is_refused(tmp_path):
+    rows = list(range(160, 720, 10))
+    label = {"lanes": [[500] * 56], "h_samples": rows, "raw_file": "clips/a/20.jpg"}
+    (tmp_path / "labels.json").write_text(json.dumps(label) + "\n")
+    (tmp_path / "pred.json").write_text(json.dumps({"raw_file": "clips/a/20.jpg", "lanes": [[500] * 56] * 1001}) + "\n")
+    result = CliRunner().invoke(main, ["score", "tusimple", "--labels", str(tmp_path / "labels.json"), "--pred",
+                                       str(tmp_path / "pred.json"), "--quiet"])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert f"{tmp_path / 'pred.json'}:1: too many lanes (1,001): one frame's labels" in result.output
+
+
 def test_an_npz_member_that_inflates_past_the_bound_is_refused_before_inflating(sets, monkeypatch):
     root_all, out = sets
     root = root_all / "tusimple"
