@@ -17,7 +17,7 @@ import click
 from .version import __version__
 from .wording import counted
 from .benchmarks import names as benchmark_names
-from .config import MAP_FORMATS, METHODS, EvalConfig, parse_setting
+from .config import LANES_MODEL, MAP_FORMATS, METHODS, EvalConfig, parse_setting
 from .presets import preset_names
 from .errors import ConfigError, RoneldEvalError
 from .output import DEFAULT_OUT
@@ -269,6 +269,10 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
             overrides[key] = value
         if (data_root is None) != (maps_root is None):
             raise ConfigError("give both --data-root and --maps-root, or neither for the bundled fixture")
+        if maps_format == "lanes" and config.maps.format != "lanes" and "model" not in overrides:
+            # The configuration names the model whose maps it expects; these lanes are another
+            # detector's, so its name must not label them (the lanes presets say "detector" too).
+            overrides["model"] = LANES_MODEL
         chosen = overrides.pop("methods")
         config = config.with_overrides(**overrides)
         added = []

@@ -255,6 +255,11 @@ class OfficialParams:
     def __post_init__(self):
         _check_fields(self, "official")
 
+# The label of lanes read from another detector's lane files (--maps-format lanes) when no model
+# is named: the lane-file presets (configs/lanes-*.toml) say the same.
+LANES_MODEL = "detector"
+
+
 @dataclass(frozen=True)
 class EvalConfig:
     """Everything a run needs; validated once when built."""

@@ -122,6 +122,23 @@ def test_synthetic_lane_files_run_end_to_end(dataset, tmp_path):
     assert files and all((made.maps_root / f).read_bytes() == (again.maps_root / f).read_bytes() for f in files)
 
 
+def test_lane_files_are_labelled_as_a_detectors_not_as_the_presets_model(tmp_path):
+    # The CULane preset names SCNN: its lanes files ran as "SCNN" and "SCNN probability maps".
+    made = synth_culane(tmp_path / "set", clips=2, frames=4, seed=2, maps_format="lanes")
+    args = ["run", "--data-root", str(made.data_root), "--maps-root", str(made.maps_root), "--maps-format", "lanes",
+            "--workers", "1", "--quiet"]
+    invoke([*args, "--out", str(tmp_path / "unnamed")])
+    text = (tmp_path / "unnamed" / "accuracy.md").read_text()
+    assert text.startswith("# Accuracy on CULane, detector's lanes drawn into maps\n")
+    assert "| detector | detector + RONELD |" in text and "SCNN" not in text and "probability" not in text
+    assert 'model = "detector"' in (tmp_path / "unnamed" / "config.toml").read_text()
+    invoke([*args, "--set", "model=CLRNet", "--out", str(tmp_path / "named")])
+    assert "| CLRNet | CLRNet + RONELD |" in (tmp_path / "named" / "accuracy.md").read_text()
+    invoke(["run", "--config", str(tmp_path / "unnamed" / "config.toml"), "--workers", "1", "--quiet", "--out",
+            str(tmp_path / "again")])
+    assert (tmp_path / "again" / "accuracy.md").read_text() == text
+
+
 def test_a_tusimple_prediction_file_for_other_paths_is_refused(tmp_path):
     made = synth_tusimple(tmp_path / "set", clips=2, frames=20, seed=2, maps_format="lanes")
     predictions = made.maps_root / "predictions.json"

@@ -159,8 +159,8 @@ def stage_report(result: RunResult, staging: Staging) -> None:
     model = config.model
     protocol = tables.Protocol.of_run(result)
     name = tables.dataset_name(result.dataset.name)
-    source = (f"the bundled {name} fixture (synthetic {model}-like maps)" if result.fixture
-              else f"{name}, {model} probability maps")
+    maps = f"{model}'s lanes drawn into maps" if config.maps.format == "lanes" else f"{model} probability maps"
+    source = f"the bundled {name} fixture (synthetic {model}-like maps)" if result.fixture else f"{name}, {maps}"
     paper_note = f"The RONELD paper's protocol: {protocol.paper()}; a true positive needs IoU > the row's threshold."
     staging.write_csv("accuracy.csv", result.accuracy, "%.10g")
     if result.gains is not None:
