@@ -139,6 +139,25 @@ def test_lane_files_are_labelled_as_a_detectors_not_as_the_presets_model(tmp_pat
     assert (tmp_path / "again" / "accuracy.md").read_text() == text
 
 
+def test_another_benchmarks_lane_files_are_named_with_the_dataset_that_reads_them(tmp_path):
+    # Both said only "maps missing", TuSimple's listing predictions.json once per frame.
+    culane = synth_culane(tmp_path / "c", clips=2, frames=3, seed=2, maps_format="lanes")
+    tusimple = synth_tusimple(tmp_path / "t", clips=2, frames=20, seed=2, maps_format="lanes")
+
+    def refused(*args):
+        result = CliRunner().invoke(main, ["run", *args, "--maps-format", "lanes", "--workers", "1", "--quiet",
+                                           "--out", str(tmp_path / "out")])
+        assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+        return result.output
+
+    said = refused("--data-root", str(culane.data_root), "--maps-root", str(tusimple.maps_root))
+    assert said.rstrip().endswith("; it holds predictions.json, a detector's lanes as --dataset tusimple reads them")
+    said = refused("--dataset", "tusimple", "--data-root", str(tusimple.data_root), "--maps-root",
+                   str(culane.maps_root))
+    assert said.count("predictions.json") == 1 and " more" not in said
+    assert ".lines.txt, a detector's lanes as --dataset culane" in said
+
+
 def test_a_tusimple_prediction_file_for_other_paths_is_refused(tmp_path):
     made = synth_tusimple(tmp_path / "set", clips=2, frames=20, seed=2, maps_format="lanes")
     predictions = made.maps_root / "predictions.json"

@@ -41,14 +41,15 @@ def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
     from ..maps import found_in_other_format, missing_reason, pngs_without_existence
 
     clips = {clip_id for clip_id, _ in missing}
+    paths = list(dict.fromkeys(path for _, path in missing))  # frames may share one file (JSON lines)
     shown = []
-    for index, (_, path) in enumerate(missing[:3]):
+    for index, path in enumerate(paths[:3]):
         found = [missing_reason(path)] + ([found_in_other_format(path), pngs_without_existence(path)]
                                           if index == 0 else [])
         notes = [note for note in found if note]
         shown.append(f"{path} ({'; '.join(notes)})" if notes else str(path))
     listing = "; ".join(shown)
-    more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+    more = f" and {len(paths) - 3} more" if len(paths) > 3 else ""
     hint = benchmark_for(dataset.name).missing_maps_hint
     return f"maps missing for {counted(len(missing), 'frame')} of {counted(len(clips), 'clip')}{hint}: {listing}{more}"
 
@@ -78,6 +79,57 @@ def _root_hint(maps_root: Path, dataset: Dataset, config: EvalConfig) -> str:
         if holds(Path(child)):
             return f"; did you mean --maps-root {child} (it holds them)?"
     return ""
+
+
+def _lane_layout_hint(maps_root: Path, config: EvalConfig) -> str:
+    """'; it holds X, a detector's lanes as --dataset B reads them' where a lanes run's maps
+    root holds another benchmark's lane files (predictions.json given to CULane, .lines.txt to
+    TuSimple) instead of this one's."""
+    from ..benchmarks import names
+    from ..maps.lanes import JsonLinesFile, LinesPerFrame
+
+    ours = lane_files_of(config)
+    if config.maps.format != "lanes" or ours is None:
+        return ""
+
+    def layout(files) -> tuple[str, str] | None:
+        if isinstance(files, JsonLinesFile):
+            return ("file", files.name)
+        if isinstance(files, LinesPerFrame):
+            return ("suffix", files.suffix)
+        return None
+
+    readers: dict[tuple[str, str], list[str]] = {}
+    for name in names():
+        try:
+            theirs = layout(benchmark_for(name).detector_lanes)
+        except (ConfigError, ImportError, AttributeError):  # a broken plug-in is said where it is used
+            continue
+        if theirs is not None and theirs != layout(ours):
+            readers.setdefault(theirs, []).append(name)
+    for (kind, value), benchmarks in readers.items():
+        found = _lane_file_under(maps_root, kind, value)
+        if found is not None:
+            named = ", ".join(benchmarks[:-1]) + " or " + benchmarks[-1] if len(benchmarks) > 1 else benchmarks[0]
+            return (f"; it holds {found}, a detector's lanes as --dataset {named} "
+                    f"read{'s' if len(benchmarks) == 1 else ''} them")
+    return ""
+
+
+def _lane_file_under(root: Path, kind: str, value: str, most: int = 2000) -> str | None:
+    """The name (relative to `root`) of a file `value` (kind "file") or the first file ending in
+    `value` (kind "suffix") found among the first `most` entries under `root`, else None."""
+    if kind == "file":
+        return value if (root / value).is_file() else None
+    seen = 0
+    for folder, _, files in os.walk(root):
+        for name in files:
+            if name.endswith(value):
+                return str((Path(folder) / name).relative_to(root))
+        seen += len(files) + 1
+        if seen > most:
+            break
+    return None
 
 
 @dataclass(frozen=True)
@@ -165,7 +217,8 @@ def _clips_with_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, skip
     if not missing:
         return list(dataset.clips)
     if config.on_error != "skip":
-        raise InputError(maps_root, describe_missing(missing, dataset) + _root_hint(maps_root, dataset, config))
+        raise InputError(maps_root, describe_missing(missing, dataset) + _root_hint(maps_root, dataset, config)
+                         + _lane_layout_hint(maps_root, config))
     by_clip: dict[str, list[Path]] = {}
     for clip_id, path in missing:
         by_clip.setdefault(clip_id, []).append(path)
