@@ -71,13 +71,14 @@ class CountLimit:
         if not raw:
             return self.default
         if not re.fullmatch(r"[0-9]{1,9}", raw, re.ASCII) or int(raw) < 1:
-            raise ConfigError(f"{self.variable}={raw!r}: give the most lanes one file may hold, a whole number "
-                              "from 1 up")
+            raise ConfigError(f"{self.variable}={raw!r}: give the most lanes one frame may hold, a whole number "
+                              "from 1 to 999,999,999")
         return int(raw)
 
     def problem(self, count: int) -> str:
         """Why a file of `count` lanes is refused."""
-        return (f"too many lanes ({count:,}): {self.what} may hold at most {self.count:,} lanes "
+        most = self.count
+        return (f"too many lanes ({count:,}): {self.what} may hold at most {most:,} lane{'' if most == 1 else 's'} "
                 f"(raise it with {self.variable}=N)")
 
 

@@ -385,7 +385,28 @@ def test_a_lane_file_of_too_many_lanes_is_refused_and_the_bound_can_be_raised(tm
     for odd in ("many", "0", "1e3", "-5", "\u00b2", "9999999999"):
         monkeypatch.setenv("RONELD_EVAL_MAX_LANES", odd)
         result = CliRunner().invoke(main, args)
-        assert result.exit_code == 2 and f"RONELD_EVAL_MAX_LANES={odd!r}: give the most lanes" in result.output, odd
+        assert result.exit_code == 2, odd
+        assert (f"RONELD_EVAL_MAX_LANES={odd!r}: give the most lanes one frame may hold, a whole number from 1 to "
+                "999,999,999") in result.output, odd
+
+
+@pytest.mark.parametrize("dataset, key, extra", [
+    ("openlane", "lane_lines", []),
+    ("curvelanes", "Lines", ["--image-root", "images"]),
+])
+def test_a_json_prediction_of_too_many_lanes_is_refused(tmp_path, dataset, key, extra):
+    # CurveLanes: 200,000 two-point lanes (9 MB) took 111 s and 9.7 GB; OpenLane 300,000, 1.7 GB.
+    assert CliRunner().invoke(main, ["synth", "--dataset", dataset, "--out", str(tmp_path), "--clips", "1",
+                                     "--maps-format", "lanes"]).exit_code == 0
+    path = sorted((tmp_path / "predictions").rglob("*.json"))[0]
+    record = json.loads(path.read_text())
+    record[key] = record[key][:1] * 1001
+    path.write_text(json.dumps(record))
+    result = CliRunner().invoke(main, ["score", dataset, "--labels", str(tmp_path / "labels"), "--pred-root",
+                                       str(tmp_path / "predictions"), "--workers", "1", "--quiet",
+                                       *[str(tmp_path / arg) if arg == "images" else arg for arg in extra]])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert f"{path}: too many lanes (1,001): one frame's labels or predictions may hold at most 1,000" in result.output
 
 
 def test_a_tusimple_frame_of_too_many_lanes_is_refused(tmp_path):

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
+from ..limits import LANES
 from ..image_header import image_file_size
 from ..lanes_io import decode_text, parse_json, read_bytes
 from ..model import image_stem
@@ -61,6 +62,8 @@ def read_frame(path: Path, missing_ok: bool) -> CurveLanesFrame:
     lines = record.get("Lines") if isinstance(record, dict) else None
     if not isinstance(lines, list):
         raise InputError(path, "`Lines` must be a list of lanes")
+    if len(lines) > LANES.count:
+        raise InputError(path, LANES.problem(len(lines)))
     lanes, scores = [], []
     for index, line in enumerate(lines):
         score = None

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..lanes_io import parse_json, read_bytes
-from ..limits import CONFIG
+from ..limits import CONFIG, LANES as LANE_COUNT
 from ..model import Clip, Frame, Lane
 from ._paths import check_folder, under_root
 
@@ -95,6 +95,8 @@ def _lanes_of(record) -> list[dict]:
         raise _Bad("not a LLAMAS label: no list of lanes")
     if "projection_matrix" not in record:
         raise _Bad("not a LLAMAS label: no projection_matrix (read_json needs it)")
+    if len(record["lanes"]) > LANE_COUNT.count:
+        raise _Bad(LANE_COUNT.problem(len(record["lanes"])))
     lanes = []
     for raw in record["lanes"]:
         if not isinstance(raw, dict) or not isinstance(raw.get("markers"), list) or not isinstance(

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..limits import LANES
 from ..lanes_io import decode_text, parse_json, read_bytes
 from ..model import Lane, image_stem
 from ._paths import read_image_list, check_folder, frame_sort_key, under_root
@@ -64,6 +65,8 @@ def read_lanes(path: Path, need_categories: bool = True) -> OpenLaneLanes:
     lines = record.get("lane_lines", []) if isinstance(record, dict) else None
     if not isinstance(lines, list):
         raise InputError(path, "`lane_lines` must be a list of lanes")
+    if len(lines) > LANES.count:
+        raise InputError(path, LANES.problem(len(lines)))
     lanes, categories = [], []
     for index, line in enumerate(lines):
         points = _points(line, path, index)
