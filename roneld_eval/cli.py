@@ -18,7 +18,7 @@ from .version import __version__
 from .wording import counted
 from .benchmarks import names as benchmark_names
 from .config import LANES_MODEL, MAP_FORMATS, METHODS, EvalConfig, parse_setting
-from .presets import preset_names
+from .presets import is_preset, preset_names
 from .errors import ConfigError, RoneldEvalError
 from .output import DEFAULT_OUT
 from .cluster import executed
@@ -269,9 +269,11 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
             overrides[key] = value
         if (data_root is None) != (maps_root is None):
             raise ConfigError("give both --data-root and --maps-root, or neither for the bundled fixture")
-        if maps_format == "lanes" and config.maps.format != "lanes" and "model" not in overrides:
-            # The configuration names the model whose maps it expects; these lanes are another
-            # detector's, so its name must not label them (the lanes presets say "detector" too).
+        if (overrides.get("maps.format") == "lanes" and config.maps.format != "lanes" and "model" not in overrides
+                and (config_file is None or is_preset(config_file))):
+            # A preset names the model whose maps it expects; these lanes are another detector's,
+            # so its name must not label them (the lanes presets say "detector" too). A model the
+            # user's own configuration names is theirs to claim.
             overrides["model"] = LANES_MODEL
         chosen = overrides.pop("methods")
         config = config.with_overrides(**overrides)

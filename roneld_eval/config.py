@@ -282,6 +282,8 @@ class EvalConfig:
 
     def __post_init__(self):
         _check_fields(self, "")
+        if not self.model.strip():
+            raise ConfigError("model is empty: it labels every table and figure (e.g. --set model=CLRNet)")
         methods = self.methods
         if self.pft_ablation and "roneld" not in methods:
             raise ConfigError("the PFT ablation compares roneld with roneld-nopft: add roneld to the methods "

@@ -40,6 +40,15 @@ def resolve_config_path(value: str | Path) -> Path:
                       f"; presets: {', '.join(preset_names())}")
 
 
+def is_preset(value: str | Path) -> bool:
+    """Whether `--config VALUE` reads one of the bundled presets (by name or by its path)."""
+    try:
+        path = resolve_config_path(value).resolve()
+    except (ConfigError, OSError):
+        return False
+    return any(path == preset_path(name).resolve() for name in preset_names())
+
+
 def nearest(value: str, choices) -> str:
     """' (did you mean X?)' for the closest of `choices` to a misspelt `value`, or ''."""
     import difflib

@@ -137,6 +137,17 @@ def test_lane_files_are_labelled_as_a_detectors_not_as_the_presets_model(tmp_pat
     invoke(["run", "--config", str(tmp_path / "unnamed" / "config.toml"), "--workers", "1", "--quiet", "--out",
             str(tmp_path / "again")])
     assert (tmp_path / "again" / "accuracy.md").read_text() == text
+    # the same through --set, and through the preset named; a model the user's own file names is kept
+    invoke([*args[:5], "--set", "maps.format=lanes", *args[7:], "--config", "scnn-culane", "--out",
+            str(tmp_path / "by-set")])
+    assert (tmp_path / "by-set" / "accuracy.md").read_text() == text
+    own = tmp_path / "own.toml"
+    own.write_text('model = "ERFNet"\n[dataset]\nname = "culane"\n')
+    invoke([*args, "--config", str(own), "--out", str(tmp_path / "own")])
+    assert "| ERFNet | ERFNet + RONELD |" in (tmp_path / "own" / "accuracy.md").read_text()
+    for empty in ("model=", "model= "):
+        result = CliRunner().invoke(main, [*args, "--set", empty, "--out", str(tmp_path / "empty")])
+        assert result.exit_code == 2 and "model is empty" in result.output, result.output
 
 
 def test_another_benchmarks_lane_files_are_named_with_the_dataset_that_reads_them(tmp_path):
@@ -156,6 +167,17 @@ def test_another_benchmarks_lane_files_are_named_with_the_dataset_that_reads_the
                    str(culane.maps_root))
     assert said.count("predictions.json") == 1 and " more" not in said
     assert ".lines.txt, a detector's lanes as --dataset culane" in said
+    deep = folder = tmp_path / "deep"  # os.walk raised RecursionError on the hint's search
+    for _ in range(1200):  # one level at a time: os.makedirs recurses too
+        folder = folder / "a"
+        folder.mkdir(parents=True)
+    try:
+        said = refused("--dataset", "tusimple", "--data-root", str(tusimple.data_root), "--maps-root", str(deep))
+        assert "maps missing" in said and "it holds" not in said
+    finally:
+        while folder != deep.parent:  # bottom up: pytest's own clean-up (shutil.rmtree) recurses as deep
+            folder.rmdir()
+            folder = folder.parent
 
 
 def test_a_tusimple_prediction_file_for_other_paths_is_refused(tmp_path):

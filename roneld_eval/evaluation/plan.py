@@ -118,17 +118,25 @@ def _lane_layout_hint(maps_root: Path, config: EvalConfig) -> str:
 
 def _lane_file_under(root: Path, kind: str, value: str, most: int = 2000) -> str | None:
     """The name (relative to `root`) of a file `value` (kind "file") or the first file ending in
-    `value` (kind "suffix") found among the first `most` entries under `root`, else None."""
+    `value` (kind "suffix") found among the first `most` entries under `root`, breadth first
+    (no recursion: a root nested 1,500 folders deep made os.walk raise RecursionError), else None."""
     if kind == "file":
         return value if (root / value).is_file() else None
-    seen = 0
-    for folder, _, files in os.walk(root):
-        for name in files:
-            if name.endswith(value):
-                return str((Path(folder) / name).relative_to(root))
-        seen += len(files) + 1
-        if seen > most:
-            break
+    folders, seen = [root], 0
+    while folders and seen < most:
+        folder = folders.pop(0)
+        try:
+            with os.scandir(folder) as entries:
+                for entry in entries:
+                    seen += 1
+                    if entry.is_dir(follow_symlinks=False):
+                        folders.append(Path(entry.path))
+                    elif entry.name.endswith(value) and entry.is_file():
+                        return str(Path(entry.path).relative_to(root))
+                    if seen >= most:
+                        break
+        except OSError:
+            continue
     return None
 
 
