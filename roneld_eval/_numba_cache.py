@@ -30,7 +30,6 @@ from __future__ import annotations
 import functools
 import getpass
 import os
-import pickle
 import stat
 import sys
 import tempfile
@@ -87,24 +86,20 @@ class _ContentLocator(_numba_caching.UserProvidedCacheLocator):
 class _CheckedCacheFile(_numba_caching.IndexDataCacheFile):
     """numba's cache files, a damaged entry read as a missing one (compiled again and written
     over) instead of an error in every process that loads it: numba passes over only OSError,
-    and a truncated or overwritten .nbc raised EOFError or MemoryError from pickle."""
+    and a truncated or overwritten .nbc raised EOFError, MemoryError or OverflowError from pickle.
+    Unpickling damaged bytes can raise almost any exception, so any is taken as damage."""
 
     def load(self, key):
         try:
             return super().load(key)
-        except _DAMAGED:
+        except Exception:
             return None
 
     def _load_index(self):
         try:
             return super()._load_index()
-        except _DAMAGED:
+        except Exception:
             return {}  # saving then writes a sound index
-
-
-# What unpickling damaged bytes raises (pickle's own errors, or what its opcodes then meet).
-_DAMAGED = (EOFError, MemoryError, ValueError, TypeError, AttributeError, ImportError, IndexError, KeyError,
-            pickle.UnpicklingError)
 
 
 _DECORATING = False  # True only while cached_njit decorates: numba asks every locator, for every function

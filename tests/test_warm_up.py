@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import random
 import shutil
 import subprocess
 import sys
@@ -389,7 +390,17 @@ def baseline_cache(tmp_path_factory) -> Path:
     return cache
 
 
-@pytest.mark.parametrize("damage", ["code emptied", "code overwritten", "index emptied"])
+# What each damage writes over the cache's code (.nbc) or index (.nbi) files.
+_DAMAGES = {
+    "code emptied": (".nbc", b""),
+    "code overwritten": (".nbc", random.Random(7).randbytes(200)),
+    # pickle's BINBYTES8 with a length above sys.maxsize: OverflowError, met once in CI's random bytes
+    "code with an impossible length": (".nbc", b"\x80\x04\x8e" + b"\xff" * 8 + bytes(20)),
+    "index emptied": (".nbi", b""),
+}
+
+
+@pytest.mark.parametrize("damage", list(_DAMAGES))
 def test_a_damaged_cache_entry_is_compiled_again_not_an_error(tmp_path, damage, baseline_cache):
     # A truncated .nbc made every worker fail to start ('EOFError: Ran out of input'), and with
     # --workers 1 the run said only 'interrupted'.
@@ -398,11 +409,11 @@ def test_a_damaged_cache_entry_is_compiled_again_not_an_error(tmp_path, damage, 
     def load():
         return _load_baseline(tmp_path / "cache")
 
-    suffix = ".nbi" if damage == "index emptied" else ".nbc"
+    suffix, damaged = _DAMAGES[damage]
     files = list((tmp_path / "cache").rglob("*" + suffix))
     assert files
     for path in files:
-        path.write_bytes(os.urandom(200) if damage == "code overwritten" else b"")
+        path.write_bytes(damaged)
     again = load()
     assert again.returncode == 0 and again.stdout.strip() == "loaded", again.stderr
     assert load().returncode == 0  # and written over: sound again
