@@ -133,7 +133,7 @@ def test_lane_files_are_labelled_as_a_detectors_not_as_the_presets_model(tmp_pat
     assert "| detector | detector + RONELD |" in text and "SCNN" not in text and "probability" not in text
     assert 'model = "detector"' in (tmp_path / "unnamed" / "config.toml").read_text()
     invoke([*args, "--set", "model=CLRNet", "--out", str(tmp_path / "named")])
-    assert "| CLRNet | CLRNet + RONELD |" in (tmp_path / "named" / "accuracy.md").read_text()
+    assert "| CLRNet | CLRNet + RONELD |" in (tmp_path / "named" / "table_accuracy.md").read_text()
     invoke(["run", "--config", str(tmp_path / "unnamed" / "config.toml"), "--workers", "1", "--quiet", "--out",
             str(tmp_path / "again")])
     assert (tmp_path / "again" / "accuracy.md").read_text() == text
@@ -148,6 +148,26 @@ def test_lane_files_are_labelled_as_a_detectors_not_as_the_presets_model(tmp_pat
     for empty in ("model=", "model= "):
         result = CliRunner().invoke(main, [*args, "--set", empty, "--out", str(tmp_path / "empty")])
         assert result.exit_code == 2 and "model is empty" in result.output, result.output
+
+
+def test_compare_does_not_average_two_unnamed_detectors_as_seeds_of_one(tmp_path):
+    # Both lane-file runs were labelled "detector" by default, and compare averaged them as n = 2.
+    made = synth_culane(tmp_path / "set", clips=2, frames=4, seed=2, maps_format="lanes")
+    runs = []
+    for name in ("a", "b"):
+        invoke(["run", "--data-root", str(made.data_root), "--maps-root", str(made.maps_root), "--maps-format",
+                "lanes", "--workers", "1", "--quiet", "--no-timings", "--out", str(tmp_path / name)])
+        runs.append(str(tmp_path / name))
+    result = CliRunner().invoke(main, ["compare", *runs, "--out", str(tmp_path / "c")])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert "both are labelled 'detector'" in result.output and "--label RUN=NAME" in result.output
+    assert not (tmp_path / "c").exists()
+    invoke(["compare", *runs, "--label", f"{runs[0]}=CLRNet", "--label", f"{runs[1]}=LaneATT", "--out",
+            str(tmp_path / "named")])
+    assert "n = 2" not in (tmp_path / "named" / "table_accuracy.md").read_text()
+    invoke(["compare", *runs, "--label", f"{runs[0]}=CLRNet", "--label", f"{runs[1]}=CLRNet", "--out",
+            str(tmp_path / "seeds")])
+    assert "| CLRNet (n = 2) |" in (tmp_path / "seeds" / "table_accuracy.md").read_text()
 
 
 def test_another_benchmarks_lane_files_are_named_with_the_dataset_that_reads_them(tmp_path):

@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 
+from ..config import LANES_MODEL
 from ..errors import ConfigError, InputError
 from ..report.tables import dataset_name
 from ..wording import counted
@@ -156,6 +157,12 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
     groups: dict[tuple[str, str], Run] = {}
     for run in runs:
         other = groups.setdefault((run.dataset, run.label), run)
+        if other is not run and run.label == run.model == other.model == LANES_MODEL:
+            # The tool's name for lane files of an unnamed detector: no claim that they are one model's.
+            raise ConfigError(f"cannot average {other.name()} and {run.name()}: both are labelled {LANES_MODEL!r}, "
+                              f"the name a lane-file run gets when it names no model; give each its detector's "
+                              f"name (--label RUN=NAME, or --set model=NAME when running), one name for seeds "
+                              f"of one model")
         if other.methods != run.methods:
             raise ConfigError(f"cannot average {other.name()} and {run.name()}: both are {run.label!r} on "
                               f"{dataset_name(run.dataset)} but ran different methods ({','.join(other.methods)} "
