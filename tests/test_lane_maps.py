@@ -182,11 +182,12 @@ def test_another_benchmarks_lane_files_are_named_with_the_dataset_that_reads_the
         return result.output
 
     said = refused("--data-root", str(culane.data_root), "--maps-root", str(tusimple.maps_root))
-    assert said.rstrip().endswith("; it holds predictions.json, a detector's lanes as --dataset tusimple reads them")
+    assert said.rstrip().endswith("; it holds predictions.json, lane files in the format --dataset tusimple "
+                                  "reads a detector's lanes in")
     said = refused("--dataset", "tusimple", "--data-root", str(tusimple.data_root), "--maps-root",
                    str(culane.maps_root))
     assert said.count("predictions.json") == 1 and " more" not in said
-    assert ".lines.txt, a detector's lanes as --dataset culane" in said
+    assert ".lines.txt, lane files in the format --dataset culane" in said
     deep = folder = tmp_path / "deep"  # os.walk raised RecursionError on the hint's search
     for _ in range(1200):  # one level at a time: os.makedirs recurses too
         folder = folder / "a"

@@ -82,7 +82,7 @@ def _root_hint(maps_root: Path, dataset: Dataset, config: EvalConfig) -> str:
 
 
 def _lane_layout_hint(maps_root: Path, config: EvalConfig) -> str:
-    """'; it holds X, a detector's lanes as --dataset B reads them' where a lanes run's maps
+    """'; it holds X, lane files in the format --dataset B reads a detector's lanes in' where a lanes run's maps
     root holds another benchmark's lane files (predictions.json given to CULane, .lines.txt to
     TuSimple) instead of this one's."""
     from ..benchmarks import names
@@ -111,8 +111,8 @@ def _lane_layout_hint(maps_root: Path, config: EvalConfig) -> str:
         found = _lane_file_under(maps_root, kind, value)
         if found is not None:
             named = ", ".join(benchmarks[:-1]) + " or " + benchmarks[-1] if len(benchmarks) > 1 else benchmarks[0]
-            return (f"; it holds {found}, a detector's lanes as --dataset {named} "
-                    f"read{'s' if len(benchmarks) == 1 else ''} them")
+            # a claim on the format only: ground truth in the same format looks alike
+            return f"; it holds {found}, lane files in the format --dataset {named} reads a detector's lanes in"
     return ""
 
 
