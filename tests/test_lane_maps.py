@@ -133,7 +133,7 @@ def test_lane_files_are_labelled_as_a_detectors_not_as_the_presets_model(tmp_pat
     assert "| detector | detector + RONELD |" in text and "SCNN" not in text and "probability" not in text
     assert 'model = "detector"' in (tmp_path / "unnamed" / "config.toml").read_text()
     invoke([*args, "--set", "model=CLRNet", "--out", str(tmp_path / "named")])
-    assert "| CLRNet | CLRNet + RONELD |" in (tmp_path / "named" / "table_accuracy.md").read_text()
+    assert "| CLRNet | CLRNet + RONELD |" in (tmp_path / "named" / "accuracy.md").read_text()
     invoke(["run", "--config", str(tmp_path / "unnamed" / "config.toml"), "--workers", "1", "--quiet", "--out",
             str(tmp_path / "again")])
     assert (tmp_path / "again" / "accuracy.md").read_text() == text
