@@ -75,10 +75,12 @@ class CountLimit:
                               "from 1 to 999,999,999")
         return int(raw)
 
-    def problem(self, count: int) -> str:
-        """Why a file of `count` lanes is refused."""
+    def problem(self, count: int, counted: str = "") -> str:
+        """Why a file of `count` lanes is refused; `counted` says what was counted where lanes are
+        not written out as such ("grey values" of an instance mask)."""
         most = self.count
-        return (f"too many lanes ({count:,}): {self.what} may hold at most {most:,} lane{'' if most == 1 else 's'} "
+        what = f"{count:,} {counted}" if counted else f"{count:,}"
+        return (f"too many lanes ({what}): {self.what} may hold at most {most:,} lane{'' if most == 1 else 's'} "
                 f"(raise it with {self.variable}=N)")
 
 

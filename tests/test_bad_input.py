@@ -9,6 +9,7 @@ import os
 import shutil
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -418,6 +419,27 @@ def test_a_tusimple_frame_of_too_many_lanes_is_refused(tmp_path):
                                        str(tmp_path / "pred.json"), "--quiet"])
     assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
     assert f"{tmp_path / 'pred.json'}:1: too many lanes (1,001): one frame's labels" in result.output
+
+
+def test_an_instance_mask_of_too_many_grey_values_is_refused_before_fitting_them(tmp_path):
+    # Each grey value of a VIL-100 mask is fitted and drawn as a lane: an RGB mask of 51,360 two-row
+    # blobs took 3 s for one 1280x720 frame, and a mask may hold 67 M pixels.
+    cases = Path(__file__).parent / "golden" / "vil100" / "acc_cases"
+    shutil.copytree(cases / "pred_png", tmp_path / "pred")
+    path = sorted((tmp_path / "pred").rglob("*.png"))[0]
+    mask = np.zeros((1080, 1920, 3), np.uint8)
+    for k in range(1001):  # 1,001 colours of distinct greys, each a short vertical stroke
+        row, column = divmod(k, 100)
+        mask[100 + 60 * row:140 + 60 * row, 10 + 19 * column:14 + 19 * column] = (k % 256, k // 256, 40)
+    assert cv2.imwrite(str(path), mask)
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(cases / "anno_txt"), "--pred-root",
+                                       str(tmp_path / "pred"), "--pred-format", "png", "--sizes",
+                                       str(cases / "test_sizes.json"), "--workers", "1", "--quiet",
+                                       "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert (f"{path}: too many lanes (1,001 grey values): one frame's labels or predictions may hold at most "
+            "1,000 lanes") in result.output
+    assert not (tmp_path / "out").exists()
 
 
 def test_an_npz_member_that_inflates_past_the_bound_is_refused_before_inflating(sets, monkeypatch):

@@ -30,6 +30,7 @@ import numpy as np
 from ..errors import InputError
 from ..image_header import image_file_size
 from ..lanes_io import parse_culane_lines
+from ..limits import LANES
 from ..model import Lane
 
 Y_STEP = 3  # generate_iou_pred_txt.py: range(min(y), max(y), 3)
@@ -99,6 +100,8 @@ def instance_lanes(path: Path) -> tuple[list[InstanceLane], int, int]:
     starts: list[int] = []
     if grouped.size:
         starts = np.flatnonzero(np.concatenate([[True], grouped[1:] != grouped[:-1]])).tolist()
+    if len(starts) > LANES.count:  # each grey is fitted, and drawn as a lane: bounded before any fit
+        raise InputError(path, LANES.problem(len(starts), "grey values"))
     ends = starts[1:] + [grouped.size]
     lanes = []
     with warnings.catch_warnings():
