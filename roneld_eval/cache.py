@@ -74,41 +74,13 @@ class ResultCache:
         `inputs()` lists the clip's input files: asked only when an entry is there to check."""
         path = self._path(clip.clip_id)
         try:
-            info = os.lstat(path)
-        except FileNotFoundError:
-            self.reasons["not finished"] += 1
-            return None
-        except OSError as error:
-            self._invalid(path, error.strerror or str(error))
-            return None
-        if not stat.S_ISREG(info.st_mode):
-            self._invalid(path, "not a regular file")
-            return None
-        if info.st_size > CACHE_ENTRY.bytes:
-            self._invalid(path, CACHE_ENTRY.problem(info.st_size))
-            return None
-        try:
-            with open(path, "rb") as handle:
-                document = json.loads(read_at_most(handle, CACHE_ENTRY.bytes, info.st_size))
-            if not isinstance(document, dict) or set(document) != {"body", "mac"}:
-                raise ValueError("not a cache entry")
-            body = document["body"]
-            expected = self._mac(body)
-            if not isinstance(document["mac"], str) or not hmac.compare_digest(document["mac"], expected):
-                raise ValueError("its checksum does not match (edited, or written elsewhere)")
-            entry = json.loads(body)
-            if entry.get("format") != FORMAT or entry.get("format_version") != FORMAT_VERSION:
-                raise ValueError("unknown format")
-            if entry.get("clip_id") != clip.clip_id:
-                raise ValueError("it holds another clip")
-            if entry.get("config") != self.config_key:
-                self.reasons["configuration or version changed"] += 1
+            raw = self._entry_bytes(path)
+            if raw is None:
                 return None
-            if entry.get("frames") != [frame.relpath for frame in clip.frames]:
-                self.reasons["frame list changed"] += 1
-                return None
-            if entry.get("inputs") != fingerprint(inputs()):
-                self.reasons["maps or labels changed"] += 1
+            entry = self._verified(raw, clip)
+            stale = self._stale(entry, clip, inputs)
+            if stale is not None:
+                self.reasons[stale] += 1
                 return None
             result = decode_result(entry["result"], self.benchmark)
             if any(file_digest(Path(path)) != digest for path, digest in result.plugin_code.items()):
@@ -122,6 +94,48 @@ class ResultCache:
             return None
         self.reused += 1
         return result
+
+    def _entry_bytes(self, path: Path) -> bytes | None:
+        """The entry's bytes; None where there is none (the clip is not finished)."""
+        try:
+            info = os.lstat(path)
+        except FileNotFoundError:
+            self.reasons["not finished"] += 1
+            return None
+        except OSError as error:
+            raise ValueError(error.strerror or str(error)) from None
+        if not stat.S_ISREG(info.st_mode):
+            raise ValueError("not a regular file")
+        if info.st_size > CACHE_ENTRY.bytes:
+            raise ValueError(CACHE_ENTRY.problem(info.st_size))
+        with open(path, "rb") as handle:
+            return read_at_most(handle, CACHE_ENTRY.bytes, info.st_size)
+
+    def _verified(self, raw: bytes, clip: Clip) -> dict:
+        """The entry this run wrote for this clip (ValueError where it is not one)."""
+        document = json.loads(raw)
+        if not isinstance(document, dict) or set(document) != {"body", "mac"}:
+            raise ValueError("not a cache entry")
+        body = document["body"]
+        expected = self._mac(body)
+        if not isinstance(document["mac"], str) or not hmac.compare_digest(document["mac"], expected):
+            raise ValueError("its checksum does not match (edited, or written elsewhere)")
+        entry = json.loads(body)
+        if entry.get("format") != FORMAT or entry.get("format_version") != FORMAT_VERSION:
+            raise ValueError("unknown format")
+        if entry.get("clip_id") != clip.clip_id:
+            raise ValueError("it holds another clip")
+        return entry
+
+    def _stale(self, entry: dict, clip: Clip, inputs: Callable[[], Sequence[Path]]) -> str | None:
+        """Why a sound entry no longer holds this run's result of the clip, or None."""
+        if entry.get("config") != self.config_key:
+            return "configuration or version changed"
+        if entry.get("frames") != [frame.relpath for frame in clip.frames]:
+            return "frame list changed"
+        if entry.get("inputs") != fingerprint(inputs()):
+            return "maps or labels changed"
+        return None
 
     def store(self, clip: Clip, inputs: Sequence[Path], result: ClipResult) -> None:
         """Keep a finished clip (atomically: a reader sees the whole entry or none)."""
@@ -246,42 +260,42 @@ def encode_result(result: ClipResult) -> dict:
 
 def decode_result(data: Any, benchmark: Benchmark) -> ClipResult:
     """The inverse of encode_result, checking every field's type (TypeError/ValueError if wrong)."""
-    if not isinstance(data, dict):
-        raise TypeError("result is not a record")
-    outcomes = []
-    for item in read_list(data["outcomes"]):
-        ious = item["ious"]
-        if not isinstance(ious, dict):
-            raise TypeError("ious is not a record")
-        active = tuple(_decode_lane(lane) for lane in read_list(item["active"]))
-        if len(active) != 2:
-            raise ValueError("active lanes are not a pair")
-        outcomes.append(FrameOutcome(
-            relpath=read_string(item["relpath"]), method=read_string(item["method"]),
-            ious={read_string(side): read_float(iou) for side, iou in ious.items()},
-            official=benchmark.decode(item["official"]),
-            lanes=tuple(_decode_found_lane(lane) for lane in read_list(item["lanes"])),
-            active=active,
-        ))
-    extract_ms = data["extract_ms"]
-    if not isinstance(extract_ms, dict):
-        raise TypeError("extract_ms is not a record")
-    map_size = data["map_size"]
+    record = _record(data, "result")
+    map_size = record["map_size"]
     if map_size is not None:
         map_size = tuple(read_count(v) for v in read_list(map_size))
         if len(map_size) != 2:
             raise ValueError("map_size is not a pair")
-    plugin_code = data["plugin_code"]
-    if not isinstance(plugin_code, dict):
-        raise TypeError("plugin_code is not a record")
     return ClipResult(
-        plugin_code={read_string(path): read_string(digest) for path, digest in plugin_code.items()},
-        clip_id=read_string(data["clip_id"]),
-        outcomes=outcomes,
-        extract_ms={read_string(m): [read_float(v) for v in read_list(values)] for m, values in extract_ms.items()},
-        load_ms=[read_float(v) for v in read_list(data["load_ms"])],
-        n_frames=read_count(data["n_frames"]), n_scored=read_count(data["n_scored"]),
-        n_gt_lanes=read_count(data["n_gt_lanes"]),
-        skipped=[read_string(line) for line in read_list(data["skipped"])],
+        plugin_code={read_string(path): read_string(digest)
+                     for path, digest in _record(record["plugin_code"], "plugin_code").items()},
+        clip_id=read_string(record["clip_id"]),
+        outcomes=[_decode_outcome(item, benchmark) for item in read_list(record["outcomes"])],
+        extract_ms={read_string(m): [read_float(v) for v in read_list(values)]
+                    for m, values in _record(record["extract_ms"], "extract_ms").items()},
+        load_ms=[read_float(v) for v in read_list(record["load_ms"])],
+        n_frames=read_count(record["n_frames"]), n_scored=read_count(record["n_scored"]),
+        n_gt_lanes=read_count(record["n_gt_lanes"]),
+        skipped=[read_string(line) for line in read_list(record["skipped"])],
         map_size=map_size,
+    )
+
+
+def _record(value: Any, name: str) -> dict:
+    if not isinstance(value, dict):
+        raise TypeError(f"{name} is not a record")
+    return value
+
+
+def _decode_outcome(item: Any, benchmark: Benchmark) -> FrameOutcome:
+    ious = _record(item["ious"], "ious")
+    active = tuple(_decode_lane(lane) for lane in read_list(item["active"]))
+    if len(active) != 2:
+        raise ValueError("active lanes are not a pair")
+    return FrameOutcome(
+        relpath=read_string(item["relpath"]), method=read_string(item["method"]),
+        ious={read_string(side): read_float(iou) for side, iou in ious.items()},
+        official=benchmark.decode(item["official"]),
+        lanes=tuple(_decode_found_lane(lane) for lane in read_list(item["lanes"])),
+        active=active,
     )

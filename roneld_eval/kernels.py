@@ -288,21 +288,7 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
             helper.start()
         alive = helpers
         while alive:
-            deadline = time.monotonic() + PROGRESS_EVERY_S
-            while alive and time.monotonic() < deadline:
-                wait([helper.sentinel for helper in alive], max(0.0, deadline - time.monotonic()))
-                # Each exit status read once: a process that ends between two reads must not
-                # leave the living ones without being handed back.
-                statuses = [(index, helper, helper.exitcode) for index, helper in enumerate(helpers)
-                            if helper in alive]
-                alive = [helper for _, helper, status in statuses if status is None]
-                for index, _, status in statuses:
-                    if status not in (None, 0):
-                        _hand_back(state, taken[index])
-                        if announce is not None:
-                            announce(f"a compiling process ended (exit status {status}): "
-                                     + (f"its work goes to the other{'s' if len(alive) > 1 else ''}" if alive else
-                                        "what is left compiles where it is first needed, without progress lines"))
+            alive = _watch(helpers, alive, time.monotonic() + PROGRESS_EVERY_S, state, taken, announce)
             if announce is not None and (alive or done.value):  # the last line says it is over
                 announce(f"compiling kernels: {done.value} of {total} done, {time.monotonic() - start:.0f} s")
     finally:
@@ -310,6 +296,26 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
             if helper.is_alive():
                 helper.kill()
                 helper.join()
+
+
+def _watch(helpers: list, alive: list, deadline: float, state: Any, taken: Any,
+           announce: Callable[[str], None] | None) -> list:
+    """Wait until `deadline` or until no compiling process is left; the step of each that ends
+    badly goes back to the others (`_hand_back`). Returns the processes still alive."""
+    while alive and time.monotonic() < deadline:
+        wait([helper.sentinel for helper in alive], max(0.0, deadline - time.monotonic()))
+        # Each exit status read once: a process that ends between two reads must not leave the
+        # living ones without being handed back.
+        statuses = [(index, helper, helper.exitcode) for index, helper in enumerate(helpers) if helper in alive]
+        alive = [helper for _, helper, status in statuses if status is None]
+        for index, _, status in statuses:
+            if status not in (None, 0):
+                _hand_back(state, taken[index])
+                if announce is not None:
+                    announce(f"a compiling process ended (exit status {status}): "
+                             + (f"its work goes to the other{'s' if len(alive) > 1 else ''}" if alive else
+                                "what is left compiles where it is first needed, without progress lines"))
+    return alive
 
 
 def _hand_back(state: Any, step: int) -> None:
