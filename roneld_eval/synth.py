@@ -13,7 +13,7 @@ bytes: every clip draws from its own generator seeded by (seed, clip index).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -322,9 +322,28 @@ def lane_file_scenes(camera: Camera, clips: int, frames: int, seed: int, maps: b
 
 def synthesize(dataset: str, out: str | Path, clips: int = 3, frames: int | None = None, seed: int = 0,
                maps_format: str | None = None, progress=None) -> SynthResult:
-    """Generate a dataset of a registered benchmark (the library twin of `roneld-eval synth`)."""
+    """Generate a dataset of a registered benchmark (the library twin of `roneld-eval synth`).
+
+    `out` is an output folder as a run's is (roneld_eval.output): a new or empty folder, or one an
+    earlier `synth` wrote, whose set this one replaces whole; a folder holding anything else is
+    refused before anything is written (`synth --out /etc` wrote data/ and maps/ into it)."""
     from .benchmarks import benchmark_for
+    from .output import OutputFolder
 
     benchmark = benchmark_for(dataset)
     maps_format = maps_format or str(getattr(benchmark, "synth_maps_format", "npy"))
-    return benchmark.synthesize(Path(out), clips, frames or benchmark.frames_per_clip, seed, maps_format, progress)
+    out = Path(out)
+    with OutputFolder(out, "synth") as folder:
+        staging = folder.staging()
+        made = benchmark.synthesize(staging, clips, frames or benchmark.frames_per_clip, seed, maps_format, progress)
+        folder.commit()
+    return _moved(made, staging, out)
+
+
+def _moved(made: SynthResult, staging: Path, out: Path) -> SynthResult:
+    """The set as it lies after the commit: its roots and command under `out`, not the staging
+    folder it was written into (a name made unique by tempfile, so replacing it is exact)."""
+    command = made.score_command
+    return replace(made, data_root=out / Path(made.data_root).relative_to(staging),
+                   maps_root=out / Path(made.maps_root).relative_to(staging),
+                   score_command=None if command is None else command.replace(str(staging), str(out)))

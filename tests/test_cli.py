@@ -2,6 +2,7 @@
 
 import hashlib
 import json
+import os
 import subprocess
 
 import click
@@ -81,6 +82,25 @@ def test_synth_then_run_as_printed(tmp_path):
     ran = CliRunner().invoke(main, command[1:] + ["--out", str(tmp_path / "out"), "--quiet", "--workers", "1"])
     assert ran.exit_code == 0, ran.output
     assert (tmp_path / "out" / "accuracy.csv").exists()
+
+
+def test_synth_writes_only_into_a_folder_of_its_own_and_replaces_its_own_set(tmp_path):
+    # `synth --out /etc` wrote data/ and maps/ into it, as into a folder holding a user's thesis.
+    own = tmp_path / "own"
+    own.mkdir()
+    (own / "thesis.tex").write_text("chapter 1")
+    args = ["synth", "--dataset", "culane", "--clips", "1", "--frames", "3"]
+    result = CliRunner().invoke(main, args + ["--out", str(own)])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert "holds files roneld-eval did not write (thesis.tex)" in result.output
+    assert sorted(os.listdir(own)) == ["thesis.tex"]
+    made = tmp_path / "set"
+    for clips, frames in (("3", 9), ("1", 3)):  # the second set replaces the first whole
+        result = CliRunner().invoke(main, args[:3] + ["--clips", clips, "--frames", "3", "--out", str(made)])
+        assert result.exit_code == 0, result.output
+        assert len((made / "data" / "list" / "test.txt").read_text().splitlines()) == frames
+        assert len([p for p in (made / "maps").rglob("*.npy")]) == frames
+    assert f"--data-root {made / 'data'} --maps-root {made / 'maps'}" in result.output  # not the staging folder
 
 
 def test_score_culane_on_its_own_ground_truth(tmp_path):
