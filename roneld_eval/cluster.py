@@ -85,8 +85,7 @@ def on_dask(function: Callable, arguments: dict, command: str, scheduler: str | 
     from .shards import merge
 
     out = Path(arguments["out"])
-    with OutputFolder(out, command, nested={"show": "show"}):  # refused now, not after the work
-        pass
+    OutputFolder.check(out, command, nested={"show": "show"})  # refused now, not after the work
     arguments = {name: value for name, value in arguments.items() if name not in ("out", "shard")}
     with _client(distributed, scheduler, workers) as client:
         threads = sum(client.nthreads().values())
@@ -137,7 +136,9 @@ def _client(distributed, address: str | None, workers: int | None):
         from .workers import default_workers
 
         with distributed.LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-                                      dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+                                      # A task's error reaches the client, which says it in one line;
+                                      # the workers' log printed it again, traceback and all.
+                                      dashboard_address=None, silence_logs=logging.CRITICAL) as cluster:
             with distributed.Client(cluster) as client:
                 yield client
         return

@@ -54,6 +54,16 @@ def is_own_entry(name: str) -> bool:
 INPUT_RUN_REMEDY = "give a folder `roneld-eval run` wrote (run it again into this one)"
 
 
+def _highest_missing(path: Path) -> Path | None:
+    """The highest folder of `path` (itself or one above it) that does not exist yet, else None."""
+    missing = None
+    for folder in (path, *path.parents):
+        if os.path.lexists(folder):
+            break
+        missing = folder
+    return missing
+
+
 def read_manifest(folder: Path, remedy: str = "remove the folder or choose another --out") -> dict | None:
     """The folder's manifest, or None when it has none; a manifest that is not ours is an error
     (`remedy`: what to do about it, for an output folder by default)."""
@@ -139,12 +149,24 @@ class OutputFolder:
         self.incomplete = False  # an earlier commit was cut short: its journal is still here
         self._lock: int | None = None
         self._staging: Path | None = None
+        self._created: Path | None = None  # the highest folder of `path` that did not exist
+
+    @classmethod
+    def check(cls, path: str | Path, command: str, nested: dict[str, str] | None = None) -> None:
+        """Refuse now (InputError) what this command's folder would refuse after its work, and
+        leave nothing behind: a folder created only to check is removed again."""
+        folder = cls(path, command, nested)
+        with folder:
+            pass
+        if folder._created is not None:
+            folder._remove_if_empty()
 
     # ---- opening ------------------------------------------------------------------------
 
     def __enter__(self) -> "OutputFolder":
         if self.path.exists() and not self.path.is_dir():
             raise InputError(self.path, "exists and is not a folder")
+        self._created = _highest_missing(self.path)
         try:
             self.path.mkdir(parents=True, exist_ok=True)
         except OSError as error:
@@ -236,8 +258,15 @@ class OutputFolder:
         self._lock = None
 
     def _remove_if_empty(self) -> None:
+        """The folder, and the folders above it this command created, where nothing at all is
+        left (a command into a new folder that failed): `--out parts/1` left parts/ behind."""
+        folder = self.path
         with contextlib.suppress(OSError):
-            self.path.rmdir()  # only when nothing at all is left (a run into a new folder that failed)
+            while True:
+                folder.rmdir()
+                if self._created is None or folder == self._created:
+                    return
+                folder = folder.parent
 
     def _remove_leftovers(self) -> None:
         """Staging and trash folders of earlier killed commands (only in a folder that is ours)."""

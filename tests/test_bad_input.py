@@ -391,6 +391,22 @@ def test_a_lane_file_of_too_many_lanes_is_refused_and_the_bound_can_be_raised(tm
                 "999,999,999") in result.output, odd
 
 
+def test_a_command_that_fails_into_a_new_nested_folder_leaves_none_of_it(tmp_path):
+    # `--out parts/1 --shard 1/2` left parts/ behind: only the folder itself was removed.
+    for folder, text in (("gt", "100 580 200 400 300 300\n"), ("pred", "100 580 200 400\n" * 1001)):
+        (tmp_path / folder / "d").mkdir(parents=True)
+        (tmp_path / folder / "d" / "f.lines.txt").write_text(text)
+    (tmp_path / "list.txt").write_text("d/f.jpg\n")
+    (tmp_path / "kept").mkdir()
+    for out in (tmp_path / "parts" / "1", tmp_path / "kept" / "a" / "b"):
+        result = CliRunner().invoke(main, ["score", "culane", "--data-root", str(tmp_path / "gt"), "--pred-root",
+                                           str(tmp_path / "pred"), "--list", str(tmp_path / "list.txt"), "--quiet",
+                                           "--shard", "1/2", "--out", str(out)])
+        assert result.exit_code == 2 and "too many lanes" in result.output, result.output
+    assert not (tmp_path / "parts").exists()
+    assert (tmp_path / "kept").is_dir() and not any((tmp_path / "kept").iterdir())  # there before: kept
+
+
 @pytest.mark.parametrize("dataset, key, extra", [
     ("openlane", "lane_lines", []),
     ("curvelanes", "Lines", ["--image-root", "images"]),

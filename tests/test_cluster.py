@@ -3,6 +3,7 @@ one given by --scheduler) and merge into the files the command writes in one pro
 
 from __future__ import annotations
 
+import subprocess
 import sys
 
 import pytest
@@ -112,3 +113,18 @@ def test_without_dask_the_extra_to_install_is_named(culane_set, tmp_path, monkey
     monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed fails
     result = _score(culane_set, tmp_path / "o", "--executor", "dask")
     assert result.exit_code == 2 and "pip install 'roneld-eval[cluster]'" in result.output
+
+
+def test_a_shards_input_error_is_one_line_and_leaves_no_folder(culane_set, tmp_path):
+    # The workers' log printed each failed task's traceback (four blocks for one bad --pred-root
+    # pattern), and the folder created to check --out before the cluster started stayed behind.
+    out = tmp_path / "sweep" / "deeper"
+    done = subprocess.run([sys.executable, "-m", "roneld_eval", "score", "culane", "--data-root",
+                           str(culane_set / "data"), "--pred-root", str(tmp_path / "work_dirs" / "epoch_*" / "lines"),
+                           "--executor", "dask", "--workers", "2", "--quiet", "--out", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2, done.stderr
+    said = done.stdout + done.stderr
+    assert "Traceback" not in said and "distributed.worker" not in said, said
+    assert said.strip().splitlines()[-1].endswith("epoch_*/lines: no folder matches this pattern"), said
+    assert not (tmp_path / "sweep").exists()
