@@ -210,3 +210,20 @@ def test_report_shows_the_sheet_with_legible_captions_and_legend(fixture_run, tm
     while np.median(column[image_top]) > 60:
         image_top += 1
     assert image_top * shown >= 5 * 20, image_top  # five legend lines, 20 px or more apart as shown
+
+
+def test_no_caption_runs_past_its_pictures_edge(fixture_run, tmp_path):
+    # OpenCV's text width does not scale in proportion: the three methods' scores, shrunk by
+    # the ratio alone, ran to the last pixel column and were cut off ("... w/o PFT: L 0.00 R 0.5").
+    import cv2
+
+    _, run_dir = fixture_run
+    result = CliRunner().invoke(main, ["show", "--run", str(run_dir), "--worst", "4", "--out", str(tmp_path / "show")])
+    assert result.exit_code == 0, result.output
+    for path in sorted((tmp_path / "show" / "overlays").glob("*.png")):
+        picture = cv2.imread(str(path))
+        bar = len(picture)  # the caption bar: the rows below the picture's image, which is dark
+        while np.median(picture[bar - 1]) > 60:
+            bar -= 1
+        inked = np.flatnonzero((picture[bar:].min(axis=2) < 100).any(axis=0))
+        assert len(inked) and inked.max() <= picture.shape[1] - 8, (path.name, inked.max())

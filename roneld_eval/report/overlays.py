@@ -183,10 +183,25 @@ def draw_frame(picture: FramePicture, background: np.ndarray, caption: str = "")
     lines = (caption or picture.relpath).split("\n")
     bar = np.full((CAPTION_LINE * len(lines) + 12, OUTPUT_WIDTH, 3), 255, np.uint8)
     for row, text in enumerate(lines):
-        fit = (OUTPUT_WIDTH - 16) / cv2.getTextSize(text, FONT, CAPTION_SCALE, 2)[0][0]  # never cut off
-        cv2.putText(bar, text, (8, CAPTION_LINE * (row + 1)), FONT, CAPTION_SCALE * min(1.0, fit), (0, 0, 0), 2,
-                    cv2.LINE_AA)
+        cv2.putText(bar, text, (8, CAPTION_LINE * (row + 1)), FONT, _fitting_scale(text, OUTPUT_WIDTH - 16), (0, 0, 0),
+                    2, cv2.LINE_AA)
     return np.vstack([image, bar])
+
+
+def _fitting_scale(text: str, width: int, weight: int = 2) -> float:
+    """The caption's font scale, at most CAPTION_SCALE, at which `text` is at most `width` px
+    wide: never cut off. Text width is not proportional to the scale (OpenCV rounds each glyph):
+    a caption shrunk by the ratio alone still ran 15 px past the picture's edge."""
+    def fits(scale: float) -> bool:
+        return cv2.getTextSize(text, FONT, scale, weight)[0][0] <= width
+
+    if fits(CAPTION_SCALE):
+        return CAPTION_SCALE
+    low, high = 0.05, CAPTION_SCALE  # the largest scale that fits, to 1/4096 of the range
+    for _ in range(12):
+        middle = (low + high) / 2
+        low, high = (middle, high) if fits(middle) else (low, middle)
+    return low
 
 
 def contact_sheet(pictures: list[np.ndarray], legend: np.ndarray | None = None, columns: int = 2,
