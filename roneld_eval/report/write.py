@@ -82,13 +82,22 @@ def summary(result: RunResult) -> dict:
         "source_file": None if result.fixture or not result.dataset.source_file else str(result.dataset.source_file),
         "config": result.config.to_dict(),
         "geometry": None if result.geometry is None else result.geometry.to_dict(),
-        "versions": result.versions,
+        "versions": result.versions if result.timed else _untimed_versions(result.versions),
         "counts": result.counts,
         "skipped": result.skipped,
         "wall_time_s": round(result.wall_time_s, 3) if result.timed else None,
         "rerun": "roneld-eval run --config config.toml",
         **extra,
     })
+
+
+def _untimed_versions(versions: dict) -> dict:
+    """An untimed run's versions: its platform as the system and processor kind alone. The
+    kernel build and C library it also named vary from machine to machine and explain timings,
+    which such a run leaves out: a refreshed results/ then equals the committed one, byte for byte."""
+    import platform
+
+    return {**versions, "platform": f"{platform.system()}-{platform.machine()}"}
 
 
 def config_record(result: RunResult) -> str:
