@@ -232,8 +232,12 @@ def merge_run(parts, out: str | Path) -> RunResult:
 def plan_run(config: EvalConfig | None = None, announce: Callable[[str], None] | None = None) -> RunPlan:
     """What `run` would evaluate, checked as a run checks it before any work, without
     evaluating or writing anything (`run --dry-run`): the layout, every frame's maps, the
-    first map's geometry."""
-    return plan(with_fixture(with_absolute_paths(config or default_config())), announce=announce)
+    first map's geometry. A first map that cannot be read is the error the run would stop
+    with (under on_error = "fail"): a dry run said all was well where the run then failed."""
+    planned = plan(with_fixture(with_absolute_paths(config or default_config())), announce=announce)
+    if planned.geometry is None and planned.clips and planned.context.config.on_error == "fail":
+        planned.context.load(planned.clips[0].frames[0])  # raises what is wrong with it
+    return planned
 
 
 def _nothing_scored(clips: int, skipped: list[str]) -> str:

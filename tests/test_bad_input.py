@@ -458,6 +458,43 @@ def test_an_instance_mask_of_too_many_grey_values_is_refused_before_fitting_them
     assert not (tmp_path / "out").exists()
 
 
+def _npy_bytes(array: np.ndarray) -> bytes:
+    import io
+
+    buffer = io.BytesIO()
+    np.save(buffer, array)
+    return buffer.getvalue()
+
+
+def _text_member_archive(path: Path) -> None:
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("probs.npy", "hello world text")
+
+
+@pytest.mark.parametrize("damage, said", [
+    # np.load handed the member's bytes on (AttributeError: 'bytes' object has no attribute 'ndim')
+    (_text_member_archive, "its member probs.npy is not a .npy array"),
+    # np.load returned the array, which `with` refused (TypeError: ... context manager protocol)
+    (lambda path: path.write_bytes(_npy_bytes(np.zeros((4, 8, 8), np.uint8))),
+     "is a .npy array, not an .npz archive (use --maps-format npy)"),
+    # np.load took it for a pickle and advised loading it unsafely (allow_pickle=)
+    (lambda path: path.write_text("some text\n"), "not an .npz archive (it does not start as a zip archive does)"),
+], ids=["text member", "npy array", "text"])
+def test_an_npz_that_is_no_archive_of_arrays_is_one_line_in_the_run_and_its_dry_run(tmp_path, damage, said):
+    made = synth_culane(tmp_path / "set", clips=1, frames=3, seed=1, maps_format="npz")
+    first = sorted(made.maps_root.rglob("*.npz"))[0]
+    damage(first)
+    args = ["run", "--data-root", str(made.data_root), "--maps-root", str(made.maps_root), "--maps-format", "npz",
+            "--workers", "1", "--quiet", "--out", str(tmp_path / "out")]
+    for extra in ([], ["--dry-run"]):  # the dry run said all was well
+        result = CliRunner().invoke(main, args + extra)
+        assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+        assert f"{first}: {said}" in result.output and "allow_pickle" not in result.output
+    assert not (tmp_path / "out").exists()
+
+
 def test_an_npz_member_that_inflates_past_the_bound_is_refused_before_inflating(sets, monkeypatch):
     root_all, out = sets
     root = root_all / "tusimple"

@@ -194,6 +194,17 @@ def _check_members(path: Path, infos) -> None:
             raise InputError(path, f"its member {info.filename!r} inflates to {info.file_size:,} bytes: {MAP.rule()}")
 
 
+def _check_archive_start(path: Path) -> None:
+    """Refuse a file that does not start as a zip archive: np.load returns a .npy array as it is
+    (not an archive), and takes any other file for a pickle, advising to load it unsafely."""
+    with open(path, "rb") as handle:
+        start = handle.read(6)
+    if start == b"\x93NUMPY":
+        raise InputError(path, "is a .npy array, not an .npz archive (use --maps-format npy)")
+    if not start.startswith(b"PK"):
+        raise InputError(path, "not an .npz archive (it does not start as a zip archive does)")
+
+
 def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
     """Maps under `config.npz_key` (or the only array) and `exist` when present."""
     check_regular_file(path, "maps file not found", MAP)
@@ -205,6 +216,7 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
             existence = canonical_existence(existence, path, config)
         return FrameMaps(probabilities=probabilities, existence=existence)
     try:
+        _check_archive_start(path)
         with np.load(path, allow_pickle=False) as archive:
             _check_members(path, archive.zip.infolist())
             names = list(archive.files)
@@ -219,6 +231,10 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
                 _check_declared_size(path, name, archive.zip)
             array = archive[key]
             existence = archive["exist"] if "exist" in wanted else None
+            for name, value in ((key, array), ("exist", existence)):
+                if value is not None and not isinstance(value, np.ndarray):  # np.load hands such a member's bytes
+                    raise InputError(path, f"its member {name}.npy is not a .npy array (it does not start with "
+                                           "numpy's magic bytes)")
     except FileNotFoundError:
         raise InputError(path, "maps file not found") from None
     except InputError:
