@@ -188,6 +188,19 @@ def test_a_dry_run_checks_and_says_what_would_be_scored_and_writes_nothing(tmp_p
     assert sorted(p.name for p in tmp_path.iterdir()) == ["set"]
 
 
+def test_a_clip_skipped_for_maps_of_another_format_says_which_format_it_found(tmp_path):
+    # Without --on-error skip the run said "found 00000.npz: use --maps-format npz"; with it, only
+    # "maps missing ... 00000.npy".
+    from roneld_eval.datasets.culane_synth import synth_culane
+
+    made = synth_culane(tmp_path / "set", clips=2, frames=2, seed=1, maps_format="npz")
+    args = ["run", "--data-root", str(made.data_root), "--maps-root", str(made.maps_root), "--on-error", "skip",
+            "--quiet", "--out", str(tmp_path / "out")]
+    for extra in (["--dry-run"], []):
+        result = CliRunner().invoke(main, args + extra)
+        assert "00000.npy (found 00000.npz: use --maps-format npz) (clip skipped)" in result.output, result.output
+
+
 @pytest.mark.parametrize("level", ["deeper", "higher"])
 def test_a_maps_root_one_level_off_names_the_folder_that_holds_the_maps(tmp_path, level):
     from roneld_eval.datasets.culane_synth import synth_culane

@@ -38,20 +38,22 @@ def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tu
 def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
     """'maps missing for N frames of K clips: ...' naming the first files, why where it is not
     plain absence, maps found in another format (use --maps-format), and TuSimple's 20 frames."""
-    from ..maps import found_in_other_format, missing_reason, pngs_without_existence
-
     clips = {clip_id for clip_id, _ in missing}
     paths = list(dict.fromkeys(path for _, path in missing))  # frames may share one file (JSON lines)
-    shown = []
-    for index, path in enumerate(paths[:3]):
-        found = [missing_reason(path)] + ([found_in_other_format(path), pngs_without_existence(path)]
-                                          if index == 0 else [])
-        notes = [note for note in found if note]
-        shown.append(f"{path} ({'; '.join(notes)})" if notes else str(path))
-    listing = "; ".join(shown)
+    listing = "; ".join(_with_notes(path, index == 0) for index, path in enumerate(paths[:3]))
     more = f" and {len(paths) - 3} more" if len(paths) > 3 else ""
     hint = benchmark_for(dataset.name).missing_maps_hint
     return f"maps missing for {counted(len(missing), 'frame')} of {counted(len(clips), 'clip')}{hint}: {listing}{more}"
+
+
+def _with_notes(path: Path, first: bool = True) -> str:
+    """A missing map's path, with why where it is not plain absence and, for the `first` listed,
+    maps in another format beside it (use --maps-format) or PNGs without their .exist.txt."""
+    from ..maps import found_in_other_format, missing_reason, pngs_without_existence
+
+    found = [missing_reason(path)] + ([found_in_other_format(path), pngs_without_existence(path)] if first else [])
+    notes = [note for note in found if note]
+    return f"{path} ({'; '.join(notes)})" if notes else str(path)
 
 
 def _root_hint(maps_root: Path, dataset: Dataset, config: EvalConfig) -> str:
@@ -231,7 +233,8 @@ def _clips_with_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, skip
     for clip_id, path in missing:
         by_clip.setdefault(clip_id, []).append(path)
     for clip_id, paths in by_clip.items():
-        skipped.append(f"{clip_id}: maps missing for {counted(len(paths), 'frame')}, first {paths[0]} (clip skipped)")
+        skipped.append(f"{clip_id}: maps missing for {counted(len(paths), 'frame')}, first {_with_notes(paths[0])} "
+                       "(clip skipped)")
     return [clip for clip in dataset.clips if clip.clip_id not in by_clip]
 
 
