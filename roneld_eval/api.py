@@ -325,8 +325,9 @@ def _show_pictures(run_dir: Path, frames: Sequence[str], worst: int | None, meth
 SHOW_FOLDER = "show"
 
 
-def check_finished_run(run_dir: Path) -> None:
-    """Stop unless `run_dir` holds the complete results of `roneld-eval run`."""
+def check_finished_run(run_dir: Path, other_kinds: str = "") -> None:
+    """Stop unless `run_dir` holds the complete results of `roneld-eval run`; `other_kinds`
+    says what else the reader takes, where another command wrote the folder."""
     if not run_dir.is_dir():
         raise InputError(run_dir, "not found: give a folder written by `roneld-eval run`")
     if os.path.lexists(run_dir / JOURNAL):  # also a first commit cut short, before any manifest
@@ -337,7 +338,7 @@ def check_finished_run(run_dir: Path) -> None:
         raise InputError(run_dir, "not a folder written by `roneld-eval run` (it has no run manifest)")
     if manifest["command"] != "run":
         raise InputError(run_dir, f"not a folder written by `roneld-eval run` (`roneld-eval {manifest['command']}` "
-                                  f"wrote it)")
+                                  f"wrote it){other_kinds}")
     for name in ("config.toml", "per_frame.csv"):
         if name not in manifest["entries"] or not (run_dir / name).is_file():
             raise InputError(run_dir / name, "missing from this run folder")

@@ -839,3 +839,18 @@ def test_an_untimed_run_s_runtime_is_said_to_be_unmeasured(fixture_run, tmp_path
     text = (tmp_path / "c" / "table_runtime.md").read_text()
     assert "n/a for Untimed: written with `run --no-timings`" in text
     assert "| CULane | Untimed | n/a |" in text and "| CULane | SCNN | n/a |" not in text
+
+
+def test_a_score_folder_that_is_no_sweep_says_what_compare_takes_of_score(tmp_path):
+    # It said only "not a folder written by `roneld-eval run` (`roneld-eval score culane` wrote it)",
+    # though compare takes score's folders as sweeps.
+    from roneld_eval.datasets.culane_synth import synth_culane
+
+    made = synth_culane(tmp_path / "set", clips=1, frames=2, seed=1, maps_format="lanes")
+    scored = CliRunner().invoke(main, ["score", "culane", "--data-root", str(made.data_root), "--pred-root",
+                                       str(made.maps_root), "--quiet", "--out", str(tmp_path / "one")])
+    assert scored.exit_code == 0, scored.output
+    result = CliRunner().invoke(main, ["compare", str(tmp_path / "one"), "--out", str(tmp_path / "c")])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert ("(`roneld-eval score culane` wrote it); compare takes a folder of `score` only as a checkpoint sweep, "
+            "which it writes (sweep.csv) when given several prediction roots") in result.output
