@@ -854,3 +854,36 @@ def test_a_score_folder_that_is_no_sweep_says_what_compare_takes_of_score(tmp_pa
     assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
     assert ("(`roneld-eval score culane` wrote it); compare takes a folder of `score` only as a checkpoint sweep, "
             "which it writes (sweep.csv) when given several prediction roots") in result.output
+
+
+def _coloured_runs(row) -> int:
+    """How many separate runs of non-white pixels a row of an RGBA image holds."""
+    inked = (row[:, :3] < 0.85).any(axis=1)
+    return int(inked[0]) + int((inked[1:] & ~inked[:-1]).sum())
+
+
+def test_a_dashed_curves_legend_sample_shows_its_gap(tmp_path):
+    # The first model draws the widest line, and its dashes were long enough that the one gap
+    # of the legend sample lay under the marker: its baseline read as solid, like "+ RONELD".
+    import matplotlib.image
+
+    from roneld_eval.comparison.figure import Curve, curves_figure
+
+    thresholds = tuple(k / 100 for k in range(30, 51))
+    curves = [Curve("CULane", model, method, model + ("" if method == "baseline" else " + RONELD"), thresholds,
+                    ((0.6 if method == "baseline" else 0.8,) * len(thresholds),))
+              for model in ("Model-1", "Model-2") for method in ("baseline", "roneld")]
+    figure = curves_figure(curves)
+    figure.savefig(tmp_path / "curves.png")
+    pixels = matplotlib.image.imread(tmp_path / "curves.png")
+    height = pixels.shape[0]
+    legend = figure.legends[0]
+    renderer = figure.canvas.get_renderer()
+    for handle, text in zip(legend.legend_handles, legend.get_texts()):
+        box = handle.get_window_extent(renderer)
+        row = pixels[height - 1 - round((box.y0 + box.y1) / 2), int(box.x0):int(box.x1) + 1]
+        runs = _coloured_runs(row)
+        if text.get_text().endswith("RONELD"):
+            assert runs == 1, (text.get_text(), runs)  # solid
+        else:
+            assert runs >= 2, (text.get_text(), runs)  # a gap between dashes shows
