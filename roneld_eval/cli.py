@@ -153,6 +153,15 @@ class _Command(click.Group):
             _interrupted(cause if isinstance(cause, KeyboardInterrupt) else KeyboardInterrupt())
         except click.exceptions.Exit as done:  # --help, --version
             sys.exit(done.exit_code)
+        except click.UsageError as error:
+            if isinstance(error, getattr(click.exceptions, "NoArgsIsHelpError", ())):  # bare `roneld-eval`: the help
+                error.show()
+                sys.exit(error.exit_code)
+            # One line, as every other error: click's own took three or more (usage, a hint, and
+            # the choices of a --dataset one per line).
+            where = error.ctx.command_path if error.ctx is not None else "roneld-eval"
+            click.echo(f"error: {' '.join(error.format_message().split())} (see {where} --help)", err=True)
+            sys.exit(error.exit_code)
         except click.ClickException as error:
             error.show()
             sys.exit(error.exit_code)

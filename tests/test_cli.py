@@ -40,10 +40,18 @@ def test_every_command_and_option_has_help():
     (["run", "--thresholds", "0.3:0.5:0.07"], "does not divide"),
     (["run", "--set", "paper.thickness_rule=diagonal"], "thickness_rule must be"),
     (["score", "tusimple", "--labels", "nope.json", "--pred", "nope.json"], "nope.json: file not found"),
+    # click's own usage errors took three lines and more (usage, a hint, the choices one per line)
+    (["show"], "Missing option '--run'. (see roneld-eval show --help)"),
+    (["score", "culane", "--data-root", "x", "--pred-root", "y", "--width", "1"],
+     "Invalid value for '--width': 1 is not in the range 2<=x<=1000. (see roneld-eval score culane --help)"),
+    (["synth", "--dataset", "culan"], "'culan' is not one of 'culane', 'curvelanes', 'llamas', 'openlane', "),
+    (["runn"], "No such command 'runn'. Did you mean 'run'? (see roneld-eval --help)"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
-    result = CliRunner().invoke(main, args + (["--out", str(tmp_path / "out")] if args[0] == "run" else []))
+    result = CliRunner().invoke(main, args + (["--out", str(tmp_path / "out")] if args[0] == "run" else []),
+                                prog_name="roneld-eval")
     assert result.exit_code == 2, result.output
+    assert result.output.count("\n") == 1, result.output
     assert message in result.output
     assert "Traceback" not in result.output
     assert result.output.startswith("error: ")
