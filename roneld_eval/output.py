@@ -57,6 +57,7 @@ INPUT_RUN_REMEDY = "give a folder `roneld-eval run` wrote (run it again into thi
 def _highest_missing(path: Path) -> Path | None:
     """The highest folder of `path` (itself or one above it) that does not exist yet, else None."""
     missing = None
+    path = Path.cwd() / path  # not normalised: mkdir(parents=True) makes each component as written
     for folder in (path, *path.parents):
         if os.path.lexists(folder):
             break
@@ -158,8 +159,7 @@ class OutputFolder:
         folder = cls(path, command, nested)
         with folder:
             pass
-        if folder._created is not None:
-            folder._remove_if_empty()
+        folder._remove_if_empty()
 
     # ---- opening ------------------------------------------------------------------------
 
@@ -260,11 +260,14 @@ class OutputFolder:
     def _remove_if_empty(self) -> None:
         """The folder, and the folders above it this command created, where nothing at all is
         left (a command into a new folder that failed): `--out parts/1` left parts/ behind."""
-        folder = self.path
+        if self._created is None:  # it was there before (a user's empty folder, or the current one): kept
+            return
+        folder = Path.cwd() / self.path  # as mkdir walked it: `a/../b` made a/ too, above a/..
         with contextlib.suppress(OSError):
             while True:
-                folder.rmdir()
-                if self._created is None or folder == self._created:
+                if folder.name not in ("", ".", ".."):
+                    folder.rmdir()
+                if folder == self._created or folder == folder.parent:
                     return
                 folder = folder.parent
 

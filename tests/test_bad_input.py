@@ -398,13 +398,17 @@ def test_a_command_that_fails_into_a_new_nested_folder_leaves_none_of_it(tmp_pat
         (tmp_path / folder / "d" / "f.lines.txt").write_text(text)
     (tmp_path / "list.txt").write_text("d/f.jpg\n")
     (tmp_path / "kept").mkdir()
-    for out in (tmp_path / "parts" / "1", tmp_path / "kept" / "a" / "b"):
+    (tmp_path / "empty").mkdir()  # given as --out itself: a folder the user made is never removed
+    for out in (tmp_path / "parts" / "1", tmp_path / "kept" / "a" / "b", tmp_path / "empty",
+                tmp_path / "via" / ".." / "made"):
         result = CliRunner().invoke(main, ["score", "culane", "--data-root", str(tmp_path / "gt"), "--pred-root",
                                            str(tmp_path / "pred"), "--list", str(tmp_path / "list.txt"), "--quiet",
                                            "--shard", "1/2", "--out", str(out)])
         assert result.exit_code == 2 and "too many lanes" in result.output, result.output
-    assert not (tmp_path / "parts").exists()
+    assert not (tmp_path / "parts").exists() and not (tmp_path / "via").exists()
+    assert not (tmp_path / "made").exists()
     assert (tmp_path / "kept").is_dir() and not any((tmp_path / "kept").iterdir())  # there before: kept
+    assert (tmp_path / "empty").is_dir()
 
 
 @pytest.mark.parametrize("dataset, key, extra", [
