@@ -54,6 +54,17 @@ def is_own_entry(name: str) -> bool:
 INPUT_RUN_REMEDY = "give a folder `roneld-eval run` wrote (run it again into this one)"
 
 
+def incomplete_folder_holding(path: Path) -> Path | None:
+    """The folder, `path` or one above it, whose commit was cut short (its journal is still
+    there), else None: what such a folder holds may be part old, part new (synth's data/ of one
+    set beside maps/ of another), so nothing may read it."""
+    path = Path(os.path.abspath(path))
+    for folder in (path, *path.parents):
+        if os.path.lexists(folder / JOURNAL):
+            return folder
+    return None
+
+
 def _highest_missing(path: Path) -> Path | None:
     """The highest folder of `path` (itself or one above it) that does not exist yet, else None."""
     missing = None

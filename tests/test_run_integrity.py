@@ -16,6 +16,8 @@ import re
 import shutil
 import signal
 import stat
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -885,3 +887,41 @@ def test_a_full_disk_while_writing_the_commit_journal_leaves_the_earlier_results
     assert str(caught.value) == f"{out}: cannot write results here: No space left on device"
     assert sorted(path.name for path in out.iterdir()) == before  # no journal, .tmp or trash left
     assert (out / "accuracy.csv").read_text() == "earlier\n"
+
+
+_SYNTH_KILLED_IN_ITS_COMMIT = """
+import os, signal, sys
+from roneld_eval import output
+from roneld_eval.cli import main
+original, calls = os.rename, []
+
+def rename(source, target):
+    calls.append(source)
+    if len(calls) == 3:  # data/ of the new set is in place, maps/ still the old set's
+        os.kill(os.getpid(), signal.SIGKILL)
+    return original(source, target)
+
+output.os.rename = rename
+main(["synth", "--dataset", "culane", "--clips", "2", "--frames", "3", "--seed", "1", "--out", sys.argv[1]])
+"""
+
+
+def test_a_run_refuses_a_data_or_maps_root_inside_a_folder_whose_commit_was_cut_short(tmp_path):
+    # A synth killed in its commit left the new set's data/ beside the old set's maps/, and a run
+    # on them scored without a word: SCNN 0.167 where either set gives 1.000.
+    cut = tmp_path / "cut"
+    assert invoke(["synth", "--dataset", "culane", "--clips", "2", "--frames", "3", "--out", str(cut)]).exit_code == 0
+    killed = subprocess.run([sys.executable, "-c", _SYNTH_KILLED_IN_ITS_COMMIT, str(cut)], capture_output=True,
+                            text=True, timeout=300)
+    assert killed.returncode == -signal.SIGKILL, killed.stderr
+    assert (cut / output.JOURNAL).exists()
+    for extra in ([], ["--dry-run"]):
+        result = invoke(["run", "--data-root", str(cut / "data"), "--maps-root", str(cut / "maps"), "--workers", "1",
+                         "--quiet", "--out", str(tmp_path / "out"), *extra])
+        assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+        assert f"{cut}: its content is incomplete (a command was killed while putting it in place)" in result.output
+    assert not (tmp_path / "out").exists()
+    # the next synth into the folder puts it right, and the run goes on
+    assert invoke(["synth", "--dataset", "culane", "--clips", "2", "--frames", "3", "--out", str(cut)]).exit_code == 0
+    assert invoke(["run", "--data-root", str(cut / "data"), "--maps-root", str(cut / "maps"), "--workers", "1",
+                   "--quiet", "--out", str(tmp_path / "out")]).exit_code == 0

@@ -15,6 +15,7 @@ from ..errors import ConfigError, InputError
 from ..geometry import EffectiveGeometry, check_map_shape
 from ..maps import map_size, required_paths
 from ..model import Clip, Dataset
+from ..output import incomplete_folder_holding
 from ..wording import counted
 from .one_clip import effective_geometry, frame_map_path
 from .records import RunContext, lane_files_of
@@ -190,6 +191,11 @@ def _maps_root(config: EvalConfig) -> Path:
     maps_root = Path(config.maps.root)
     if not maps_root.is_dir():
         raise InputError(maps_root, "maps root not found")
+    for root in (Path(config.dataset.data_root), maps_root):
+        cut_short = incomplete_folder_holding(root)
+        if cut_short is not None:  # a killed synth's new data/ beside its old maps/ scored without a word
+            raise InputError(cut_short, "its content is incomplete (a command was killed while putting it in "
+                                        "place): run that command again into this folder")
     if config.maps.format == "lanes" and lane_files_of(config) is None:
         raise ConfigError(f"--maps-format lanes: benchmark {config.dataset.name!r} declares no format for a "
                           "detector's lane files")
