@@ -482,10 +482,11 @@ def _text_member_archive(path: Path) -> None:
     (_text_member_archive, "its member probs.npy is not a .npy array"),
     # np.load returned the array, which `with` refused (TypeError: ... context manager protocol)
     (lambda path: path.write_bytes(_npy_bytes(np.zeros((4, 8, 8), np.uint8))),
-     "is a .npy array, not an .npz archive (use --maps-format npy)"),
+     "is a .npy array under an .npz name: save it as .npy (and use --maps-format npy)"),
     # np.load took it for a pickle and advised loading it unsafely (allow_pickle=)
     (lambda path: path.write_text("some text\n"), "not an .npz archive (it does not start as a zip archive does)"),
-], ids=["text member", "npy array", "text"])
+    (lambda path: path.write_text("PKhello"), "not an .npz archive (it does not start as a zip archive does)"),
+], ids=["text member", "npy array", "text", "PK text"])
 def test_an_npz_that_is_no_archive_of_arrays_is_one_line_in_the_run_and_its_dry_run(tmp_path, damage, said):
     made = synth_culane(tmp_path / "set", clips=1, frames=3, seed=1, maps_format="npz")
     first = sorted(made.maps_root.rglob("*.npz"))[0]
