@@ -182,11 +182,12 @@ class OutputFolder:
             self.path.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
+        locked_before = os.path.lexists(self.path / LOCK)  # a command killed here left its lock file
         self._take_lock()
         try:
             cut_short = read_journal(self.path)
             self.incomplete = cut_short is not None
-            self._check_ownership(cut_short)
+            self._check_ownership(cut_short, locked_before)
             self._remove_leftovers()
         except BaseException:
             self._release_lock()
@@ -288,14 +289,18 @@ class OutputFolder:
             if entry.name.startswith((STAGING_PREFIX, TRASH_PREFIX)):
                 _remove(entry)
 
-    def _check_ownership(self, plan: dict | None) -> None:
+    def _check_ownership(self, plan: dict | None, locked_before: bool = False) -> None:
         manifest = read_manifest(self.path)
         listed = set(manifest["entries"]) if manifest is not None else set()
         if plan is not None:  # a cut-short commit: its entries are the tool's too
             listed |= set(plan["entries"]) | set(plan["old"])
+        # Staging and trash names are the tool's only in a folder it has written to: a user's own
+        # `.staging-mine` in a folder with none of its marks was taken for a leftover and deleted.
+        ours = manifest is not None or plan is not None or locked_before
         foreign, nested = [], []
         for entry in self.path.iterdir():
-            if is_own_entry(entry.name) or entry.name in listed:
+            leftover = entry.name.startswith((STAGING_PREFIX, TRASH_PREFIX))
+            if entry.name in listed or (is_own_entry(entry.name) and (ours or not leftover)):
                 continue
             if self._is_nested(entry):
                 nested.append(entry.name)

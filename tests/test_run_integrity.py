@@ -925,3 +925,15 @@ def test_a_run_refuses_a_data_or_maps_root_inside_a_folder_whose_commit_was_cut_
     assert invoke(["synth", "--dataset", "culane", "--clips", "2", "--frames", "3", "--out", str(cut)]).exit_code == 0
     assert invoke(["run", "--data-root", str(cut / "data"), "--maps-root", str(cut / "maps"), "--workers", "1",
                    "--quiet", "--out", str(tmp_path / "out")]).exit_code == 0
+
+
+def test_a_users_folder_named_like_a_leftover_is_foreign_where_the_tool_never_wrote(tmp_path):
+    # `.staging-mine` in a folder with no manifest, journal or lock was taken for a killed
+    # command's staging and deleted with the user's file in it.
+    folder = tmp_path / "u"
+    (folder / ".staging-mine").mkdir(parents=True)
+    (folder / ".staging-mine" / "important").write_text("precious")
+    result = invoke(["synth", "--dataset", "culane", "--clips", "1", "--frames", "2", "--out", str(folder)])
+    assert result.exit_code == 2 and "holds files roneld-eval did not write (.staging-mine)" in result.output
+    assert sorted(p.name for p in folder.iterdir()) == [".staging-mine"]
+    assert (folder / ".staging-mine" / "important").read_text() == "precious"
