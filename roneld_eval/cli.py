@@ -159,12 +159,25 @@ class _Command(click.Group):
                 sys.exit(error.exit_code)
             # One line, as every other error: click's own took three or more (usage, a hint, and
             # the choices of a --dataset one per line).
-            where = error.ctx.command_path if error.ctx is not None else "roneld-eval"
+            where = self._command_path(args[0] if args else kwargs.get("args"), kwargs.get("prog_name"))
             click.echo(f"error: {' '.join(error.format_message().split())} (see {where} --help)", err=True)
             sys.exit(error.exit_code)
         except click.ClickException as error:
             error.show()
             sys.exit(error.exit_code)
+
+
+    def _command_path(self, args, prog_name) -> str:
+        """'roneld-eval score culane' from the command line's leading command names: an option
+        missing its value was raised with its parent group's context, or none."""
+        words, command = [prog_name or "roneld-eval"], self  # type: list[str], click.Command
+        for arg in (sys.argv[1:] if args is None else list(args)):
+            found = command.get_command(click.Context(command), arg) if isinstance(command, click.Group) else None
+            if found is None:
+                break
+            words.append(arg)
+            command = found
+        return " ".join(words)
 
 
 @click.group(cls=_Command, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})

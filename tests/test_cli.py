@@ -46,6 +46,9 @@ def test_every_command_and_option_has_help():
      "Invalid value for '--width': 1 is not in the range 2<=x<=1000. (see roneld-eval score culane --help)"),
     (["synth", "--dataset", "culan"], "'culan' is not one of 'culane', 'curvelanes', 'llamas', 'openlane', "),
     (["runn"], "No such command 'runn'. Did you mean 'run'? (see roneld-eval --help)"),
+    # raised before the command's own context: they named the group's help
+    (["synth", "--dataset", "culane", "--out"], "Option '--out' requires an argument. (see roneld-eval synth --help)"),
+    (["score", "culane", "--width"], "Option '--width' requires an argument. (see roneld-eval score culane --help)"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     result = CliRunner().invoke(main, args + (["--out", str(tmp_path / "out")] if args[0] == "run" else []),
