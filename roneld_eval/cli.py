@@ -166,11 +166,11 @@ class _Command(click.Group):
             error.show()
             sys.exit(error.exit_code)
 
-
     def _command_path(self, args, prog_name) -> str:
         """'roneld-eval score culane' from the command line's leading command names: an option
         missing its value was raised with its parent group's context, or none."""
-        words, command = [prog_name or "roneld-eval"], self  # type: list[str], click.Command
+        words = [prog_name or "roneld-eval"]
+        command: click.Command = self
         for arg in (sys.argv[1:] if args is None else list(args)):
             found = command.get_command(click.Context(command), arg) if isinstance(command, click.Group) else None
             if found is None:

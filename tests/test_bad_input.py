@@ -367,12 +367,17 @@ def test_a_size_limit_can_be_raised_and_a_bad_one_is_named(sets, monkeypatch):
     assert result.exit_code == 0, result.output
 
 
-def test_a_lane_file_of_too_many_lanes_is_refused_and_the_bound_can_be_raised(tmp_path, monkeypatch):
-    # 90,000 two-point lanes in 2 MB, well under the 16 MiB size bound, took 1.1 GB and 4 s for one frame.
+def _one_frame_of_1001_lanes(tmp_path: Path) -> None:
+    """A CULane set of one frame (gt/, list.txt) whose prediction (pred/) holds 1,001 lanes."""
     for folder, text in (("gt", "100 580 200 400 300 300\n"), ("pred", "100 580 200 400\n" * 1001)):
         (tmp_path / folder / "d").mkdir(parents=True)
         (tmp_path / folder / "d" / "f.lines.txt").write_text(text)
     (tmp_path / "list.txt").write_text("d/f.jpg\n")
+
+
+def test_a_lane_file_of_too_many_lanes_is_refused_and_the_bound_can_be_raised(tmp_path, monkeypatch):
+    # 90,000 two-point lanes in 2 MB, well under the 16 MiB size bound, took 1.1 GB and 4 s for one frame.
+    _one_frame_of_1001_lanes(tmp_path)
     args = ["score", "culane", "--data-root", str(tmp_path / "gt"), "--pred-root", str(tmp_path / "pred"),
             "--list", str(tmp_path / "list.txt"), "--quiet", "--out", str(tmp_path / "out")]
     result = CliRunner().invoke(main, args)
@@ -393,10 +398,7 @@ def test_a_lane_file_of_too_many_lanes_is_refused_and_the_bound_can_be_raised(tm
 
 def test_a_command_that_fails_into_a_new_nested_folder_leaves_none_of_it(tmp_path):
     # `--out parts/1 --shard 1/2` left parts/ behind: only the folder itself was removed.
-    for folder, text in (("gt", "100 580 200 400 300 300\n"), ("pred", "100 580 200 400\n" * 1001)):
-        (tmp_path / folder / "d").mkdir(parents=True)
-        (tmp_path / folder / "d" / "f.lines.txt").write_text(text)
-    (tmp_path / "list.txt").write_text("d/f.jpg\n")
+    _one_frame_of_1001_lanes(tmp_path)
     (tmp_path / "kept").mkdir()
     (tmp_path / "empty").mkdir()  # given as --out itself: a folder the user made is never removed
     for out in (tmp_path / "parts" / "1", tmp_path / "kept" / "a" / "b", tmp_path / "empty",

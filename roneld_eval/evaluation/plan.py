@@ -162,6 +162,8 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
     With a `shard` (shards.Shard) only its share of the dataset's clips is planned; the plan's
     dataset stays whole."""
     maps_root = _maps_root(config)
+    assert config.dataset.data_root is not None  # _maps_root refuses a run without one
+    _refuse_cut_short(Path(config.dataset.data_root), maps_root)
     skipped: list[str] = []
     if dataset is None:
         dataset = _read(config, skipped)
@@ -191,15 +193,20 @@ def _maps_root(config: EvalConfig) -> Path:
     maps_root = Path(config.maps.root)
     if not maps_root.is_dir():
         raise InputError(maps_root, "maps root not found")
-    for root in (Path(config.dataset.data_root), maps_root):
-        cut_short = incomplete_folder_holding(root)
-        if cut_short is not None:  # a killed synth's new data/ beside its old maps/ scored without a word
-            raise InputError(cut_short, "its content is incomplete (a command was killed while putting it in "
-                                        "place): run that command again into this folder")
     if config.maps.format == "lanes" and lane_files_of(config) is None:
         raise ConfigError(f"--maps-format lanes: benchmark {config.dataset.name!r} declares no format for a "
                           "detector's lane files")
     return maps_root
+
+
+def _refuse_cut_short(*roots: Path) -> None:
+    """Stop where a root lies in a folder whose commit was cut short: a killed synth's new data/
+    beside its old maps/ was scored without a word."""
+    for root in roots:
+        cut_short = incomplete_folder_holding(root)
+        if cut_short is not None:
+            raise InputError(cut_short, "its content is incomplete (a command was killed while putting it in "
+                                        "place): run that command again into this folder")
 
 
 def _share(dataset: Dataset, shard) -> Dataset:

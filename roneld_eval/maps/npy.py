@@ -199,7 +199,7 @@ def _check_archive_start(path: Path) -> None:
     (not an archive), and takes any other file for a pickle, advising to load it unsafely."""
     with open(path, "rb") as handle:
         start = handle.read(6)
-    if start == b"\x93NUMPY":  # the other format's name would not find it: it is the name that is wrong
+    if start == b"\x93NUMPY":  # --maps-format npy looks for .npy names: the file must be renamed too
         raise InputError(path, "is a .npy array under an .npz name: save it as .npy (and use --maps-format npy)")
     if not start.startswith((b"PK\x03\x04", b"PK\x05\x06")):  # a zip's first member, or an empty zip
         raise InputError(path, "not an .npz archive (it does not start as a zip archive does)")
