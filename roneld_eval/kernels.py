@@ -66,14 +66,14 @@ _TABLES = frozenset({"tables"})
 # machine this is developed on; the first step of a process includes numba's own start) decide
 # the order in which processes take the steps up (in_order).
 STEPS = (
-    Step("raster tables", _TABLES, ("short_quad_extras", "step_extras", "clip_extras"), seconds=5.6),
-    Step("lane runs", _CALLEES, ("rasterise_runs",), seconds=12.7),
-    Step("lane pixels", _CALLEES, ("official_pixels", "map_spline_pixels"), seconds=3.4),
+    Step("raster tables", _TABLES, ("step_extras", "clip_extras"), seconds=5.3),
+    Step("lane runs", _CALLEES, ("polyline_runs",), seconds=7.0),
+    Step("lane pixels", _CALLEES, ("official_pixels", "map_spline_pixels"), seconds=2.9),
     Step("lane sets", frozenset({"official", "paper"}), ("lane_set_runs", "lane_set_ious"),
-         after=("lane runs", "lane pixels"), seconds=3.7),
+         after=("lane runs", "lane pixels"), seconds=2.4),
     Step("overlaps", _TABLES, ("overlap", "run_overlap"), seconds=0.6),
-    Step("matching", frozenset({"official"}), ("matched_ious",), seconds=1.5),
-    Step("roneld", frozenset({"roneld"}), ("frame_lanes", "track_lanes", "choose_active"), seconds=6.7),
+    Step("matching", frozenset({"official"}), ("matched_ious",), seconds=1.2),
+    Step("roneld", frozenset({"roneld"}), ("frame_lanes", "track_lanes", "choose_active"), seconds=4.6),
     Step("baseline", frozenset({"baseline"}), ("row_argmax",), seconds=0.2),
     Step("maps", frozenset({"maps"}), ("unfilter_grey",), seconds=0.7),
 )

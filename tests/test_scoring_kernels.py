@@ -112,16 +112,48 @@ def test_set_ious_by_hand():
     assert drawn.meta[2, 3] == 0 and drawn.drawn(2) and not drawn.drawn(1)
 
 
+# Lanes that polyline_runs leaves to the canvas: a point far outside the image, and a comb whose
+# rows each cross more runs than a row holds.
+FAR = Lane.from_xy([800, 3e7], [589, 300])
+COMB = Lane.from_xy([100 + 60 * k for k in range(20)], [100, 200] * 10)
+
+
 def test_lane_set_runs_py_func():
     lanes = [Lane.from_xy([700, 760, 800, 815], [589, 450, 330, 260]), Lane.from_xy([0, 5], [0, 0]),
-             Lane.from_xy([100, 1700], [600, 100])]
+             Lane.from_xy([100, 1700], [600, 100]), FAR, COMB]
     points = np.concatenate([lane.points for lane in lanes])
-    starts = np.array([0, 4, 6, 8], np.int64)
+    starts = np.array([0, 4, 6, 8, 10, 30], np.int64)
     for official in (True, False):
-        args = (points, starts, official, True, 2.05, 2.0486, 0.0, False, 16, 800 if not official else 1640,
-                288 if not official else 590, *_quad_extras(16), *_step_extras(16))
-        for got, expected in zip(K.lane_set_runs.py_func(*args), K.lane_set_runs(*args)):
-            np.testing.assert_array_equal(got, expected)
+        args = (points, starts, official, False, 2.05, 2.0486, 0.0, False, 2, 800 if not official else 1640,
+                288 if not official else 590, *_step_extras(2))
+        expected = K.lane_set_runs(*args)
+        for got, same in zip(K.lane_set_runs.py_func(*args), expected):
+            np.testing.assert_array_equal(got, same)
+        assert expected[3].tolist() == [False, False, False, True, True]  # by_canvas
+        assert not expected[0][3:, 4].any()  # left for the caller to draw
+
+
+@pytest.mark.parametrize("thickness", [2, 30])
+def test_lanes_only_the_canvas_draws_are_packed_in_among_the_others(thickness):
+    # LaneRuns.packed draws them through the canvas; every mask and IoU is the canvas's, and the
+    # packing is lane_set_runs' own (rows in lane order, as many slots as the fullest row needs).
+    lanes = [Lane.from_xy([700, 760, 800, 815], [589, 450, 330, 260]), COMB, Lane.from_xy([5], [5]), FAR,
+             Lane.from_xy([-900, -800], [100, 200]), Lane.from_xy([650, 790], [589, 270])]
+    for drawn, reference in (
+            (official_mask_set(lanes, 1640, 590, thickness), official_mask_set_by_canvas(lanes, 1640, 590, thickness)),
+            (map_mask_set(lanes, GEOMETRY, thickness), map_mask_set_by_canvas(lanes, GEOMETRY, thickness))):
+        assert isinstance(drawn, LaneRuns)
+        np.testing.assert_array_equal(drawn.ious(drawn), reference.ious(reference))
+        first = 0
+        for i in range(len(lanes)):
+            assert drawn.drawn(i) == reference.drawn(i)
+            if drawn.drawn(i):
+                assert_same_mask(drawn.mask(i), reference.mask(i))
+                assert drawn.meta[i, 1] == first
+                first += drawn.meta[i, 2]
+        assert first == drawn.lo.shape[0] == drawn.hi.shape[0]
+        runs_per_row = [int(((drawn.hi[r] >= drawn.lo[r])).sum()) for r in range(first)]
+        assert drawn.lo.shape[1] == max(runs_per_row) > 8  # the comb's rows: more than polyline_runs holds
 
 
 # ---- the official matching -------------------------------------------------------------------------

@@ -178,6 +178,31 @@ def test_groups_follow_the_methods_and_the_dataset():
         kernels.warm_up(["roneld", "sideways"])
 
 
+_CANVAS_COMPILED = """
+from roneld_eval import api, evaluate
+from roneld_eval.metrics import _kernels
+from roneld_eval.metrics.raster import official_mask_set
+from roneld_eval.model import Lane
+for dataset in ("culane", "tusimple"):
+    evaluate(api.with_fixture(api.default_config(dataset).with_overrides(pft_ablation=True, workers=1)),
+             progress=False)
+canvas = (_kernels.short_quad_extras, _kernels.official_lane_runs)
+print([len(kernel.signatures) for kernel in canvas])
+comb = Lane.from_xy([100 + 60 * k for k in range(20)], [100, 200] * 10)  # rows of more runs than a row holds
+official_mask_set([comb], 1640, 590, 2)
+print([len(kernel.signatures) for kernel in canvas])
+"""
+
+
+def test_a_run_compiles_the_canvas_only_where_a_lane_needs_it(tmp_path):
+    # About a fifth of a first run's compile: no lane of the fixtures or of real CULane labels needs it.
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
+    done = subprocess.run([sys.executable, "-c", _CANVAS_COMPILED], env=env, capture_output=True, text=True,
+                          timeout=600, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[:2] == ["[0, 0]", "[1, 1]"]
+
+
 _MAIN_PROCESS_KERNELS = """
 import sys
 from roneld_eval import api
@@ -457,7 +482,7 @@ def test_the_callees_compiled_first_are_those_their_callers_use(tmp_path, warm):
                           timeout=600, cwd=REPO)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split("\n")[:-1] == [f"{name} 1 True" for name in
-                                             ("rasterise_runs", "official_pixels", "map_spline_pixels")]
+                                             ("polyline_runs", "official_pixels", "map_spline_pixels")]
 
 
 def test_every_kernel_is_listed():

@@ -4,7 +4,8 @@ Two uses: the official CULane protocol (full image, float32 points as the C++ ev
 them, its spline for 3+ points, thickness 30) and the RONELD paper's protocol (map
 resolution, lanes scaled from image to map pixels, thickness from `PaperMetricParams`).
 Both give exactly the pixels of the same rasteriser (`_kernels.rasterise`, a canvas), held as
-runs per row (`_kernels.rasterise_runs`): IoUs then cost a step per row. No thresholds here.
+runs per row (`_kernels.polyline_runs`, the canvas only where a lane needs it): IoUs then cost
+a step per row. No thresholds here.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 from itertools import accumulate
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -190,6 +191,39 @@ class LaneRuns:
     def __len__(self) -> int:
         return int(self.meta.shape[0])
 
+    @classmethod
+    def packed(cls, meta: np.ndarray, lo: np.ndarray, hi: np.ndarray, by_canvas: np.ndarray,
+               draw: Callable[[int], tuple]) -> "LaneRuns":
+        """lane_set_runs' (meta, lo, hi) with the lanes it left to the canvas (`by_canvas`) packed in
+        as it packs the others: `draw(i)` gives lane i's runs, (x0, y0, x1, lo, hi, area), from the
+        one-lane kernel whose runs fall back to the canvas (compiled where first needed)."""
+        if not by_canvas.any():
+            return cls(meta, lo, hi)
+        meta = meta.copy()
+        blocks = []
+        total = 0
+        for i in range(len(meta)):
+            if by_canvas[i]:
+                x0, y0, x1, lane_lo, lane_hi, area = draw(i)
+                meta[i] = (y0, total, lane_lo.shape[0], area, 1, x0, x1)
+            elif meta[i, 4]:
+                first, rows = int(meta[i, 1]), int(meta[i, 2])
+                lane_lo, lane_hi = lo[first:first + rows], hi[first:first + rows]
+                meta[i, 1] = total
+            else:
+                continue
+            blocks.append((lane_lo, lane_hi))
+            total += lane_lo.shape[0]
+        slots = max([lo.shape[1]] + [block_lo.shape[1] for block_lo, _ in blocks])
+        packed_lo = np.full((total, slots), _kernels.EMPTY_LO, np.int64)
+        packed_hi = np.full((total, slots), _kernels.EMPTY_HI, np.int64)
+        first = 0
+        for block_lo, block_hi in blocks:
+            packed_lo[first:first + len(block_lo), :block_lo.shape[1]] = block_lo
+            packed_hi[first:first + len(block_hi), :block_hi.shape[1]] = block_hi
+            first += len(block_lo)
+        return cls(meta, packed_lo, packed_hi)
+
     def drawn(self, i: int) -> bool:
         return bool(self.meta[i, 4])
 
@@ -247,11 +281,12 @@ _NO_POINTS = np.zeros((0, 2), np.float64)
 
 def official_mask_set(lanes: Sequence[Lane], width: int, height: int, thickness: int) -> MaskSet:
     """official_mask of every lane, in one kernel call (a lane of < 2 points: not drawn)."""
-    thickness = int(thickness)
+    thickness, width, height = int(thickness), int(width), int(height)
     points, starts = _lane_set(lanes)
-    meta, lo, hi = _kernels.lane_set_runs(points, starts, True, False, 1.0, 1.0, 0.0, False, thickness, int(width),
-                                          int(height), *_quad_extras(thickness), *_step_extras(thickness))
-    return LaneRuns(meta, lo, hi)
+    drawn = _kernels.lane_set_runs(points, starts, True, False, 1.0, 1.0, 0.0, False, thickness, width, height,
+                                   *_step_extras(thickness))
+    return LaneRuns.packed(*drawn, lambda i: _kernels.official_lane_runs(
+        points[starts[i]:starts[i + 1]], width, height, thickness, *_quad_extras(thickness), *_step_extras(thickness)))
 
 
 def map_mask_set(lanes: Sequence[Lane | None], geometry: MapGeometry, thickness: int, spline: bool = False,
@@ -261,12 +296,11 @@ def map_mask_set(lanes: Sequence[Lane | None], geometry: MapGeometry, thickness:
         raise ValueError(f"rounding must be 'nearest' or 'truncate', got {rounding!r}")
     thickness = int(thickness)
     points, starts = _lane_set(lanes)
-    meta, lo, hi = _kernels.lane_set_runs(
-        points, starts, False, bool(spline), float(geometry.scale_x), float(geometry.scale_y),
-        float(geometry.crop_top_px), rounding == "truncate", thickness, int(geometry.map_width),
-        int(geometry.map_height), *_quad_extras(thickness), *_step_extras(thickness),
-    )
-    return LaneRuns(meta, lo, hi)
+    drawing = (bool(spline), float(geometry.scale_x), float(geometry.scale_y), float(geometry.crop_top_px),
+               rounding == "truncate", thickness, int(geometry.map_width), int(geometry.map_height))
+    drawn = _kernels.lane_set_runs(points, starts, False, *drawing, *_step_extras(thickness))
+    return LaneRuns.packed(*drawn, lambda i: _kernels.map_lane_runs(
+        points[starts[i]:starts[i + 1]], *drawing, *_quad_extras(thickness), *_step_extras(thickness)))
 
 
 def official_mask_set_by_canvas(lanes: Sequence[Lane], width: int, height: int, thickness: int) -> MaskList:

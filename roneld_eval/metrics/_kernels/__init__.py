@@ -51,6 +51,8 @@ from .run_tables import (  # noqa: F401
     _clipped_edge,
 )
 from .runs import (  # noqa: F401
+    EMPTY_LO,
+    EMPTY_HI,
     polyline_runs,
     canvas_runs,
     rasterise_runs,
@@ -88,13 +90,14 @@ _TABLES = (_TABLE, _COUNTS, _TABLE, _COUNTS)  # short_quad_extras(thickness)
 # step_extras(thickness, STEP_REACH) and clip_extras(thickness) (raster._step_extras)
 _STEPS = (_TABLE, _COUNTS, types.Array(types.int64, 2, "C"), types.Array(types.int64, 5, "C"), _TABLE)
 # raster.official_mask_set and map_mask_set (the lanes' points end to end, and where each starts)
-_LANE_SET = (types.Array(types.float64, 2, "C"), _COUNTS, _B, _B, _F, _F, _F, _B, _I, _I, _I) + _TABLES + _STEPS
+_LANE_SET = (types.Array(types.float64, 2, "C"), _COUNTS, _B, _B, _F, _F, _F, _B, _I, _I, _I) + _STEPS
 _SET_IOUS = (_RUNS, _RUNS, _RUNS, _RUNS, _RUNS, _RUNS)  # LaneRuns.ious: (meta, lo, hi) of each set
 
 ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
-    # raster's tables (_quad_extras, _step_extras) and LaneMask.intersection: every protocol needs them
+    # raster's tables (_step_extras) and LaneMask.intersection: every protocol needs them. The
+    # canvas's (short_quad_extras, raster._quad_extras) are compiled only where a lane needs the
+    # canvas (LaneRuns.packed), which a real lane hardly ever does.
     "tables": [
-        (short_quad_extras, (_I,)),
         (step_extras, (_I, _I)),
         (clip_extras, (_I,)),
         (overlap, (_I, _I, _MASK, _I, _I, _MASK)),
@@ -115,7 +118,7 @@ ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
 _LANE = types.Array(types.float64, 2, "C")  # lane_set_runs' points[starts[i]:starts[i + 1]]
 _PIXELS = types.Array(types.int64, 1, "C")
 CALLEE_SIGNATURES: list[tuple[Any, tuple]] = [
-    (rasterise_runs, (_PIXELS, _PIXELS, _I, _I, _I) + _TABLES + _STEPS),
+    (polyline_runs, (_PIXELS, _PIXELS, _I, _I, _I) + _STEPS),
     (official_pixels, (_LANE,)),
     (map_spline_pixels, (_LANE, _B, _F, _F, _F, _B)),
 ]

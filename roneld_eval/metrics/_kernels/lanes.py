@@ -9,7 +9,7 @@ import numpy as np
 from ..._numba_cache import cached_njit
 from .canvas import rasterise_with_area
 from .cxx import SPLINE_SAMPLES
-from .runs import _EMPTY_HI, _EMPTY_LO, rasterise_runs
+from .runs import EMPTY_HI, EMPTY_LO, polyline_runs, rasterise_runs
 from .spline import _SPLINE_SLACK, _cubic, _round_float32, _spline_moments, official_spline, official_spline_pixels
 
 
@@ -200,18 +200,21 @@ _SET_Y0, _SET_FIRST, _SET_ROWS, _SET_AREA, _SET_DRAWN, _SET_X0, _SET_X1 = range(
 
 @cached_njit(nogil=True, error_model="numpy")
 def lane_set_runs(points, starts, official, spline, scale_x, scale_y, offset_y, truncate, thickness, width, height,
-                  extras, extra_counts, crescents, crescent_counts, step_runs, step_counts, step_info, clip_runs,
-                  clip_counts):
-    """(meta, lo, hi): the masks of lanes points[starts[i]:starts[i + 1]], as runs per row, packed.
+                  step_runs, step_counts, step_info, clip_runs, clip_counts):
+    """(meta, lo, hi, by_canvas): the masks of lanes points[starts[i]:starts[i + 1]], as runs per
+    row, packed; by_canvas[i] for a lane that only the canvas draws (polyline_runs: far points, or
+    a row of many runs), left out here for the caller to draw and pack in (raster.LaneRuns.packed).
 
-    Each lane of 2+ points is official_lane_runs' mask (`official`) or map_lane_runs' (with
+    Each other lane of 2+ points is official_lane_runs' mask (`official`) or map_lane_runs' (with
     spline .. truncate); a lane of fewer points is not drawn. meta[i] = (y0, first, rows, area,
     drawn, x0, x1): the lane's rows y0 .. y0 + rows - 1 are rows first .. first + rows - 1 of lo
     and hi, whose columns are as many as the fullest row of any lane needs (unused slots (1, 0));
-    x0, x1 are the one-lane kernel's box.
+    x0, x1 are the one-lane kernel's box. The canvas, rare in real lanes, is not compiled into
+    this kernel: a first run compiles it only where a lane needs it.
     """
     n = starts.size - 1
     meta = np.zeros((n, 7), np.int64)
+    by_canvas = np.zeros(n, np.bool_)
     none = np.empty((0, 1), np.int64)
     los = [none for _ in range(n)]
     his = [none for _ in range(n)]
@@ -225,9 +228,11 @@ def lane_set_runs(points, starts, official, spline, scale_x, scale_y, offset_y, 
             px, py = official_pixels(lane)
         else:
             px, py = map_spline_pixels(lane, spline, scale_x, scale_y, offset_y, truncate)
-        x0, y0, x1, lo, hi, area = rasterise_runs(px, py, thickness, width, height, extras, extra_counts, crescents,
-                                                  crescent_counts, step_runs, step_counts, step_info, clip_runs,
-                                                  clip_counts)
+        ok, x0, y0, x1, lo, hi, area = polyline_runs(px, py, thickness, width, height, step_runs, step_counts,
+                                                     step_info, clip_runs, clip_counts)
+        if not ok:
+            by_canvas[i] = True
+            continue
         los[i] = lo
         his[i] = hi
         meta[i, _SET_Y0] = y0
@@ -239,8 +244,8 @@ def lane_set_runs(points, starts, official, spline, scale_x, scale_y, offset_y, 
         meta[i, _SET_X1] = x1
         total += lo.shape[0]
         slots = max(slots, lo.shape[1])
-    lo_all = np.full((total, slots), _EMPTY_LO, np.int64)
-    hi_all = np.full((total, slots), _EMPTY_HI, np.int64)
+    lo_all = np.full((total, slots), EMPTY_LO, np.int64)
+    hi_all = np.full((total, slots), EMPTY_HI, np.int64)
     for i in range(n):
         first = meta[i, _SET_FIRST]
         lo = los[i]
@@ -249,7 +254,7 @@ def lane_set_runs(points, starts, official, spline, scale_x, scale_y, offset_y, 
             for k in range(lo.shape[1]):
                 lo_all[first + r, k] = lo[r, k]
                 hi_all[first + r, k] = hi[r, k]
-    return meta, lo_all, hi_all
+    return meta, lo_all, hi_all, by_canvas
 
 
 @cached_njit(nogil=True)

@@ -24,8 +24,8 @@ from .run_tables import STEP_REACH, _clipped_edge, _quad_unclipped
 # passes arrays costs more than the work itself.
 
 _RUN_SLOTS = 8  # runs a row may hold while pieces are added; more sends the lane to the canvas
-_EMPTY_LO = 1  # an unused run slot in a finished mask is (1, 0): it overlaps nothing
-_EMPTY_HI = 0
+EMPTY_LO = 1  # an unused run slot in a finished mask is (1, 0): it overlaps nothing
+EMPTY_HI = 0
 
 
 @cached_njit(nogil=True)
@@ -166,7 +166,8 @@ def polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts, step
 
     (x0, y0, x1) and the rows are rasterise()'s canvas box; lo[r, k]..hi[r, k] (image x) are
     the runs of image row y0 + r, unused slots (1, 0). ok is False (the rest meaningless) for
-    fewer than 2 points, far points, an empty box, or a row of more than _RUN_SLOTS runs.
+    far points or a row of more than _RUN_SLOTS runs, which only the canvas draws (rasterise_runs).
+    Fewer than 2 points or an empty box draw nothing, as rasterise() draws them: x0 = y0 = x1 = 0, no rows.
     `step_runs` .. `step_info`: step_extras(thickness, STEP_REACH); `clip_runs`, `clip_counts`:
     clip_extras(thickness).
 
@@ -184,7 +185,7 @@ def polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts, step
     n = xs.size
     none = np.empty((0, 1), np.int64)
     if n < 2:
-        return False, 0, 0, 0, none, none, 0
+        return True, 0, 0, 0, none, none, 0
     clip_reach = (clip_runs.shape[2] - 1) // 2
     x_low, x_high = _low_high(xs)
     y_low, y_high = _low_high(ys)
@@ -192,7 +193,7 @@ def polyline_runs(xs, ys, thickness, width, height, step_runs, step_counts, step
         return False, 0, 0, 0, none, none, 0
     x0, y0, x1, y1 = polyline_box(xs, ys, thickness, width, height)
     if x1 <= x0 or y1 <= y0:
-        return False, 0, 0, 0, none, none, 0
+        return True, 0, 0, 0, none, none, 0
     rows = y1 - y0
     radius = ((np.int64(thickness) << (XY_SHIFT - 1)) + HALF) >> XY_SHIFT
     half = disc_half_widths(radius)
@@ -336,8 +337,8 @@ def _finish_runs(lo, hi, counts):
     most = 1
     for r in range(counts.size):
         most = max(most, counts[r])
-    first = np.full((counts.size, most), _EMPTY_LO, np.int64)
-    last = np.full((counts.size, most), _EMPTY_HI, np.int64)
+    first = np.full((counts.size, most), EMPTY_LO, np.int64)
+    last = np.full((counts.size, most), EMPTY_HI, np.int64)
     area = np.int64(0)
     for r in range(counts.size):
         for k in range(counts[r]):
@@ -361,8 +362,8 @@ def canvas_runs(canvas):
                 found += 1
             previous = canvas[r, c]
         most = max(most, found)
-    lo = np.full((rows, most), _EMPTY_LO, np.int64)
-    hi = np.full((rows, most), _EMPTY_HI, np.int64)
+    lo = np.full((rows, most), EMPTY_LO, np.int64)
+    hi = np.full((rows, most), EMPTY_HI, np.int64)
     area = np.int64(0)
     for r in range(rows):
         k = 0
