@@ -283,9 +283,9 @@ def official_mask_set(lanes: Sequence[Lane], width: int, height: int, thickness:
     """official_mask of every lane, in one kernel call (a lane of < 2 points: not drawn)."""
     thickness, width, height = int(thickness), int(width), int(height)
     points, starts = _lane_set(lanes)
-    drawn = _kernels.lane_set_runs(points, starts, True, False, 1.0, 1.0, 0.0, False, thickness, width, height,
-                                   *_step_extras(thickness))
-    return LaneRuns.packed(*drawn, lambda i: _kernels.official_lane_runs(
+    meta, lo, hi, by_canvas = _kernels.lane_set_runs(points, starts, True, False, 1.0, 1.0, 0.0, False, thickness,
+                                                     width, height, *_step_extras(thickness))
+    return LaneRuns.packed(meta, lo, hi, by_canvas, lambda i: _kernels.official_lane_runs(
         points[starts[i]:starts[i + 1]], width, height, thickness, *_quad_extras(thickness), *_step_extras(thickness)))
 
 
@@ -298,8 +298,8 @@ def map_mask_set(lanes: Sequence[Lane | None], geometry: MapGeometry, thickness:
     points, starts = _lane_set(lanes)
     drawing = (bool(spline), float(geometry.scale_x), float(geometry.scale_y), float(geometry.crop_top_px),
                rounding == "truncate", thickness, int(geometry.map_width), int(geometry.map_height))
-    drawn = _kernels.lane_set_runs(points, starts, False, *drawing, *_step_extras(thickness))
-    return LaneRuns.packed(*drawn, lambda i: _kernels.map_lane_runs(
+    meta, lo, hi, by_canvas = _kernels.lane_set_runs(points, starts, False, *drawing, *_step_extras(thickness))
+    return LaneRuns.packed(meta, lo, hi, by_canvas, lambda i: _kernels.map_lane_runs(
         points[starts[i]:starts[i + 1]], *drawing, *_quad_extras(thickness), *_step_extras(thickness)))
 
 
