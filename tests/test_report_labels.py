@@ -386,3 +386,44 @@ def test_a_runtime_mean_above_its_95th_percentile_is_explained(tmp_path):
     write_report(result, tmp_path / "again")
     text = (tmp_path / "again" / "runtime.md").read_text()
     assert f"A mean above its 95th percentile ({skewed.loc[0, 'method']})" in text and "the median is" in text
+
+
+@pytest.mark.parametrize("names", [["normal", "all"], ["a", "a category named at some length", "night"]])
+def test_the_figures_text_lies_inside_them_and_apart(names, fixture_result):
+    # Their axes are placed by margins computed from the labels (not measured by drawing, as
+    # tight_layout did): every text must still fit on the canvas, tick labels clear of the axis
+    # labels and of the note beneath.
+    import matplotlib.pyplot as plt
+    from matplotlib.text import Text
+
+    protocol = tables.Protocol(ENET_GEOMETRY, clips=4)
+    rows = [(name, method) for name in names for method in ("baseline", "roneld")]
+    categories = pd.DataFrame({"category": [n for n, _ in rows], "method": [m for _, m in rows],
+                               "accuracy": [0.5] * len(rows)})
+    official = pd.DataFrame({"category": [n for n, _ in rows], "method": [m for _, m in rows], "f1": [0.6] * len(rows)})
+    panel = benchmark_for("culane").category_panel(official, protocol)
+    for figure in (accuracy_figure(fixture_result.accuracy, "SCNN", "culane", protocol),
+                   category_figure(categories, panel, "SCNN", "0.5", protocol)):
+        figure.canvas.draw()
+        renderer = figure.canvas.get_renderer()
+        canvas = figure.bbox
+        shown = {id(label) for axes in figure.axes for label, lo_hi, at in
+                 [(label, axes.get_xlim(), label.get_position()[0]) for label in axes.get_xticklabels()]
+                 + [(label, axes.get_ylim(), label.get_position()[1]) for label in axes.get_yticklabels()]
+                 if min(lo_hi) <= at <= max(lo_hi)}  # matplotlib keeps, undrawn, labels of ticks beyond the axes
+        ticks = [label for axes in figure.axes for label in axes.get_xticklabels() + axes.get_yticklabels()
+                 if label.get_text() and id(label) in shown]
+        texts = [text for text in figure.findobj(Text) if text.get_visible() and text.get_text()
+                 and (id(text) in shown or text not in [t for a in figure.axes for t in a.get_xticklabels()
+                                                         + a.get_yticklabels()])]
+        boxes = {id(text): text.get_window_extent(renderer) for text in texts}
+        for text in texts:
+            box = boxes[id(text)]
+            assert canvas.x0 <= box.x0 and box.x1 <= canvas.x1 and canvas.y0 <= box.y0 and box.y1 <= canvas.y1, \
+                text.get_text()
+        others = [text for text in texts if text not in ticks and text.get_text() not in ("",)]
+        for label in ticks:
+            for other in others:
+                if other.axes is None or other in (other.axes.xaxis.label, other.axes.yaxis.label):
+                    assert not boxes[id(label)].overlaps(boxes[id(other)]), (label.get_text(), other.get_text())
+        plt.close(figure)
