@@ -186,7 +186,7 @@ from roneld_eval.model import Lane
 for dataset in ("culane", "tusimple"):
     evaluate(api.with_fixture(api.default_config(dataset).with_overrides(pft_ablation=True, workers=1)),
              progress=False)
-canvas = (_kernels.short_quad_extras, _kernels.official_lane_runs)
+canvas = (_kernels.short_quad_extras, _kernels.official_lane_runs, _kernels.map_lane_runs)
 print([len(kernel.signatures) for kernel in canvas])
 comb = Lane.from_xy([100 + 60 * k for k in range(20)], [100, 200] * 10)  # rows of more runs than a row holds
 official_mask_set([comb], 1640, 590, 2)
@@ -200,7 +200,7 @@ def test_a_run_compiles_the_canvas_only_where_a_lane_needs_it(tmp_path):
     done = subprocess.run([sys.executable, "-c", _CANVAS_COMPILED], env=env, capture_output=True, text=True,
                           timeout=600, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split("\n")[:2] == ["[0, 0]", "[1, 1]"]
+    assert done.stdout.split("\n")[:2] == ["[0, 0, 0]", "[1, 1, 0]"]
 
 
 _MAIN_PROCESS_KERNELS = """
