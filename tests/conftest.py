@@ -129,3 +129,9 @@ def culane_set(tmp_path_factory):
                                        "6", "--maps-format", "lanes"])
     assert result.exit_code == 0, result.output
     return out
+
+
+def pytest_collection_modifyitems(items):
+    # The long tests first: spread over pytest-xdist's workers (-n auto), the suite then ends with
+    # short tests on every worker, not with one worker alone on a 40 s test while the others wait.
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)  # stable: the rest keep their order

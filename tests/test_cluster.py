@@ -54,6 +54,7 @@ def test_a_run_on_a_given_scheduler_is_the_run_here_but_for_its_clock(tmp_path):
     assert {"accuracy.csv", "per_frame.csv", "official.csv", "config.toml"} <= set(names)
 
 
+@pytest.mark.long
 def test_vil100_on_dask_merges_its_sequences_as_one_process_scores_them(tmp_path):
     from test_shards import _vil100_set
 

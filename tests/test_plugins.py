@@ -405,6 +405,7 @@ def test_a_plugin_that_ignores_its_alarm_is_stopped_by_the_main_process(dataset,
     assert not out.exists() or not [p.name for p in out.iterdir()]
 
 
+@pytest.mark.long
 def test_ctrl_c_ends_a_run_whose_plugin_swallows_every_signal(dataset, tmp_path):
     # With --workers 1 such a plug-in ran in the main process and the run hung past Ctrl-C.
     import signal

@@ -396,6 +396,7 @@ def test_merged_tusimple_shards_are_the_unsharded_file(tmp_path, count):
     _same_files(whole, merged, {"official.csv"})
 
 
+@pytest.mark.long
 def test_tusimple_shards_of_the_real_labels_merge_to_lane_pys_numbers(shared_data, tmp_path):
     from test_score import real_tusimple_labels
     from tusimple_perturbation import perturbed_predictions

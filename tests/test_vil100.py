@@ -207,6 +207,7 @@ def test_run_on_vil100_without_data_says_what_it_needs():
     assert result.output == "error: VIL-100 has no bundled fixture: give --data-root and --maps-root\n"
 
 
+@pytest.mark.long
 @pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data/vil100")
 def test_the_real_ground_truth_against_itself_scores_one(tmp_path):
     score = score_vil100(SHARED / "anno_txt", {"gt": SHARED / "anno_txt"}, list_file=SHARED / "test.txt",

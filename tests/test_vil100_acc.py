@@ -174,6 +174,7 @@ def _render_masks(labels: Path, out: Path, sizes: dict) -> None:
         cv2.imwrite(str(target), mask)
 
 
+@pytest.mark.long
 @pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data/vil100")
 def test_the_real_ground_truth_as_predictions_scores_as_both_scripts(tmp_path):
     # Values of the scripts run unchanged on these same inputs (the 2,000 test frames): MMA-Net's
