@@ -678,6 +678,19 @@ def test_bad_options_are_one_line(extra, message, runs, tmp_path):
     assert message in result.output and "Traceback" not in result.output
 
 
+def test_two_labels_for_one_run_are_refused_not_the_last_kept(runs, tmp_path):
+    run = runs["cu_enet"]
+    for other in (str(run), f"{run}/."):  # the same folder, spelled alike or not
+        result = CliRunner().invoke(main, ["compare", str(runs["cu_scnn"]), str(run), "--out", str(tmp_path / "out"),
+                                           "--label", f"{run}=ENet-SAD", "--label", f"{other}=ENet"])
+        assert result.exit_code == 2, result.output
+        assert "has the label 'ENet-SAD' already; give each run one --label" in result.output
+        assert not (tmp_path / "out").exists()
+    result = CliRunner().invoke(main, ["compare", str(runs["cu_scnn"]), str(run), "--out", str(tmp_path / "out"),
+                                       "--label", f"{run}=ENet-SAD", "--label", f"{run}/.=ENet-SAD"])
+    assert result.exit_code == 0, result.output  # the same label twice says the same
+
+
 def test_pairs_need_one_run_each_on_the_same_frames(runs, tmp_path):
     with pytest.raises(ConfigError, match="SCNN names 2 runs; name one by its folder"):
         compare([runs["cu_scnn"], runs["cu_scnn_b"]], tmp_path / "out", pairs=["SCNN,SCNN"])

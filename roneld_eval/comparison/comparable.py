@@ -49,6 +49,9 @@ def run_labels(runs: Sequence[str | Path], labels: Mapping[str | Path, str]) -> 
         if not matches:
             raise ConfigError(f"--label {key}={label}: {key} is not one of the run folders compared")
         for k in matches:
+            if chosen.get(k, label.strip()) != label.strip():
+                raise ConfigError(f"--label {key}={label}: {key} has the label {chosen[k]!r} already; give each "
+                                  "run one --label")
             chosen[k] = label.strip()
     return chosen
 
@@ -60,7 +63,11 @@ def parse_label_options(options: Sequence[str], runs: Sequence[str | Path]) -> d
         cuts = [k for k, char in enumerate(option) if char == "="]
         for cut in cuts:  # the first '=' after which the left part names a run folder
             if any(_same_folder(run, option[:cut]) for run in runs):
-                out[option[:cut]] = option[cut + 1:]
+                key, label = option[:cut], option[cut + 1:]
+                if out.get(key, label) != label:  # a dict would keep the last without a word
+                    raise ConfigError(f"--label {option}: {key} has the label {out[key]!r} already; give each "
+                                      "run one --label")
+                out[key] = label
                 break
         else:
             if not cuts:
