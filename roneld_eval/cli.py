@@ -116,6 +116,19 @@ def _announcer(quiet: bool):
 debug_option = click.option("--debug", is_flag=True, help="Show the full traceback of an error.")
 
 
+class _Folder(click.Path):
+    """An output folder. Empty is refused: as a path it is the current folder, where an unset
+    shell variable (--out "$OUT") would write the results without a word."""
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, str) and not value.strip():
+            self.fail("is empty: name a folder (write . for the current one)", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+OUT_FOLDER = _Folder(path_type=Path)
+
+
 def sharding_options(clips: str, verb: str = "Score"):
     """--shard, --executor and --scheduler; `clips` says what a command's whole units are."""
     def decorate(function):
@@ -238,7 +251,7 @@ def main():
 @click.option("--dry-run", is_flag=True,
               help="Only check the dataset's layout and every frame's maps, and say what would be scored and "
                    "at which geometry; evaluate and write nothing (exit 0, or 2 with the problem).")
-@click.option("--out", type=click.Path(path_type=Path), default=Path(DEFAULT_OUT), show_default=True,
+@click.option("--out", type=OUT_FOLDER, default=Path(DEFAULT_OUT), show_default=True,
               help="Folder for the results (the default is ignored by this repository's git, never results/).")
 @sharding_options("clips", verb="Evaluate")
 @click.option("--no-timings", is_flag=True,
@@ -398,7 +411,7 @@ def shard_written(shard: str, out, quiet: bool) -> None:
 
 @main.command()
 @click.argument("parts", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--out", required=True, type=click.Path(path_type=Path),
+@click.option("--out", required=True, type=OUT_FOLDER,
               help="Folder for the merged results: what the command would have written unsharded.")
 @debug_option
 def merge(parts, out, debug):
@@ -418,7 +431,7 @@ def merge(parts, out, debug):
 
 @main.command()
 @click.option("--dataset", required=True, type=click.Choice(benchmark_names()), help="Layout to generate.")
-@click.option("--out", required=True, type=click.Path(path_type=Path),
+@click.option("--out", required=True, type=OUT_FOLDER,
               help="Folder to write: OUT/data is the dataset root, OUT/maps the maps root.")
 @click.option("--clips", default=3, show_default=True, type=click.IntRange(min=1), help="Number of clips.")
 @click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: the benchmark's (CULane 12, "
@@ -456,7 +469,7 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
               help="Draw the N frames where the baseline's and RONELD's IoUs differ most. Default: 6 without --frame.")
 @click.option("--method", "methods", multiple=True, metavar="NAME",
               help="Methods to draw (repeatable). Default: those of the run.")
-@click.option("--out", type=click.Path(path_type=Path),
+@click.option("--out", type=OUT_FOLDER,
               help="Folder for the pictures. Default: RUN/show (the run's own files are never touched).")
 @debug_option
 def show(run_dir, frames, worst, methods, out, debug):
@@ -474,7 +487,7 @@ def show(run_dir, frames, worst, methods, out, debug):
 
 @main.command()
 @click.argument("runs", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--out", type=click.Path(path_type=Path), default=Path("comparison"), show_default=True,
+@click.option("--out", type=OUT_FOLDER, default=Path("comparison"), show_default=True,
               help="Folder for the comparison (a new or empty folder, or one an earlier compare wrote).")
 @click.option("--label", "labels", multiple=True, metavar="RUN=LABEL",
               help="Name a run's model in tables and legends (default: `model` of its config.toml); runs with "

@@ -258,3 +258,28 @@ def test_compare_says_how_many_frames_two_runs_do_not_share(tmp_path):
     assert result.exit_code == 2
     assert ("scored different frames (of the 40 frames with a ground-truth ego lane in either, 20 are in one run "
             "only, e.g. driver_102_30frame/05182066_0205.MP4/00000.jpg)") in result.output
+
+
+def test_an_empty_out_is_refused_by_every_command_not_taken_for_the_current_folder(tmp_path, monkeypatch):
+    # --out "$OUT" with OUT unset wrote a whole run into the current folder.
+    from roneld_eval.cli import OUT_FOLDER
+
+    monkeypatch.chdir(tmp_path)
+    for args in (["run", "--out", ""], ["score", "culane", "--data-root", "d", "--pred-root", "p", "--out", " "]):
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 2, result.output
+        assert "Invalid value for '--out': is empty: name a folder (write . for the current one)" in result.output
+    assert list(tmp_path.iterdir()) == []
+
+    def commands(group, path=()):
+        context = click.Context(group)
+        for name in group.list_commands(context):  # score's benchmarks come from their entry points
+            command = group.get_command(context, name)
+            if isinstance(command, click.Group):
+                yield from commands(command, path + (name,))
+            elif command is not None:
+                yield path + (name,), command
+
+    outs = {path: param for path, command in commands(main) for param in command.params if param.name == "out"}
+    assert len(outs) == 11  # run, merge, synth, show, compare and the six benchmarks' score
+    assert [path for path, param in outs.items() if param.type is not OUT_FOLDER] == []

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from ..cluster import executed
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
+from ..cli import OUT_FOLDER, _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
 
 
 def _thresholds(context, parameter, value):
@@ -41,7 +41,7 @@ def _thresholds(context, parameter, value):
                    "fixed --score-threshold.")
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
-@click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv.")
+@click.option("--out", type=OUT_FOLDER, help="Folder for official.csv.")
 @sharding_options("images")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option

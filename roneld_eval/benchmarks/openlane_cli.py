@@ -8,7 +8,7 @@ import click
 
 from ..config import MAX_LINE_THICKNESS
 from ..cluster import executed
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
+from ..cli import OUT_FOLDER, _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
 
 
 @click.command("openlane")
@@ -26,7 +26,7 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
               help="Only the matching that ignores categories (the evaluator's -k); default: both.")
 @click.option("--strict", is_flag=True, help="Stop when any listed image has no prediction file (default: no lanes).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
-@click.option("--out", type=click.Path(path_type=Path), help="Folder for official.csv and summary.md.")
+@click.option("--out", type=OUT_FOLDER, help="Folder for official.csv and summary.md.")
 @sharding_options("segments")
 @click.option("--quiet", is_flag=True, help="No progress bar or table (warnings are still shown).")
 @debug_option

@@ -7,14 +7,14 @@ from pathlib import Path
 import click
 
 from ..cluster import executed
-from ..cli import _guard, debug_option, sharding_options, shard_written
+from ..cli import OUT_FOLDER, _guard, debug_option, sharding_options, shard_written
 
 
 @click.command("tusimple")
 @click.option("--labels", required=True, type=click.Path(path_type=Path), help="TuSimple label file (test_label.json).")
 @click.option("--pred", required=True, type=click.Path(path_type=Path),
               help="Predictions, one JSON object per line: raw_file, lanes, h_samples, optional run_time (ms).")
-@click.option("--out", type=click.Path(path_type=Path),
+@click.option("--out", type=OUT_FOLDER,
               help="Folder for official.csv: accuracy, fp, fn, f1_ufld, f1_clrnet.")
 @sharding_options("clips")
 @click.option("--quiet", is_flag=True, help="Print nothing.")

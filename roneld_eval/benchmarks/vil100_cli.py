@@ -8,7 +8,7 @@ import click
 
 from ..config import MAX_LINE_THICKNESS
 from ..cluster import executed
-from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
+from ..cli import OUT_FOLDER, _announcer, _guard, _no_collections_at_exit, debug_option, sharding_options, shard_written
 
 
 @click.command("vil100")
@@ -39,7 +39,7 @@ from ..cli import _announcer, _guard, _no_collections_at_exit, debug_option, sha
 @click.option("--strict", is_flag=True,
               help="Stop when any listed frame has no prediction or ground-truth file (default: no lanes, a warning).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes. Default: all cores.")
-@click.option("--out", type=click.Path(path_type=Path),
+@click.option("--out", type=OUT_FOLDER,
               help="Folder for official.csv (every method, sequence, scenario and threshold), temporal.csv and "
                    "summary.md.")
 @sharding_options("sequences")
