@@ -13,6 +13,7 @@ bytes: every clip draws from its own generator seeded by (seed, clip index).
 from __future__ import annotations
 
 import math
+import shlex
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -282,17 +283,16 @@ class SynthResult:
     n_clips: int
     n_frames: int
     # a benchmark scored from lane files only: data_root holds the labels, maps_root a detector's
-    # predictions, and this scores them
-    score_command: str | None = None
+    # predictions, and these words score them
+    score_command: tuple[str, ...] | None = None
 
     @property
     def command(self) -> str:
+        """The command line that evaluates the set, quoted for a POSIX shell (a path may hold spaces)."""
         if self.score_command is not None:
-            return self.score_command
-        return (
-            f"roneld-eval run --dataset {self.dataset} --data-root {self.data_root} "
-            f"--maps-root {self.maps_root} --maps-format {self.maps_format}"
-        )
+            return shlex.join(self.score_command)
+        return shlex.join(["roneld-eval", "run", "--dataset", self.dataset, "--data-root", str(self.data_root),
+                           "--maps-root", str(self.maps_root), "--maps-format", self.maps_format])
 
 
 def lane_file_scenes(camera: Camera, clips: int, frames: int, seed: int, maps: bool = False):
@@ -346,4 +346,5 @@ def _moved(made: SynthResult, staging: Path, out: Path) -> SynthResult:
     command = made.score_command
     return replace(made, data_root=out / Path(made.data_root).relative_to(staging),
                    maps_root=out / Path(made.maps_root).relative_to(staging),
-                   score_command=None if command is None else command.replace(str(staging), str(out)))
+                   score_command=None if command is None else
+                   tuple(word.replace(str(staging), str(out), 1) for word in command))

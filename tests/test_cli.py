@@ -3,6 +3,7 @@
 import hashlib
 import json
 import os
+import shlex
 import subprocess
 
 import click
@@ -86,9 +87,10 @@ def test_synth_is_byte_identical_for_a_seed(dataset, maps_format, tmp_path):
 
 
 def test_synth_then_run_as_printed(tmp_path):
+    # As a shell reads the line pasted: the paths quoted (they held spaces, and "$" would expand).
     result = CliRunner().invoke(main, ["synth", "--dataset", "culane", "--clips", "2", "--frames", "4",
-                                       "--out", str(tmp_path / "set")])
-    command = result.output.strip().splitlines()[-1].split()
+                                       "--out", str(tmp_path / "my set $HOME")])
+    command = shlex.split(result.output.strip().splitlines()[-1])
     assert command[:2] == ["roneld-eval", "run"]
     ran = CliRunner().invoke(main, command[1:] + ["--out", str(tmp_path / "out"), "--quiet", "--workers", "1"])
     assert ran.exit_code == 0, ran.output

@@ -28,7 +28,7 @@ def synth(name: str, out: Path, *extra: str) -> list[str]:
     ("llamas", "method,threshold,tp,fp,fn,precision,recall,f1,ap_l1,ap_l0,ap_r0,ap_r1,ap_mean"),
 ])
 def test_the_printed_command_scores_the_generated_set(tmp_path, name, header):
-    command = synth(name, tmp_path / "set")
+    command = synth(name, tmp_path / "my set's copy")  # pasted into a shell: quoted
     result = CliRunner().invoke(main, [*command, "--out", str(tmp_path / "scores"), "--quiet"])
     assert result.exit_code == 0, result.output
     official = (tmp_path / "scores" / "official.csv").read_text().splitlines()

@@ -39,6 +39,6 @@ def synth_curvelanes(out: str | Path, clips: int = 3, frames: int = 1, seed: int
             total += 1
             if progress is not None:
                 progress(1)
-    command = (f"roneld-eval score curvelanes --labels {labels} --pred-root {predictions} --image-root {images} "
-               "--best-of 0.3,0.5,0.7")
+    command = ("roneld-eval", "score", "curvelanes", "--labels", str(labels), "--pred-root", str(predictions),
+               "--image-root", str(images), "--best-of", "0.3,0.5,0.7")
     return SynthResult(labels, predictions, "curvelanes", "lanes", clips, total, score_command=command)

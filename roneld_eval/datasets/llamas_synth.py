@@ -84,5 +84,5 @@ def synth_llamas(out: str | Path, clips: int = 3, frames: int = 10, seed: int = 
             progress(1)
     if maps:
         return SynthResult(labels, predictions, "llamas", maps_format, clips, total)
-    command = f"roneld-eval score llamas --labels {labels} --pred-root {predictions}"
+    command = ("roneld-eval", "score", "llamas", "--labels", str(labels), "--pred-root", str(predictions))
     return SynthResult(labels, predictions, "llamas", "lanes", clips, total, score_command=command)

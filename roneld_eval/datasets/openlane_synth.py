@@ -44,5 +44,5 @@ def synth_openlane(out: str | Path, clips: int = 3, frames: int = 4, seed: int =
         total += 1
         if progress is not None:
             progress(1)
-    command = f"roneld-eval score openlane --labels {labels} --pred-root {predictions}"
+    command = ("roneld-eval", "score", "openlane", "--labels", str(labels), "--pred-root", str(predictions))
     return SynthResult(labels, predictions, "openlane", "lanes", clips, total, score_command=command)
