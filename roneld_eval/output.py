@@ -65,6 +65,17 @@ def incomplete_folder_holding(path: Path) -> Path | None:
     return None
 
 
+def refuse_cut_short(*paths: str | Path) -> None:
+    """Stop where an input lies in a folder whose commit was cut short (incomplete_folder_holding):
+    a killed synth's new data/ beside its old maps/, or a run's lanes/ half put in place, was
+    scored without a word."""
+    for path in paths:
+        cut_short = incomplete_folder_holding(Path(path))
+        if cut_short is not None:
+            raise InputError(cut_short, "its content is incomplete (a command was killed while putting it in "
+                                        "place): run that command again into this folder")
+
+
 def _highest_missing(path: Path) -> Path | None:
     """The highest folder of `path` (itself or one above it) that does not exist yet, else None."""
     missing = None

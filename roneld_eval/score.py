@@ -22,7 +22,7 @@ import numpy as np
 from .datasets._paths import under_root
 from .errors import ConfigError, InputError
 from .model import image_stem
-from .output import OutputFolder
+from .output import OutputFolder, refuse_cut_short
 from .signals import terminate_as_interrupt
 
 if TYPE_CHECKING:
@@ -181,6 +181,7 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
     listed = _ListedFiles(relpaths, suffix)
     trees: list[PredictionTree] = []
     for name, root in _root_specs(pred_root):
+        refuse_cut_short(root)  # `run --save-lanes` killed while putting lanes/ in place
         if not root.is_dir():
             raise InputError(root, "prediction root not found")
         found = listed.count(root)
@@ -258,9 +259,12 @@ def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | Non
 
 
 @contextlib.contextmanager
-def _taking(out: str | Path | None, command: str) -> Iterator[OutputFolder | None]:
-    """The whole command with SIGTERM and SIGHUP ending it as Ctrl-C does, and OUT (when given)
-    checked and locked before any work, not refused after it."""
+def _taking(out: str | Path | None, command: str, reads: Sequence[str | Path | None] = ()
+            ) -> Iterator[OutputFolder | None]:
+    """The whole command with SIGTERM and SIGHUP ending it as Ctrl-C does, the inputs it `reads`
+    refused where a killed command left them half in place, and OUT (when given) checked and
+    locked before any work, not refused after it."""
+    refuse_cut_short(*(path for path in reads if path is not None))
     with terminate_as_interrupt():
         if out is None:
             yield None

@@ -927,6 +927,32 @@ def test_a_run_refuses_a_data_or_maps_root_inside_a_folder_whose_commit_was_cut_
                    "--quiet", "--out", str(tmp_path / "out")]).exit_code == 0
 
 
+def test_score_refuses_inputs_inside_a_folder_whose_commit_was_cut_short(tmp_path):
+    # `run` refused to read such a folder (part old, part new); `score` read it without a word,
+    # e.g. the lanes of a `run --save-lanes` killed while putting its folder in place.
+    cut = tmp_path / "cut"
+    assert invoke(["synth", "--dataset", "culane", "--maps-format", "lanes", "--clips", "2", "--frames", "3",
+                   "--out", str(cut)]).exit_code == 0
+    shutil.copytree(cut / "data", tmp_path / "data")
+    shutil.copytree(cut / "maps", tmp_path / "lanes")
+    sound = ["--data-root", str(tmp_path / "data"), "--pred-root", str(tmp_path / "lanes")]
+    assert invoke(["score", "culane", *sound, "--quiet"]).exit_code == 0
+    (cut / output.JOURNAL).write_text("{}")  # what a commit killed half-way leaves
+    for args in (["--data-root", str(cut / "data"), "--pred-root", str(tmp_path / "lanes")],
+                 ["--data-root", str(tmp_path / "data"), "--pred-root", f"mine={cut / 'maps'}"]):
+        result = invoke(["score", "culane", *args, "--quiet", "--out", str(tmp_path / "out")])
+        assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+        assert f"{cut}: its content is incomplete (a command was killed while putting it in place)" in result.output
+        assert not (tmp_path / "out").exists()
+    tusimple = tmp_path / "ts"
+    assert invoke(["synth", "--dataset", "tusimple", "--maps-format", "lanes", "--clips", "2", "--out",
+                   str(tusimple)]).exit_code == 0
+    (tusimple / output.JOURNAL).write_text("{}")
+    result = invoke(["score", "tusimple", "--labels", str(tusimple / "data" / "test_label.json"), "--pred",
+                     str(tusimple / "maps" / "predictions.json")])
+    assert result.exit_code == 2 and f"{tusimple}: its content is incomplete" in result.output, result.output
+
+
 def test_a_users_folder_named_like_a_leftover_is_foreign_where_the_tool_never_wrote(tmp_path):
     # `.staging-mine` in a folder with no manifest, journal or lock was taken for a killed
     # command's staging and deleted with the user's file in it.

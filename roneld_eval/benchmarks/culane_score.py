@@ -191,7 +191,7 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         pred_root = expand_roots([pred_root] if isinstance(pred_root, (str, Path)) else list(pred_root))
     if share is not None and out is None:
         raise ConfigError("--shard writes a partial result for `roneld-eval merge`: give --out")
-    with _taking(out, "score culane") as folder:
+    with _taking(out, "score culane", reads=(data_root, list_file)) as folder:
         dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
         relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
         # every shard finds the methods over the whole list: the same trees (and counts) in every part

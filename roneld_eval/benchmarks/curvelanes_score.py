@@ -97,7 +97,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         labels=labels, pred_root=pred_root, image_root=image_root, list_file=list_file,
         score_threshold=float(score_threshold), best_of=[float(t) for t in best_of], strict=strict))
     labels, images = Path(labels), Path(image_root)
-    with _taking(out, "score curvelanes") as folder:
+    with _taking(out, "score curvelanes", reads=(labels, images, list_file)) as folder:
         relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels)
         if not any(lanes_path(labels, relpath).exists() for relpath in relpaths):
             raise ConfigError(f"no listed image has its labels under {labels} (first looked for: "

@@ -155,7 +155,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                           "maps, for AP), or both")
     sharding = Sharding("score llamas", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, iou=iou, width=width, strict=strict, maps=maps))
-    with _taking(out, "score llamas") as folder:
+    with _taking(out, "score llamas", reads=(labels,)) as folder:
         found = every_label(Path(labels))
         keys = list(found)
         trees, warnings = (find_prediction_trees(pred_root, keys, strict, announce, suffix=".lines.txt")

@@ -88,7 +88,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
     sharding = Sharding("score openlane", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, list_file=list_file, iou=iou, width=width, modes=modes, strict=strict))
     labels = Path(labels)
-    with _taking(out, "score openlane") as folder:
+    with _taking(out, "score openlane", reads=(labels, list_file)) as folder:
         relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_frame(labels)
         if not any(json_path(labels, relpath).exists() for relpath in relpaths):
             raise ConfigError(f"no listed image has its annotation under {labels} (first looked for: "

@@ -32,7 +32,7 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
 
     sharding = Sharding("score tusimple", shard, out, merged, dict(labels=labels, pred=pred),
                         paths=("labels", "pred"))
-    with _taking(out, "score tusimple") as folder:
+    with _taking(out, "score tusimple", reads=(labels, pred)) as folder:
         gts = read_labels(labels)
         keys, files = list(gts), [Path(labels), Path(pred)]
         if merged is not None:

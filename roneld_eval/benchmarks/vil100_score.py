@@ -203,7 +203,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         sizes_file=sizes_file, iou=iou, width=width, strict=strict, temporal=temporal, pred_format=pred_format),
         paths=("labels", "list_file", "image_root", "json_root", "sizes_file"))
     versions = versions_of(pred_format)
-    with _taking(out, "score vil100") as folder:
+    with _taking(out, "score vil100", reads=(labels, list_file, image_root, json_root, sizes_file)) as folder:
         dataset = read_vil100(labels, list_file, image_root, json_root, sizes_file)
         relpaths = [relpath for frames in dataset.sequences.values() for relpath in frames]
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=_SUFFIXES[pred_format])

@@ -15,7 +15,7 @@ from ..errors import ConfigError, InputError
 from ..geometry import EffectiveGeometry, check_map_shape
 from ..maps import map_size, required_paths
 from ..model import Clip, Dataset
-from ..output import incomplete_folder_holding
+from ..output import refuse_cut_short
 from ..wording import counted
 from .one_clip import effective_geometry, frame_map_path
 from .records import RunContext, lane_files_of
@@ -163,7 +163,7 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
     dataset stays whole."""
     maps_root = _maps_root(config)
     assert config.dataset.data_root is not None  # _maps_root refuses a run without one
-    _refuse_cut_short(Path(config.dataset.data_root), maps_root)
+    refuse_cut_short(config.dataset.data_root, maps_root)
     skipped: list[str] = []
     if dataset is None:
         dataset = _read(config, skipped)
@@ -197,16 +197,6 @@ def _maps_root(config: EvalConfig) -> Path:
         raise ConfigError(f"--maps-format lanes: benchmark {config.dataset.name!r} declares no format for a "
                           "detector's lane files")
     return maps_root
-
-
-def _refuse_cut_short(*roots: Path) -> None:
-    """Stop where a root lies in a folder whose commit was cut short: a killed synth's new data/
-    beside its old maps/ was scored without a word."""
-    for root in roots:
-        cut_short = incomplete_folder_holding(root)
-        if cut_short is not None:
-            raise InputError(cut_short, "its content is incomplete (a command was killed while putting it in "
-                                        "place): run that command again into this folder")
 
 
 def _share(dataset: Dataset, shard) -> Dataset:
