@@ -100,11 +100,26 @@ def read_manifest(folder: Path, remedy: str = "remove the folder or choose anoth
         entries = data.get("entries")
         if not isinstance(entries, list) or not all(isinstance(e, str) and _plain_name(e) for e in entries):
             raise ValueError("bad entry list")
+        trees = data.setdefault("trees", {})  # none in a manifest of roneld-eval before 0.1.0's last round
+        if not isinstance(trees, dict) or not all(name in entries and isinstance(digest, str)
+                                                  for name, digest in trees.items()):
+            raise ValueError("bad folder digests")
     except (OSError, ValueError, AttributeError, UnicodeError, RecursionError) as error:
         raise InputError(
             path, f"not a manifest this tool wrote ({error}); {remedy}"
         ) from None
     return data
+
+
+def folder_digest(folder: Path) -> str:
+    """What a folder holds, by name: every file and folder inside, however deep (links listed, not
+    followed). The manifest keeps it for each folder a command wrote, so that the next command
+    into the same place, which replaces that folder whole, does not remove files a user put in."""
+    names = []
+    for root, folders, files in os.walk(folder):
+        inside = os.path.relpath(root, folder)
+        names += [os.path.join(inside, name) + "/" for name in folders] + [os.path.join(inside, name) for name in files]
+    return hashlib.sha256("\n".join(sorted(names)).encode("utf-8", "surrogateescape")).hexdigest()
 
 
 def _plain_file_name(name: str) -> bool:
@@ -326,10 +341,22 @@ class OutputFolder:
         if command is not None and command != self.command:
             raise InputError(self.path, f"holds the results of `roneld-eval {command}`; write the "
                                         f"results of `roneld-eval {self.command}` to another folder")
+        if manifest is not None and plan is None:
+            self._refuse_changed_folders(manifest)
         if manifest is not None or nested or plan is not None:
             # After a cut-short commit, some of its entries may be old and some new: all go.
             entries = sorted(listed | set(nested))
             self.previous = {"command": self.command, "entries": entries}
+
+    def _refuse_changed_folders(self, manifest: dict) -> None:
+        """Stop where a folder the last command wrote holds other names now: committing would
+        replace it whole, with whatever a user put inside (a run written into synth's maps/)."""
+        for name, digest in sorted(manifest["trees"].items()):
+            folder = self.path / name
+            if folder.is_dir() and not folder.is_symlink() and folder_digest(folder) != digest:
+                raise InputError(folder, f"holds other files than `roneld-eval {manifest['command']}` wrote into it, "
+                                         f"and `roneld-eval {self.command}` would replace it whole: move what you put "
+                                         "there elsewhere, or remove the folder")
 
     def _is_nested(self, entry: Path) -> bool:
         command = self.nested.get(entry.name)
@@ -386,6 +413,8 @@ class OutputFolder:
             os.rename(source, target)
             renames.append((source, target))
 
+        trees = {name: folder_digest(staging / name) for name in entries
+                 if (staging / name).is_dir() and not (staging / name).is_symlink()}
         try:
             for name in entries + [n for n in old if n not in entries]:
                 target = self.path / name
@@ -394,7 +423,8 @@ class OutputFolder:
                 if name in entries:
                     move(staging / name, target)
             _write_atomically(self.path / MANIFEST, json.dumps(
-                {"format": MANIFEST_FORMAT, "command": self.command, "entries": entries}, indent=1) + "\n")
+                {"format": MANIFEST_FORMAT, "command": self.command, "entries": entries, "trees": trees},
+                indent=1) + "\n")
         except OSError as error:
             for source, target in reversed(renames):
                 with contextlib.suppress(OSError):

@@ -953,6 +953,26 @@ def test_score_refuses_inputs_inside_a_folder_whose_commit_was_cut_short(tmp_pat
     assert result.exit_code == 2 and f"{tusimple}: its content is incomplete" in result.output, result.output
 
 
+def test_files_put_inside_a_folder_a_command_wrote_are_not_replaced_with_it(tmp_path):
+    # A second synth replaced its maps/ whole, with a run the user had written into maps/run1.
+    made = tmp_path / "set"
+    synth = ["synth", "--dataset", "culane", "--clips", "2", "--frames", "3", "--out", str(made)]
+    assert invoke(synth).exit_code == 0
+    assert invoke(synth).exit_code == 0  # its own set, as it wrote it: replaced
+    assert invoke(["run", "--data-root", str(made / "data"), "--maps-root", str(made / "maps"), "--workers", "1",
+                   "--quiet", "--out", str(made / "maps" / "run1")]).exit_code == 0
+    (made / "data" / "notes.txt").write_text("mine")
+    result = invoke(synth)
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert f"{made / 'data'}: holds other files than `roneld-eval synth` wrote into it" in result.output
+    assert (made / "maps" / "run1" / "accuracy.csv").is_file() and (made / "data" / "notes.txt").is_file()
+    (made / "data" / "notes.txt").unlink()
+    result = invoke(synth)
+    assert result.exit_code == 2 and f"{made / 'maps'}: holds other files" in result.output, result.output
+    shutil.rmtree(made / "maps" / "run1")
+    assert invoke(synth).exit_code == 0
+
+
 def test_a_users_folder_named_like_a_leftover_is_foreign_where_the_tool_never_wrote(tmp_path):
     # `.staging-mine` in a folder with no manifest, journal or lock was taken for a killed
     # command's staging and deleted with the user's file in it.
