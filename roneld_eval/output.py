@@ -58,10 +58,10 @@ def incomplete_folder_holding(path: Path) -> Path | None:
     """The folder, `path` or one above it, whose commit was cut short (its journal is still
     there), else None: what such a folder holds may be part old, part new (synth's data/ of one
     set beside maps/ of another), so nothing may read it."""
-    path = Path(os.path.abspath(path))
-    for folder in (path, *path.parents):
-        if os.path.lexists(folder / JOURNAL):
-            return folder
+    for where in dict.fromkeys((Path(os.path.abspath(path)), Path(os.path.realpath(path)))):  # a link's own place too
+        for folder in (where, *where.parents):
+            if os.path.lexists(folder / JOURNAL):
+                return folder
     return None
 
 

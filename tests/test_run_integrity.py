@@ -944,6 +944,15 @@ def test_score_refuses_inputs_inside_a_folder_whose_commit_was_cut_short(tmp_pat
         assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
         assert f"{cut}: its content is incomplete (a command was killed while putting it in place)" in result.output
         assert not (tmp_path / "out").exists()
+    (tmp_path / "link").symlink_to(cut / "maps")  # reached through a link
+    result = invoke(["score", "culane", "--data-root", str(tmp_path / "data"), "--pred-root", str(tmp_path / "link"),
+                     "--quiet"])
+    assert result.exit_code == 2 and f"{cut}: its content is incomplete" in result.output, result.output
+    shutil.copy(tmp_path / "data" / "list" / "test.txt", cut / "test.txt")  # run's --list
+    result = invoke(["run", "--data-root", str(tmp_path / "data"), "--maps-root", str(tmp_path / "lanes"),
+                     "--maps-format", "lanes", "--list", str(cut / "test.txt"), "--workers", "1", "--quiet", "--out",
+                     str(tmp_path / "out")])
+    assert result.exit_code == 2 and f"{cut}: its content is incomplete" in result.output, result.output
     tusimple = tmp_path / "ts"
     assert invoke(["synth", "--dataset", "tusimple", "--maps-format", "lanes", "--clips", "2", "--out",
                    str(tusimple)]).exit_code == 0

@@ -64,7 +64,7 @@ def parse_label_options(options: Sequence[str], runs: Sequence[str | Path]) -> d
         for cut in cuts:  # the first '=' after which the left part names a run folder
             if any(_same_folder(run, option[:cut]) for run in runs):
                 key, label = option[:cut], option[cut + 1:]
-                if out.get(key, label) != label:  # a dict would keep the last without a word
+                if out.get(key, label).strip() != label.strip():  # a dict would keep the last without a word
                     raise ConfigError(f"--label {option}: {key} has the label {out[key]!r} already; give each "
                                       "run one --label")
                 out[key] = label
