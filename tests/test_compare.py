@@ -687,7 +687,7 @@ def test_two_labels_for_one_run_are_refused_not_the_last_kept(runs, tmp_path):
         assert "has the label 'ENet-SAD' already; give each run one --label" in result.output
         assert not (tmp_path / "out").exists()
     result = CliRunner().invoke(main, ["compare", str(runs["cu_scnn"]), str(run), "--out", str(tmp_path / "out"),
-                                       "--label", f"{run}=ENet-SAD", "--label", f"{run}/.= ENet-SAD "])
+                                       "--label", f"{run}=ENet-SAD", "--label", f"{run}= ENet-SAD "])
     assert result.exit_code == 0, result.output  # the same label twice says the same
 
 
