@@ -388,7 +388,9 @@ def test_a_runtime_mean_above_its_95th_percentile_is_explained(tmp_path):
     assert f"A mean above its 95th percentile ({skewed.loc[0, 'method']})" in text and "the median is" in text
 
 
-@pytest.mark.parametrize("names", [["normal", "all"], ["a", "a category named at some length", "night"]])
+@pytest.mark.parametrize("names", [["normal", "all"], ["a", "a category named at some length", "night"],
+                                   ["normal", "crowded_highway_merge_with_construction_zone_and_shadow"]
+                                   + [f"category_number_{k}" for k in range(3, 9)]])
 def test_the_figures_text_lies_inside_them_and_apart(names, fixture_result):
     # Their axes are placed by margins computed from the labels (not measured by drawing, as
     # tight_layout did): every text must still fit on the canvas, tick labels clear of the axis
@@ -422,6 +424,10 @@ def test_the_figures_text_lies_inside_them_and_apart(names, fixture_result):
             assert canvas.x0 <= box.x0 and box.x1 <= canvas.x1 and canvas.y0 <= box.y0 and box.y1 <= canvas.y1, \
                 text.get_text()
         others = [text for text in texts if text not in ticks and text.get_text() not in ("",)]
+        for left, right in zip(figure.axes, figure.axes[1:]):  # a panel's names stay clear of the panel before
+            for label in right.get_xticklabels():
+                if id(label) in shown:
+                    assert boxes[id(label)].x0 >= left.bbox.x1, label.get_text()
         for label in ticks:
             for other in others:
                 if other.axes is None or other in (other.axes.xaxis.label, other.axes.yaxis.label):

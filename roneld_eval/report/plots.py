@@ -151,10 +151,16 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
         note.append(f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: "
                     f"{panel.ego_lanes_note}.")
     # Category names are tick labels turned 30 degrees, ending at their tick: the longest sets
-    # the room below the axes, and the first one's reach to the left the room beside them.
+    # the room below the axes, and how far any reaches left of the axes (a tick lies (k + 1/2) / n
+    # of the panel's width in) the room beside them and between the panels.
     longest = max((len(str(name)) for name in names), default=0) * _CHAR_IN
-    first = len(str(names[0])) * _CHAR_IN if names else 0.0
-    beside = max(_TICK_IN + 4 * _CHAR_IN + 2 * _GAP_IN, first * 0.87 - 0.2)
+    beside = _TICK_IN + 4 * _CHAR_IN + 2 * _GAP_IN
+    width = figure.get_figwidth()
+    for _ in range(2):  # the panels' width depends on the room beside them
+        panel = (width - 2 * beside - _GAP_IN * 3) / len(panels) if len(panels) > 1 else width - beside - _GAP_IN * 3
+        reach = max((len(str(name)) * _CHAR_IN * 0.87 - (k + 0.5) / len(names) * panel
+                     for k, name in enumerate(names)), default=0.0)
+        beside = max(_TICK_IN + 4 * _CHAR_IN + 2 * _GAP_IN, reach + _GAP_IN)
     _place_axes(figure, left=beside, bottom=_note(figure, note, 100 * len(panels)) + _TICK_IN + longest * 0.5
                 + _LINE_IN * 0.87 + 2 * _GAP_IN, right=_GAP_IN * 3, top=0.4 + _LINE_IN + 2 * _GAP_IN,
                 between=beside + _GAP_IN)
