@@ -157,8 +157,8 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
     beside = _TICK_IN + 4 * _CHAR_IN + 2 * _GAP_IN
     width = figure.get_figwidth()
     for _ in range(2):  # the panels' width depends on the room beside them
-        panel = (width - 2 * beside - _GAP_IN * 3) / len(panels) if len(panels) > 1 else width - beside - _GAP_IN * 3
-        reach = max((len(str(name)) * _CHAR_IN * 0.87 - (k + 0.5) / len(names) * panel
+        panel_in = (width - 2 * beside - _GAP_IN * 3) / len(panels) if len(panels) > 1 else width - beside - _GAP_IN * 3
+        reach = max((len(str(name)) * _CHAR_IN * 0.87 - (k + 0.5) / len(names) * panel_in
                      for k, name in enumerate(names)), default=0.0)
         beside = max(_TICK_IN + 4 * _CHAR_IN + 2 * _GAP_IN, reach + _GAP_IN)
     _place_axes(figure, left=beside, bottom=_note(figure, note, 100 * len(panels)) + _TICK_IN + longest * 0.5
