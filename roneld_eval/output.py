@@ -118,8 +118,14 @@ def folder_digest(folder: Path) -> str:
     names = []
     for root, folders, files in os.walk(folder):
         inside = os.path.relpath(root, folder)
-        names += [os.path.join(inside, name) + "/" for name in folders] + [os.path.join(inside, name) for name in files]
+        names += [os.path.join(inside, name) + "/" for name in folders]
+        names += [os.path.join(inside, name) for name in files if not _os_litter(name)]
     return hashlib.sha256("\n".join(sorted(names)).encode("utf-8", "surrogateescape")).hexdigest()
+
+
+def _os_litter(name: str) -> bool:
+    """A file a desktop's file browser leaves in folders it shows (not a user's to protect)."""
+    return name in (".DS_Store", "Thumbs.db", "desktop.ini") or name.startswith("._")
 
 
 def _plain_file_name(name: str) -> bool:
@@ -343,20 +349,42 @@ class OutputFolder:
                                         f"results of `roneld-eval {self.command}` to another folder")
         if manifest is not None and plan is None:
             self._refuse_changed_folders(manifest)
+        for name in nested:
+            self._refuse_user_files_in_nested(self.path / name)
         if manifest is not None or nested or plan is not None:
             # After a cut-short commit, some of its entries may be old and some new: all go.
             entries = sorted(listed | set(nested))
             self.previous = {"command": self.command, "entries": entries}
 
-    def _refuse_changed_folders(self, manifest: dict) -> None:
-        """Stop where a folder the last command wrote holds other names now: committing would
-        replace it whole, with whatever a user put inside (a run written into synth's maps/)."""
+    def _refuse_changed_folders(self, manifest: dict, base: Path | None = None) -> None:
+        """Stop where a folder the last command wrote (into `base`, this folder by default) holds
+        other names now: committing would replace it whole, with whatever a user put inside (a
+        run written into synth's maps/)."""
         for name, digest in sorted(manifest["trees"].items()):
-            folder = self.path / name
+            folder = (base or self.path) / name
             if folder.is_dir() and not folder.is_symlink() and folder_digest(folder) != digest:
-                raise InputError(folder, f"holds other files than `roneld-eval {manifest['command']}` wrote into it, "
-                                         f"and `roneld-eval {self.command}` would replace it whole: move what you put "
-                                         "there elsewhere, or remove the folder")
+                raise InputError(folder, f"its files changed since `roneld-eval {manifest['command']}` wrote them "
+                                         f"(names added, removed or renamed), and `roneld-eval {self.command}` would "
+                                         "replace it whole: move what you put there elsewhere, or remove the folder")
+
+    def _refuse_user_files_in_nested(self, folder: Path) -> None:
+        """A nested command's folder (a run's show/) goes with the run that replaces it: not with
+        files a user put in it."""
+        try:
+            manifest = read_manifest(folder)
+        except InputError:
+            return
+        if manifest is None:  # a nested command killed in its first commit: nothing of a user's
+            return
+        foreign = sorted(entry.name for entry in folder.iterdir()
+                         if entry.name not in manifest["entries"] and not is_own_entry(entry.name)
+                         and not _os_litter(entry.name))
+        if foreign:
+            listing = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+            raise InputError(folder, f"holds files roneld-eval did not write ({listing}), and `roneld-eval "
+                                     f"{self.command}` would replace it whole: move them elsewhere, or remove the "
+                                     "folder")
+        self._refuse_changed_folders(manifest, folder)
 
     def _is_nested(self, entry: Path) -> bool:
         command = self.nested.get(entry.name)

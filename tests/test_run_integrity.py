@@ -973,13 +973,26 @@ def test_files_put_inside_a_folder_a_command_wrote_are_not_replaced_with_it(tmp_
     (made / "data" / "notes.txt").write_text("mine")
     result = invoke(synth)
     assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
-    assert f"{made / 'data'}: holds other files than `roneld-eval synth` wrote into it" in result.output
+    assert f"{made / 'data'}: its files changed since `roneld-eval synth` wrote them" in result.output
     assert (made / "maps" / "run1" / "accuracy.csv").is_file() and (made / "data" / "notes.txt").is_file()
     (made / "data" / "notes.txt").unlink()
     result = invoke(synth)
-    assert result.exit_code == 2 and f"{made / 'maps'}: holds other files" in result.output, result.output
+    assert result.exit_code == 2 and f"{made / 'maps'}: its files changed" in result.output, result.output
     shutil.rmtree(made / "maps" / "run1")
+    (made / "maps" / ".DS_Store").write_bytes(b"\0")  # a file browser's, not the user's
     assert invoke(synth).exit_code == 0
+    # A run's show/ (a nested command's folder) goes with the run that replaces it, not with files put in it.
+    run = ["run", "--data-root", str(made / "data"), "--maps-root", str(made / "maps"), "--workers", "1", "--quiet",
+           "--out", str(tmp_path / "run")]
+    assert invoke(run).exit_code == 0
+    assert invoke(["show", "--run", str(tmp_path / "run")]).exit_code == 0
+    (tmp_path / "run" / "show" / "my_notes.txt").write_text("mine")
+    result = invoke(run)
+    assert result.exit_code == 2 and f"{tmp_path / 'run' / 'show'}: holds files roneld-eval did not write " \
+                                     "(my_notes.txt)" in result.output, result.output
+    assert (tmp_path / "run" / "show" / "my_notes.txt").is_file()
+    (tmp_path / "run" / "show" / "my_notes.txt").unlink()
+    assert invoke(run).exit_code == 0
 
 
 def test_a_users_folder_named_like_a_leftover_is_foreign_where_the_tool_never_wrote(tmp_path):
