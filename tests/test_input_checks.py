@@ -459,6 +459,9 @@ def test_category_lists_match_a_test_list_without_extensions(sets, tmp_path):
     one_line(run_cli(*run_args(root, tmp_path / "o")), "test1_other.txt: none of its 1 frames is in the test list")
     (split / "test1_other.txt").rename(split / "test1_x")
     one_line(run_cli(*run_args(root, tmp_path / "o")), "test1_x: a category list must end in .txt")
+    (split / "test1_x").rename(split / "test1_night and rain.txt")  # was left out of every table, silently
+    one_line(run_cli(*run_args(root, tmp_path / "o")), "test1_night and rain.txt: a category list is named "
+                                                       "test<number>_<name>.txt with letters, digits and _ only")
 
 
 # ---- 3e. byte-order marks --------------------------------------------------------------------------

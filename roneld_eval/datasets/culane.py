@@ -23,6 +23,7 @@ from ._paths import check_folder, frame_sort_key, normalise_relpath, under_root
 
 IMAGE_WIDTH, IMAGE_HEIGHT = 1640, 590  # every CULane frame (Pan et al., AAAI 2018)
 _CATEGORY_FILE = re.compile(r"test(\d+)_(\w+)\.txt\Z")
+_LIKE_A_CATEGORY_FILE = re.compile(r"test\d+_.+\.txt\Z", re.S)
 # Names of the official and accuracy tables' own rows, which a category list would be confused with.
 RESERVED_CATEGORIES = {"all": "every frame", "ego": "the two ego lanes"}
 
@@ -62,6 +63,9 @@ def read_categories(root: Path, listed: Mapping[str, str] | None = None) -> dict
             found.append((int(match.group(1)), match.group(2), folder / name))
         elif _CATEGORY_FILE.match(name + ".txt"):  # its rows would be missing from every table, silently
             raise InputError(folder / name, f"a category list must end in .txt: rename it {name}.txt")
+        elif _LIKE_A_CATEGORY_FILE.match(name):  # as silently
+            raise InputError(folder / name, "a category list is named test<number>_<name>.txt with letters, digits "
+                                            "and _ only in <name> (it names the category's rows): rename it")
     # Matched by image stem, as every file of a frame is: a test list without extensions (or
     # with .png) and category lists with .jpg name the same frames.
     by_stem = {image_stem(relpath): relpath for relpath in listed.values()}
