@@ -65,11 +65,13 @@ def incomplete_folder_holding(path: Path) -> Path | None:
     return None
 
 
-def refuse_cut_short(*paths: str | Path) -> None:
+def refuse_cut_short(*paths: str | Path | None) -> None:
     """Stop where an input lies in a folder whose commit was cut short (incomplete_folder_holding):
     a killed synth's new data/ beside its old maps/, or a run's lanes/ half put in place, was
-    scored without a word."""
+    scored without a word. None (an optional input not given) is passed over."""
     for path in paths:
+        if path is None:
+            continue
         cut_short = incomplete_folder_holding(Path(path))
         if cut_short is not None:
             raise InputError(cut_short, "its content is incomplete (a command was killed while putting it in "
@@ -121,6 +123,11 @@ def folder_digest(folder: Path) -> str:
         names += [os.path.join(inside, name) + "/" for name in folders]
         names += [os.path.join(inside, name) for name in files if not _os_litter(name)]
     return hashlib.sha256("\n".join(sorted(names)).encode("utf-8", "surrogateescape")).hexdigest()
+
+
+def _first_names(names: list[str]) -> str:
+    """The first three names, and how many more: what an error about foreign files lists."""
+    return ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
 
 
 def _os_litter(name: str) -> bool:
@@ -340,9 +347,9 @@ class OutputFolder:
                 foreign.append(entry.name)
         foreign.sort()
         if foreign:
-            listing = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
-            raise InputError(self.path, f"holds files roneld-eval did not write ({listing}): results go only into "
-                                        f"a new or empty folder, or one an earlier `roneld-eval {self.command}` wrote")
+            raise InputError(self.path, f"holds files roneld-eval did not write ({_first_names(foreign)}): results go "
+                                        "only into a new or empty folder, or one an earlier `roneld-eval "
+                                        f"{self.command}` wrote")
         command = plan["command"] if plan is not None else manifest["command"] if manifest is not None else None
         if command is not None and command != self.command:
             raise InputError(self.path, f"holds the results of `roneld-eval {command}`; write the "
@@ -380,10 +387,9 @@ class OutputFolder:
                          if entry.name not in manifest["entries"] and not is_own_entry(entry.name)
                          and not _os_litter(entry.name))
         if foreign:
-            listing = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
-            raise InputError(folder, f"holds files roneld-eval did not write ({listing}), and `roneld-eval "
-                                     f"{self.command}` would replace it whole: move them elsewhere, or remove the "
-                                     "folder")
+            raise InputError(folder, f"holds files roneld-eval did not write ({_first_names(foreign)}), and "
+                                     f"`roneld-eval {self.command}` would replace it whole: move them elsewhere, or "
+                                     "remove the folder")
         self._refuse_changed_folders(manifest, folder)
 
     def _is_nested(self, entry: Path) -> bool:

@@ -264,7 +264,7 @@ def _taking(out: str | Path | None, command: str, reads: Sequence[str | Path | N
     """The whole command with SIGTERM and SIGHUP ending it as Ctrl-C does, the inputs it `reads`
     refused where a killed command left them half in place, and OUT (when given) checked and
     locked before any work, not refused after it."""
-    refuse_cut_short(*(path for path in reads if path is not None))
+    refuse_cut_short(*reads)
     with terminate_as_interrupt():
         if out is None:
             yield None

@@ -163,7 +163,7 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
     dataset stays whole."""
     maps_root = _maps_root(config)
     assert config.dataset.data_root is not None  # _maps_root refuses a run without one
-    refuse_cut_short(*(path for path in (config.dataset.data_root, config.dataset.list_file, maps_root) if path))
+    refuse_cut_short(config.dataset.data_root, config.dataset.list_file, maps_root)
     skipped: list[str] = []
     if dataset is None:
         dataset = _read(config, skipped)
