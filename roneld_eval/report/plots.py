@@ -51,11 +51,16 @@ _TICK_IN = 8 / 72  # tick length and its label's pad
 _GAP_IN = 0.06
 
 
+def _panel_width(width: float, left: float, right: float, between: float, panels: int) -> float:
+    """Inches of each of `panels` side by side in a figure `width` wide, within these margins."""
+    return (width - left - right - between * (panels - 1)) / panels
+
+
 def _place_axes(figure, left: float, bottom: float, right: float, top: float, between: float = 0.0) -> None:
     """The axes inside these margins (inches), `between` inches apart."""
     width, height = figure.get_size_inches()
     panels = max(len(figure.axes), 1)
-    panel = (width - left - right - between * (panels - 1)) / panels
+    panel = _panel_width(width, left, right, between, panels)
     figure.subplots_adjust(left=left / width, bottom=bottom / height, right=1 - right / width, top=1 - top / height,
                            wspace=between / panel if panels > 1 else None)
 
@@ -154,13 +159,13 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
     # the room below the axes, and how far any reaches left of the axes (a tick lies (k + 1/2) / n
     # of the panel's width in) the room beside them and between the panels.
     longest = max((len(str(name)) for name in names), default=0) * _CHAR_IN
-    beside = _TICK_IN + 4 * _CHAR_IN + 2 * _GAP_IN
-    width = figure.get_figwidth()
+    y_labels = _TICK_IN + 4 * _CHAR_IN + 2 * _GAP_IN  # "1.0" and its tick, the least room beside a panel
+    beside = y_labels
     for _ in range(2):  # the panels' width depends on the room beside them
-        panel_in = (width - 2 * beside - _GAP_IN * 3) / len(panels) if len(panels) > 1 else width - beside - _GAP_IN * 3
+        panel_in = _panel_width(figure.get_figwidth(), beside, _GAP_IN * 3, beside + _GAP_IN, len(panels))
         reach = max((len(str(name)) * _CHAR_IN * 0.87 - (k + 0.5) / len(names) * panel_in
                      for k, name in enumerate(names)), default=0.0)
-        beside = max(_TICK_IN + 4 * _CHAR_IN + 2 * _GAP_IN, reach + _GAP_IN)
+        beside = max(y_labels, reach + _GAP_IN)
     _place_axes(figure, left=beside, bottom=_note(figure, note, 100 * len(panels)) + _TICK_IN + longest * 0.5
                 + _LINE_IN * 0.87 + 2 * _GAP_IN, right=_GAP_IN * 3, top=0.4 + _LINE_IN + 2 * _GAP_IN,
                 between=beside + _GAP_IN)
