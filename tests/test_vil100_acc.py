@@ -13,11 +13,13 @@ import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
 from roneld_eval.cli import main
 from roneld_eval.datasets.vil100 import read_vil100
-from roneld_eval.datasets.vil100_png import instance_lanes, lines_text, read_instance_png
+from roneld_eval.datasets.vil100_png import instance_lanes, lines_text, lit_pixels, read_instance_png
 from roneld_eval.errors import InputError
 from roneld_eval.lanes_io import read_culane_lines
 from roneld_eval.metrics.vil100_acc import mmanet_frame, rvld_frame
@@ -81,6 +83,19 @@ def test_a_lane_the_rvld_script_stops_at_keeps_its_first_point_at_each_y():
     short = Lane.from_xy([500, 520, 540], [500, 700, 900])  # fewer than 4 points: matches nothing
     frame = rvld_frame([short], truth)
     assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (0.0, 1.0, 1.0, 1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 40), st.floats(0, 1), st.integers(0, 2**32 - 1), st.booleans())
+def test_lit_pixels_are_numpys_nonzero_in_its_order(height, width, lit, seed, colours):
+    # The pixel order decides each lane's fit to the last bit: it must be np.where's.
+    random = np.random.default_rng(seed)
+    grey = (random.random((height, width)) < lit) * random.integers(1, 256, (height, width))
+    grey = grey * 0.0125 if colours else grey.astype(np.uint8)
+    rows, columns = lit_pixels(grey)
+    expected_rows, expected_columns = np.nonzero(grey > 0)
+    assert rows.tolist() == expected_rows.tolist() and columns.tolist() == expected_columns.tolist()
+    assert rows.dtype == expected_rows.dtype
 
 
 def test_a_mask_lane_whose_fit_fails_matches_nothing(tmp_path):
