@@ -391,10 +391,12 @@ def test_a_runtime_mean_above_its_95th_percentile_is_explained(tmp_path):
 @pytest.mark.parametrize("names", [["normal", "all"], ["a", "a category named at some length", "night"],
                                    ["normal", "crowded_highway_merge_with_construction_zone_and_shadow"]
                                    + [f"category_number_{k}" for k in range(3, 9)]])
-def test_the_figures_text_lies_inside_them_and_apart(names, fixture_result):
+@pytest.mark.parametrize("model", ["SCNN", "ENet-SAD_resnet101_culane_epoch30_lr0.01_batch8_seed3 retrained",
+                                   "a model named at length " * 4])
+def test_the_figures_text_lies_inside_them_and_apart(names, model, fixture_result):
     # Their axes are placed by margins computed from the labels (not measured by drawing, as
     # tight_layout did): every text must still fit on the canvas, tick labels clear of the axis
-    # labels and of the note beneath.
+    # labels and of the note beneath, a legend's names (long ones wrapped) clear of the titles.
     import matplotlib.pyplot as plt
     from matplotlib.text import Text
 
@@ -404,8 +406,8 @@ def test_the_figures_text_lies_inside_them_and_apart(names, fixture_result):
                                "accuracy": [0.5] * len(rows)})
     official = pd.DataFrame({"category": [n for n, _ in rows], "method": [m for _, m in rows], "f1": [0.6] * len(rows)})
     panel = benchmark_for("culane").category_panel(official, protocol)
-    for figure in (accuracy_figure(fixture_result.accuracy, "SCNN", "culane", protocol),
-                   category_figure(categories, panel, "SCNN", "0.5", protocol)):
+    for figure in (accuracy_figure(fixture_result.accuracy, model, "culane", protocol),
+                   category_figure(categories, panel, model, "0.5", protocol)):
         figure.canvas.draw()
         renderer = figure.canvas.get_renderer()
         canvas = figure.bbox
@@ -432,4 +434,14 @@ def test_the_figures_text_lies_inside_them_and_apart(names, fixture_result):
             for other in others:
                 if other.axes is None or other in (other.axes.xaxis.label, other.axes.yaxis.label):
                     assert not boxes[id(label)].overlaps(boxes[id(other)]), (label.get_text(), other.get_text())
+        legends = [legend for legend in figure.legends + [axes.get_legend() for axes in figure.axes] if legend]
+        titles = [axes.title for axes in figure.axes if axes.get_title()]
+        for legend in legends:
+            box = legend.get_window_extent(renderer)
+            assert canvas.x0 <= box.x0 and box.x1 <= canvas.x1 and canvas.y0 <= box.y0 and box.y1 <= canvas.y1
+            for title in titles:
+                assert not box.overlaps(boxes[id(title)]), title.get_text()
+        shown_names = [" ".join(name.get_text().split()) for legend in legends for name in legend.get_texts()]
+        assert shown_names and all(" ".join(tables.display_name(m, model).split()) in shown_names
+                                   for m in ("baseline", "roneld"))
         plt.close(figure)

@@ -51,6 +51,17 @@ _TICK_IN = 8 / 72  # tick length and its label's pad
 _GAP_IN = 0.06
 
 
+# A legend entry's marker and the space around its name, in inches at 10 pt (matplotlib's
+# handlelength 2 em, handletextpad 0.8 em, borderpad and borderaxespad 0.5 em each side).
+_LEGEND_HANDLE_IN = (2.0 + 0.8 + 2 * 0.5 + 2 * 0.5) * 10 / 72
+
+
+def _wrapped(name: str, inches: float, points: float = 10.0) -> str:
+    """A legend name in lines at most `inches` wide at `points` (a long model name would run off the
+    figure); words are kept whole where they fit a line."""
+    return textwrap.fill(name, max(8, int(inches / (_CHAR_IN * points / 10))), break_on_hyphens=False)
+
+
 def _panel_width(width: float, left: float, right: float, between: float, panels: int) -> float:
     """Inches of each of `panels` side by side in a figure `width` wide, within these margins."""
     return (width - left - right - between * (panels - 1)) / panels
@@ -72,11 +83,14 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
     `protocol`: the configuration stated under the plot.
     """
     figure, axes = plt.subplots(figsize=(6.4, 4.4), dpi=150)
+    left, right = _TICK_IN + 5 * _CHAR_IN + 2 * _GAP_IN + _LINE_IN, 3 * _CHAR_IN
+    # The legend lies inside the axes: its names are wrapped to their width.
+    name_in = _panel_width(figure.get_figwidth(), left, right, 0.0, 1) - _LEGEND_HANDLE_IN
     for method in dict.fromkeys(accuracy["method"]):
         rows = accuracy[accuracy["method"] == method]
         style = STYLES.get(method, dict(marker="x", linestyle="-."))
-        axes.plot(rows["threshold"].astype(float), rows["accuracy"], label=display_name(method, model),
-                  markersize=4, linewidth=1.6, **style)
+        axes.plot(rows["threshold"].astype(float), rows["accuracy"],
+                  label=_wrapped(display_name(method, model), name_in), markersize=4, linewidth=1.6, **style)
     axes.set_title(f"Ego-lane accuracy on {dataset_name(dataset)}", fontsize=10)
     axes.set_xlabel("IoU threshold (a true positive needs IoU > threshold)")
     axes.set_ylabel("Accuracy (N_TP / N_gt)")
@@ -90,9 +104,8 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
         note.append(f"RONELD paper's protocol: {protocol.paper()}{clips}.")
     # Room for y tick labels of up to 5 characters ("0.925") and the y label; below, the x tick
     # labels, the x label and the note; above, the title; right, half the last x tick label.
-    _place_axes(figure, left=_TICK_IN + 5 * _CHAR_IN + 2 * _GAP_IN + _LINE_IN,
-                bottom=_note(figure, note, 100) + _TICK_IN + 2 * _LINE_IN + 2 * _GAP_IN,
-                right=3 * _CHAR_IN, top=_LINE_IN + 3 * _GAP_IN)
+    _place_axes(figure, left=left, bottom=_note(figure, note, 100) + _TICK_IN + 2 * _LINE_IN + 2 * _GAP_IN,
+                right=right, top=_LINE_IN + 3 * _GAP_IN)
     return figure
 
 
@@ -131,6 +144,9 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
         panels.append(("score", panel.table[panel.table["category"].isin(names)],
                        f"{panel.title} (IoU > {threshold_label})"))
     figure, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.6), dpi=150, squeeze=False)
+    # One legend above the panels, a column per method: each name wrapped to its column (9 pt).
+    column_in = (figure.get_figwidth() - 2 * _GAP_IN) / max(len(methods), 1) - _LEGEND_HANDLE_IN * 0.9
+    shown = {method: _wrapped(display_name(method, model), column_in, 9.0) for method in methods}
     width = 0.8 / max(len(methods), 1)
     positions = np.arange(len(names))
     for ax, (column, table, title) in zip(axes[0], panels):
@@ -138,7 +154,7 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
             rows = table[table["method"] == method].set_index("category").reindex(names)
             style = STYLES.get(method, {})
             ax.bar(positions + (k - (len(methods) - 1) / 2) * width, rows[column].fillna(0), width,
-                   label=display_name(method, model), color=style.get("color", "#777777"),
+                   label=shown[method], color=style.get("color", "#777777"),
                    hatch=HATCHES.get(method, "xx"), edgecolor="black", linewidth=0.6)
         ax.set_xticks(positions, names, rotation=30, ha="right")
         ax.set_ylim(0, 1.05)
@@ -155,6 +171,8 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
     if panel is not None and ego_only:
         note.append(f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: "
                     f"{panel.ego_lanes_note}.")
+    lines = max((name.count("\n") + 1 for name in shown.values()), default=1)
+    legend_in = 0.4 + (lines - 1) * 9 * 1.25 / 72  # the legend's rows, each 9 pt and its spacing
     # Category names are tick labels turned 30 degrees, ending at their tick: the longest sets
     # the room below the axes, and how far any reaches left of the axes (a tick lies (k + 1/2) / n
     # of the panel's width in) the room beside them and between the panels.
@@ -167,6 +185,6 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
                      for k, name in enumerate(names)), default=0.0)
         beside = max(y_labels, reach + _GAP_IN)
     _place_axes(figure, left=beside, bottom=_note(figure, note, 100 * len(panels)) + _TICK_IN + longest * 0.5
-                + _LINE_IN * 0.87 + 2 * _GAP_IN, right=_GAP_IN * 3, top=0.4 + _LINE_IN + 2 * _GAP_IN,
+                + _LINE_IN * 0.87 + 2 * _GAP_IN, right=_GAP_IN * 3, top=legend_in + _LINE_IN + 2 * _GAP_IN,
                 between=beside + _GAP_IN)
     return figure
