@@ -20,6 +20,7 @@ from .benchmarks import names as benchmark_names
 from .config import LANES_MODEL, MAP_FORMATS, METHODS, EvalConfig, parse_setting
 from .presets import is_preset, preset_names
 from .errors import ConfigError, RoneldEvalError
+from .limits import check_environment
 from .output import DEFAULT_OUT
 from .cluster import executed
 
@@ -63,6 +64,7 @@ def _guard(function, debug: bool, *args, **kwargs):
     try:
         for value in (*args, *kwargs.values()):
             _check_path_text(value)
+        check_environment()
         return function(*args, **kwargs)
     except RoneldEvalError as error:
         _fail(error, debug)

@@ -85,3 +85,11 @@ class CountLimit:
 
 
 LANES = CountLimit("one frame's labels or predictions", "RONELD_EVAL_MAX_LANES", 1000)
+
+
+def check_environment() -> None:
+    """Raise ConfigError for a bound set to something that is not one (RONELD_EVAL_MAX_LANES=0),
+    before a command does any work: otherwise it would be said only where the first file of that
+    kind is read, for `score` inside the scoring, after its progress bar."""
+    bounds = [limit.bytes for limit in ALL] + [LANES.count]  # each property raises for a bad value
+    assert all(bound > 0 for bound in bounds)

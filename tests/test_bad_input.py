@@ -715,3 +715,21 @@ def test_a_first_map_that_does_not_decode_is_skipped_whatever_its_header_claims(
                                        "--quiet", "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert "00000_1_avg.png: not a readable image" in result.output and "(frame skipped)" in result.output
+
+
+@pytest.mark.parametrize("variable, value", [("RONELD_EVAL_MAX_LANES", "0"), ("RONELD_EVAL_MAX_JSON_MIB", "lots")])
+def test_a_bound_set_to_no_number_is_one_line_before_any_work(tmp_path, monkeypatch, variable, value):
+    # Said only where the first file of its kind was read: `score` printed its progress bar first,
+    # and a TuSimple bound stopped a CULane run never.
+    _one_frame_of_1001_lanes(tmp_path)
+    monkeypatch.setenv(variable, value)
+    commands = [["run", "--out", str(tmp_path / "run")],
+                ["score", "culane", "--data-root", str(tmp_path / "gt"), "--pred-root", str(tmp_path / "pred"),
+                 "--list", str(tmp_path / "list.txt"), "--out", str(tmp_path / "score")],
+                ["synth", "--dataset", "culane", "--out", str(tmp_path / "synth")]]
+    for args in commands:
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 2 and result.output.startswith(f"error: {variable}={value!r}: give the "), \
+            result.output
+        assert result.output.count("\n") == 1, result.output
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["gt", "list.txt", "pred"]
