@@ -445,14 +445,12 @@ def merge(parts, out, debug):
 @debug_option
 def synth(dataset, out, clips, frames, seed, maps_format, debug):
     """Generate a small realistic dataset with SCNN-like maps (4 channels, 288x800)."""
-    from tqdm import tqdm
-
     from . import api
-
     from .benchmarks import benchmark_for
+    from .progress import progress_bar
 
     total = clips * (frames or _guard(benchmark_for, debug, dataset).frames_per_clip)
-    with tqdm(total=total, unit="frame", desc="generating", disable=total < 200) as bar:
+    with progress_bar(total, "frame", "generating", disable=total < 200) as bar:
         result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
     scored = result.score_command is not None  # a benchmark scored from lane files: labels and predictions
     click.echo(f"{'labels' if scored else 'data root'}: {result.data_root}")

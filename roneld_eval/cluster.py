@@ -96,9 +96,9 @@ def on_dask(function: Callable, arguments: dict, command: str, scheduler: str | 
                    for k in range(1, count + 1)}
         parts: dict[int, dict[str, bytes]] = {}
         try:
-            from tqdm import tqdm
+            from .progress import progress_bar
 
-            with tqdm(total=count, unit="shard", desc="shards", disable=not progress) as bar:
+            with progress_bar(count, "shard", "shards", disable=not progress) as bar:
                 for future in distributed.as_completed(futures):
                     parts[futures[future]] = _result(distributed, future, futures[future], count)
                     bar.update(1)

@@ -231,16 +231,15 @@ def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | Non
     """`function` over tasks whose first item is their frames, in order: in worker processes for
     more than one task (all cores unless `workers`), else here; a progress bar counts frames.
     The kernels are compiled once here first, not in every worker."""
-    from tqdm import tqdm
-
     from . import kernels
+    from .progress import progress_bar
 
     if kernel_groups:
         kernels.prepare(announce=announce, needed=kernel_groups)
     from .workers import worker_count
 
     pieces = []
-    with tqdm(total=sum(len(task[0]) for task in tasks), unit=unit, desc="scoring", disable=not progress) as bar:
+    with progress_bar(sum(len(task[0]) for task in tasks), unit, "scoring", disable=not progress) as bar:
         if len(tasks) > 1 and worker_count(workers) != 1:
             from .workers import process_pool, stopping
 

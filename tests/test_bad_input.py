@@ -733,3 +733,13 @@ def test_a_bound_set_to_no_number_is_one_line_before_any_work(tmp_path, monkeypa
             result.output
         assert result.output.count("\n") == 1, result.output
     assert sorted(path.name for path in tmp_path.iterdir()) == ["gt", "list.txt", "pred"]
+
+
+def test_a_progress_bar_stopped_by_an_error_is_erased_above_its_line(tmp_path):
+    # The error's one line stood under "scoring:   0%|  | 0/1", a bar that would never go on.
+    _one_frame_of_1001_lanes(tmp_path)
+    result = CliRunner().invoke(main, ["score", "culane", "--data-root", str(tmp_path / "gt"), "--pred-root",
+                                       str(tmp_path / "pred"), "--list", str(tmp_path / "list.txt")])
+    assert result.exit_code == 2 and "scoring" in result.output, result.output  # a bar was drawn
+    *_, erased, said = result.output.split("\r")
+    assert not erased.strip() and said.startswith("error: ") and said.count("\n") == 1, result.output

@@ -245,9 +245,9 @@ def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int
     kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
     if workers == 1:
         kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
-    from tqdm import tqdm
+    from ..progress import progress_bar
 
-    with tqdm(total=len(relpaths), unit="frame", desc="scoring", disable=not progress) as bar:
+    with progress_bar(len(relpaths), "frame", "scoring", disable=not progress) as bar:
         if workers > 1:
             from ..workers import process_pool, stopping
 

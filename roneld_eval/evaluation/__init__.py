@@ -22,6 +22,7 @@ from ..config import EvalConfig
 from ..thresholds import parse_thresholds
 from ..metrics.sweep import sweep_accuracy
 from ..model import Clip, Dataset, Frame
+from ..progress import progress_bar
 from ..workers import default_workers, worker_count
 from .one_clip import effective_geometry, evaluate_clip
 from .plan import RunPlan, check_maps, describe_missing, plan
@@ -52,14 +53,13 @@ def evaluate(
     # Compiled once here, before the workers fork, instead of in every worker at once.
     kernels.prepare(announce=announce or (lambda message: None), needed=context.kernel_groups(), processes=workers)
     merged = _Merged(config, context.benchmark.tally(config.methods, planned.dataset, config), planned.skipped)
-    bar = _progress_bar(sum(len(clip.frames) for clip in clips), progress)
-    try:
+    # None: no bar where stderr is not a terminal (CI logs), as tqdm documents.
+    with progress_bar(sum(len(clip.frames) for clip in clips), "frame", "evaluating",
+                      disable=None if progress else True) as bar:
         results = _clip_results(clips, context, workers, cache, advance=bar.update)
         for clip, result in zip(clips, results, strict=True):  # strict: runs the generator to its end
             merged.add(clip, result, lane_sink)
             del result
-    finally:
-        bar.close()
 
     per_frame = merged.rows.take_table()
     thresholds = parse_thresholds(config.paper.thresholds)
@@ -126,13 +126,6 @@ class _Merged:
         self.tally.end_clip(clip.clip_id)
 
 
-
-
-def _progress_bar(total: int, enabled: bool):
-    from tqdm import tqdm
-
-    # None: no bar where stderr is not a terminal (CI logs), as tqdm documents.
-    return tqdm(total=total, unit="frame", desc="evaluating", disable=None if enabled else True, dynamic_ncols=True)
 
 
 __all__ = ["evaluate", "plan", "RunPlan", "RunResult", "RunContext", "ClipResult", "FrameOutcome", "PerFrameRows",
