@@ -3,11 +3,13 @@ the temporal metrics, end to end in a fresh process, beside MMA-Net's C++ evalua
 files when its binary is given (run as evaluate_iou.py runs it: once per sequence and threshold).
 
     python scripts/bench_vil100.py --labels ../shared/data/vil100/anno_txt \
-        --sizes ../shared/data/vil100/test_sizes.json [--workers 2] [--repeats 3] [--evaluator PATH]
+        --sizes ../shared/data/vil100/test_sizes.json [--workers 2] [--repeats 3] [--evaluator PATH] [--masks]
 
 Predictions are the ground truth with seeded shifts, dropped and spurious lanes and empty
-frames (written to a temporary folder). The evaluator is MMA-Net's evaluation/culane built
-from its sources (yujun0-0/MMA-Net 8f95908); this project does not ship it.
+frames (written to a temporary folder); with --masks they are also drawn as MMA-Net's instance
+masks (lane k in grey value k, 30 px wide at 1920) and scored with `--pred-format png`. The
+evaluator is MMA-Net's evaluation/culane built from its sources (yujun0-0/MMA-Net 8f95908); this
+project does not ship it.
 """
 
 from __future__ import annotations
@@ -48,11 +50,27 @@ def perturbed(labels: Path, out: Path, seed: int = 0) -> int:
     return frames
 
 
-def ours(labels: Path, sizes: Path, pred: Path, workers: int, out: Path) -> float:
+def as_masks(pred: Path, sizes: dict, out: Path) -> None:
+    """Each frame's predicted lanes drawn as an instance mask: lane k in grey value k."""
+    import cv2
+
+    for path in sorted(pred.rglob("*.lines.txt")):
+        relative = path.relative_to(pred)
+        width, height = sizes[relative.parts[0]]["width"], sizes[relative.parts[0]]["height"]
+        mask = np.zeros((height, width), np.uint8)
+        for k, line in enumerate(path.read_text().splitlines()):
+            points = np.round(np.array(line.split(), float).reshape(-1, 1, 2)).astype(np.int32)
+            cv2.polylines(mask, [points], False, k + 1, thickness=max(1, round(30 * width / 1920)))
+        target = out / relative.parent / (relative.name[:-len(".lines.txt")] + ".png")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(target), mask)
+
+
+def ours(labels: Path, sizes: Path, pred: Path, workers: int, out: Path, *extra: str) -> float:
     start = time.perf_counter()
     subprocess.run([sys.executable, "-m", "roneld_eval", "score", "vil100", "--labels", str(labels), "--pred-root",
-                    str(pred), "--sizes", str(sizes), "--workers", str(workers), "--quiet", "--out", str(out)],
-                   check=True, cwd=REPO)
+                    str(pred), "--sizes", str(sizes), "--workers", str(workers), "--quiet", "--out", str(out),
+                    *extra], check=True, cwd=REPO)
     return time.perf_counter() - start
 
 
@@ -78,6 +96,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--evaluator", type=Path, help="MMA-Net's culane_evaluator, built from its sources")
+    parser.add_argument("--masks", action="store_true", help="also score the predictions drawn as instance masks")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         pred = Path(folder) / "pred"
@@ -94,6 +113,15 @@ def main() -> None:
             seconds = official(args.evaluator.resolve(), args.labels.resolve(), sizes, pred, work)
             print(f"MMA-Net's C++ evaluator (F1 and mIoU only, its own OpenMP threads): {seconds:.1f} s, "
                   f"{seconds / median:.1f}x ours")
+        if args.masks:
+            masks = Path(folder) / "masks"
+            as_masks(pred, json.loads(args.sizes.read_text()), masks)
+            times = [ours(args.labels.resolve(), args.sizes.resolve(), masks, args.workers, Path(folder) / f"png{k}",
+                          "--pred-format", "png") for k in range(args.repeats)]
+            median = statistics.median(times)
+            print(f"score vil100 --pred-format png (instance masks, read and fitted as MMA-Net's scripts do): "
+                  f"median {median:.1f} s of {args.repeats} ({', '.join(f'{t:.1f}' for t in times)}), "
+                  f"{1000 * median / frames:.1f} ms a frame")
 
 
 if __name__ == "__main__":
