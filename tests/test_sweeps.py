@@ -171,3 +171,20 @@ def test_an_edited_sweep_is_named_with_its_problem(checkpoints, tmp_path, edit, 
     result = _invoke("compare", every, "--out", tmp_path / "c")
     assert result.exit_code == 2 and said in result.output and len(result.output.strip().splitlines()) == 1, \
         result.output
+
+
+def test_a_best_among_a_runs_lanes_says_what_ego_lanes_only_means(fixture_run, tmp_path):
+    # `score culane --pred-root RUN/lanes` named the baseline best by F1 over all lanes, of which
+    # RONELD outputs the two ego lanes alone: read as RONELD losing.
+    from roneld_eval.api import fixture_roots
+
+    _, run = fixture_run
+    data, _ = fixture_roots("culane")
+    result = _invoke("score", "culane", "--data-root", data, "--pred-root", run / "lanes")
+    assert result.exit_code == 0, result.output
+    assert "best by F1@50 over all frames: baseline" in result.output
+    assert ("note: roneld and roneld-nopft output the two ego lanes only: F1 over all lanes counts the outer lanes "
+            "as missed") in result.output
+    only = _invoke("score", "culane", "--data-root", data, "--pred-root", f"a={run / 'lanes' / 'roneld'}",
+                   "--pred-root", f"b={run / 'lanes' / 'baseline'}")
+    assert only.exit_code == 0 and "note:" not in only.output, only.output  # named as the user chose
