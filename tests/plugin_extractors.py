@@ -138,8 +138,9 @@ def spins_deaf(geometry, params):
 
 def swallows_everything(geometry, params):
     """On its clip's second frame, ignores SIGALRM and SIGTERM and spins, swallowing every
-    exception (Ctrl-C's KeyboardInterrupt too)."""
+    exception (Ctrl-C's KeyboardInterrupt too); creates the file `spinning` names as it begins."""
     import signal
+    from pathlib import Path
 
     state = {"frames": 0}
 
@@ -148,6 +149,8 @@ def swallows_everything(geometry, params):
         if state["frames"] == 2:
             signal.signal(signal.SIGALRM, signal.SIG_IGN)
             signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            if params.get("spinning"):
+                Path(params["spinning"]).touch()
             while True:
                 try:
                     time.sleep(0.01)

@@ -413,13 +413,20 @@ def test_ctrl_c_ends_a_run_whose_plugin_swallows_every_signal(dataset, tmp_path)
     import sys
     import time
 
+    spinning = tmp_path / "spinning"
     config = config_with_methods(tmp_path / "deaf.toml", f'[methods.baseline]\n[methods.deaf]\n'
-                                 f'entry = "{entry("swallows_everything")}"\ntime_limit_s = 600\n')
+                                 f'entry = "{entry("swallows_everything")}"\ntime_limit_s = 600\n'
+                                 f'spinning = "{spinning}"\n')
     out = tmp_path / "out"
     process = subprocess.Popen([sys.executable, "-m", "roneld_eval", *run_args(dataset, out, "--config", str(config),
                                                                           "--workers", "1")],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
-    time.sleep(4.0)  # well into the spinning frame
+    # Into the spinning frame, however loaded the machine: a fixed 4 s sleep sent Ctrl-C while the
+    # command was still starting at load 4, where nothing is running to say what it left.
+    deadline = time.monotonic() + 120
+    while not spinning.exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert spinning.exists(), process.communicate()
     process.send_signal(signal.SIGINT)
     start = time.monotonic()
     _, errors = process.communicate(timeout=60)
