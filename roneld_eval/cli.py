@@ -450,6 +450,7 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
     from .progress import progress_bar
 
     total = clips * (frames or _guard(benchmark_for, debug, dataset).frames_per_clip)
+    _guard(check_environment, debug)  # before the bar: a bound set wrong is one line, not under a bar
     with progress_bar(total, "frame", "generating", disable=total < 200) as bar:
         result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
     scored = result.score_command is not None  # a benchmark scored from lane files: labels and predictions

@@ -726,7 +726,8 @@ def test_a_bound_set_to_no_number_is_one_line_before_any_work(tmp_path, monkeypa
     commands = [["run", "--out", str(tmp_path / "run")],
                 ["score", "culane", "--data-root", str(tmp_path / "gt"), "--pred-root", str(tmp_path / "pred"),
                  "--list", str(tmp_path / "list.txt"), "--out", str(tmp_path / "score")],
-                ["synth", "--dataset", "culane", "--out", str(tmp_path / "synth")]]
+                ["synth", "--dataset", "culane", "--out", str(tmp_path / "synth")],
+                ["synth", "--dataset", "culane", "--frames", "100", "--clips", "3", "--out", str(tmp_path / "synth")]]
     for args in commands:
         result = CliRunner().invoke(main, args)
         assert result.exit_code == 2 and result.output.startswith(f"error: {variable}={value!r}: give the "), \

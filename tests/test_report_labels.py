@@ -388,25 +388,35 @@ def test_a_runtime_mean_above_its_95th_percentile_is_explained(tmp_path):
     assert f"A mean above its 95th percentile ({skewed.loc[0, 'method']})" in text and "the median is" in text
 
 
-@pytest.mark.parametrize("names", [["normal", "all"], ["a", "a category named at some length", "night"],
-                                   ["normal", "crowded_highway_merge_with_construction_zone_and_shadow"]
-                                   + [f"category_number_{k}" for k in range(3, 9)]])
-@pytest.mark.parametrize("model", ["SCNN", "ENet-SAD_resnet101_culane_epoch30_lr0.01_batch8_seed3 retrained",
-                                   "a model named at length " * 4])
+_MANY = ["normal", "crowded_highway_merge_with_construction_zone_and_shadow"] + [f"category_number_{k}"
+                                                                                 for k in range(3, 9)]
+
+
+@pytest.mark.parametrize("names, model", [
+    (["normal", "all"], "SCNN"), (["a", "a category named at some length", "night"], "SCNN"), (_MANY, "SCNN"),
+    (["normal", "all"], "ENet-SAD_resnet101_culane_epoch30_lr0.01_batch8_seed3 retrained"),
+    (_MANY, "a model named at length " * 4),
+    (["normal", "all"], "W" * 70),  # wide letters: wrapped by the font's widths, not a letter count
+    (["normal", "all"], "Lorem ipsum dolor sit amet " * 30),  # 810 characters pushed the axes off: shortened
+    (["normal", "all"], "_resnet"),  # matplotlib leaves names that begin with "_" out of a legend
+])
 def test_the_figures_text_lies_inside_them_and_apart(names, model, fixture_result):
     # Their axes are placed by margins computed from the labels (not measured by drawing, as
     # tight_layout did): every text must still fit on the canvas, tick labels clear of the axis
-    # labels and of the note beneath, a legend's names (long ones wrapped) clear of the titles.
+    # labels and of the note beneath, a legend's names (long ones fitted) clear of the titles,
+    # and a title that names the model (the fixture's) on the canvas too.
     import matplotlib.pyplot as plt
     from matplotlib.text import Text
 
     protocol = tables.Protocol(ENET_GEOMETRY, clips=4)
-    rows = [(name, method) for name in names for method in ("baseline", "roneld")]
+    methods = ("baseline", "roneld", "roneld-nopft")
+    rows = [(name, method) for name in names for method in methods]
     categories = pd.DataFrame({"category": [n for n, _ in rows], "method": [m for _, m in rows],
                                "accuracy": [0.5] * len(rows)})
     official = pd.DataFrame({"category": [n for n, _ in rows], "method": [m for _, m in rows], "f1": [0.6] * len(rows)})
     panel = benchmark_for("culane").category_panel(official, protocol)
-    for figure in (accuracy_figure(fixture_result.accuracy, model, "culane", protocol),
+    source = f"the bundled CULane fixture (synthetic {model}-like maps)"
+    for figure in (accuracy_figure(fixture_result.accuracy, model, source, protocol),
                    category_figure(categories, panel, model, "0.5", protocol)):
         figure.canvas.draw()
         renderer = figure.canvas.get_renderer()
@@ -442,6 +452,11 @@ def test_the_figures_text_lies_inside_them_and_apart(names, model, fixture_resul
             for title in titles:
                 assert not box.overlaps(boxes[id(title)]), title.get_text()
         shown_names = [" ".join(name.get_text().split()) for legend in legends for name in legend.get_texts()]
-        assert shown_names and all(" ".join(tables.display_name(m, model).split()) in shown_names
-                                   for m in ("baseline", "roneld"))
+        drawn = list(dict.fromkeys(fixture_result.accuracy["method"])) if figure.axes[0].get_legend() else methods
+        assert len(shown_names) == len(drawn), shown_names
+        for method, name in zip(drawn, shown_names):  # whole, or the model's name shortened and the method's kept
+            whole = tables.display_name(method, model)
+            own = " ".join(tables.name_parts(method, model)[1:])
+            assert "".join(name.split()) == "".join(whole.split()) or (  # a word may be cut across lines
+                "\u2026" in name and name.endswith(own) and len(name) < len(whole)), name
         plt.close(figure)

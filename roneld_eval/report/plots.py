@@ -25,7 +25,7 @@ from ..benchmarks import CategoryPanel  # noqa: E402
 from ..config import EGO_LANES_ONLY  # noqa: E402
 from ..methods import METHOD_TABLE  # noqa: E402
 from ..errors import InputError  # noqa: E402
-from .tables import Protocol, clips_text, dataset_name, display_name  # noqa: E402
+from .tables import Protocol, clips_text, dataset_name, display_name, name_parts  # noqa: E402
 
 STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
     name: dict(color=facts.colour, marker=facts.marker, linestyle=facts.linestyle)
@@ -36,7 +36,14 @@ STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
 def _note(figure, lines: list[str], width: int) -> float:
     """Wrapped small text at the bottom of the figure; returns the height in inches it takes."""
     keep = re.compile(r"(\d) (px|clips?)\b")  # '30 px' stays on one line
-    text = "\n".join(textwrap.fill(keep.sub("\\1\u00a0\\2", line), width) for line in lines if line)
+    room = figure.get_figwidth() * 0.96  # it starts 1% in; rendered text runs a little wider than measured
+    filled = []
+    for line in (keep.sub("\\1\u00a0\\2", line) for line in lines if line):
+        wrapped = textwrap.fill(line, width).splitlines()
+        if any(_text_in(part, 7.5) > room for part in wrapped):  # wide letters (a model's name): measured
+            wrapped = _lines(line, room, 7.5)
+        filled += wrapped
+    text = "\n".join(filled)
     if not text:
         return 0.0
     figure.text(0.01, 0.01, text, fontsize=7.5, color="#333333", ha="left", va="bottom")
@@ -56,10 +63,73 @@ _GAP_IN = 0.06
 _LEGEND_HANDLE_IN = (2.0 + 0.8 + 2 * 0.5 + 2 * 0.5) * 10 / 72
 
 
-def _wrapped(name: str, inches: float, points: float = 10.0) -> str:
-    """A legend name in lines at most `inches` wide at `points` (a long model name would run off the
-    figure); words are kept whole where they fit a line."""
-    return textwrap.fill(name, max(8, int(inches / (_CHAR_IN * points / 10))), break_on_hyphens=False)
+def _text_in(text: str, points: float) -> float:
+    """The width of one line of text in inches, from the font's own metrics (a W is twice an
+    average letter, a CJK character wider still), without drawing a figure."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import text_to_path
+
+    width, _, _ = text_to_path.get_text_width_height_descent(text, FontProperties(size=points), ismath=False)
+    return width / 72
+
+
+def _lines(text: str, inches: float, points: float) -> list[str]:
+    """`text` wrapped at spaces into lines at most `inches` wide at `points`, a word wider than a
+    line cut."""
+    inches = max(inches, 0.5)
+
+    def longest_fitting(word: str) -> int:  # characters of the word's widest start that fits, at least one
+        low, high = 1, len(word)
+        while low < high:
+            middle = (low + high + 1) // 2
+            low, high = (middle, high) if _text_in(word[:middle], points) <= inches else (low, middle - 1)
+        return low
+
+    lines: list[str] = []
+    for word in text.split(" "):  # not at no-break spaces
+        if not word:
+            continue
+        if lines and _text_in(f"{lines[-1]} {word}", points) <= inches:
+            lines[-1] += " " + word
+            continue
+        while word:
+            cut = len(word) if _text_in(word, points) <= inches else longest_fitting(word)
+            lines.append(word[:cut])
+            word = word[cut:]
+    return lines
+
+
+def _fitted(text: str, inches: float, points: float = 10.0, most_lines: int = 2) -> str:
+    """`text` in at most `most_lines` lines at most `inches` wide, what does not fit ended with an
+    ellipsis (a model name of hundreds of characters pushed the axes off the figure)."""
+    lines = _lines(text, inches, points)
+    if len(lines) > most_lines:
+        last = lines[most_lines - 1]
+        while len(last) > 1 and _text_in(last + "\u2026", points) > max(inches, 0.5):
+            last = last[:-1]
+        lines = lines[:most_lines - 1] + [last.rstrip() + "\u2026"]
+    return "\n".join(lines)
+
+
+def _legend_name(method: str, model: str, inches: float, points: float = 10.0, most_lines: int = 2) -> str:
+    """A method's display name fitted to a legend: where it is too long, the model's name is
+    shortened and the method's own words kept ('SCNN_resnet101_cul… + RONELD w/o PFT')."""
+    head, *rest = name_parts(method, model)
+
+    def named(kept: int) -> str:
+        return " ".join([head if kept == len(head) else head[:kept].rstrip() + "\u2026", *rest])
+
+    def fits(kept: int) -> bool:
+        return len(_lines(named(kept), inches, points)) <= most_lines
+
+    if not fits(len(head)):
+        low, high = 0, len(head)
+        while low < high:  # the most of the model's name that fits
+            middle = (low + high + 1) // 2
+            low, high = (middle, high) if fits(middle) else (low, middle - 1)
+        if fits(low):
+            return "\n".join(_lines(named(low), inches, points))
+    return _fitted(named(len(head)), inches, points, most_lines)
 
 
 def _panel_width(width: float, left: float, right: float, between: float, panels: int) -> float:
@@ -68,7 +138,10 @@ def _panel_width(width: float, left: float, right: float, between: float, panels
 
 
 def _place_axes(figure, left: float, bottom: float, right: float, top: float, between: float = 0.0) -> None:
-    """The axes inside these margins (inches), `between` inches apart."""
+    """The axes inside these margins (inches), `between` inches apart; the figure grows taller
+    where the margins leave the axes less than 1.5 inches."""
+    if figure.get_figheight() < bottom + top + 1.5:
+        figure.set_figheight(bottom + top + 1.5)
     width, height = figure.get_size_inches()
     panels = max(len(figure.axes), 1)
     panel = _panel_width(width, left, right, between, panels)
@@ -84,18 +157,21 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
     """
     figure, axes = plt.subplots(figsize=(6.4, 4.4), dpi=150)
     left, right = _TICK_IN + 5 * _CHAR_IN + 2 * _GAP_IN + _LINE_IN, 3 * _CHAR_IN
-    # The legend lies inside the axes: its names are wrapped to their width.
-    name_in = _panel_width(figure.get_figwidth(), left, right, 0.0, 1) - _LEGEND_HANDLE_IN
+    axes_in = _panel_width(figure.get_figwidth(), left, right, 0.0, 1)
+    handles, names = [], []
     for method in dict.fromkeys(accuracy["method"]):
         rows = accuracy[accuracy["method"] == method]
         style = STYLES.get(method, dict(marker="x", linestyle="-."))
-        axes.plot(rows["threshold"].astype(float), rows["accuracy"],
-                  label=_wrapped(display_name(method, model), name_in), markersize=4, linewidth=1.6, **style)
-    axes.set_title(f"Ego-lane accuracy on {dataset_name(dataset)}", fontsize=10)
+        handles += axes.plot(rows["threshold"].astype(float), rows["accuracy"], markersize=4, linewidth=1.6, **style)
+        # The legend lies inside the axes: its names fitted to their width, two lines at most.
+        names.append(_legend_name(method, model, axes_in - _LEGEND_HANDLE_IN))
+    # Centred over the axes, so as wide as the axes and twice the right margin; on the fixture it names the model.
+    title = _fitted(f"Ego-lane accuracy on {dataset_name(dataset)}", axes_in + 2 * right - 2 * _GAP_IN)
+    axes.set_title(title, fontsize=10)
     axes.set_xlabel("IoU threshold (a true positive needs IoU > threshold)")
     axes.set_ylabel("Accuracy (N_TP / N_gt)")
     axes.grid(True, alpha=0.3)
-    axes.legend(loc="lower left", frameon=True)
+    axes.legend(handles, names, loc="lower left", frameon=True)  # given: a name may begin with "_"
     low = max(0.0, float(accuracy["accuracy"].min()) - 0.05)
     axes.set_ylim(low, min(1.0, float(accuracy["accuracy"].max()) + 0.05) if len(accuracy) else 1.0)
     note = []
@@ -105,7 +181,7 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
     # Room for y tick labels of up to 5 characters ("0.925") and the y label; below, the x tick
     # labels, the x label and the note; above, the title; right, half the last x tick label.
     _place_axes(figure, left=left, bottom=_note(figure, note, 100) + _TICK_IN + 2 * _LINE_IN + 2 * _GAP_IN,
-                right=right, top=_LINE_IN + 3 * _GAP_IN)
+                right=right, top=(title.count("\n") + 1) * _LINE_IN + 3 * _GAP_IN)
     return figure
 
 
@@ -144,30 +220,33 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
         panels.append(("score", panel.table[panel.table["category"].isin(names)],
                        f"{panel.title} (IoU > {threshold_label})"))
     figure, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.6), dpi=150, squeeze=False)
-    # One legend above the panels, a column per method: each name wrapped to its column (9 pt).
+    # One legend above the panels, a column per method: each name fitted to its column (9 pt).
     column_in = (figure.get_figwidth() - 2 * _GAP_IN) / max(len(methods), 1) - _LEGEND_HANDLE_IN * 0.9
-    shown = {method: _wrapped(display_name(method, model), column_in, 9.0) for method in methods}
+    shown = {method: _legend_name(method, model, column_in, 9.0, most_lines=3) for method in methods}
+    handles = []
     width = 0.8 / max(len(methods), 1)
     positions = np.arange(len(names))
     for ax, (column, table, title) in zip(axes[0], panels):
         for k, method in enumerate(methods):
             rows = table[table["method"] == method].set_index("category").reindex(names)
             style = STYLES.get(method, {})
-            ax.bar(positions + (k - (len(methods) - 1) / 2) * width, rows[column].fillna(0), width,
-                   label=shown[method], color=style.get("color", "#777777"),
-                   hatch=HATCHES.get(method, "xx"), edgecolor="black", linewidth=0.6)
+            bars = ax.bar(positions + (k - (len(methods) - 1) / 2) * width, rows[column].fillna(0), width,
+                          color=style.get("color", "#777777"), hatch=HATCHES.get(method, "xx"), edgecolor="black",
+                          linewidth=0.6)
+            if ax is axes[0][0]:
+                handles.append(bars)
         ax.set_xticks(positions, names, rotation=30, ha="right")
         ax.set_ylim(0, 1.05)
         ax.set_title(title, fontsize=10)
         ax.grid(True, axis="y", alpha=0.3)
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    figure.legend(handles, labels, loc="upper center", ncol=len(methods), fontsize=9, frameon=False)
+    # The names given, not collected: matplotlib leaves out a name that begins with "_"
+    figure.legend(handles, list(shown.values()), loc="upper center", ncol=len(methods), fontsize=9, frameon=False)
     note = []
     if protocol is not None:
         note.append(f"Accuracy: {protocol.paper()}.")
         if panel is not None and panel.settings is not None:
             note.append(f"{panel.score_name}: {panel.settings}.")
-    ego_only = [display_name(method, model) for method in methods if method in EGO_LANES_ONLY]
+    ego_only = [_fitted(display_name(method, model), 4.0, 7.5, 1) for method in methods if method in EGO_LANES_ONLY]
     if panel is not None and ego_only:
         note.append(f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: "
                     f"{panel.ego_lanes_note}.")
