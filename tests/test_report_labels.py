@@ -381,6 +381,9 @@ def test_a_runtime_mean_above_its_95th_percentile_is_explained(tmp_path):
     assert "95th percentile" not in (tmp_path / "run" / "runtime.md").read_text() or (
         result.runtime["mean_ms"] > result.runtime["p95_ms"]).any()
     skewed = result.runtime.copy()
+    # The clock's own noise may have left another method's mean above its p95 (a loaded machine
+    # failed this test so): only the first one's is, here.
+    skewed["mean_ms"] = skewed[["mean_ms", "p95_ms"]].min(axis=1)
     skewed.loc[0, "mean_ms"] = skewed.loc[0, "p95_ms"] * 3  # one frame a hundred times slower than the rest
     result.runtime = skewed
     write_report(result, tmp_path / "again")
