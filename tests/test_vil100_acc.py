@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
 from roneld_eval.cli import main
 from roneld_eval.datasets.vil100 import read_vil100
-from roneld_eval.datasets.vil100_png import instance_lanes, lines_text, lit_pixels, read_instance_png
+from roneld_eval.datasets.vil100_png import (GREY_WEIGHTS, colour_greys, instance_lanes, lines_text, lit_pixels,
+                                             read_instance_png)
 from roneld_eval.errors import InputError
 from roneld_eval.lanes_io import read_culane_lines
 from roneld_eval.metrics.vil100_acc import mmanet_frame, rvld_frame
@@ -96,6 +97,21 @@ def test_lit_pixels_are_numpys_nonzero_in_its_order(height, width, lit, seed, co
     expected_rows, expected_columns = np.nonzero(grey > 0)
     assert rows.tolist() == expected_rows.tolist() and columns.tolist() == expected_columns.tolist()
     assert rows.dtype == expected_rows.dtype
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 30), st.integers(1, 30), st.integers(1, 12), st.integers(0, 2**32 - 1), st.floats(0, 1))
+def test_colour_greys_are_rgb2grays_of_every_pixel(height, width, colours, seed, black):
+    # Found among the lit pixels alone (3 s a full-HD mask before): each grey must still be the
+    # float rgb2gray gives, computed as before on np.unique's rows of every pixel.
+    random = np.random.default_rng(seed)
+    palette = random.integers(0, 256, (colours, 3), dtype=np.uint8)
+    palette[random.random(colours) < 0.3, random.integers(0, 3)] = 0  # colours sharing a zero channel
+    pixels = palette[random.integers(0, colours, (height, width))]
+    pixels[random.random((height, width)) < black] = 0
+    unique, inverse = np.unique(pixels.reshape(-1, 3), axis=0, return_inverse=True)
+    expected = (np.multiply(unique, 1.0 / 255, dtype=np.float64) @ np.array(GREY_WEIGHTS))[inverse.reshape(-1)]
+    assert colour_greys(pixels).reshape(-1).tolist() == expected.tolist()
 
 
 def test_a_mask_lane_whose_fit_fails_matches_nothing(tmp_path):
