@@ -3,11 +3,13 @@ the temporal metrics, end to end in a fresh process, beside MMA-Net's C++ evalua
 files when its binary is given (run as evaluate_iou.py runs it: once per sequence and threshold).
 
     python scripts/bench_vil100.py --labels ../shared/data/vil100/anno_txt \
-        --sizes ../shared/data/vil100/test_sizes.json [--workers 2] [--repeats 3] [--evaluator PATH] [--masks]
+        --sizes ../shared/data/vil100/test_sizes.json [--workers 2] [--repeats 3] [--evaluator PATH] \
+        [--masks grey|palette]
 
 Predictions are the ground truth with seeded shifts, dropped and spurious lanes and empty
-frames (written to a temporary folder); with --masks they are also drawn as MMA-Net's instance
-masks (lane k in grey value k, 30 px wide at 1920) and scored with `--pred-format png`. The
+frames (written to a temporary folder); with --masks they are also drawn as instance masks
+(lane k in grey value k, or palette index k as MMA-Net writes them, 30 px wide at 1920) and scored
+with `--pred-format png`. The
 evaluator is MMA-Net's evaluation/culane built from its sources (yujun0-0/MMA-Net 8f95908); this
 project does not ship it.
 """
@@ -50,9 +52,13 @@ def perturbed(labels: Path, out: Path, seed: int = 0) -> int:
     return frames
 
 
-def as_masks(pred: Path, sizes: dict, out: Path) -> None:
-    """Each frame's predicted lanes drawn as an instance mask: lane k in grey value k."""
+def as_masks(pred: Path, sizes: dict, out: Path, palette: bool = False) -> None:
+    """Each frame's predicted lanes drawn as an instance mask: lane k in grey value k, or in
+    palette index k of an indexed PNG, as MMA-Net writes them."""
     import cv2
+    from PIL import Image
+
+    colours = [0, 0, 0] + np.random.default_rng(0).integers(0, 256, 765, dtype=np.uint8).tolist()  # 0: black
 
     for path in sorted(pred.rglob("*.lines.txt")):
         relative = path.relative_to(pred)
@@ -63,7 +69,12 @@ def as_masks(pred: Path, sizes: dict, out: Path) -> None:
             cv2.polylines(mask, [points], False, k + 1, thickness=max(1, round(30 * width / 1920)))
         target = out / relative.parent / (relative.name[:-len(".lines.txt")] + ".png")
         target.parent.mkdir(parents=True, exist_ok=True)
-        cv2.imwrite(str(target), mask)
+        if palette:
+            indexed = Image.fromarray(mask, mode="P")
+            indexed.putpalette(colours)
+            indexed.save(target)
+        else:
+            cv2.imwrite(str(target), mask)
 
 
 def ours(labels: Path, sizes: Path, pred: Path, workers: int, out: Path, *extra: str) -> float:
@@ -96,7 +107,8 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--evaluator", type=Path, help="MMA-Net's culane_evaluator, built from its sources")
-    parser.add_argument("--masks", action="store_true", help="also score the predictions drawn as instance masks")
+    parser.add_argument("--masks", choices=("grey", "palette"),
+                        help="also score the predictions drawn as instance masks: 8-bit grey, or indexed PNGs")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         pred = Path(folder) / "pred"
@@ -115,11 +127,12 @@ def main() -> None:
                   f"{seconds / median:.1f}x ours")
         if args.masks:
             masks = Path(folder) / "masks"
-            as_masks(pred, json.loads(args.sizes.read_text()), masks)
+            as_masks(pred, json.loads(args.sizes.read_text()), masks, palette=args.masks == "palette")
             times = [ours(args.labels.resolve(), args.sizes.resolve(), masks, args.workers, Path(folder) / f"png{k}",
                           "--pred-format", "png") for k in range(args.repeats)]
             median = statistics.median(times)
-            print(f"score vil100 --pred-format png (instance masks, read and fitted as MMA-Net's scripts do): "
+            print(f"score vil100 --pred-format png ({args.masks} instance masks, read and fitted as MMA-Net's "
+                  "scripts do): "
                   f"median {median:.1f} s of {args.repeats} ({', '.join(f'{t:.1f}' for t in times)}), "
                   f"{1000 * median / frames:.1f} ms a frame")
 
