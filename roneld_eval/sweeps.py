@@ -8,6 +8,7 @@ from __future__ import annotations
 import glob
 import math
 import re
+import textwrap
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -98,6 +99,18 @@ def sweep_table(methods: Sequence[str], columns: Sequence[str], values: Mapping[
     return PlainTable(("method", "checkpoint", *columns, "best"), rows), best
 
 
+def ego_lanes_note(methods: Sequence[str]) -> str:
+    """What a best named among methods of which some output the ego lanes alone does not say: their
+    F1 counts every other lane as missed (a run's lanes/ folder holds RONELD's beside the baseline's)."""
+    from .config import EGO_LANES_ONLY
+
+    ego_only = [method for method in methods if method in EGO_LANES_ONLY]
+    if not ego_only or len(ego_only) == len(methods):
+        return ""
+    return (f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: F1 over all "
+            "lanes counts the outer lanes as missed")
+
+
 def plot_sweep(table, path: Path, title: str) -> None:
     """sweep.png: each headline score (in percent) against the checkpoint, the best one marked."""
     import matplotlib
@@ -106,6 +119,7 @@ def plot_sweep(table, path: Path, title: str) -> None:
     import matplotlib.pyplot as plt
 
     columns = table.columns[2:-1]
+    note = ego_lanes_note([row[0] for row in table.rows])
     numbered = all(row[1] != "" for row in table.rows)
     xs = [row[1] if numbered else k for k, row in enumerate(table.rows)]
     figure, axes = plt.subplots(figsize=(7, 4), dpi=100)
@@ -114,7 +128,8 @@ def plot_sweep(table, path: Path, title: str) -> None:
     for x, row in zip(xs, table.rows):
         if row[-1]:
             axes.plot([x], [100 * row[-2]], marker="*", markersize=14, color="black", linestyle="none",
-                      label=f"best {columns[-1]} on these frames: {row[0]} ({100 * row[-2]:.2f})")
+                      label=f"best {columns[-1]} on these frames: {row[0]} ({100 * row[-2]:.2f})"
+                      + "".join(f"\n{line}" for line in textwrap.wrap(note, 60)))
     axes.set_xlabel("checkpoint (the number in its name)" if numbered else "checkpoint")
     if not numbered:
         axes.set_xticks(xs, [row[0] for row in table.rows], rotation=45, ha="right", fontsize=7)

@@ -188,3 +188,18 @@ def test_a_best_among_a_runs_lanes_says_what_ego_lanes_only_means(fixture_run, t
     only = _invoke("score", "culane", "--data-root", data, "--pred-root", f"a={run / 'lanes' / 'roneld'}",
                    "--pred-root", f"b={run / 'lanes' / 'baseline'}")
     assert only.exit_code == 0 and "note:" not in only.output, only.output  # named as the user chose
+
+
+def test_the_sweep_figure_says_what_ego_lanes_only_means(monkeypatch, tmp_path):
+    import matplotlib.pyplot as plt
+
+    from roneld_eval.sweeps import plot_sweep, sweep_table
+
+    drawn = []
+    monkeypatch.setattr(plt, "close", drawn.append)
+    for methods, said in ((["baseline", "roneld"], True), (["epoch_2", "epoch_10"], False)):
+        table, _ = sweep_table(methods, ["F1@50"], {method: [0.8 - 0.1 * k] for k, method in enumerate(methods)})
+        plot_sweep(table, tmp_path / "sweep.png", "title")
+        legend = " ".join(" ".join(text.get_text().split()) for text in drawn[-1].axes[0].get_legend().get_texts())
+        assert ("roneld outputs the two ego lanes only: F1 over all lanes counts the outer lanes as missed"
+                in legend) == said, legend

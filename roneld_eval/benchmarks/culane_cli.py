@@ -71,22 +71,12 @@ def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, pres
             if best is not None:
                 click.echo(f"best by {column} over all frames: {best}" + (f" (sweep.csv, sweep.png in {out})"
                                                                          if out is not None else ""))
-                note = _ego_lanes_note(score.methods)
+                from ..sweeps import ego_lanes_note
+
+                note = ego_lanes_note(score.methods)
                 if note:
-                    click.echo(note)
-
-
-def _ego_lanes_note(methods) -> str:
-    """What a best named among methods of which some output the ego lanes alone does not say: their
-    F1 counts every other lane as missed (a run's lanes/ folder holds RONELD's beside the baseline's)."""
-    from ..config import EGO_LANES_ONLY
-
-    ego_only = [method for method in methods if method in EGO_LANES_ONLY]
-    if not ego_only or len(ego_only) == len(methods):
-        return ""
-    return (f"note: {' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: F1 "
-            "over all lanes counts the outer lanes as missed, so the best by it does not tell which extracts lanes "
-            "better (a run's official.csv compares them on the ego lanes too)")
+                    click.echo(f"note: {note}, so the best by it does not tell which extracts lanes better (a run's "
+                               "official.csv compares them on the ego lanes too)")
 
 
 def _print_culane_score(score, width: int) -> None:
