@@ -86,9 +86,11 @@ def _grey_image(path: Path) -> np.ndarray:
 def colour_greys(pixels: np.ndarray) -> np.ndarray:
     """An (H, W, 3) uint8 image's greys as rgb2gray computes them: img_as_float64 (x * (1 / 255)),
     then rgb @ coeffs, here on the distinct colours only: the array np.unique(axis=0) gives (black
-    first where there is black, then the lit pixels' colours in R, G, B order), so each grey is the
-    same float. The colours are found among the lit pixels alone, packed in 24 bits: np.unique over
-    the rows of every pixel took 3 s a full-HD mask (MMA-Net writes palette PNGs)."""
+    first where there is black, then the lit pixels' colours in R, G, B order). OpenBLAS gives a
+    row of such a product by the array's size and alignment, so a grey may differ from rgb2gray's
+    on the whole image in its last bit; each colour still has one grey, in the same order, which is
+    all that makes the lanes. The colours are found among the lit pixels alone, packed in 24 bits:
+    np.unique over the rows of every pixel took 3 s a full-HD mask (MMA-Net writes palette PNGs)."""
     codes = (pixels[..., 0].astype(np.uint32) << 16) | (pixels[..., 1].astype(np.uint32) << 8) | pixels[..., 2]
     lit = codes != 0
     lit_codes, inverse = np.unique(codes[lit], return_inverse=True)
