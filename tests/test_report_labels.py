@@ -454,6 +454,9 @@ def test_the_figures_text_lies_inside_them_and_apart(names, model, fixture_resul
             assert canvas.x0 <= box.x0 and box.x1 <= canvas.x1 and canvas.y0 <= box.y0 and box.y1 <= canvas.y1
             for title in titles:
                 assert not box.overlaps(boxes[id(title)]), title.get_text()
+        if figure.legends:  # the categories note names RONELD with and without PFT apart, however long the model
+            note = " ".join(" ".join(text.get_text().split()) for text in figure.texts)
+            assert re.search(r"\+ RONELD and .*\+ RONELD w/o PFT output the two ego lanes only", note), note
         shown_names = [" ".join(name.get_text().split()) for legend in legends for name in legend.get_texts()]
         drawn = list(dict.fromkeys(fixture_result.accuracy["method"])) if figure.axes[0].get_legend() else methods
         assert len(shown_names) == len(drawn), shown_names

@@ -25,7 +25,7 @@ from ..benchmarks import CategoryPanel  # noqa: E402
 from ..config import EGO_LANES_ONLY  # noqa: E402
 from ..methods import METHOD_TABLE  # noqa: E402
 from ..errors import InputError  # noqa: E402
-from .tables import Protocol, clips_text, dataset_name, display_name, name_parts  # noqa: E402
+from .tables import Protocol, clips_text, dataset_name, name_parts  # noqa: E402
 
 STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
     name: dict(color=facts.colour, marker=facts.marker, linestyle=facts.linestyle)
@@ -102,10 +102,11 @@ def _lines(text: str, inches: float, points: float) -> list[str]:
 def _fitted(text: str, inches: float, points: float = 10.0, most_lines: int = 2) -> str:
     """`text` in at most `most_lines` lines at most `inches` wide, what does not fit ended with an
     ellipsis (a model name of hundreds of characters pushed the axes off the figure)."""
+    inches = max(inches, 0.5)  # as _lines has it
     lines = _lines(text, inches, points)
     if len(lines) > most_lines:
         last = lines[most_lines - 1]
-        while len(last) > 1 and _text_in(last + "\u2026", points) > max(inches, 0.5):
+        while len(last) > 1 and _text_in(last + "\u2026", points) > inches:
             last = last[:-1]
         lines = lines[:most_lines - 1] + [last.rstrip() + "\u2026"]
     return "\n".join(lines)
@@ -122,14 +123,15 @@ def _legend_name(method: str, model: str, inches: float, points: float = 10.0, m
     def fits(kept: int) -> bool:
         return len(_lines(named(kept), inches, points)) <= most_lines
 
-    if not fits(len(head)):
-        low, high = 0, len(head)
-        while low < high:  # the most of the model's name that fits
-            middle = (low + high + 1) // 2
-            low, high = (middle, high) if fits(middle) else (low, middle - 1)
-        if fits(low):
-            return "\n".join(_lines(named(low), inches, points))
-    return _fitted(named(len(head)), inches, points, most_lines)
+    if fits(len(head)):
+        return "\n".join(_lines(named(len(head)), inches, points))
+    low, high = 0, len(head)
+    while low < high:  # the most of the model's name that fits
+        middle = (low + high + 1) // 2
+        low, high = (middle, high) if fits(middle) else (low, middle - 1)
+    if fits(low):
+        return "\n".join(_lines(named(low), inches, points))
+    return _fitted(named(len(head)), inches, points, most_lines)  # not even the method's words fit: the whole cut
 
 
 def _panel_width(width: float, left: float, right: float, between: float, panels: int) -> float:
@@ -246,7 +248,8 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
         note.append(f"Accuracy: {protocol.paper()}.")
         if panel is not None and panel.settings is not None:
             note.append(f"{panel.score_name}: {panel.settings}.")
-    ego_only = [_fitted(display_name(method, model), 4.0, 7.5, 1) for method in methods if method in EGO_LANES_ONLY]
+    # Shortened as in the legend, the method's words kept: RONELD with and without PFT stay apart.
+    ego_only = [_legend_name(method, model, 4.0, 7.5, most_lines=1) for method in methods if method in EGO_LANES_ONLY]
     if panel is not None and ego_only:
         note.append(f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: "
                     f"{panel.ego_lanes_note}.")
