@@ -9,9 +9,8 @@ files when its binary is given (run as evaluate_iou.py runs it: once per sequenc
 Predictions are the ground truth with seeded shifts, dropped and spurious lanes and empty
 frames (written to a temporary folder); with --masks they are also drawn as instance masks
 (lane k in grey value k, or palette index k as MMA-Net writes them, 30 px wide at 1920) and scored
-with `--pred-format png`. The
-evaluator is MMA-Net's evaluation/culane built from its sources (yujun0-0/MMA-Net 8f95908); this
-project does not ship it.
+with `--pred-format png`. The evaluator is MMA-Net's evaluation/culane built from its sources
+(yujun0-0/MMA-Net 8f95908); this project does not ship it.
 """
 
 from __future__ import annotations
@@ -59,7 +58,6 @@ def as_masks(pred: Path, sizes: dict, out: Path, palette: bool = False) -> None:
     from PIL import Image
 
     colours = [0, 0, 0] + np.random.default_rng(0).integers(0, 256, 765, dtype=np.uint8).tolist()  # 0: black
-
     for path in sorted(pred.rglob("*.lines.txt")):
         relative = path.relative_to(pred)
         width, height = sizes[relative.parts[0]]["width"], sizes[relative.parts[0]]["height"]
