@@ -7,9 +7,9 @@ from array import array
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from .. import kernels
 from ..benchmarks import Benchmark, OfficialRecord, benchmark_for
@@ -18,6 +18,9 @@ from ..extract.registry import Method, methods_of
 from ..geometry import EffectiveGeometry
 from ..maps import load_maps
 from ..model import Dataset, Frame, FrameMaps, Lane
+
+if TYPE_CHECKING:  # annotations only: a run forks its workers before pandas is imported
+    import pandas as pd
 
 
 @dataclass(frozen=True)
@@ -152,6 +155,8 @@ class PerFrameRows:
     def take_table(self) -> pd.DataFrame:
         """The rows as a DataFrame, handed over: the gatherer is empty afterwards, as new (so that
         its lists are freed as the table is built, at a run's largest size)."""
+        import pandas as pd
+
         frames, sides, methods, ious, names = self.frames, self.sides, self.methods, self.ious, list(self.names)
         self._empty()
         if not frames:

@@ -4,14 +4,16 @@ pair once), runtime, and the versions that shape the numbers."""
 from __future__ import annotations
 
 import platform
-from typing import Mapping, Sequence
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 import numpy as np
-import pandas as pd
 
 from ..methods import GAIN_REFERENCES, RONELD
 from ..metrics.bootstrap import paired_bootstrap
 from ..version import __version__
+
+if TYPE_CHECKING:  # annotations only: a run forks its workers before pandas is imported
+    import pandas as pd
 
 
 class PairedGains:
@@ -61,12 +63,16 @@ def pairwise_gains(gains: PairedGains, methods: Sequence[str]) -> pd.DataFrame:
             table.insert(0, "reference", reference)
             table.insert(0, "method", method)
             tables.append(table)
+    import pandas as pd
+
     columns = ["method", "reference", "threshold", "gain", "ci_low", "ci_high"]
     return pd.concat(tables, ignore_index=True)[columns] if tables else pd.DataFrame(columns=columns)
 
 
 
 def _runtime_table(extract_ms: Mapping[str, Sequence[float]], load_ms: Sequence[float]) -> pd.DataFrame:
+    import pandas as pd
+
     rows = []
     for name, times in list(extract_ms.items()) + [("map loading", load_ms)]:
         values = np.asarray(times, np.float64)

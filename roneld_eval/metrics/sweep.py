@@ -6,10 +6,14 @@ the division last, so per-clip counts combine exactly.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from ..thresholds import Thresholds
+
+if TYPE_CHECKING:  # annotations only: a run forks its workers before pandas is imported
+    import pandas as pd
 
 
 def sweep_counts(ious: np.ndarray, thresholds: Thresholds) -> np.ndarray:
@@ -22,6 +26,8 @@ def sweep_counts(ious: np.ndarray, thresholds: Thresholds) -> np.ndarray:
 
 def sweep_accuracy(per_frame: pd.DataFrame, thresholds: Thresholds, methods=None) -> pd.DataFrame:
     """method, threshold, n_tp, n_gt, accuracy for every method and threshold."""
+    import pandas as pd
+
     if methods is None:
         methods = list(dict.fromkeys(per_frame["method"]))
     rows = []
@@ -37,6 +43,8 @@ def sweep_accuracy(per_frame: pd.DataFrame, thresholds: Thresholds, methods=None
 
 def category_accuracy(per_frame: pd.DataFrame, categories, threshold: float, methods=None) -> pd.DataFrame:
     """category, method, n_tp, n_gt, accuracy at one threshold, per category list and 'all'."""
+    import pandas as pd
+
     if methods is None:
         methods = list(dict.fromkeys(per_frame["method"]))
     groups = [(name, per_frame["frame"].isin(members)) for name, members in categories.items()]
