@@ -17,7 +17,7 @@ import click
 from .version import __version__
 from .wording import counted
 from .benchmarks import names as benchmark_names
-from .config import LANES_MODEL, MAP_FORMATS, METHODS, EvalConfig, parse_setting
+from .config import FRAMES_PER_DEFAULT_WORKER, LANES_MODEL, MAP_FORMATS, METHODS, EvalConfig, parse_setting
 from .presets import is_preset, preset_names
 from .errors import ConfigError, RoneldEvalError
 from .limits import check_environment
@@ -237,7 +237,8 @@ def main():
 @click.option("--thresholds", metavar="START:STOP:STEP",
               help="IoU thresholds of the accuracy sweep, inclusive. Default: 0.30:0.50:0.01.")
 @click.option("--workers", type=click.IntRange(min=1),
-              help="Worker processes (clips run in parallel). Default: all cores.")
+              help="Worker processes (clips run in parallel; 1: in this process). Default: all cores, at most one "
+                   f"per {FRAMES_PER_DEFAULT_WORKER} frames.")
 @click.option("--limit", type=click.IntRange(min=1), help="Evaluate only the first N clips.")
 @click.option("--save-lanes", is_flag=True, default=None,
               help="Also write every method's lanes in the official formats under OUT/lanes/.")

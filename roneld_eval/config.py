@@ -260,6 +260,13 @@ class OfficialParams:
 LANES_MODEL = "detector"
 
 
+# A worker spends about 0.5 s loading numba's kernels and scipy before its first frame, as long
+# as it then takes to evaluate some 250-400 frames (1.4-2.1 ms each: the fixture, bench_run.py).
+# With no `workers` given, a run starts at most one worker per this many frames, so a small run
+# does not wait for workers it cannot keep busy (evaluation.pool.pool_size).
+FRAMES_PER_DEFAULT_WORKER = 250
+
+
 @dataclass(frozen=True)
 class EvalConfig:
     """Everything a run needs; validated once when built."""
@@ -274,7 +281,7 @@ class EvalConfig:
     # "roneld" runs RONELD with preceding-frame tracking, "roneld-nopft" without: the only PFT switch.
     methods: tuple[str, ...] = ("baseline", "roneld")
     pft_ablation: bool = False  # only adds "roneld-nopft" to the methods
-    workers: int | None = None  # None: all cores
+    workers: int | None = None  # None: all cores, at most one per FRAMES_PER_DEFAULT_WORKER frames
     save_lanes: bool = False
     on_error: str = "fail"
     # Extractors outside the package that `methods` names ([methods.NAME] tables, --method).

@@ -1,5 +1,6 @@
 """Nothing a run reports depends on --workers: results, skips, the error that stops it and the
-progress it shows are the same with one worker (in-process) and several (a process pool).
+progress it shows are the same with one worker (in-process) and several (a process pool), and
+with none given, where a small run evaluates in fewer workers than cores (pool_size).
 
 The set has clips of each synthetic style (normal, curve, lane change, vanishing ego lanes), a
 30-frame one among them, so RONELD's tracking runs through curve mode and lost lanes.
@@ -7,8 +8,10 @@ The set has clips of each synthetic style (normal, curve, lane change, vanishing
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import shutil
+import subprocess
 import sys
 import threading
 from pathlib import Path
@@ -18,6 +21,8 @@ import numpy as np
 import pytest
 
 from roneld_eval import api, evaluation
+from roneld_eval import workers as workers_module
+from roneld_eval.evaluation import pool
 from roneld_eval.datasets import read_dataset
 from roneld_eval.errors import InputError
 from roneld_eval.datasets.culane_synth import synth_culane
@@ -61,9 +66,9 @@ def files(folder: Path) -> dict[str, bytes]:
     return {str(path.relative_to(folder)): path.read_bytes() for path in kept}
 
 
-def runs(root: Path, tmp_path: Path, **overrides) -> dict[int, tuple]:
+def runs(root: Path, tmp_path: Path, counts=(1, 2, 3), **overrides) -> dict[int | None, tuple]:
     out = {}
-    for workers in (1, 2, 3):
+    for workers in counts:
         folder = tmp_path / f"out{workers}"
         result = api.run(config_for(root, workers, **overrides), folder, progress=False)
         out[workers] = (files(folder), result.counts, result.skipped, list(result.runtime["frames"]))
@@ -85,10 +90,52 @@ def clips_of(root: Path):
     return list(read_dataset("culane", root / "data", None, None, labels=False).clips)
 
 
-def test_workers_change_no_byte(base, tmp_path):
-    found = runs(base, tmp_path)
+def test_workers_change_no_byte(base, tmp_path, monkeypatch):
+    monkeypatch.setattr(workers_module, "default_workers", lambda: 4)  # none given: one worker for 103 frames
+    found = runs(base, tmp_path, counts=(1, 2, 3, None))
     assert any("lanes" in name for name in found[1][0]) and "per_frame.csv" in found[1][0]
-    assert found[1] == found[2] == found[3]
+    assert found[1] == found[2] == found[3] == found[None]
+
+
+def test_pool_size_keeps_what_is_asked_and_sizes_the_default_by_the_frames(base, monkeypatch):
+    monkeypatch.setattr(workers_module, "default_workers", lambda: 4)
+    clips = clips_of(base)  # 5 clips, 103 frames
+    assert [pool.pool_size(asked, clips) for asked in (1, 2, 3, 8)] == [0, 2, 3, 5]
+    assert pool.pool_size(None, clips) == 1  # a process of its own: this one prepares the report meanwhile
+    assert pool.pool_size(None, clips * 3) == 2  # 309 frames
+    assert pool.pool_size(None, clips * 30) == 4  # all the cores
+    assert pool.pool_size(2, []) == pool.pool_size(None, []) == 0
+    monkeypatch.setattr(workers_module, "default_workers", lambda: 1)
+    assert pool.pool_size(None, clips * 30) == 0  # one core: in this process
+
+
+@pytest.mark.parametrize("asked, workers", [(None, 1), (3, 3), (1, 0)])
+def test_meanwhile_runs_once_while_the_workers_warm_up(base, monkeypatch, asked, workers):
+    """`run` imports the report's libraries there: the workers exist (forked without them) and
+    this process would only wait. Never called in-process, where it would only delay the work."""
+    monkeypatch.setattr(workers_module, "default_workers", lambda: 4)
+    seen: list[int] = []
+    result = evaluation.evaluate(config_for(base, asked, save_lanes=False), progress=False,
+                                 meanwhile=lambda: seen.append(len(multiprocessing.active_children())))
+    assert result.counts["frames"] == sum(LENGTHS)
+    assert seen == ([workers] if workers else [])
+
+
+def test_a_run_forks_its_workers_before_it_imports_pandas_or_matplotlib(tmp_path):
+    """Its workers need neither (0.5 s to import): the main process imports them while the
+    workers warm up. No timing here; scripts/bench_cold.py times the fixture run."""
+    program = ("import os, sys\nseen = []\nheavy = ('pandas', 'matplotlib')\n"
+               "os.register_at_fork(before=lambda: seen.append([m for m in heavy if m in sys.modules]))\n"
+               "from roneld_eval.cli import main\ntry:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n"
+               "    assert not e.code, e.code\nprint(len(seen), [m for found in seen for m in found])")
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, "-c", program, "run", "--workers", "2", "--quiet", "--out",
+                           str(tmp_path / "out")], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr
+    forks, imported = done.stdout.split(maxsplit=1)
+    assert int(forks) >= 2 and imported.strip() == "[]", done.stdout
+    assert (tmp_path / "out" / "accuracy_curve.png").is_file()
 
 
 def test_skipped_frames_and_labels_are_listed_alike_for_any_workers(dataset, tmp_path):

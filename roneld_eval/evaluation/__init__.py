@@ -39,24 +39,28 @@ def evaluate(
     cache: ClipCache | None = None,
     announce: Callable[[str], None] | None = None,
     shard=None,
+    meanwhile: Callable[[], object] | None = None,
 ) -> RunResult:
     """Evaluate every configured method on a dataset's stored maps (the library `run`).
 
     With on_error = "skip", bad label lines, bad map files and clips with missing maps are
     left out and listed in `RunResult.skipped`; otherwise the first one raises InputError
-    before anything is computed (maps' contents are checked as they load).
+    before anything is computed (maps' contents are checked as they load). `meanwhile()` is
+    called once while the worker processes warm up, where this process would only wait (`run`
+    imports the report's libraries); not when the clips are evaluated in this process.
     """
     started = time.perf_counter()
     planned = plan(config, dataset, announce, shard)
     clips, context = list(planned.clips), planned.context
-    workers = min(worker_count(config.workers), max(len(clips), 1))
-    # Compiled once here, before the workers fork, instead of in every worker at once.
-    kernels.prepare(announce=announce or (lambda message: None), needed=context.kernel_groups(), processes=workers)
+    # Compiled once here, before the workers fork, instead of in every worker at once; in as
+    # many processes as asked, even where a small run then evaluates in fewer (pool_size).
+    processes = min(worker_count(config.workers), max(len(clips), 1))
+    kernels.prepare(announce=announce or (lambda message: None), needed=context.kernel_groups(), processes=processes)
     merged = _Merged(config, context.benchmark.tally(config.methods, planned.dataset, config), planned.skipped)
     # None: no bar where stderr is not a terminal (CI logs), as tqdm documents.
     with progress_bar(sum(len(clip.frames) for clip in clips), "frame", "evaluating",
                       disable=None if progress else True) as bar:
-        results = _clip_results(clips, context, workers, cache, advance=bar.update)
+        results = _clip_results(clips, context, config.workers, cache, advance=bar.update, meanwhile=meanwhile)
         for clip, result in zip(clips, results, strict=True):  # strict: runs the generator to its end
             merged.add(clip, result, lane_sink)
             del result

@@ -1,6 +1,7 @@
 """Many clips: in-process for one worker, else in a process pool whose results are handed out
 in clip order (so any --workers gives the same bytes), cached ones first (--resume); a worker
-that dies, or a plug-in past its time limit, ends the run with one line instead of a hang."""
+that dies, or a plug-in past its time limit, ends the run with one line instead of a hang.
+By default a small run starts fewer workers than cores (`pool_size`)."""
 
 from __future__ import annotations
 
@@ -17,11 +18,12 @@ from pathlib import Path
 from typing import Callable, Iterator, Protocol, Sequence
 
 from .. import kernels
+from ..config import FRAMES_PER_DEFAULT_WORKER
 from ..errors import ExtractorError
 from ..maps import required_paths
 from ..model import Clip
 from ..plugin_calls import PluginCalls
-from ..workers import pool_context, process_pool, stopping
+from ..workers import pool_context, process_pool, stopping, worker_count
 from . import one_clip, plugin_call
 from .plugin_call import OVERDUE_GRACE_S, too_slow_text
 from .records import ClipResult, RunContext
@@ -61,18 +63,38 @@ def clip_inputs(clip: Clip, context: RunContext) -> list[Path]:
     return paths + context.benchmark.label_paths(clip, context.data_root, context.label_file)
 
 
-def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
+def pool_size(asked: int | None, clips: Sequence[Clip]) -> int:
+    """Worker processes to evaluate `clips` in; 0: in this process.
+
+    `asked` (--workers) is kept as given (1: in this process), up to one worker per clip. The
+    default (None: all usable cores) also starts at most one worker per FRAMES_PER_DEFAULT_WORKER
+    frames, so a small run does not wait for workers it cannot keep busy; even one worker is then
+    a process of its own, so that this one prepares the report while it warms up.
+    """
+    processes = worker_count(asked)
+    if processes <= 1 or not clips:
+        return 0
+    if asked is None:
+        frames = sum(len(clip.frames) for clip in clips)
+        processes = min(processes, -(-frames // FRAMES_PER_DEFAULT_WORKER))
+    return min(processes, len(clips))
+
+
+def _clip_results(clips: Sequence[Clip], context: RunContext, asked: int | None,
                   cache: ClipCache | None = None,
-                  advance: Callable[[int], object] | None = None) -> Iterator[ClipResult]:
-    """Results in clip order: cached ones, then from `workers` processes (in-process for 1).
+                  advance: Callable[[int], object] | None = None,
+                  meanwhile: Callable[[], object] | None = None) -> Iterator[ClipResult]:
+    """Results in clip order: cached ones, then from `pool_size(asked, ...)` processes.
 
     Each finished clip is stored in the cache before it is yielded; `advance(frames)` is told
-    of every frame as its clip finishes (in-process: as it is done). A worker that dies (killed,
-    out of memory) ends the run with RunInterrupted instead of a hang.
+    of every frame as its clip finishes (in-process: as it is done). `meanwhile()` is called
+    once the workers have started, while they warm up (not when evaluating in this process).
+    A worker that dies (killed, out of memory) ends the run with RunInterrupted instead of a hang.
     """
     cached = _cached(clips, context, cache)
     todo = [index for index in range(len(clips)) if index not in cached]
     advance = advance or (lambda frames: None)
+    workers = pool_size(asked, [clips[index] for index in todo])
 
     def keep(index: int, result: ClipResult) -> ClipResult:
         if cache is not None:
@@ -82,7 +104,7 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
     # A plug-in always runs in a worker process, so that one which ends its process (os._exit,
     # a crash) ends a worker the run can name, not the run itself with exit status 0.
     plugins = not all(method.built_in for method in context.methods)
-    if not todo or (not plugins and (workers <= 1 or len(todo) <= 1)):
+    if not todo or (not plugins and workers == 0):
         if todo:
             kernels.warm_up(context.kernel_groups())
         for index, clip in enumerate(clips):
@@ -93,7 +115,7 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, workers: int,
                 advance(len(clip.frames))
             yield result
         return
-    yield from _pooled(clips, context, max(workers, 1), cached, todo, keep, advance, plugins)
+    yield from _pooled(clips, context, max(workers, 1), cached, todo, keep, advance, plugins, meanwhile)
 
 
 def _cached(clips: Sequence[Clip], context: RunContext, cache: ClipCache | None) -> dict[int, ClipResult]:
@@ -111,7 +133,8 @@ def _cached(clips: Sequence[Clip], context: RunContext, cache: ClipCache | None)
 
 def _pooled(clips: Sequence[Clip], context: RunContext, workers: int, cached: dict[int, ClipResult],
             todo: Sequence[int], keep: Callable[[int, ClipResult], ClipResult],
-            advance: Callable[[int], object], plugins: bool) -> Iterator[ClipResult]:
+            advance: Callable[[int], object], plugins: bool,
+            meanwhile: Callable[[], object] | None) -> Iterator[ClipResult]:
     """_clip_results in a process pool of `workers`."""
     calls = PluginCalls(workers, pool_context()) if plugins else None
     pool = process_pool(workers, initializer=_init_worker, initargs=(context, calls))
@@ -119,6 +142,9 @@ def _pooled(clips: Sequence[Clip], context: RunContext, workers: int, cached: di
     guard = _PoolGuard(pool, calls, context, schedule)
     schedule.watch = guard.watch if calls is not None else None
     with stopping(schedule.executor, guard.died):
+        schedule.start_more()
+        if meanwhile is not None:  # the workers exist (process_pool forks them all) and warm up
+            meanwhile()
         for index, clip in enumerate(clips):
             if index in cached:
                 yield cached[index]
