@@ -5,8 +5,9 @@ in a fresh Python process each time: cold, with NUMBA_CACHE_DIR pointing at a ne
 folder (as after `pip install`), then warm, with the cache that cold run filled. Prints the
 wall times per worker count (the median of the warm runs), their ratio, and the line the run
 printed to say it was compiling, if any. The code measured is this checkout's (PYTHONPATH).
+"default" runs without --workers: all cores, fewer for a small run (evaluation.pool.pool_size).
 
-    python scripts/bench_cold.py [--workers 2,1] [--cold-runs 1] [--warm-runs 3]
+    python scripts/bench_cold.py [--workers default,2,1] [--cold-runs 1] [--warm-runs 3]
     python scripts/bench_cold.py --steps    # each compile step's seconds, from nothing, on one core
 
 --steps gives the seconds roneld_eval.kernels.STEPS carries, by which a first run orders its
@@ -36,10 +37,12 @@ def environment(cache_dir: Path) -> dict[str, str]:
     return env
 
 
-def timed_run(cache_dir: Path, workers: int, scratch: Path) -> tuple[float, str]:
+def timed_run(cache_dir: Path, workers: str, scratch: Path) -> tuple[float, str]:
     """Wall seconds of one fixture run, and the output line that mentions compiling (or "")."""
     out = Path(tempfile.mkdtemp(dir=scratch))
-    command = [sys.executable, "-m", "roneld_eval", "run", "--workers", str(workers), "--out", str(out)]
+    command = [sys.executable, "-m", "roneld_eval", "run", "--out", str(out)]
+    if workers != "default":
+        command += ["--workers", workers]
     start = time.perf_counter()
     done = subprocess.run(command, env=environment(cache_dir), cwd=scratch, capture_output=True, text=True)
     elapsed = time.perf_counter() - start
@@ -76,7 +79,8 @@ def step_seconds(scratch: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--workers", default="2,1", help="comma-separated worker counts (default 2,1)")
+    parser.add_argument("--workers", default="default,2,1",
+                        help="comma-separated worker counts, 'default' for none given (default: default,2,1)")
     parser.add_argument("--cold-runs", type=int, default=1, help="cold runs per worker count (slow)")
     parser.add_argument("--warm-runs", type=int, default=3, help="warm runs per worker count")
     parser.add_argument("--steps", action="store_true", help="only each compile step's seconds, on one core")
@@ -91,7 +95,9 @@ def main() -> None:
         return
     rows = []
     try:
-        for workers in [int(w) for w in args.workers.split(",")]:
+        for workers in args.workers.split(","):
+            if workers != "default" and not workers.isdigit():
+                parser.error(f"--workers {args.workers}: give worker counts or 'default', comma-separated")
             cold, said = [], ""
             cache_dir = scratch / f"numba-{workers}-0"
             for attempt in range(args.cold_runs):
@@ -106,7 +112,7 @@ def main() -> None:
             for _ in range(args.warm_runs):
                 seconds, line = timed_run(cache_dir, workers, scratch)
                 warm.append(seconds)
-                print(f"  workers {workers}: warm run {seconds:.1f} s" + (f"  (said: {line})" if line else ""),
+                print(f"  workers {workers}: warm run {seconds:.2f} s" + (f"  (said: {line})" if line else ""),
                       flush=True)
             rows.append((workers, cold, statistics.median(warm) if warm else float("nan"), said))
     finally:
@@ -115,7 +121,7 @@ def main() -> None:
     print(f"{'workers':>7}  {'cold s':>14}  {'warm s (median)':>15}  {'cold/warm':>9}  announced")
     for workers, cold, warm, said in rows:
         cold_text = ", ".join(f"{c:.1f}" for c in cold)
-        print(f"{workers:>7}  {cold_text:>14}  {warm:>15.1f}  {max(cold) / warm:>9.1f}  {said or '-'}")
+        print(f"{workers:>7}  {cold_text:>14}  {warm:>15.2f}  {max(cold) / warm:>9.1f}  {said or '-'}")
 
 
 if __name__ == "__main__":
