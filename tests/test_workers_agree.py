@@ -105,6 +105,7 @@ def test_pool_size_keeps_what_is_asked_and_sizes_the_default_by_the_frames(base,
     assert pool.pool_size(None, clips * 3) == 2  # 309 frames
     assert pool.pool_size(None, clips * 30) == 4  # all the cores
     assert pool.pool_size(2, []) == pool.pool_size(None, []) == 0
+    assert pool.pool_size(3, clips[:1]) == pool.pool_size(None, clips[:1]) == 0  # its bar moves frame by frame
     monkeypatch.setattr(workers_module, "default_workers", lambda: 1)
     assert pool.pool_size(None, clips * 30) == 0  # one core: in this process
 
@@ -174,6 +175,15 @@ def test_progress_counts_every_frame_once(base):
         assert sum(told) == sum(LENGTHS), workers
         if workers == 1:  # in-process, the bar moves within a clip
             assert len(told) == sum(LENGTHS)
+
+
+def test_one_clip_is_evaluated_in_process_its_bar_moving_frame_by_frame(base, monkeypatch):
+    """A long video as one clip must not show a bar that stands still until its end."""
+    monkeypatch.setattr(workers_module, "default_workers", lambda: 4)
+    for workers in (None, 3):
+        told: list[int] = []
+        list(evaluation._clip_results(clips_of(base)[:1], context_for(base, workers), workers, advance=told.append))
+        assert told == [1] * LENGTHS[0], workers
 
 
 class _InterruptedLock:

@@ -64,15 +64,16 @@ def clip_inputs(clip: Clip, context: RunContext) -> list[Path]:
 
 
 def pool_size(asked: int | None, clips: Sequence[Clip]) -> int:
-    """Worker processes to evaluate `clips` in; 0: in this process.
+    """Worker processes to evaluate `clips` in; 0: in this process, for one worker asked, one core
+    or one clip (whose progress is then shown frame by frame, not at its end).
 
-    `asked` (--workers) is kept as given (1: in this process), up to one worker per clip. The
-    default (None: all usable cores) also starts at most one worker per FRAMES_PER_DEFAULT_WORKER
-    frames, so a small run does not wait for workers it cannot keep busy; even one worker is then
-    a process of its own, so that this one prepares the report while it warms up.
+    `asked` (--workers) is kept as given, up to one worker per clip. The default (None: all
+    usable cores) also starts at most one worker per FRAMES_PER_DEFAULT_WORKER frames, so a small
+    run does not wait for workers it cannot keep busy; even one worker is then a process of its
+    own, so that this one prepares the report while it warms up.
     """
     processes = worker_count(asked)
-    if processes <= 1 or not clips:
+    if processes <= 1 or len(clips) <= 1:
         return 0
     if asked is None:
         frames = sum(len(clip.frames) for clip in clips)
