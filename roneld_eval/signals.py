@@ -8,7 +8,9 @@ through the same path as Ctrl-C (KeyboardInterrupt), so cleanup runs and one lin
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
+import sys
 import threading
 from typing import Iterator
 
@@ -16,6 +18,7 @@ from .errors import RunInterrupted
 
 _ENDING = (signal.SIGTERM, signal.SIGHUP)
 _HELD = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+_RESEND_AFTER_S = 0.01
 
 
 class Terminated(KeyboardInterrupt):
@@ -51,9 +54,42 @@ def _handling(numbers, handler):
             signal.signal(number, old)
 
 
+@contextlib.contextmanager
 def terminate_as_interrupt():
-    """Within the block, SIGTERM and SIGHUP raise `Terminated` (a KeyboardInterrupt)."""
-    return _handling(_ENDING, _raise_terminated)
+    """Within the block, SIGTERM and SIGHUP raise `Terminated` (a KeyboardInterrupt), and an
+    interruption raised where Python cannot raise it is sent again (`_lost_interruptions_resent`)."""
+    with _handling(_ENDING, _raise_terminated), _lost_interruptions_resent():
+        yield
+
+
+@contextlib.contextmanager
+def _lost_interruptions_resent():
+    """A signal's exception raised inside a weakref callback or a __del__ (importlib's module-lock
+    callback, when it lands during an import) is printed as "Exception ignored" and dropped, and
+    the run carried on as if never signalled. Within the block such an interruption is sent again
+    instead, to be raised at the next point that can raise."""
+    if not _in_main_thread():
+        yield
+        return
+    previous = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        error = unraisable.exc_value
+        if isinstance(error, KeyboardInterrupt) and _in_main_thread():
+            number = error.number if isinstance(error, Terminated) else signal.SIGINT
+            # From another thread, a moment later: sent from here, its handler would raise here,
+            # inside the hook, where the exception is dropped once more.
+            resend = threading.Timer(_RESEND_AFTER_S, os.kill, (os.getpid(), number))
+            resend.daemon = True
+            resend.start()
+        else:
+            previous(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous
 
 
 def interruption_name(error: BaseException) -> tuple[str, int]:

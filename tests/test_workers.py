@@ -127,3 +127,36 @@ def test_a_worker_that_dies_later_is_still_said_to_have_died():
     with pytest.raises(RunInterrupted, match="^a worker process died$"):
         with workers.stopping(pool, lambda: "a worker process died"):
             pool.submit(os._exit, 9).result(timeout=60)
+
+
+# A signal that lands while a weakref callback runs (importlib's module-lock callback, during any
+# import) raises there, where Python prints "Exception ignored" and drops the exception; the
+# handler is called from such a callback here, as the interpreter would call it.
+LOST = textwrap.dedent("""
+    import signal, sys, time, weakref
+    from roneld_eval import signals
+
+    class Thing:
+        pass
+
+    number = signal.Signals[sys.argv[1]]
+    try:
+        with signals.terminate_as_interrupt():
+            thing = Thing()
+            ref = weakref.ref(thing, lambda ref: signal.getsignal(number)(number, None))
+            del thing
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline:
+                pass
+            print("carried on")
+    except KeyboardInterrupt as error:
+        print("stopped by", type(error).__name__)
+""")
+
+
+@pytest.mark.parametrize("name, raised", [("SIGTERM", "Terminated"), ("SIGHUP", "Terminated"),
+                                          ("SIGINT", "KeyboardInterrupt")])
+def test_a_signal_raised_where_python_drops_it_still_stops_the_run(name, raised):
+    done = subprocess.run([sys.executable, "-c", LOST, name], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == f"stopped by {raised}", (done.stdout, done.stderr)
+    assert "Exception ignored" not in done.stderr
