@@ -11,8 +11,10 @@ from __future__ import annotations
 import multiprocessing
 import os
 import shutil
+import signal
 import subprocess
 import sys
+import time
 import threading
 from pathlib import Path
 from types import FrameType
@@ -120,6 +122,31 @@ def test_meanwhile_runs_once_while_the_workers_warm_up(base, monkeypatch, asked,
                                  meanwhile=lambda: seen.append(len(multiprocessing.active_children())))
     assert result.counts["frames"] == sum(LENGTHS)
     assert seen == ([workers] if workers else [])
+
+
+def test_a_signal_while_meanwhile_imports_waits_for_it_to_finish(base, monkeypatch):
+    """Seen in an attacker's pass, 1-2% of signals landing in the report's imports: a run hung
+    with a module lock taken, aborted, printed a traceback or lost the signal."""
+    monkeypatch.setattr(workers_module, "default_workers", lambda: 4)
+    steps: list[str] = []
+
+    def meanwhile():
+        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the middle of the imports
+        for _ in range(1000):  # a Python-level loop, where a signal's handler runs at once
+            pass
+        steps.append("imports done")
+
+    with pytest.raises(KeyboardInterrupt):
+        evaluation.evaluate(config_for(base, None, save_lanes=False), progress=False, meanwhile=meanwhile)
+    assert steps == ["imports done"]
+    assert wait_until_no_children()
+
+
+def wait_until_no_children(seconds: float = 10) -> bool:
+    deadline = time.monotonic() + seconds
+    while multiprocessing.active_children() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return not multiprocessing.active_children()
 
 
 def test_a_run_forks_its_workers_before_it_imports_pandas_or_matplotlib(tmp_path):

@@ -23,6 +23,7 @@ from ..errors import ExtractorError
 from ..maps import required_paths
 from ..model import Clip
 from ..plugin_calls import PluginCalls
+from ..signals import deferred_signals
 from ..workers import pool_context, process_pool, stopping, worker_count
 from . import one_clip, plugin_call
 from .plugin_call import OVERDUE_GRACE_S, too_slow_text
@@ -145,7 +146,11 @@ def _pooled(clips: Sequence[Clip], context: RunContext, workers: int, cached: di
     with stopping(schedule.executor, guard.died):
         schedule.start_more()
         if meanwhile is not None:  # the workers exist (process_pool forks them all) and warm up
-            meanwhile()
+            # Its imports are not cut by a signal, which is acted on once they are done: an
+            # import cut by a signal's exception can leave its module's lock taken (the pool's
+            # thread then hung unpickling a result), a half-made module, or the exception dropped.
+            with deferred_signals():
+                meanwhile()
         for index, clip in enumerate(clips):
             if index in cached:
                 yield cached[index]
