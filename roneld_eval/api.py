@@ -276,6 +276,10 @@ def __getattr__(name: str):
     return getattr(import_module(f".{_LOADED_ON_USE[name]}", __package__), name)
 
 
+def __dir__() -> list[str]:  # help() and tab completion list them too
+    return sorted(set(globals()) | set(_LOADED_ON_USE))
+
+
 __all__ = ["run", "show", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
            "CulaneScore", "SynthResult"]
 

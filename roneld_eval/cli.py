@@ -237,8 +237,8 @@ def main():
 @click.option("--thresholds", metavar="START:STOP:STEP",
               help="IoU thresholds of the accuracy sweep, inclusive. Default: 0.30:0.50:0.01.")
 @click.option("--workers", type=click.IntRange(min=1),
-              help="Worker processes (clips run in parallel; 1: in this process). Default: all cores, at most one "
-                   f"per {FRAMES_PER_DEFAULT_WORKER} frames.")
+              help="Worker processes (clips run in parallel). Default: all cores, at most one per "
+                   f"{FRAMES_PER_DEFAULT_WORKER} frames.")
 @click.option("--limit", type=click.IntRange(min=1), help="Evaluate only the first N clips.")
 @click.option("--save-lanes", is_flag=True, default=None,
               help="Also write every method's lanes in the official formats under OUT/lanes/.")

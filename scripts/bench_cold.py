@@ -85,6 +85,9 @@ def main() -> None:
     parser.add_argument("--warm-runs", type=int, default=3, help="warm runs per worker count")
     parser.add_argument("--steps", action="store_true", help="only each compile step's seconds, on one core")
     args = parser.parse_args()
+    counts = args.workers.split(",")
+    if len(set(counts)) < len(counts) or not all(count == "default" or count.isdigit() for count in counts):
+        parser.error(f"--workers {args.workers}: give distinct worker counts or 'default', comma-separated")
     print(f"code: {REPO}; {os.cpu_count()} cores; fixture run through `python -m roneld_eval run`")
     scratch = Path(tempfile.mkdtemp(prefix="roneld-bench-cold-"))
     if args.steps:
@@ -95,9 +98,7 @@ def main() -> None:
         return
     rows = []
     try:
-        for workers in args.workers.split(","):
-            if workers != "default" and not workers.isdigit():
-                parser.error(f"--workers {args.workers}: give worker counts or 'default', comma-separated")
+        for workers in counts:
             cold, said = [], ""
             cache_dir = scratch / f"numba-{workers}-0"
             for attempt in range(args.cold_runs):
