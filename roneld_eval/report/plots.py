@@ -120,17 +120,19 @@ def _legend_name(method: str, model: str, inches: float, points: float = 10.0, m
     def named(kept: int) -> str:
         return " ".join([head if kept == len(head) else head[:kept].rstrip() + "\u2026", *rest])
 
-    def fits(kept: int) -> bool:
-        return len(_lines(named(kept), inches, points)) <= most_lines
+    def lines(kept: int) -> list[str]:
+        return _lines(named(kept), inches, points)
 
-    if fits(len(head)):
-        return "\n".join(_lines(named(len(head)), inches, points))
+    whole = lines(len(head))
+    if len(whole) <= most_lines:
+        return "\n".join(whole)
     low, high = 0, len(head)
     while low < high:  # the most of the model's name that fits
         middle = (low + high + 1) // 2
-        low, high = (middle, high) if fits(middle) else (low, middle - 1)
-    if fits(low):
-        return "\n".join(_lines(named(low), inches, points))
+        low, high = (middle, high) if len(lines(middle)) <= most_lines else (low, middle - 1)
+    shortened = lines(low)
+    if len(shortened) <= most_lines:
+        return "\n".join(shortened)
     return _fitted(named(len(head)), inches, points, most_lines)  # not even the method's words fit: the whole cut
 
 
