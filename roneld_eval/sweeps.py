@@ -103,12 +103,12 @@ def ego_lanes_note(methods: Sequence[str]) -> str:
     """What a best named among methods of which some output the ego lanes alone does not say: their
     F1 counts every other lane as missed (a run's lanes/ folder holds RONELD's beside the baseline's)."""
     from .config import EGO_LANES_ONLY
+    from .wording import ego_lanes_only
 
     ego_only = [method for method in methods if method in EGO_LANES_ONLY]
     if not ego_only or len(ego_only) == len(methods):
         return ""
-    return (f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: F1 over all "
-            "lanes counts the outer lanes as missed")
+    return f"{ego_lanes_only(ego_only)}: F1 over all lanes counts the outer lanes as missed"
 
 
 def plot_sweep(table, path: Path, title: str) -> None:

@@ -25,6 +25,7 @@ from ..benchmarks import CategoryPanel  # noqa: E402
 from ..config import EGO_LANES_ONLY  # noqa: E402
 from ..methods import METHOD_TABLE  # noqa: E402
 from ..errors import InputError  # noqa: E402
+from ..wording import ego_lanes_only  # noqa: E402
 from .tables import Protocol, clips_text, dataset_name, name_parts  # noqa: E402
 
 STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
@@ -253,8 +254,7 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
     # Shortened as in the legend, the method's words kept: RONELD with and without PFT stay apart.
     ego_only = [_legend_name(method, model, 4.0, 7.5, most_lines=1) for method in methods if method in EGO_LANES_ONLY]
     if panel is not None and ego_only:
-        note.append(f"{' and '.join(ego_only)} output{'s' if len(ego_only) == 1 else ''} the two ego lanes only: "
-                    f"{panel.ego_lanes_note}.")
+        note.append(f"{ego_lanes_only(ego_only)}: {panel.ego_lanes_note}.")
     lines = max((name.count("\n") + 1 for name in shown.values()), default=1)
     legend_in = 0.4 + (lines - 1) * 9 * 1.25 / 72  # the legend's rows, each 9 pt and its spacing
     # Category names are tick labels turned 30 degrees, ending at their tick: the longest sets
