@@ -9,7 +9,6 @@ from __future__ import annotations
 import zlib
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 try:  # libdeflate: zlib's output about 4x faster; decoding a map PNG is mostly inflating
@@ -173,6 +172,8 @@ def read_grey_png(path: Path) -> np.ndarray:
     plain = _checked_plain(path, data)
     if plain is not None:  # grey, or RGB(A) whose channels agree: the grey OpenCV's weights give too
         return plain
+    import cv2  # only for what the plain path refuses: importing it took 22 ms of every run's start
+
     try:
         image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
     except cv2.error as error:
@@ -186,6 +187,8 @@ def _read_png(path: Path, data: bytes) -> np.ndarray:
     plain = _checked_plain(path, data)
     if plain is not None:
         return plain
+    import cv2  # as in read_grey_png
+
     try:
         image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     except cv2.error as error:  # OpenCV refuses what libpng would not decode sensibly
