@@ -82,6 +82,24 @@ def lane_map(height: int = 288, width: int = 800, xs=None, value: int = 220, sig
     return np.rint(plane).astype(np.uint8)
 
 
+def curving_frames(frames: int = 12, height: int = 288, width: int = 800) -> list[np.ndarray]:
+    """SCNN-sized maps of two ego lanes bending right near the horizon, and an outer lane."""
+    distance = (height - 1 - np.arange(height)).astype(np.float64)
+    clip = []
+    for frame in range(frames):
+        maps = np.zeros((4, height, width), np.uint8)
+        centre = width / 2 + 3 * frame
+        for channel, side in ((1, -1), (2, 1)):
+            xs = centre + side * (150 - distance) + 0.0035 * distance**2
+            xs[: height // 4] = np.nan
+            maps[channel] = lane_map(height, width, xs, value=200, sigma=3)
+        xs = centre - 420 + 0.6 * distance + 0.0035 * distance**2
+        xs[: height // 3] = np.nan
+        maps[0] = lane_map(height, width, xs, value=120, sigma=3)
+        clip.append(maps)
+    return clip
+
+
 @pytest.fixture(autouse=True, scope="session")
 def _truth_cache(tmp_path_factory):
     """The ground truth the tests draw is cached in a folder of the session, not the user's (whose

@@ -2,14 +2,19 @@
 
 import json
 import platform
+import sys
+import time
+import types
 
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import REPO
+from conftest import REPO, curving_frames, write_culane_tree
 
+import roneld_eval
 from roneld_eval import api
 from roneld_eval.config import EvalConfig
+from roneld_eval.extract import roneld
 from roneld_eval.lanes_io import read_culane_lines
 from roneld_eval.metrics.culane_official import evaluate_culane_frame
 
@@ -182,3 +187,35 @@ def test_per_frame_rows_are_handed_over_once():
     assert rows.take_table().empty  # handed over: nothing is left, and nothing half
     rows.add("d/v.MP4/00030.jpg", FrameOutcome("d/v.MP4/00030.jpg", "baseline", {"left": 0.25}, None, ()))  # type: ignore[arg-type]
     assert rows.take_table().values.tolist() == [["d/v.MP4/00030.jpg", "left", "baseline", 0.25]]
+
+
+def test_the_first_curve_splines_import_is_left_out_of_its_frames_time(tmp_path, monkeypatch):
+    """RONELD imports scipy's spline at the first curve it draws (not in warm-up: most clips never
+    reach curve mode); that one-time import is not the frame's time. Here it is made to take a
+    second (two look-ups of 0.5 s), against a few ms a frame."""
+    frames = curving_frames()
+    relpaths = [f"driver_1/clip/{k:05d}.jpg" for k in range(len(frames))]
+    data = write_culane_tree(tmp_path / "data", {relpath: "" for relpath in relpaths})
+    for relpath, maps in zip(relpaths, frames):
+        (tmp_path / "maps" / "driver_1" / "clip").mkdir(parents=True, exist_ok=True)
+        np.save(tmp_path / "maps" / (relpath[:-4] + ".npy"), maps)
+
+    real = sys.modules.get("scipy.interpolate") or __import__("scipy.interpolate").interpolate
+    imported = []
+
+    class SlowToImport(types.ModuleType):
+        def __getattr__(self, name):
+            if not name.startswith("__"):  # the import system's own look-ups: no delay
+                imported.append(name)
+                time.sleep(0.5)
+            return getattr(real, name)
+
+    monkeypatch.setitem(sys.modules, "scipy.interpolate", SlowToImport("scipy.interpolate"))
+    monkeypatch.setattr(roneld, "_make_interp_spline", None)  # as in a process that drew no curve yet
+    config = EvalConfig.preset("scnn-culane").with_overrides(**{
+        "dataset.data_root": str(data), "maps.root": str(tmp_path / "maps"), "methods": ["roneld"], "workers": 1})
+    result = roneld_eval.evaluate(config, progress=False)
+    assert set(imported) == {"make_interp_spline"}  # the clip reached curve mode, and imported it then
+    runtime = result.runtime.set_index("method")
+    assert runtime.loc["roneld", "frames"] == len(frames)
+    assert runtime.loc["roneld", "mean_ms"] < 500 / len(frames) / 2, runtime

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REPO, lane_map
+from conftest import REPO, curving_frames
 
 import roneld_eval
 from roneld_eval import api, kernels
@@ -70,24 +70,6 @@ def test_the_bundled_fixtures_compile_nothing_after_warm_up(dataset, warm):
     assert added_since(warm) == {}
 
 
-def curving_frames(frames: int = 12, height: int = 288, width: int = 800) -> list[np.ndarray]:
-    """SCNN-sized maps of two ego lanes bending right near the horizon, and an outer lane."""
-    distance = (height - 1 - np.arange(height)).astype(np.float64)
-    clip = []
-    for frame in range(frames):
-        maps = np.zeros((4, height, width), np.uint8)
-        centre = width / 2 + 3 * frame
-        for channel, side in ((1, -1), (2, 1)):
-            xs = centre + side * (150 - distance) + 0.0035 * distance**2
-            xs[: height // 4] = np.nan
-            maps[channel] = lane_map(height, width, xs, value=200, sigma=3)
-        xs = centre - 420 + 0.6 * distance + 0.0035 * distance**2
-        xs[: height // 3] = np.nan
-        maps[0] = lane_map(height, width, xs, value=120, sigma=3)
-        clip.append(maps)
-    return clip
-
-
 def test_a_clip_in_curve_mode_compiles_nothing_after_warm_up(warm):
     geometry = MapGeometry(1640, 590, 800, 288)
     paper = PaperMetricParams()
@@ -126,6 +108,18 @@ def test_the_warm_up_clip_reaches_curve_mode():
     lanes = [tracker(maps) for maps in curving_clip()]
     assert lanes[-1].curve_mode and not lanes[0].curve_mode
     assert len(lanes[-1].left.points) > 2 and len(lanes[-1].right.points) > 2  # spline samples, not a line
+
+
+def test_warm_up_leaves_the_curve_spline_to_the_first_curve():
+    """scipy.interpolate (0.15 s, a third of a worker's warm-up) is imported at the first curve a
+    clip draws, not in warm-up: most clips never reach curve mode. Its time is left out of that
+    frame's (test_run.py)."""
+    program = ("import sys\nfrom roneld_eval import kernels\nkernels.warm_up()\n"
+               "print('scipy.interpolate' in sys.modules)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "False"
 
 
 def test_the_extractors_own_warm_up_stays_importable():

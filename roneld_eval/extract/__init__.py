@@ -8,7 +8,7 @@ from ..geometry import MapGeometry
 from ..model import FrameMaps, read_only
 from . import _kernels
 from .baseline import baseline_lanes, sample_rows
-from .roneld import ActiveLanes, RoneldState, RoneldTracker, roneld_step
+from .roneld import CONSTANTS, ActiveLanes, RoneldState, RoneldTracker, roneld_step
 
 __all__ = ["baseline_lanes", "sample_rows", "ActiveLanes", "RoneldState", "RoneldTracker", "roneld_step",
            "warm_up"]
@@ -18,17 +18,19 @@ def warm_up(groups=("roneld", "baseline")) -> None:
     """Compile (or load from numba's cache) the extraction kernels, and run every code path once.
 
     `groups`: keys of `_kernels.ENTRY_SIGNATURES` ("roneld", "baseline"). After this, extracting
-    lanes compiles nothing and imports nothing: RONELD runs with and without PFT over a short
-    synthetic clip of curving lanes that enters curve mode (whose spline needs scipy), on
-    writable and read-only maps. roneld_eval.kernels.warm_up does this and the scoring kernels.
+    lanes compiles nothing: RONELD runs with and without PFT over a short synthetic clip of
+    curving lanes, on writable and read-only maps. The clip ends before curve mode could switch
+    on (two curved lanes a frame at most), so no spline is drawn: scipy's import waits for a
+    real curve and is left out of its frame's time (roneld._interp_spline).
+    roneld_eval.kernels.warm_up does this and the scoring kernels.
     """
     for group in groups:
         for kernel, signature in _kernels.ENTRY_SIGNATURES[group]:
             compile_now(kernel, signature)
-    clip = curving_clip()
+    clip = curving_clip(frames=(CONSTANTS.curve_on - 1) // 2)
     if "roneld" in groups:
         tracker = RoneldTracker(RoneldParams())
-        for maps in clip:  # the last frames are in curve mode
+        for maps in clip[:-1]:  # the curve test holds on every frame
             tracker(maps)
         tracker(read_only(clip[-1]))
         RoneldTracker(RoneldParams(), pft=False)(clip[0])

@@ -11,7 +11,9 @@ are found the same way (see README, "Your own extractor").
 
 from __future__ import annotations
 
+import contextlib
 import math
+import time
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Protocol, Sequence, runtime_checkable
 
@@ -53,6 +55,26 @@ class Extractor(Protocol):
 
 
 ExtractorFactory = Callable[[MapGeometry, Mapping[str, Any]], Extractor]
+
+
+_one_time_s = [0.0]
+
+
+@contextlib.contextmanager
+def one_time_work():
+    """Work a built-in extractor does once per process, inside a call (an import at first use):
+    the runner leaves its seconds out of that call's time (`one_time_seconds`), as it leaves
+    out what warm-up does before the first call."""
+    start = time.perf_counter()
+    try:
+        yield
+    finally:
+        _one_time_s[0] += time.perf_counter() - start
+
+
+def one_time_seconds() -> float:
+    """Seconds of `one_time_work` so far in this process."""
+    return _one_time_s[0]
 
 
 def is_stateless(extractor: object) -> bool:

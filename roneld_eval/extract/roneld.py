@@ -21,7 +21,7 @@ from ..config import RoneldParams
 from ..geometry import MapGeometry
 from ..model import EGO_CHANNELS, FrameMaps, Lane, read_only
 from . import _kernels
-from .protocol import Prediction
+from .protocol import Prediction, one_time_work
 
 
 @dataclass(frozen=True)
@@ -112,6 +112,25 @@ def lane_gains(fields: np.ndarray, constants: RoneldConstants = CONSTANTS) -> np
     return psi * fields[:, _kernels.F_POINTS] * fields[:, _kernels.F_RMS]
 
 
+_make_interp_spline = None
+
+
+def _interp_spline():
+    """scipy's make_interp_spline, imported at the first curve drawn in this process: importing
+    scipy.interpolate takes 0.15 s, a quarter of a worker's warm-up, and most clips never reach
+    curve mode (no frame of either bundled fixture does). Import and a first fit are one-time
+    work, left out of the frame's time."""
+    global _make_interp_spline
+    if _make_interp_spline is None:
+        with one_time_work():
+            from scipy.interpolate import make_interp_spline
+
+            samples = np.arange(4, dtype=np.float64)
+            make_interp_spline(samples, samples, k=2)(samples)  # its own first-call costs
+            _make_interp_spline = make_interp_spline
+    return _make_interp_spline
+
+
 def lane_outline(xs: np.ndarray, ys: np.ndarray, slope: float, intercept: float, top_row: float,
                  height: int, width: int, curve_mode: bool, constants: RoneldConstants = CONSTANTS) -> np.ndarray:
     """The polyline RONELD draws for a chosen lane, in map pixels, top first.
@@ -121,11 +140,7 @@ def lane_outline(xs: np.ndarray, ys: np.ndarray, slope: float, intercept: float,
     the fitted line from the top row down to where it meets the bottom row (or the image side).
     """
     if curve_mode and xs.size > constants.min_curve_points:
-        from scipy.interpolate import (
-            make_interp_spline,  # rarely needed; scipy.interpolate is slow to import
-        )
-
-        spline = make_interp_spline(ys.astype(np.float64), xs.astype(np.float64), k=2)
+        spline = _interp_spline()(ys.astype(np.float64), xs.astype(np.float64), k=2)
         rows = np.arange(ys[0], ys[-1], constants.curve_step_px, dtype=np.float64)
         return np.stack([spline(rows), rows], axis=1)
     x_bottom = (height - 1 - intercept) / slope
