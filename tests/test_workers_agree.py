@@ -24,7 +24,7 @@ import pytest
 
 from roneld_eval import api, evaluation
 from roneld_eval import workers as workers_module
-from roneld_eval.evaluation import pool
+from roneld_eval.evaluation import one_clip, pool
 from roneld_eval.datasets import read_dataset
 from roneld_eval.errors import InputError
 from roneld_eval.datasets.culane_synth import synth_culane
@@ -122,6 +122,30 @@ def test_meanwhile_runs_once_while_the_workers_warm_up(base, monkeypatch, asked,
                                  meanwhile=lambda: seen.append(len(multiprocessing.active_children())))
     assert result.counts["frames"] == sum(LENGTHS)
     assert seen == ([workers] if workers else [])
+
+
+def test_the_worker_has_clips_to_evaluate_while_meanwhile_runs(base, monkeypatch, tmp_path):
+    """This process hands out no clip while it imports the report's libraries: the worker gets
+    twice the clips it would otherwise (two in flight) first, so that it does not wait for them."""
+    monkeypatch.setattr(workers_module, "default_workers", lambda: 4)
+    evaluate_clip = one_clip.evaluate_clip
+
+    def noted(clip, *args, **kwargs):  # in the worker
+        result = evaluate_clip(clip, *args, **kwargs)
+        (tmp_path / clip.clip_id.replace("/", "_")).touch()
+        return result
+
+    monkeypatch.setattr(one_clip, "evaluate_clip", noted)
+    seen: list[int] = []
+
+    def meanwhile():
+        deadline = time.monotonic() + 10
+        while len(list(tmp_path.iterdir())) < 4 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        seen.append(len(list(tmp_path.iterdir())))
+
+    evaluation.evaluate(config_for(base, None, save_lanes=False), progress=False, meanwhile=meanwhile)
+    assert seen == [4]  # of the 5 clips, in the one worker the default gives 103 frames
 
 
 def test_a_signal_while_meanwhile_imports_waits_for_it_to_finish(base, monkeypatch):

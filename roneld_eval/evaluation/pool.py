@@ -146,6 +146,9 @@ def _pooled(clips: Sequence[Clip], context: RunContext, workers: int, cached: di
     with stopping(schedule.executor, guard.died):
         schedule.start_more()
         if meanwhile is not None:  # the workers exist (process_pool forks them all) and warm up
+            # This process hands out no clip while it imports: the workers get twice as many
+            # first, or they wait for it once they have warmed up and done their first ones.
+            schedule.start_more(extra=schedule.limit)
             # Its imports are not cut by a signal, which is acted on once they are done: an
             # import cut by a signal's exception can leave its module's lock taken (the pool's
             # thread then hung unpickling a result), a half-made module, or the exception dropped.
@@ -224,9 +227,10 @@ class _Schedule:
         self.current = clips[todo[0]].clip_id if todo else ""
         self.watch: Callable[[], None] | None = None  # called while waiting (plug-ins' time limits)
 
-    def start_more(self) -> None:
+    def start_more(self, extra: int = 0) -> None:
         failed = min((index for index, done in self.done.items() if isinstance(done, BaseException)), default=None)
-        while self.waiting and len(self.started) < self.limit and len(self.tasks) < self.limit:
+        limit = self.limit + extra
+        while self.waiting and len(self.started) < limit and len(self.tasks) < limit:
             index = self.waiting[0]
             if failed is not None and index > failed:
                 break  # the run stops at that clip's error: nothing after it is wanted
