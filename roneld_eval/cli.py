@@ -76,6 +76,13 @@ def _guard(function, debug: bool, *args, **kwargs):
         where = getattr(error, "filename", None)
         message = f"{where}: {error.strerror}" if where else str(error)
         _fail(RoneldEvalError(message), debug)
+    except Exception as error:
+        from .signals import interruption_within
+
+        interruption = interruption_within(error)  # Ctrl-C inside a numba kernel or an import
+        if interruption is None:
+            raise
+        _interrupted(interruption, ": no result was written")
 
 
 def _interrupted(error: KeyboardInterrupt, said: str = "") -> NoReturn:

@@ -92,6 +92,35 @@ def _lost_interruptions_resent():
         sys.unraisablehook = previous
 
 
+def interruption_within(error: BaseException | None) -> KeyboardInterrupt | None:
+    """The Ctrl-C, SIGTERM or SIGHUP that `error` is, or that directly caused it. An interruption
+    raised in Python code that C code called comes out of the C code as another exception it
+    caused: numba's kernels unpickle their constants as they use them ("SystemError: ...
+    returned a result with an exception set"); an extension module's initialisation during an
+    import ("ImportError: initialization failed")."""
+    seen: set[int] = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return error
+        seen.add(id(error))
+        error = error.__cause__
+    return None
+
+
+@contextlib.contextmanager
+def interruptions_unwrapped():
+    """Within the block, an exception an interruption caused (interruption_within) is raised as
+    that interruption: what runs numba's kernels in this process is then stopped as by Ctrl-C
+    anywhere else, not as by a bug."""
+    try:
+        yield
+    except Exception as error:
+        interruption = interruption_within(error)
+        if interruption is None:
+            raise
+        raise interruption from None
+
+
 def interruption_name(error: BaseException) -> tuple[str, int]:
     """('interrupted', 130) for Ctrl-C, ('terminated (SIGTERM)', 143) for a signal."""
     if isinstance(error, Terminated):

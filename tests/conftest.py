@@ -118,8 +118,9 @@ def fixture_run(tmp_path_factory):
     return result, out
 
 
-def interrupt_after(monkeypatch, finished: int):
-    """Make the next run stop (as Ctrl-C) when it starts clip number `finished` + 1."""
+def interrupt_after(monkeypatch, finished: int, inside_kernel: bool = False):
+    """Make the next run stop (as Ctrl-C) when it starts clip number `finished` + 1; with
+    `inside_kernel`, as Ctrl-C landing inside a numba kernel comes out of it: a SystemError it caused."""
     from roneld_eval import evaluation
 
     original, calls = evaluation.evaluate_clip, []
@@ -127,7 +128,13 @@ def interrupt_after(monkeypatch, finished: int):
     def interrupting(clip, context, *rest):
         calls.append(clip.clip_id)
         if len(calls) == finished + 1:
-            raise KeyboardInterrupt
+            if not inside_kernel:
+                raise KeyboardInterrupt
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as error:
+                raise SystemError("CPUDispatcher(<function row_argmax>) returned a result with an exception "
+                                  "set") from error
         return original(clip, context, *rest)
 
     monkeypatch.setattr(evaluation.one_clip, "evaluate_clip", interrupting)

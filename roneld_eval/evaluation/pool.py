@@ -23,7 +23,7 @@ from ..errors import ExtractorError
 from ..maps import required_paths
 from ..model import Clip
 from ..plugin_calls import PluginCalls
-from ..signals import deferred_signals
+from ..signals import deferred_signals, interruptions_unwrapped
 from ..workers import pool_context, process_pool, stopping, worker_count
 from . import one_clip, plugin_call
 from .plugin_call import OVERDUE_GRACE_S, too_slow_text
@@ -108,11 +108,14 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, asked: int | None,
     plugins = not all(method.built_in for method in context.methods)
     if not todo or (not plugins and workers == 0):
         if todo:
-            kernels.warm_up(context.kernel_groups())
+            with interruptions_unwrapped():
+                kernels.warm_up(context.kernel_groups())
         for index, clip in enumerate(clips):
             result = cached.get(index)
             if result is None:
-                result = keep(index, one_clip.evaluate_clip(clip, context, advance))
+                with interruptions_unwrapped():
+                    result = one_clip.evaluate_clip(clip, context, advance)
+                result = keep(index, result)
             else:
                 advance(len(clip.frames))
             yield result
