@@ -20,6 +20,7 @@ import numpy as np
 from ..config import RoneldParams
 from ..geometry import MapGeometry
 from ..model import EGO_CHANNELS, FrameMaps, Lane, read_only
+from ..signals import deferred_signals
 from . import _kernels
 from .protocol import Prediction, one_time_work
 
@@ -122,7 +123,9 @@ def _interp_spline():
     work, left out of the frame's time."""
     global _make_interp_spline
     if _make_interp_spline is None:
-        with one_time_work():
+        # A signal waits for the import: cut by one, an extension module's initialisation fails
+        # ("ImportError: initialization failed") and a module lock may stay taken.
+        with one_time_work(), deferred_signals():
             from scipy.interpolate import make_interp_spline
 
             samples = np.arange(4, dtype=np.float64)
