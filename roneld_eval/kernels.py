@@ -332,7 +332,7 @@ def warm_up(needed: Iterable[str] | None = None) -> None:
 
     Call in every process that evaluates, before anything is timed: each worker process as
     it starts, and the main process before evaluating in-process. Compiles only what neither
-    this process nor numba's cache holds (nothing after `prepare`). About 0.45 s loading from
+    this process nor numba's cache holds (nothing after `prepare`). About 0.3 s loading from
     the cache, 10 ms when the process has everything.
     """
     groups = _groups(needed)

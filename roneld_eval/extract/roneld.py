@@ -118,7 +118,7 @@ _make_interp_spline = None
 
 def _interp_spline():
     """scipy's make_interp_spline, imported at the first curve drawn in this process: importing
-    scipy.interpolate takes 0.15 s, a quarter of a worker's warm-up, and most clips never reach
+    scipy.interpolate took 0.15 s, a third of a worker's warm-up, and most clips never reach
     curve mode (no frame of either bundled fixture does). Import and a first fit are one-time
     work, left out of the frame's time."""
     global _make_interp_spline
