@@ -1,5 +1,5 @@
 """`python -m roneld_eval` is `roneld-eval`."""
 
-from .cli import main
+from .console import main
 
 main()

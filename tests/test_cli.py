@@ -285,3 +285,32 @@ def test_an_empty_out_is_refused_by_every_command_not_taken_for_the_current_fold
     outs = {path: param for path, command in commands(main) for param in command.params if param.name == "out"}
     assert len(outs) == 11  # run, merge, synth, show, compare and the six benchmarks' score
     assert [path for path, param in outs.items() if param.type is not OUT_FOLDER] == []
+
+
+@pytest.mark.parametrize("raised", ["KeyboardInterrupt()", "ImportError('initialization failed')"])
+def test_ctrl_c_while_the_command_starts_is_one_line(raised):
+    """The first 0.1-0.3 s import the command line's modules: Ctrl-C there printed Python's
+    traceback (7 of 15 SIGINTs sent 0.05-0.22 s after start). Here it lands as click is imported;
+    as an extension module's initialisation, it comes out as an ImportError it caused."""
+    import sys
+    import tomllib
+
+    from conftest import REPO
+
+    program = (
+        "import sys\n"
+        "class Interrupting:\n"
+        "    def find_spec(self, name, path, target=None):\n"
+        "        if name == 'click':\n"
+        "            try:\n"
+        "                raise KeyboardInterrupt\n"
+        "            except KeyboardInterrupt as error:\n"
+        f"                raise ({raised}) from error\n"
+        "sys.meta_path.insert(0, Interrupting())\n"
+        "import runpy\n"
+        "runpy.run_module('roneld_eval', run_name='__main__')\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, "-c", program, "run"], capture_output=True, text=True, env=env)
+    assert (done.returncode, done.stderr, done.stdout) == (130, "interrupted\n", "")
+    scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts["roneld-eval"] == "roneld_eval.console:main"  # the command, as python -m runs it
