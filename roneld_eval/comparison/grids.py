@@ -271,8 +271,9 @@ def _untimed_note(groups: Sequence[Group]) -> str:
 def runtime_files(groups: Sequence[Group], notes) -> dict[str, str]:
     grid = runtime_grid(groups)
     text = " ".join(filter(None, [
-        "Runtime: mean milliseconds per frame of lane extraction alone (after numba warm-up; map loading apart), "
-        "as each run measured it on its own machine; the Mean row averages the rows above.",
+        "Runtime: mean milliseconds per frame of lane extraction alone (after numba warm-up, one-time imports "
+        "left out; map loading apart), as each run measured it on its own machine; the Mean row averages the "
+        "rows above.",
         _untimed_note(groups), _seeds_note(groups)]))
     markdown = "# Runtime per frame: Table V\n\n" + text + "\n\n" + grid.to_markdown() + "".join(
         f"\n{note}\n" for note in notes)

@@ -145,8 +145,9 @@ def _stage_runtime(result: RunResult, staging: Staging, source: str, protocol, m
                  "longer than the rest (a slow disk read, the machine busy with other work), and the median is the "
                  "typical frame." if skewed else "")
     staging.write_text("runtime.md", f"# Runtime per frame on {source}\n\n"
-                       f"Milliseconds per frame of extraction alone (after numba warm-up), map loading apart, "
-                       f"on {protocol.map_size()}.\n\n" + tables.runtime_table(result.runtime, model).to_markdown()
+                       f"Milliseconds per frame of extraction alone (after numba warm-up, one-time imports left "
+                       f"out), map loading apart, on {protocol.map_size()}.\n\n"
+                       + tables.runtime_table(result.runtime, model).to_markdown()
                        + skew_note)
 
 
