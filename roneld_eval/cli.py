@@ -61,11 +61,14 @@ def _check_path_text(value) -> None:
 
 def _guard(function, debug: bool, *args, **kwargs):
     """Call the library; bad input becomes one line and exit 2, Ctrl-C a short note and 130."""
+    from .signals import interruptions_unwrapped
+
     try:
         for value in (*args, *kwargs.values()):
             _check_path_text(value)
         check_environment()
-        return function(*args, **kwargs)
+        with interruptions_unwrapped():  # Ctrl-C inside a numba kernel or an import is Ctrl-C
+            return function(*args, **kwargs)
     except RoneldEvalError as error:
         _fail(error, debug)
     except KeyboardInterrupt as error:
@@ -76,13 +79,6 @@ def _guard(function, debug: bool, *args, **kwargs):
         where = getattr(error, "filename", None)
         message = f"{where}: {error.strerror}" if where else str(error)
         _fail(RoneldEvalError(message), debug)
-    except Exception as error:
-        from .signals import interruption_within
-
-        interruption = interruption_within(error)  # Ctrl-C inside a numba kernel or an import
-        if interruption is None:
-            raise
-        _interrupted(interruption, ": no result was written")
 
 
 def _interrupted(error: KeyboardInterrupt, said: str = "") -> NoReturn:

@@ -8,19 +8,13 @@ import sys
 
 
 def main() -> None:
+    from .signals import interruption_name, interruptions_unwrapped
+
     try:
-        from .cli import main as command
-    except Exception as error:  # an extension module's initialisation cut by Ctrl-C: an error it caused
-        from .signals import interruption_within
-
-        if interruption_within(error) is None:
-            raise
-        _interrupted()
-    except KeyboardInterrupt:
-        _interrupted()
+        with interruptions_unwrapped():  # an extension module's initialisation cut by Ctrl-C
+            from .cli import main as command
+    except KeyboardInterrupt as error:
+        reason, code = interruption_name(error)
+        sys.stderr.write(f"{reason}\n")
+        sys.exit(code)
     command()
-
-
-def _interrupted() -> None:
-    sys.stderr.write("interrupted\n")
-    sys.exit(130)

@@ -107,18 +107,16 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, asked: int | None,
     # a crash) ends a worker the run can name, not the run itself with exit status 0.
     plugins = not all(method.built_in for method in context.methods)
     if not todo or (not plugins and workers == 0):
-        if todo:
-            with interruptions_unwrapped():
+        with interruptions_unwrapped():  # numba's kernels run in this process
+            if todo:
                 kernels.warm_up(context.kernel_groups())
-        for index, clip in enumerate(clips):
-            result = cached.get(index)
-            if result is None:
-                with interruptions_unwrapped():
-                    result = one_clip.evaluate_clip(clip, context, advance)
-                result = keep(index, result)
-            else:
-                advance(len(clip.frames))
-            yield result
+            for index, clip in enumerate(clips):
+                result = cached.get(index)
+                if result is None:
+                    result = keep(index, one_clip.evaluate_clip(clip, context, advance))
+                else:
+                    advance(len(clip.frames))
+                yield result
         return
     yield from _pooled(clips, context, max(workers, 1), cached, todo, keep, advance, plugins, meanwhile)
 
