@@ -54,6 +54,12 @@ def real_clip_tree(real_clip, tmp_path) -> tuple[Path, Path]:
     return data, maps
 
 
+def env_importing(first: Path = REPO) -> dict[str, str]:
+    """This process's environment with `first` ahead on PYTHONPATH: a Python started with it imports
+    this checkout's roneld_eval (or what lies in `first`)."""
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(first), os.environ.get("PYTHONPATH")])))
+
+
 def write_culane_tree(root: Path, frames: dict[str, str], categories: dict[str, list[str]] | None = None,
                       list_text: str | None = None) -> Path:
     """A CULane root with the given relpath -> .lines.txt content (None: no file)."""

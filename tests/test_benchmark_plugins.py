@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import env_importing
 
 from roneld_eval import benchmarks
 
@@ -21,7 +22,7 @@ TOY = Path(__file__).parent / "toy_benchmark"
 
 
 def cli(*args: str, path: Path = TOY, check: bool = True) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(path), os.environ.get("PYTHONPATH")])))
+    env = env_importing(path)
     done = subprocess.run([sys.executable, "-m", "roneld_eval", *args], capture_output=True, text=True, env=env,
                           timeout=300)
     if check:

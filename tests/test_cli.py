@@ -295,7 +295,7 @@ def test_ctrl_c_while_the_command_starts_is_one_line(raised):
     import sys
     import tomllib
 
-    from conftest import REPO
+    from conftest import REPO, env_importing
 
     program = (
         "import sys\n"
@@ -309,7 +309,7 @@ def test_ctrl_c_while_the_command_starts_is_one_line(raised):
         "sys.meta_path.insert(0, Interrupting())\n"
         "import runpy\n"
         "runpy.run_module('roneld_eval', run_name='__main__')\n")
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    env = env_importing()
     done = subprocess.run([sys.executable, "-c", program, "run"], capture_output=True, text=True, env=env)
     assert (done.returncode, done.stderr, done.stdout) == (130, "interrupted\n", "")
     scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]

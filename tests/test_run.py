@@ -1,5 +1,6 @@
 """Whole runs: the committed results are reproduced, workers do not change a byte, outputs hold."""
 
+import importlib
 import json
 import os
 import platform
@@ -191,6 +192,22 @@ def test_per_frame_rows_are_handed_over_once():
     assert rows.take_table().values.tolist() == [["d/v.MP4/00030.jpg", "left", "baseline", 0.25]]
 
 
+def _spline_import_doing(on_look_up, monkeypatch):
+    """RONELD's import of scipy's spline as in a process that drew no curve yet, `on_look_up(name)`
+    run at each name it looks up in scipy.interpolate; that module is returned."""
+    real = importlib.import_module("scipy.interpolate")
+
+    class Watched(types.ModuleType):
+        def __getattr__(self, name):
+            if not name.startswith("__"):  # the import system's own look-ups pass through
+                on_look_up(name)
+            return getattr(real, name)
+
+    monkeypatch.setitem(sys.modules, "scipy.interpolate", Watched("scipy.interpolate"))
+    monkeypatch.setattr(roneld, "_make_interp_spline", None)
+    return real
+
+
 def test_the_first_curve_splines_import_is_left_out_of_its_frames_time(tmp_path, monkeypatch):
     """RONELD imports scipy's spline at the first curve it draws (not in warm-up: most clips never
     reach curve mode); that one-time import is not the frame's time. Here it is made to take a
@@ -202,18 +219,13 @@ def test_the_first_curve_splines_import_is_left_out_of_its_frames_time(tmp_path,
         (tmp_path / "maps" / "driver_1" / "clip").mkdir(parents=True, exist_ok=True)
         np.save(tmp_path / "maps" / (relpath[:-4] + ".npy"), maps)
 
-    real = sys.modules.get("scipy.interpolate") or __import__("scipy.interpolate").interpolate
     imported = []
 
-    class SlowToImport(types.ModuleType):
-        def __getattr__(self, name):
-            if not name.startswith("__"):  # the import system's own look-ups: no delay
-                imported.append(name)
-                time.sleep(0.5)
-            return getattr(real, name)
+    def slowly(name):
+        imported.append(name)
+        time.sleep(0.5)
 
-    monkeypatch.setitem(sys.modules, "scipy.interpolate", SlowToImport("scipy.interpolate"))
-    monkeypatch.setattr(roneld, "_make_interp_spline", None)  # as in a process that drew no curve yet
+    _spline_import_doing(slowly, monkeypatch)
     config = EvalConfig.preset("scnn-culane").with_overrides(**{
         "dataset.data_root": str(data), "maps.root": str(tmp_path / "maps"), "methods": ["roneld"], "workers": 1})
     result = roneld_eval.evaluate(config, progress=False)
@@ -227,20 +239,15 @@ def test_a_signal_during_the_spline_import_waits_for_it(monkeypatch):
     """Cut by a signal, an extension module's initialisation fails ("ImportError: initialization
     failed", seen in 1 of 40 SIGTERMs of a run in one process) and a module lock may stay taken:
     the interruption waits for the import, then stops the run as anywhere else."""
-    real = sys.modules.get("scipy.interpolate") or __import__("scipy.interpolate").interpolate
     looked_up = []
 
-    class InterruptedWhileImported(types.ModuleType):
-        def __getattr__(self, name):
-            if not name.startswith("__"):
-                os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the middle of the import
-                for _ in range(1000):  # a Python-level loop, where a signal's handler runs at once
-                    pass
-                looked_up.append(name)
-            return getattr(real, name)
+    def interrupted(name):
+        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the middle of the import
+        for _ in range(1000):  # a Python-level loop, where a signal's handler runs at once
+            pass
+        looked_up.append(name)
 
-    monkeypatch.setitem(sys.modules, "scipy.interpolate", InterruptedWhileImported("scipy.interpolate"))
-    monkeypatch.setattr(roneld, "_make_interp_spline", None)
+    real = _spline_import_doing(interrupted, monkeypatch)
     with pytest.raises(KeyboardInterrupt):
         roneld._interp_spline()
     assert looked_up and roneld._make_interp_spline is real.make_interp_spline  # the import was done first

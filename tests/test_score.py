@@ -4,7 +4,6 @@ prediction roots, and the two TuSimple F1 formulas against the tools that define
 import gzip
 import json
 import math
-import os
 import shutil
 import subprocess
 import sys
@@ -14,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
-from conftest import GOLDEN
+from conftest import GOLDEN, env_importing
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from tusimple_perturbation import digest, perturbed_predictions
@@ -344,8 +343,7 @@ def test_score_culane_on_one_frame_starts_without_pandas_or_matplotlib(tmp_path)
     program = ("import sys\nfrom roneld_eval.cli import main\ntry:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n"
                "    assert not e.code, e.code\n"
                "print(sorted(m for m in ('pandas', 'matplotlib', 'roneld_eval.extract') if m in sys.modules))")
-    root = Path(__file__).resolve().parents[1]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])))
+    env = env_importing()
     done = subprocess.run([sys.executable, "-c", program, "score", "culane", "--data-root", str(gt), "--pred-root",
                            str(pred), "--out", str(tmp_path / "o")], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr

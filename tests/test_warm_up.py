@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REPO, curving_frames
+from conftest import REPO, curving_frames, env_importing
 
 import roneld_eval
 from roneld_eval import api, kernels
@@ -116,7 +116,7 @@ def test_warm_up_leaves_the_curve_spline_to_the_first_curve():
     frame's (test_run.py)."""
     program = ("import sys\nfrom roneld_eval import kernels\nkernels.warm_up()\n"
                "print('scipy.interpolate' in sys.modules)")
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    env = env_importing()
     done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "False"
@@ -190,7 +190,7 @@ print([len(kernel.signatures) for kernel in canvas])
 
 def test_a_run_compiles_the_canvas_only_where_a_lane_needs_it(tmp_path):
     # About a fifth of a first run's compile: no lane of the fixtures or of real CULane labels needs it.
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
+    env = env_importing()
     done = subprocess.run([sys.executable, "-c", _CANVAS_COMPILED], env=env, capture_output=True, text=True,
                           timeout=600, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
@@ -214,7 +214,7 @@ def test_a_run_on_png_maps_decodes_them_in_the_workers_only(tmp_path):
     from roneld_eval.datasets.culane_synth import synth_culane
 
     made = synth_culane(tmp_path / "set", clips=2, frames=3, maps_format="scnn-png")
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
+    env = env_importing()
     done = subprocess.run([sys.executable, "-c", _MAIN_PROCESS_KERNELS, str(made.data_root), str(made.maps_root),
                            str(tmp_path / "out")], env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr

@@ -21,6 +21,7 @@ from types import FrameType
 
 import numpy as np
 import pytest
+from conftest import env_importing
 
 from roneld_eval import api, evaluation
 from roneld_eval import workers as workers_module
@@ -182,8 +183,7 @@ def test_a_run_forks_its_workers_before_it_imports_pandas_or_matplotlib(tmp_path
                "from roneld_eval.cli import main\ntry:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n"
                "    assert not e.code, e.code\n    assert 'cv2' not in sys.modules\n"
                "print(len(seen), [m for found in seen for m in found])")
-    root = Path(__file__).resolve().parents[1]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])))
+    env = env_importing()
     done = subprocess.run([sys.executable, "-c", program, "run", "--workers", "2", "--quiet", "--out",
                            str(tmp_path / "out")], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr
