@@ -287,11 +287,11 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
     if len(lanes) > LANES.count:
         raise InputError(path, LANES.problem(len(lanes)), line=number)
     for index, lane in enumerate(lanes):
-        if not all(_is_number(value) for value in lane):
+        if not _all_numbers(lane):
             raise InputError(path, f"lane {index} holds a value that is not a finite number", line=number)
     if "h_samples" in record:
         rows = record["h_samples"]
-        if not isinstance(rows, list) or not all(_is_number(value) for value in rows):
+        if not isinstance(rows, list) or not _all_numbers(rows):
             raise InputError(path, "h_samples must be a list of numbers", line=number)
         for index, lane in enumerate(lanes):
             if len(lane) != len(rows):
@@ -316,6 +316,20 @@ def check_h_samples(rows, path, line: int, image_height: int) -> None:
     if len(set(rows)) != len(rows):
         repeated = next(y for y in rows if rows.count(y) > 1)
         raise InputError(path, f"h_samples lists row {repeated:g} twice", line=line)
+
+
+def _all_numbers(values: list) -> bool:
+    """Whether every value is a finite number (see _is_number). Checked a value at a time, the
+    2,782 lines of TuSimple's test labels took 0.12 s on top of their 0.06 s of JSON. A finite
+    sum of the magnitudes of ints and floats has no inf, NaN or integer beyond a float's range
+    among them, so most lists need no loop in Python."""
+    if set(map(type, values)) <= {int, float}:
+        try:
+            if math.isfinite(sum(map(abs, values))):
+                return True
+        except OverflowError:  # an integer beyond a float's range: the loop below says which
+            pass
+    return all(_is_number(value) for value in values)
 
 
 def _is_number(value) -> bool:

@@ -6,12 +6,14 @@ import shutil
 import numpy as np
 import pytest
 from conftest import write_culane_tree
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from roneld_eval.datasets import read_dataset
 from roneld_eval.datasets.culane import read_culane
 from roneld_eval.datasets.tusimple import read_tusimple
 from roneld_eval.errors import InputError
-from roneld_eval.lanes_io import parse_culane_lines, tusimple_xs
+from roneld_eval.lanes_io import _all_numbers, _is_number, parse_culane_lines, tusimple_xs
 
 
 def test_culane_clips_frames_and_lanes(tmp_path):
@@ -98,6 +100,11 @@ def test_tusimple_clips(tmp_path):
     ('{"lanes": [], "raw_file": "a/20.jpg"}', "missing key 'h_samples'"),
     ('{"lanes": [[1, 2]], "h_samples": [1], "raw_file": "a/20.jpg"}', "lane 0 has 2 values but h_samples has 1"),
     ('{"lanes": [["a"]], "h_samples": [1], "raw_file": "a/20.jpg"}', "not a finite number"),
+    # a sum of the values is finite, each value is not: each is checked
+    ('{"lanes": [[1e400, -1e400]], "h_samples": [1, 2], "raw_file": "a/20.jpg"}', "lane 0 holds a value that is not"),
+    ('{"lanes": [[1' + "0" * 400 + ', -1' + "0" * 400 + ']], "h_samples": [1, 2], "raw_file": "a/20.jpg"}',
+     "lane 0 holds a value that is not"),
+    ('{"lanes": [[1, 2]], "h_samples": [true, 2], "raw_file": "a/20.jpg"}', "h_samples must be a list of numbers"),
     ('[1, 2]', "JSON object"),
 ])
 def test_tusimple_bad_labels(tmp_path, line, problem):
@@ -105,6 +112,17 @@ def test_tusimple_bad_labels(tmp_path, line, problem):
     with pytest.raises(InputError, match=problem) as caught:
         read_tusimple(tmp_path)
     assert ":2:" in str(caught.value)
+
+
+_JSON_VALUES = st.one_of(st.integers(-(10**320), 10**320), st.floats(), st.booleans(), st.none(), st.text(max_size=2),
+                         st.sampled_from([1.7e308, -1.7e308, 10**308 * 2, 2**1024 - 1, float("nan")]))
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(st.lists(_JSON_VALUES, max_size=6))
+def test_a_list_is_all_numbers_exactly_when_each_value_is_one(values):
+    # The sum taken for speed must not let through what the check of each value refuses.
+    assert _all_numbers(values) == all(_is_number(value) for value in values)
 
 
 def test_real_culane_lists(shared_data, tmp_path):
