@@ -253,11 +253,23 @@ def interrupted_run(monkeypatch, root: Path, out: Path, finished: int, **overrid
     restore()
 
 
+_CLEAN: dict[str, dict[str, bytes]] = {}
+
+
 def clean_numbers(root: Path, tmp_path: Path) -> dict[str, bytes]:
-    clean = tmp_path / "clean"
-    shutil.rmtree(clean, ignore_errors=True)
-    api.run(config_for(root), clean, progress=False)
-    return {name: (clean / name).read_bytes() for name in ("accuracy.csv", "per_frame.csv", "official.csv")}
+    """The numbers of an uninterrupted run on `root` as it is now, run once per content of its
+    files: most tests resume the module's set unchanged, and each ran this same run again."""
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*")):
+        if path.is_file():
+            digest.update(f"{path.relative_to(root)}\0{path.stat().st_size}\0".encode() + path.read_bytes())
+    key = digest.hexdigest()
+    if key not in _CLEAN:
+        clean = tmp_path / "clean"
+        shutil.rmtree(clean, ignore_errors=True)
+        api.run(config_for(root), clean, progress=False)
+        _CLEAN[key] = {name: (clean / name).read_bytes() for name in ("accuracy.csv", "per_frame.csv", "official.csv")}
+    return _CLEAN[key]
 
 
 def resumed(root: Path, out: Path, notes: list[str]) -> dict[str, bytes]:
