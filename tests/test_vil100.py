@@ -222,6 +222,10 @@ def test_the_real_ground_truth_against_itself_scores_one(tmp_path):
         # RVLD's script on the ground truth itself (4d90de1, tau 0.5): Ns 8017, Nj 0, Nm 0
         linked = score.temporal_overall[("gt", label)]
         assert (linked.stable, linked.jump, linked.missing) == (8017, 0, 0)
+    # RVLD's evaluate_acc.py (4d90de1) on the same files stops at 108 lanes repeating a y; keeping
+    # each lane's first point at a y gives 0.98, what the script gives once those points are dropped.
+    rvld = score.acc_overall[("gt", "rvld")]
+    assert (rvld.accuracy, rvld.fp, rvld.fn, rvld.frames, rvld.stopping) == (0.98, 0.0, 0.0, 2000, 108)
     scenarios = {name for name, _ in rows if name.startswith("scenario")}
     assert scenarios >= {"scenario 0 (normal)", "scenario 9 (crossroad)"}
 
