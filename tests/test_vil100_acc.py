@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
 from roneld_eval.cli import main
 from roneld_eval.datasets.vil100 import read_vil100
-from roneld_eval.datasets.vil100_png import (GREY_WEIGHTS, colour_greys, instance_lanes, lines_text, lit_pixels,
+from roneld_eval.maps.vil100_png import (GREY_WEIGHTS, colour_greys, instance_lanes, lines_text, lit_pixels,
                                              read_instance_png)
 from roneld_eval.errors import InputError
 from roneld_eval.lanes_io import read_culane_lines
@@ -123,6 +123,60 @@ def test_colour_greys_are_rgb2grays_of_every_pixel(height, width, colours, seed,
     assert ours.tolist() == theirs.tolist()  # the same lanes, in the same order
 
 
+def _pillows_greys(path: Path) -> np.ndarray:
+    """What Pillow alone gives (the reading before masks were decoded here)."""
+    from PIL import Image
+
+    with Image.open(path) as opened:
+        if opened.mode == "L":
+            return np.asarray(opened)
+        return colour_greys(np.asarray(opened.convert("RGB")))
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(st.integers(1, 60), st.integers(1, 90), st.integers(1, 12), st.integers(0, 2**32 - 1),
+       st.sampled_from(["opencv grey", "pillow palette", "pillow small palette", "pillow grey", "pillow palette "
+                        "with transparency", "pillow palette past its colours"]))
+def test_masks_decoded_here_are_pillows_pixels(tmp_path_factory, height, width, lanes, seed, writer):
+    # OpenCV's grey masks (rows filtered None or Sub) and Pillow's palette masks (MMA-Net's) are
+    # decoded by the maps' PNG kernel; every other PNG still by Pillow, which refuses what it did.
+    from PIL import Image
+
+    from roneld_eval.maps.vil100_png import _grey_image, _plain_pixels
+
+    random = np.random.default_rng(seed)
+    mask = (random.integers(0, lanes + 1, (height, width)) * (random.random((height, width)) < 0.3)).astype(np.uint8)
+    path = tmp_path_factory.mktemp("mask") / "m.png"
+    if writer == "opencv grey":
+        cv2.imwrite(str(path), mask)
+    elif writer == "pillow grey":  # adaptive filters (Up, Paeth): Pillow's
+        Image.fromarray(mask).save(path)
+    else:
+        image = Image.fromarray(mask, "L").convert("P")
+        colours = random.integers(0, 256, 256 * 3).tolist()
+        image.putpalette(colours[:3 * (lanes + 1)] if writer == "pillow small palette" else colours)
+        if writer.endswith("past its colours"):  # 20 colours (8 bits a pixel), an index of 30
+            image.putpalette(colours[:60])
+            image.putpixel((0, 0), 30)
+        info = {"transparency": 0} if writer.endswith("transparency") else {}
+        image.save(path, **info)
+    fast = _plain_pixels(path, width, height)
+    if writer in ("opencv grey", "pillow palette"):
+        assert fast is not None
+    if writer.endswith(("transparency", "past its colours")):
+        assert fast is None
+    if writer.endswith("transparency"):
+        assert fast is None
+        with pytest.raises(InputError, match="with transparency"):
+            _grey_image(path)
+        return
+    expected = _pillows_greys(path)
+    got = _grey_image(path)
+    assert got.dtype == expected.dtype and np.array_equal(got, expected)
+    if fast is not None:
+        assert np.array_equal(fast, expected)
+
+
 def test_a_mask_lane_whose_fit_fails_matches_nothing(tmp_path):
     mask = np.zeros((480, 960), np.uint8)
     mask[479, 100:300] = 1  # every pixel in the bottom row: np.polyfit raises, the scripts stop
@@ -153,7 +207,7 @@ def _differ_only_in_lapacks_last_bits(lanes, ours: str, theirs: str, description
     between machines (OpenBLAS picks its kernels by CPU): np.polyfit gives 1000.9999999999999
     on one and 1001.0000000000002 on another, and the script's %d writes 1000 or 1001. The
     script run here writes what we write; against the golden text only those x may differ, by one."""
-    from roneld_eval.datasets.vil100_png import Y_STEP
+    from roneld_eval.maps.vil100_png import Y_STEP
 
     near_integer = set()
     for lane in lanes:

@@ -131,14 +131,14 @@ def sequence_totals(piece: ScoredSequence, relpaths: Sequence[str], thresholds: 
                           np.array([[r in names for names in odd] for r in relpaths], np.int64).reshape(n_frames, -1))
 
 
-PRED_FORMATS = ("lines", "png")  # .lines.txt, or MMA-Net's instance masks (datasets.vil100_png)
+PRED_FORMATS = ("lines", "png")  # .lines.txt, or MMA-Net's instance masks (maps.vil100_png)
 _SUFFIXES = {"lines": ".lines.txt", "png": ".png"}
 
 
 def _read_predictions(root: Path, relpath: str, pred_format: str):
     """(lanes, the instance mask's fits and height, or None for lane files)."""
     if pred_format == "png":
-        from ..datasets.vil100_png import read_instance_png
+        from ..maps.vil100_png import read_instance_png
 
         mask = read_instance_png(under_root(root, f"{image_stem(relpath)}.png"))
         return mask.lanes, mask
@@ -227,7 +227,9 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             names = [name for name, frames in dataset.sequences.items() if frames[0] in share]
             tasks = [(dataset.sequences[name], dataset.labels, roots, *dataset.sizes[name], width, temporal,
                       pred_format) for name in names]
-            scored = scored_pieces(_score_sequence, tasks, workers, progress, announce)
+            # instance masks are mostly decoded by the PNG maps' kernel (maps.vil100_png)
+            groups = ("official", "maps") if pred_format == "png" else ("official",)
+            scored = scored_pieces(_score_sequence, tasks, workers, progress, announce, kernel_groups=groups)
             totals = [sequence_totals(piece, dataset.sequences[name], thresholds, temporal, versions)
                       for name, piece in zip(names, scored)]
             if sharding.shard is not None:

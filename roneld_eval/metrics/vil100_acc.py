@@ -3,7 +3,7 @@ truth's slope, a lane found at 85 % of its points, at most 8 lanes a frame) in t
 papers print, which give different numbers for the same lanes:
 
 - MMA-Net's evaluation/evaluate_acc.py (yujun0-0/MMA-Net 8f95908): each predicted lane is the
-  degree-2 fit x(y) of its instance mask's pixels (datasets.vil100_png, `InstanceMask.fits`), in
+  degree-2 fit x(y) of its instance mask's pixels (maps.vil100_png, `InstanceMask.fits`), in
   the mask's flipped rows (y = height - row - 1), evaluated at every ground-truth point, whose y
   is flipped as height - y (:42-57, one row apart from the mask's);
 - RVLD's Modeling/VIL-100/PLD/code/evaluation/evaluate_acc.py (dongkwonjin/RVLD 4d90de1): each
