@@ -123,6 +123,24 @@ def test_colour_greys_are_rgb2grays_of_every_pixel(height, width, colours, seed,
     assert ours.tolist() == theirs.tolist()  # the same lanes, in the same order
 
 
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(st.integers(1, 4000), st.integers(1, 2200), st.integers(1, 3), st.integers(0, 2**32 - 1))
+def test_the_quadratic_fit_is_np_polyfits_to_the_last_bit(pixels, rows, columns_per_row, seed):
+    # One row (rank 2, polyfit's RankWarning), two rows, and lanes of every length up to a
+    # full-HD mask's, in the pixel order np.where gives: the fit decides every written x.
+    import warnings
+
+    from roneld_eval.maps.vil100_png import quadratic_fit
+
+    random = np.random.default_rng(seed)
+    ys = np.sort(random.integers(0, rows, pixels) + 1)  # above the bottom row: polyfit's scale is not 0
+    xs = random.integers(1, 1921, pixels) // columns_per_row
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        expected = np.polyfit(ys, xs, 2)
+    assert quadratic_fit(ys, xs).tobytes() == expected.tobytes()
+
+
 def _pillows_greys(path: Path) -> np.ndarray:
     """What Pillow alone gives (the reading before masks were decoded here)."""
     from PIL import Image

@@ -144,6 +144,23 @@ def lit_pixels(grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return points[:, 1], points[:, 0]
 
 
+def quadratic_fit(ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """np.polyfit(ys, xs, 2) to the last bit: its very steps on the very same arrays, but for its
+    Vandermonde matrix, whose columns y * y, y and 1 are written here instead of accumulated along
+    strided rows (a quarter of the fit's time on a full-HD mask's lane of ~20,000 pixels). Its
+    RankWarning is not given; LinAlgError is raised as it raises it."""
+    x = np.asarray(ys) + 0.0
+    y = np.asarray(xs) + 0.0
+    lhs = np.empty((x.size, 3), np.float64)
+    lhs[:, 0] = x * x
+    lhs[:, 1] = x
+    lhs[:, 2] = 1.0
+    scale = np.sqrt((lhs * lhs).sum(axis=0))
+    lhs /= scale
+    coefficients = np.linalg.lstsq(lhs, y, x.size * np.finfo(np.float64).eps)[0]
+    return (coefficients.T / scale).T
+
+
 def instance_lanes(path: Path) -> tuple[list[InstanceLane], int, int]:
     """(lanes in grey order, width, height) of one mask."""
     grey = _grey_image(path)
@@ -169,7 +186,7 @@ def instance_lanes(path: Path) -> tuple[list[InstanceLane], int, int]:
             try:
                 if not ys.any():  # all in the bottom row: polyfit's scaling divides by 0 (LAPACK says so on stdout)
                     raise np.linalg.LinAlgError("SVD did not converge")
-                fit = np.polyfit(ys, xs, 2).tolist()  # float64 of either: the same as the script's lists
+                fit = quadratic_fit(ys, xs).tolist()  # float64 of either: the same as the script's lists
             except np.linalg.LinAlgError:
                 lanes.append(InstanceLane(ys, xs, None))
                 continue
