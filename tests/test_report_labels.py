@@ -466,3 +466,17 @@ def test_the_figures_text_lies_inside_them_and_apart(names, model, fixture_resul
             assert "".join(name.split()) == "".join(whole.split()) or (  # a word may be cut across lines
                 "\u2026" in name and name.endswith(own) and len(name) < len(whole)), name
         plt.close(figure)
+
+
+def test_a_measured_width_follows_the_font_it_was_measured_in():
+    # Widths are kept per text and font: a figure drawn in another font is not fitted by the first's.
+    import matplotlib
+
+    from roneld_eval.report.plots import _text_in
+
+    text = "SCNN_resnet101_culane + RONELD w/o PFT"
+    sans = _text_in(text, 9.0)
+    with matplotlib.rc_context({"font.family": "monospace"}):
+        mono = _text_in(text, 9.0)
+    assert mono != sans and _text_in(text, 9.0) == sans
+    assert _text_in(text, 18.0) == pytest.approx(2 * sans, rel=0.02)

@@ -8,6 +8,7 @@ Output bytes are reproducible (no dates, fixed SVG ids).
 
 from __future__ import annotations
 
+import functools
 import re
 import textwrap
 from pathlib import Path
@@ -68,9 +69,18 @@ def _text_in(text: str, points: float) -> float:
     """The width of one line of text in inches, from the font's own metrics (a W is twice an
     average letter, a CJK character wider still), without drawing a figure."""
     from matplotlib.font_manager import FontProperties
+
+    return _measured(text, FontProperties(size=points))  # the rcParams' font now, at that size
+
+
+@functools.lru_cache(maxsize=4096)
+def _measured(text: str, font) -> float:
+    # A width took about 0.5 ms, and every figure of a process measures the same names again (a
+    # sweep reports each checkpoint; compare draws every run's methods). FontProperties hashes
+    # and compares by every property the width depends on.
     from matplotlib.textpath import text_to_path
 
-    width, _, _ = text_to_path.get_text_width_height_descent(text, FontProperties(size=points), ismath=False)
+    width, _, _ = text_to_path.get_text_width_height_descent(text, font, ismath=False)
     return width / 72
 
 
