@@ -7,6 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import GOLDEN
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from roneld_eval.config import PaperMetricParams
 
@@ -115,6 +117,43 @@ def test_tusimple_hand_checked():
     assert bench_frame(exact + [[1] * 56] * 3, gt, rows) == (0.0, 0.0, 1.0)  # more than gt + 2
     assert bench_frame(exact, gt, rows, run_time=201) == (0.0, 0.0, 1.0)
     assert bench_frame([], gt, rows) == (0.0, 0.0, 1.0)
+
+
+def _bench_lane_by_lane(pred, gt, y_samples):
+    """LaneEval.bench as lane.py writes it: line_accuracy of each prediction, one at a time."""
+    from roneld_eval.metrics.tusimple_official import lane_threshold, line_accuracy
+
+    if len(gt) + 2 < len(pred):
+        return 0.0, 0.0, 1.0
+    y = np.array(y_samples, dtype=float)
+    line_accs, fn, matched = [], 0.0, 0.0
+    for x_gts in gt:
+        gt_array = np.array(x_gts, dtype=float)
+        threshold = lane_threshold(gt_array, y)
+        accs = [line_accuracy(np.array(p, dtype=float), gt_array, threshold) for p in pred]
+        max_acc = max(accs) if accs else 0.0
+        fn, matched = (fn + 1, matched) if max_acc < 0.85 else (fn, matched + 1)
+        line_accs.append(max_acc)
+    fp = len(pred) - matched
+    if len(gt) > 4 and fn > 0:
+        fn -= 1
+    total = sum(line_accs) - (min(line_accs) if len(gt) > 4 else 0)
+    return (total / max(min(4.0, len(gt)), 1.0), fp / len(pred) if len(pred) > 0 else 0.0,
+            fn / max(min(len(gt), 4.0), 1.0))
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(st.integers(1, 56), st.integers(0, 6), st.integers(0, 8), st.integers(0, 2**32 - 1))
+def test_tusimple_frames_score_as_lane_by_lane(rows, lanes, predictions, seed):
+    # Every prediction's row hits are counted at once: the same doubles as line_accuracy's sums.
+    random = np.random.default_rng(seed)
+    y_samples = list(range(720 - 10 * rows, 720, 10))
+    centre = random.uniform(0, 1280, lanes)
+    gt = [[float(c + random.normal(0, 30)) if random.random() > 0.2 else -2.0 for _ in y_samples] for c in centre]
+    pred = [[float(x + random.choice([0.0, random.normal(0, 15), 19.5, 20.0])) if x >= 0 else -2.0 for x in lane]
+            for lane in gt][:predictions]
+    pred += [[float(v) for v in random.uniform(-5, 1280, rows)] for _ in range(max(0, predictions - len(pred)))]
+    assert bench_frame(pred, gt, y_samples) == _bench_lane_by_lane(pred, gt, y_samples)
 
 
 def test_tusimple_parity_with_the_official_script():
