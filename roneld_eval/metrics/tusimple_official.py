@@ -60,10 +60,17 @@ def lane_threshold(xs: np.ndarray, y_samples: np.ndarray) -> float:
     return float(PIXEL_THRESHOLD / np.cos(lane_angle(xs, y_samples)))
 
 
-def line_accuracy(pred: np.ndarray, gt: np.ndarray, threshold: float) -> float:
-    pred = np.where(pred >= 0, pred, -100.0)
+def row_hits(preds: np.ndarray, gt: np.ndarray, threshold: float) -> np.ndarray:
+    """The rows of `gt` each prediction (a row of `preds`) meets closer than `threshold`, as
+    lane.py's line_accuracy counts them (a missing x, negative, stands at -100)."""
+    preds = np.where(preds >= 0, preds, -100.0)
     gt = np.where(gt >= 0, gt, -100.0)
-    return float(np.sum(np.where(np.abs(pred - gt) < threshold, 1.0, 0.0)) / len(gt))
+    return np.count_nonzero(np.abs(preds - gt) < threshold, axis=-1)
+
+
+def line_accuracy(pred: np.ndarray, gt: np.ndarray, threshold: float) -> float:
+    # lane.py sums 1.0 per row met: a whole number of rows, the same double as their count
+    return float(row_hits(pred, gt, threshold) / len(gt))
 
 
 def bench_frame(pred: Sequence[Sequence[float]], gt: Sequence[Sequence[float]], y_samples: Sequence[float],
@@ -75,19 +82,14 @@ def bench_frame(pred: Sequence[Sequence[float]], gt: Sequence[Sequence[float]], 
         return 0.0, 0.0, 1.0
     y = np.array(y_samples, dtype=float)
     thresholds = [lane_threshold(np.array(x_gts, dtype=float), y) for x_gts in gt]
-    # line_accuracy of every prediction at once: its sum of 1.0s is a whole number of rows, as a
-    # count is, and the best of count / rows is the largest count / rows (the same double).
+    # line_accuracy of every prediction at once: the best of hits / rows is the most hits / rows
     preds = np.array(pred, dtype=float).reshape(len(pred), len(y_samples))
-    predicted = np.where(preds >= 0, preds, -100.0)
     line_accs = []
     fn = 0.0
     matched = 0.0
     for x_gts, threshold in zip(gt, thresholds):
         gt_array = np.array(x_gts, dtype=float)
-        max_acc = 0.0
-        if len(pred):
-            hits = np.count_nonzero(np.abs(predicted - np.where(gt_array >= 0, gt_array, -100.0)) < threshold, axis=1)
-            max_acc = float(hits.max() / len(gt_array))
+        max_acc = float(row_hits(preds, gt_array, threshold).max() / len(gt_array)) if len(pred) else 0.0
         if max_acc < POINT_THRESHOLD:
             fn += 1
         else:
