@@ -166,9 +166,9 @@ def plain_png_samples(data: bytes) -> tuple[np.ndarray, np.ndarray | None] | Non
     if chunks is None:
         return None
     header, palette, compressed = chunks
-    colour = header[9]
-    if (colour == 3) != (palette is not None) or (palette is not None and not 0 < len(palette) <= 768) or (
-            palette is not None and len(palette) % 3):
+    if (header[9] == 3) != (palette is not None):  # a palette exactly where the colour type is one
+        return None
+    if palette is not None and not (0 < len(palette) <= 768 and len(palette) % 3 == 0):
         return None
     decoded = _unfiltered(header, compressed, {0: 1, 3: 1})
     if decoded is None:

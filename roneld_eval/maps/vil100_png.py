@@ -92,11 +92,12 @@ def _plain_pixels(path: Path, width: int, height: int) -> np.ndarray | None:
     larger than such a mask can be, or unreadable: Pillow's to read (or refuse) as before."""
     from .scnn_png import check_png, plain_png_samples
 
+    most = height * (width + 1) + (1 << 20)  # past 8 bits a pixel, stored
     try:
-        if os.stat(path).st_size > height * (width + 1) + (1 << 20):  # past 8 bits a pixel, stored
-            return None
         with open(path, "rb") as handle:
-            data = handle.read()
+            data = handle.read(most + 1)
+        if len(data) > most:
+            return None
         check_png(data, path)
     except (OSError, InputError):
         return None
@@ -106,10 +107,9 @@ def _plain_pixels(path: Path, width: int, height: int) -> np.ndarray | None:
     samples, palette = decoded
     if palette is None:
         return samples
-    # The palette as Pillow's convert("RGB") gives it, each pixel's colour packed (colour_greys)
-    # through its index: a gather of the (H, W, 3) colours took 15-20 ms a full-HD mask.
-    packed = (palette[:, 0].astype(np.uint32) << 16) | (palette[:, 1].astype(np.uint32) << 8) | palette[:, 2]
-    return _code_greys(packed[samples])
+    # The palette as Pillow's convert("RGB") gives it, each pixel's colour packed through its
+    # index: a gather of the (H, W, 3) colours took 15-20 ms a full-HD mask.
+    return _code_greys(_packed(palette)[samples])
 
 
 def colour_greys(pixels: np.ndarray) -> np.ndarray:
@@ -120,12 +120,16 @@ def colour_greys(pixels: np.ndarray) -> np.ndarray:
     on the whole image in its last bit; each colour still has one grey, in the same order, which is
     all that makes the lanes. The colours are found among the lit pixels alone, packed in 24 bits:
     np.unique over the rows of every pixel took 3 s a full-HD mask (MMA-Net writes palette PNGs)."""
-    return _code_greys((pixels[..., 0].astype(np.uint32) << 16) | (pixels[..., 1].astype(np.uint32) << 8)
-                       | pixels[..., 2])
+    return _code_greys(_packed(pixels))
+
+
+def _packed(colours: np.ndarray) -> np.ndarray:
+    """(..., 3) uint8 colours as uint32 0xRRGGBB."""
+    return (colours[..., 0].astype(np.uint32) << 16) | (colours[..., 1].astype(np.uint32) << 8) | colours[..., 2]
 
 
 def _code_greys(codes: np.ndarray) -> np.ndarray:
-    """colour_greys of the colours packed as 0xRRGGBB."""
+    """colour_greys of the colours packed as 0xRRGGBB (_packed)."""
     lit = codes != 0
     lit_codes, inverse = np.unique(codes[lit], return_inverse=True)
     colours = np.stack([lit_codes >> 16, (lit_codes >> 8) & 255, lit_codes & 255], axis=1).astype(np.uint8)
