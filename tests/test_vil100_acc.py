@@ -124,10 +124,11 @@ def test_colour_greys_are_rgb2grays_of_every_pixel(height, width, colours, seed,
 
 
 @settings(max_examples=200, deadline=None, derandomize=True)
-@given(st.integers(1, 4000), st.integers(1, 2200), st.integers(1, 3), st.integers(0, 2**32 - 1))
+@given(st.integers(1, 40_000), st.integers(1, 2200), st.integers(1, 3), st.integers(0, 2**32 - 1))
 def test_the_quadratic_fit_is_np_polyfits_to_the_last_bit(pixels, rows, columns_per_row, seed):
     # One row (rank 2, polyfit's RankWarning), two rows, and lanes of every length up to a
-    # full-HD mask's, in the pixel order np.where gives: the fit decides every written x.
+    # full-HD mask's (35,203 pixels the most among the real test set's, drawn 30 px wide), in the
+    # pixel order np.where gives: the fit decides every written x.
     import warnings
 
     from roneld_eval.maps.vil100_png import quadratic_fit
