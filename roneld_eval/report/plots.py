@@ -58,6 +58,11 @@ _CHAR_IN = 0.6 * 10 / 72  # DejaVu Sans averages under 0.6 em a character
 _LINE_IN = 1.2 * 10 / 72
 _TICK_IN = 8 / 72  # tick length and its label's pad
 _GAP_IN = 0.06
+# Titles sit just above their axes, where matplotlib's automatic placement puts them whenever
+# nothing (top tick labels, an offset text) is drawn above the axes, which is never the case
+# here: fixed, they are the same pixels without measuring every tick label at each draw (12 ms
+# of a fixture report's 300).
+_TITLE_Y = 1.0
 
 
 # A legend entry's marker and the space around its name, in inches at 10 pt (matplotlib's
@@ -182,7 +187,7 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
         names.append(_legend_name(method, model, axes_in - _LEGEND_HANDLE_IN))
     # Centred over the axes, so as wide as the axes and twice the right margin; on the fixture it names the model.
     title = _fitted(f"Ego-lane accuracy on {dataset_name(dataset)}", axes_in + 2 * right - 2 * _GAP_IN)
-    axes.set_title(title, fontsize=10)
+    axes.set_title(title, fontsize=10, y=_TITLE_Y)
     axes.set_xlabel("IoU threshold (a true positive needs IoU > threshold)")
     axes.set_ylabel("Accuracy (N_TP / N_gt)")
     axes.grid(True, alpha=0.3)
@@ -252,7 +257,7 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
                 handles.append(bars)
         ax.set_xticks(positions, names, rotation=30, ha="right")
         ax.set_ylim(0, 1.05)
-        ax.set_title(title, fontsize=10)
+        ax.set_title(title, fontsize=10, y=_TITLE_Y)
         ax.grid(True, axis="y", alpha=0.3)
     # The names given, not collected: matplotlib leaves out a name that begins with "_"
     figure.legend(handles, list(shown.values()), loc="upper center", ncol=len(methods), fontsize=9, frameon=False)
