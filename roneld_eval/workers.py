@@ -173,7 +173,11 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
     deadline = time.monotonic() + grace_s
     for process in processes:
         with contextlib.suppress(Exception):
-            process.join(max(0.0, deadline - time.monotonic()))
+            # exitcode asks the kernel (waitpid); a join alone waits for the process's sentinel
+            # pipe to close, which a process it forked (a plug-in's) holds open past its end: the
+            # run's error then came the whole grace later.
+            while process.exitcode is None and time.monotonic() < deadline:
+                process.join(min(0.05, max(0.0, deadline - time.monotonic())))
     for process in processes:
         with contextlib.suppress(Exception):
             if process.is_alive():
