@@ -733,6 +733,7 @@ def test_a_signal_while_scoring_leaves_no_pool_traceback(tmp_path, monkeypatch, 
         return original(*args, **kwargs)
 
     monkeypatch.setattr(score, "frame_result", slow)
+    threads_before = set(threading.enumerate())
     timer = threading.Timer(1.0, os.kill, (parent, signal.SIGTERM))
     timer.start()
     try:
@@ -740,7 +741,9 @@ def test_a_signal_while_scoring_leaves_no_pool_traceback(tmp_path, monkeypatch, 
             api.score_culane(gt, pred, workers=2, out=tmp_path / "out")
     finally:
         timer.cancel()
-    time.sleep(1.0)  # the pool's manager thread ends after the workers
+    for thread in set(threading.enumerate()) - threads_before:
+        if not thread.daemon:  # the pool's manager thread, which ends after the workers
+            thread.join(30)
     assert "Traceback" not in capfd.readouterr().err
     assert not (tmp_path / "out").exists()
 

@@ -91,7 +91,9 @@ DURING_FORK = textwrap.dedent("""
             print("interrupted", type(error).__name__, flush=True)
         else:
             print("carried on", flush=True)
-    time.sleep(1.5)
+    deadline = time.monotonic() + 30  # until they have ended (active_children reaps them), however loaded the machine
+    while workers.multiprocessing.active_children() and time.monotonic() < deadline:
+        time.sleep(0.01)
     print("children", len(workers.multiprocessing.active_children()), flush=True)
 """)
 
