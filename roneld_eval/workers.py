@@ -159,6 +159,14 @@ def _quiet_about_cancelled_futures() -> None:
 _QUIET_HOOKS: set[Callable[..., None]] = set()
 
 
+def _wait_for_end(process, deadline: float) -> None:
+    # exitcode asks the kernel (waitpid); a join alone waits for the process's sentinel pipe to
+    # close, which a process it forked (a plug-in's) holds open past its end: a run's one line
+    # then came the whole grace (and the second after a kill) later.
+    while process.exitcode is None and time.monotonic() < deadline:
+        process.join(min(0.05, max(0.0, deadline - time.monotonic())))
+
+
 def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished: bool = False) -> None:
     """End every worker: SIGTERM (or, when `finished`, a polite request to exit), then SIGKILL
     for any still there after `grace_s`, so a stopped or stuck worker cannot hold us up."""
@@ -173,16 +181,12 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
     deadline = time.monotonic() + grace_s
     for process in processes:
         with contextlib.suppress(Exception):
-            # exitcode asks the kernel (waitpid); a join alone waits for the process's sentinel
-            # pipe to close, which a process it forked (a plug-in's) holds open past its end: the
-            # run's error then came the whole grace later.
-            while process.exitcode is None and time.monotonic() < deadline:
-                process.join(min(0.05, max(0.0, deadline - time.monotonic())))
+            _wait_for_end(process, deadline)
     for process in processes:
         with contextlib.suppress(Exception):
             if process.is_alive():
                 process.kill()
-                process.join(1.0)
+                _wait_for_end(process, time.monotonic() + 1.0)
     executor.shutdown(wait=False, cancel_futures=True)
 
 

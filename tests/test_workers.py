@@ -165,6 +165,35 @@ def test_a_worker_that_ended_is_not_waited_for_while_a_process_it_forked_lives(t
         os.kill(int((tmp_path / "child").read_text()), signal.SIGKILL)
 
 
+def _stuck_leaving_a_child(pid_file: str) -> None:
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    child = os.fork()
+    if child == 0:  # holds the worker's sentinel open, as above
+        time.sleep(300)
+        os._exit(0)
+    Path(pid_file).write_text(str(child))
+    while True:
+        time.sleep(0.01)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="forks on Linux only")
+def test_workers_killed_after_the_grace_are_not_waited_for_while_processes_they_forked_live(tmp_path):
+    # After the SIGKILL each was joined for up to 1 s on its sentinel: 2.3 s for these two.
+    pool = workers.process_pool(2)
+    for k in range(2):
+        pool.submit(_stuck_leaving_a_child, str(tmp_path / f"child{k}"))
+    deadline = time.monotonic() + 60
+    while not all((tmp_path / f"child{k}").exists() for k in range(2)) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    try:
+        start = time.monotonic()
+        workers.stop_pool(pool, grace_s=0.2)
+        assert time.monotonic() - start < 1.5
+    finally:
+        for k in range(2):
+            os.kill(int((tmp_path / f"child{k}").read_text()), signal.SIGKILL)
+
+
 # A signal that lands while a weakref callback runs (importlib's module-lock callback, during any
 # import) raises there, where Python prints "Exception ignored" and drops the exception; the
 # handler is called from such a callback here, as the interpreter would call it.
