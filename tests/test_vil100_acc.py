@@ -142,6 +142,17 @@ def test_the_quadratic_fit_is_np_polyfits_to_the_last_bit(pixels, rows, columns_
     assert quadratic_fit(ys, xs).tobytes() == expected.tobytes()
 
 
+def test_a_fit_of_no_pixel_is_refused_as_np_polyfit_refuses_it():
+    from roneld_eval.maps.vil100_png import quadratic_fit
+
+    none = np.zeros(0, np.intp)
+    with pytest.raises(TypeError) as ours:
+        quadratic_fit(none, none)
+    with pytest.raises(TypeError) as numpys:
+        np.polyfit(none, none, 2)
+    assert str(ours.value) == str(numpys.value)
+
+
 def _pillows_greys(path: Path) -> np.ndarray:
     """What Pillow alone gives (the reading before masks were decoded here)."""
     from PIL import Image

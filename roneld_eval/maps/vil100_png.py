@@ -160,10 +160,13 @@ def lit_pixels(grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def quadratic_fit(ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
     """np.polyfit(ys, xs, 2) to the last bit: its very steps on the very same arrays, but for its
     Vandermonde matrix, whose columns y * y, y and 1 are written here instead of accumulated along
-    strided rows (a quarter of the fit's time on a full-HD mask's lane of ~20,000 pixels). Its
-    RankWarning is not given; LinAlgError is raised as it raises it."""
+    strided rows (a quarter of the fit's time on a full-HD mask's lane of ~20,000 pixels), for
+    integer or float64 rows and columns (what instance_lanes passes). Its RankWarning is not given;
+    LinAlgError is raised as it raises it, and TypeError for no pixel."""
     x = np.asarray(ys) + 0.0
     y = np.asarray(xs) + 0.0
+    if x.size == 0:
+        raise TypeError("expected non-empty vector for x")  # as np.polyfit (an empty running sum has no last)
     lhs = np.empty((x.size, 3), np.float64)
     squares = x * x
     lhs[:, 0] = squares
