@@ -138,12 +138,27 @@ def _a_zombie(pid: int) -> bool:
     return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
 
 
-def _end_leaving_a_child(pid_file: str) -> None:
+def _fork_a_child(pid_file: str) -> None:
     child = os.fork()
     if child == 0:  # holds its parent's pipes, the worker's sentinel among them, until killed
         time.sleep(300)
         os._exit(0)
     Path(pid_file).write_text(str(child))
+
+
+def _seconds_to_stop(pool, grace_s: float, pid_files: list[Path]) -> float:
+    """How long stop_pool takes; then the processes the workers forked are killed."""
+    try:
+        start = time.monotonic()
+        workers.stop_pool(pool, grace_s=grace_s)
+        return time.monotonic() - start
+    finally:
+        for pid_file in pid_files:
+            os.kill(int(pid_file.read_text()), signal.SIGKILL)
+
+
+def _end_leaving_a_child(pid_file: str) -> None:
+    _fork_a_child(pid_file)
     os._exit(0)
 
 
@@ -157,21 +172,12 @@ def test_a_worker_that_ended_is_not_waited_for_while_a_process_it_forked_lives(t
     deadline = time.monotonic() + 60
     while not _a_zombie(process.pid) and time.monotonic() < deadline:  # ended, its exit code not yet asked for
         time.sleep(0.01)
-    try:
-        start = time.monotonic()
-        workers.stop_pool(pool, grace_s=60)
-        assert time.monotonic() - start < 30
-    finally:
-        os.kill(int((tmp_path / "child").read_text()), signal.SIGKILL)
+    assert _seconds_to_stop(pool, 60, [tmp_path / "child"]) < 30
 
 
 def _stuck_leaving_a_child(pid_file: str) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    child = os.fork()
-    if child == 0:  # holds the worker's sentinel open, as above
-        time.sleep(300)
-        os._exit(0)
-    Path(pid_file).write_text(str(child))
+    _fork_a_child(pid_file)
     while True:
         time.sleep(0.01)
 
@@ -185,13 +191,7 @@ def test_workers_killed_after_the_grace_are_not_waited_for_while_processes_they_
     deadline = time.monotonic() + 60
     while not all((tmp_path / f"child{k}").exists() for k in range(2)) and time.monotonic() < deadline:
         time.sleep(0.01)
-    try:
-        start = time.monotonic()
-        workers.stop_pool(pool, grace_s=0.2)
-        assert time.monotonic() - start < 1.5
-    finally:
-        for k in range(2):
-            os.kill(int((tmp_path / f"child{k}").read_text()), signal.SIGKILL)
+    assert _seconds_to_stop(pool, 0.2, [tmp_path / f"child{k}" for k in range(2)]) < 1.5
 
 
 # A signal that lands while a weakref callback runs (importlib's module-lock callback, during any
