@@ -14,6 +14,7 @@ import pytest
 
 from roneld_eval import workers
 from roneld_eval.errors import RunInterrupted
+from test_run_integrity import alive, wait_for
 
 # The child sends itself the signal from a fork hook, that is before `_start_worker` runs: the
 # moment in which a worker still has the parent's handlers. The parent's are the run's own:
@@ -134,10 +135,6 @@ def test_a_worker_that_dies_later_is_still_said_to_have_died():
             pool.submit(os._exit, 9).result(timeout=60)
 
 
-def _a_zombie(pid: int) -> bool:
-    return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
-
-
 def _fork_a_child(pid_file: str) -> None:
     child = os.fork()
     if child == 0:  # holds its parent's pipes, the worker's sentinel among them, until killed
@@ -169,9 +166,7 @@ def test_a_worker_that_ended_is_not_waited_for_while_a_process_it_forked_lives(t
     pool = workers.process_pool(1)
     pool.submit(_end_leaving_a_child, str(tmp_path / "child"))
     (process,) = pool._processes.values()
-    deadline = time.monotonic() + 60
-    while not _a_zombie(process.pid) and time.monotonic() < deadline:  # ended, its exit code not yet asked for
-        time.sleep(0.01)
+    assert wait_for(lambda: not alive(process.pid))  # ended, its exit code not yet asked for
     assert _seconds_to_stop(pool, 60, [tmp_path / "child"]) < 30
 
 
@@ -188,9 +183,7 @@ def test_workers_killed_after_the_grace_are_not_waited_for_while_processes_they_
     pool = workers.process_pool(2)
     for k in range(2):
         pool.submit(_stuck_leaving_a_child, str(tmp_path / f"child{k}"))
-    deadline = time.monotonic() + 60
-    while not all((tmp_path / f"child{k}").exists() for k in range(2)) and time.monotonic() < deadline:
-        time.sleep(0.01)
+    assert wait_for(lambda: all((tmp_path / f"child{k}").exists() for k in range(2)))
     assert _seconds_to_stop(pool, 0.2, [tmp_path / f"child{k}" for k in range(2)]) < 1.5
 
 
