@@ -187,6 +187,23 @@ def test_workers_killed_after_the_grace_are_not_waited_for_while_processes_they_
     assert _seconds_to_stop(pool, 0.2, [tmp_path / f"child{k}" for k in range(2)]) < 1.5
 
 
+def _wait_stopped() -> None:
+    os.kill(os.getpid(), signal.SIGSTOP)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="signals of Linux")
+def test_a_stopped_worker_ends_at_its_sigterm_not_after_the_grace():
+    # Stopped, it held the SIGTERM until the SIGKILL after the grace (2 s in a run, 60 s here).
+    pool = workers.process_pool(1)
+    (process,) = pool._processes.values()
+    pool.submit(_wait_stopped)
+    assert wait_for(lambda: Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "T")
+    start = time.monotonic()
+    workers.stop_pool(pool, grace_s=60)
+    assert time.monotonic() - start < 30
+    assert process.exitcode == -signal.SIGTERM  # its SIGTERM, not the SIGKILL after the grace
+
+
 # A signal that lands while a weakref callback runs (importlib's module-lock callback, during any
 # import) raises there, where Python prints "Exception ignored" and drops the exception; the
 # handler is called from such a callback here, as the interpreter would call it.
