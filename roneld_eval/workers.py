@@ -178,13 +178,14 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
         for process in processes:
             with contextlib.suppress(Exception):
                 process.terminate()
-                # A stopped worker (SIGSTOP) holds SIGTERM until continued: it waited out the
-                # whole grace, while the pool's manager thread spun on a core (Python's
-                # shutdown_workers retries a full call queue while any worker lives). As
-                # kill(1) does for a stopped job. Asked first, like terminate(): a worker already
-                # reaped may have left its pid to another process.
-                if process.exitcode is None:
-                    os.kill(process.pid, signal.SIGCONT)
+    # A stopped worker (SIGSTOP) acts on neither until continued, as a shell's `kill` does for a
+    # stopped job: it waited out the whole grace, while the pool's manager thread spun on a core
+    # (Python's shutdown_workers retries a full call queue while any worker lives). A worker
+    # already known to have exited is skipped: its pid may be another process's now.
+    for process in processes:
+        with contextlib.suppress(Exception):
+            if process.exitcode is None:
+                os.kill(process.pid, signal.SIGCONT)
     deadline = time.monotonic() + grace_s
     for process in processes:
         with contextlib.suppress(Exception):

@@ -191,17 +191,27 @@ def _wait_stopped() -> None:
     os.kill(os.getpid(), signal.SIGSTOP)
 
 
+def _stopped(pid: int) -> bool:
+    return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "T"
+
+
 @pytest.mark.skipif(sys.platform != "linux", reason="signals of Linux")
-def test_a_stopped_worker_ends_at_its_sigterm_not_after_the_grace():
-    # Stopped, it held the SIGTERM until the SIGKILL after the grace (2 s in a run, 60 s here).
+@pytest.mark.parametrize("finished, exitcode", [(False, -signal.SIGTERM), (True, 0)])
+def test_a_stopped_worker_ends_at_once_not_after_the_grace(finished, exitcode):
+    # Stopped, it held the SIGTERM (or the request to exit of a finished run) until the SIGKILL
+    # after the grace: 2 s in a run, 60 s here.
     pool = workers.process_pool(1)
     (process,) = pool._processes.values()
-    pool.submit(_wait_stopped)
-    assert wait_for(lambda: Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "T")
+    if finished:  # idle, between clips or after the last
+        pool.submit(int).result()
+        os.kill(process.pid, signal.SIGSTOP)
+    else:  # in the middle of a clip
+        pool.submit(_wait_stopped)
+    assert wait_for(lambda: _stopped(process.pid))
     start = time.monotonic()
-    workers.stop_pool(pool, grace_s=60)
+    workers.stop_pool(pool, grace_s=60, finished=finished)
     assert time.monotonic() - start < 30
-    assert process.exitcode == -signal.SIGTERM  # its SIGTERM, not the SIGKILL after the grace
+    assert process.exitcode == exitcode  # not -SIGKILL, the kill after the grace
 
 
 # A signal that lands while a weakref callback runs (importlib's module-lock callback, during any
