@@ -178,10 +178,10 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
         for process in processes:
             with contextlib.suppress(Exception):
                 process.terminate()
-    # A stopped worker (SIGSTOP) acts on neither until continued, as a shell's `kill` does for a
-    # stopped job: it waited out the whole grace, while the pool's manager thread spun on a core
-    # (Python's shutdown_workers retries a full call queue while any worker lives). A worker
-    # already known to have exited is skipped: its pid may be another process's now.
+    # A stopped worker (SIGSTOP) acts on neither until it is continued, so each is continued, as a
+    # shell's `kill` continues a stopped job: it waited out the whole grace, while the pool's
+    # manager thread spun on a core (Python's shutdown_workers retries a full call queue while any
+    # worker lives). A worker already known to have exited is skipped: its pid may be another's now.
     for process in processes:
         with contextlib.suppress(Exception):
             if process.exitcode is None:

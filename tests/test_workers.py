@@ -14,7 +14,7 @@ import pytest
 
 from roneld_eval import workers
 from roneld_eval.errors import RunInterrupted
-from test_run_integrity import alive, wait_for
+from test_run_integrity import alive, process_state, wait_for
 
 # The child sends itself the signal from a fork hook, that is before `_start_worker` runs: the
 # moment in which a worker still has the parent's handlers. The parent's are the run's own:
@@ -143,11 +143,11 @@ def _fork_a_child(pid_file: str) -> None:
     Path(pid_file).write_text(str(child))
 
 
-def _seconds_to_stop(pool, grace_s: float, pid_files: list[Path]) -> float:
+def _seconds_to_stop(pool, grace_s: float, pid_files: list[Path], finished: bool = False) -> float:
     """How long stop_pool takes; then the processes the workers forked are killed."""
     try:
         start = time.monotonic()
-        workers.stop_pool(pool, grace_s=grace_s)
+        workers.stop_pool(pool, grace_s=grace_s, finished=finished)
         return time.monotonic() - start
     finally:
         for pid_file in pid_files:
@@ -191,10 +191,6 @@ def _wait_stopped() -> None:
     os.kill(os.getpid(), signal.SIGSTOP)
 
 
-def _stopped(pid: int) -> bool:
-    return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "T"
-
-
 @pytest.mark.skipif(sys.platform != "linux", reason="signals of Linux")
 @pytest.mark.parametrize("finished, exitcode", [(False, -signal.SIGTERM), (True, 0)])
 def test_a_stopped_worker_ends_at_once_not_after_the_grace(finished, exitcode):
@@ -207,10 +203,8 @@ def test_a_stopped_worker_ends_at_once_not_after_the_grace(finished, exitcode):
         os.kill(process.pid, signal.SIGSTOP)
     else:  # in the middle of a clip
         pool.submit(_wait_stopped)
-    assert wait_for(lambda: _stopped(process.pid))
-    start = time.monotonic()
-    workers.stop_pool(pool, grace_s=60, finished=finished)
-    assert time.monotonic() - start < 30
+    assert wait_for(lambda: process_state(process.pid) == "T")
+    assert _seconds_to_stop(pool, 60, [], finished=finished) < 30
     assert process.exitcode == exitcode  # not -SIGKILL, the kill after the grace
 
 
