@@ -7,6 +7,7 @@ dataset and checks what is on disk afterwards, byte for byte.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import hmac
 import json
@@ -502,8 +503,8 @@ def start_slow_run(root: Path, out: Path, workers: int):
 def children_of(pid: int) -> list[int]:
     found = []
     for task in Path(f"/proc/{pid}/task").glob("*"):
-        text = (task / "children").read_text() if (task / "children").exists() else ""
-        found += [int(x) for x in text.split()]
+        with contextlib.suppress(OSError):  # the thread ended meanwhile
+            found += [int(x) for x in (task / "children").read_text().split()]
     return found
 
 

@@ -9,7 +9,6 @@ No timings here.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import random
@@ -21,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import REPO, curving_frames, env_importing
+from test_run_integrity import alive, children_of, wait_for
 
 import roneld_eval
 from roneld_eval import api, kernels
@@ -544,14 +544,6 @@ kernels.prepare(announce=print, needed=("official", "roneld"), processes=1)  # 4
 """
 
 
-def _children_of(pid: int) -> set[int]:
-    found: set[int] = set()
-    for task in Path(f"/proc/{pid}/task").glob("*"):
-        with contextlib.suppress(OSError):
-            found |= {int(child) for child in (task / "children").read_text().split()}
-    return found
-
-
 @pytest.mark.skipif(sys.platform != "linux", reason="the parent-death signal is Linux's")
 def test_a_first_run_killed_while_compiling_leaves_no_compiling_process(tmp_path):
     # Compiling processes used to go on for tens of seconds after a kill -9 of the command.
@@ -562,20 +554,13 @@ def test_a_first_run_killed_while_compiling_leaves_no_compiling_process(tmp_path
                                stdout=subprocess.PIPE, text=True)
     try:
         assert process.stdout is not None and process.stdout.readline().startswith("compiling ")
-        deadline = time.monotonic() + 30
-        while not _children_of(process.pid) and time.monotonic() < deadline:
-            time.sleep(0.05)
-        children = _children_of(process.pid)
-        assert children, "no compiling process was started"
+        assert wait_for(lambda: children_of(process.pid), 30), "no compiling process was started"
+        children = children_of(process.pid)
         time.sleep(0.5)  # inside numba's compile by now
         process.kill()
         process.wait(timeout=30)
-        deadline = time.monotonic() + 5  # what is left compiles for much longer
-        while any(Path(f"/proc/{child}").exists() for child in children) and time.monotonic() < deadline:
-            time.sleep(0.05)
-        alive = [child for child in children if Path(f"/proc/{child}").exists()
-                 and "Z" not in (Path(f"/proc/{child}/stat").read_text().split()[2:3] or ["Z"])]
-        assert alive == []
+        wait_for(lambda: not any(alive(child) for child in children), 5)  # what is left compiles for much longer
+        assert [child for child in children if alive(child)] == []
     finally:
         if process.poll() is None:
             process.kill()
