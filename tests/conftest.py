@@ -3,11 +3,18 @@
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+# A suite started in the background (`pytest &`, nohup, a runner that ignores Ctrl-C) inherits
+# SIGINT ignored, and so does every Python it starts: the Ctrl-C tests then failed, testing only
+# that an ignored signal is ignored. Python's own handler, as in a terminal; the Pythons the tests
+# start get the default action, and install that handler themselves.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("RONELD_SHARED", REPO.parent / "shared")) / "data"
 # Expected values from the official tools or by hand (each with its source) ...
