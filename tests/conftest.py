@@ -15,6 +15,7 @@ import pytest
 # start get the default action, and install that handler themselves.
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
+
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("RONELD_SHARED", REPO.parent / "shared")) / "data"
 # Expected values from the official tools or by hand (each with its source) ...
