@@ -13,6 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from conftest import interrupt_after
+from test_run_integrity import wait_for
 
 from roneld_eval import api, evaluation
 from roneld_eval.cli import main
@@ -427,9 +428,7 @@ def test_ctrl_c_ends_a_run_whose_plugin_swallows_every_signal(dataset, tmp_path)
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
     # Into the spinning frame, however loaded the machine: a fixed 4 s sleep sent Ctrl-C while the
     # command was still starting at load 4, where nothing is running to say what it left.
-    deadline = time.monotonic() + 120
-    while not spinning.exists() and process.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.05)
+    wait_for(lambda: spinning.exists() or process.poll() is not None, 120)
     assert spinning.exists(), process.communicate()
     process.send_signal(signal.SIGINT)
     start = time.monotonic()

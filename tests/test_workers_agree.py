@@ -14,7 +14,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 import threading
 from pathlib import Path
 from types import FrameType
@@ -22,6 +21,7 @@ from types import FrameType
 import numpy as np
 import pytest
 from conftest import env_importing
+from test_run_integrity import wait_for
 
 from roneld_eval import api, evaluation
 from roneld_eval import workers as workers_module
@@ -140,9 +140,7 @@ def test_the_worker_has_clips_to_evaluate_while_meanwhile_runs(base, monkeypatch
     seen: list[int] = []
 
     def meanwhile():
-        deadline = time.monotonic() + 10
-        while len(list(tmp_path.iterdir())) < 4 and time.monotonic() < deadline:
-            time.sleep(0.02)
+        wait_for(lambda: len(list(tmp_path.iterdir())) >= 4, 10)
         seen.append(len(list(tmp_path.iterdir())))
 
     evaluation.evaluate(config_for(base, None, save_lanes=False), progress=False, meanwhile=meanwhile)
@@ -164,14 +162,7 @@ def test_a_signal_while_meanwhile_imports_waits_for_it_to_finish(base, monkeypat
     with pytest.raises(KeyboardInterrupt):
         evaluation.evaluate(config_for(base, None, save_lanes=False), progress=False, meanwhile=meanwhile)
     assert steps == ["imports done"]
-    assert wait_until_no_children()
-
-
-def wait_until_no_children(seconds: float = 10) -> bool:
-    deadline = time.monotonic() + seconds
-    while multiprocessing.active_children() and time.monotonic() < deadline:
-        time.sleep(0.05)
-    return not multiprocessing.active_children()
+    assert wait_for(lambda: not multiprocessing.active_children(), 10)
 
 
 def test_a_run_forks_its_workers_before_it_imports_pandas_or_matplotlib(tmp_path):
