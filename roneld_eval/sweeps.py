@@ -118,6 +118,8 @@ def plot_sweep(table, path: Path, title: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from .report.png import write_png
+
     columns = table.columns[2:-1]
     note = ego_lanes_note([row[0] for row in table.rows])
     numbered = all(row[1] != "" for row in table.rows)
@@ -138,5 +140,5 @@ def plot_sweep(table, path: Path, title: str) -> None:
     axes.grid(alpha=0.3)
     axes.legend(fontsize=8, loc="lower right")
     figure.tight_layout()
-    figure.savefig(path, metadata={"Software": None})
+    write_png(figure, path)
     plt.close(figure)

@@ -826,6 +826,7 @@ def test_the_legend_lies_inside_the_figure(models, datasets, tmp_path):
     # With one dataset the legend of three methods was wider than its one panel, cut off on
     # both sides of curves.png.
     from roneld_eval.comparison.figure import Curve, curves_figure
+    from roneld_eval.report.png import write_png
 
     thresholds = tuple(k / 100 for k in range(30, 51))
     suffix = {"baseline": "", "roneld": " + RONELD", "roneld-nopft": " + RONELD w/o PFT"}
@@ -833,7 +834,7 @@ def test_the_legend_lies_inside_the_figure(models, datasets, tmp_path):
                     (tuple(0.4 + 0.1 * m for _ in thresholds),))
               for dataset in datasets for m in range(models) for method in suffix]
     figure = curves_figure(curves)
-    figure.savefig(tmp_path / "curves.png")  # as save() renders it
+    write_png(figure, tmp_path / "curves.png")  # as save() renders it
     width, height = figure.canvas.get_width_height()
     box = figure.legends[0].get_window_extent()
     assert 0 <= box.x0 and box.x1 <= width and 0 <= box.y0 and box.y1 <= height, (box, width, height)
@@ -870,7 +871,7 @@ def test_a_score_folder_that_is_no_sweep_says_what_compare_takes_of_score(tmp_pa
 
 
 def _coloured_runs(row) -> int:
-    """How many separate runs of non-white pixels a row of an RGBA image holds."""
+    """How many separate runs of non-white pixels a row of an RGB or RGBA image holds."""
     inked = (row[:, :3] < 0.85).any(axis=1)
     return int(inked[0]) + int((inked[1:] & ~inked[:-1]).sum())
 
@@ -881,13 +882,14 @@ def test_a_dashed_curves_legend_sample_shows_its_gap(tmp_path):
     import matplotlib.image
 
     from roneld_eval.comparison.figure import Curve, curves_figure
+    from roneld_eval.report.png import write_png
 
     thresholds = tuple(k / 100 for k in range(30, 51))
     curves = [Curve("CULane", model, method, model + ("" if method == "baseline" else " + RONELD"), thresholds,
                     ((0.6 if method == "baseline" else 0.8,) * len(thresholds),))
               for model in ("Model-1", "Model-2") for method in ("baseline", "roneld")]
     figure = curves_figure(curves)
-    figure.savefig(tmp_path / "curves.png")
+    write_png(figure, tmp_path / "curves.png")  # as save() writes it
     pixels = matplotlib.image.imread(tmp_path / "curves.png")
     height = pixels.shape[0]
     legend = figure.legends[0]

@@ -227,3 +227,31 @@ def test_no_caption_runs_past_its_pictures_edge(fixture_run, tmp_path):
             bar -= 1
         inked = np.flatnonzero((picture[bar:].min(axis=2) < 100).any(axis=0))
         assert len(inked) and inked.max() <= picture.shape[1] - 8, (path.name, inked.max())
+
+
+@pytest.mark.parametrize("transparent", [False, True])
+def test_a_png_holds_the_pixels_savefig_draws(tmp_path, transparent):
+    # write_png encodes the canvas itself (RGB at level 1, 8% of a report sooner); the picture must
+    # be savefig's, pixel for pixel, at its dpi, with no text chunk, and keep alpha where there is any.
+    import io
+
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    from roneld_eval.report.png import write_png
+
+    figure, axes = plt.subplots(figsize=(3, 2), dpi=120)
+    axes.plot([0, 1, 2], [0.3, 0.9, 0.4], marker="o", label="RONELD")
+    axes.set_title("accuracy")
+    axes.legend()
+    if transparent:
+        figure.patch.set_alpha(0.0)
+    expected = io.BytesIO()
+    figure.savefig(expected, format="png", metadata={"Software": None})
+    write_png(figure, tmp_path / "f.png")
+    plt.close(figure)
+    written, drawn = Image.open(tmp_path / "f.png"), Image.open(expected)
+    assert written.mode == ("RGBA" if transparent else "RGB")
+    assert np.array_equal(np.asarray(written.convert("RGBA")), np.asarray(drawn.convert("RGBA")))
+    assert written.size == drawn.size == (360, 240)
+    assert round(written.info["dpi"][0]) == 120 and set(written.info) == {"dpi"}

@@ -232,6 +232,8 @@ def _figure(sweeps: Sequence[Sweep], path: Path, notes: Sequence[str]) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from ..report.png import write_png
+
     column = sweeps[0].columns[-1]
     numbered = all(row.checkpoint is not None for sweep in sweeps for row in sweep.rows)
     figure, axes = plt.subplots(figsize=(8, 4.2), dpi=100, layout="constrained")
@@ -255,5 +257,5 @@ def _figure(sweeps: Sequence[Sweep], path: Path, notes: Sequence[str]) -> None:
                    + (" Mixed settings: see sweeps.md." if notes else ""), fontsize=9)
     axes.grid(alpha=0.3)
     figure.legend(loc="outside right upper", fontsize=8)
-    figure.savefig(path, metadata={"Software": None})
+    write_png(figure, path)
     plt.close(figure)

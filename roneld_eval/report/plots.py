@@ -27,6 +27,7 @@ from ..config import EGO_LANES_ONLY  # noqa: E402
 from ..methods import METHOD_TABLE  # noqa: E402
 from ..errors import InputError  # noqa: E402
 from ..wording import ego_lanes_only  # noqa: E402
+from .png import write_png  # noqa: E402
 from .tables import Protocol, clips_text, dataset_name, name_parts  # noqa: E402
 
 STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
@@ -207,15 +208,15 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
 
 def save_figure(figure, png: Path, svg: Path | None = None) -> None:
     """PNG (and SVG) without timestamps, so the same numbers give the same bytes."""
+    path = png
     try:
-        with matplotlib.rc_context({"svg.hashsalt": "roneld-eval"}):
-            for path, metadata in ((png, {"Software": None}), (svg, {"Date": None, "Creator": None})):
-                if path is None:
-                    continue
-                try:
-                    figure.savefig(path, metadata=metadata)
-                except OSError as error:  # disk full, quota: name the picture, not matplotlib's internals
-                    raise InputError.unwritable(path, error) from None
+        write_png(figure, png)
+        if svg is not None:
+            path = svg
+            with matplotlib.rc_context({"svg.hashsalt": "roneld-eval"}):
+                figure.savefig(svg, metadata={"Date": None, "Creator": None})
+    except OSError as error:  # disk full, quota: name the picture, not matplotlib's internals
+        raise InputError.unwritable(path, error) from None
     finally:
         plt.close(figure)
 
