@@ -118,7 +118,7 @@ def plot_sweep(table, path: Path, title: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .report.png import write_png
+    from .report.figure_files import write_png
 
     columns = table.columns[2:-1]
     note = ego_lanes_note([row[0] for row in table.rows])

@@ -826,7 +826,7 @@ def test_the_legend_lies_inside_the_figure(models, datasets, tmp_path):
     # With one dataset the legend of three methods was wider than its one panel, cut off on
     # both sides of curves.png.
     from roneld_eval.comparison.figure import Curve, curves_figure
-    from roneld_eval.report.png import write_png
+    from roneld_eval.report.figure_files import write_png
 
     thresholds = tuple(k / 100 for k in range(30, 51))
     suffix = {"baseline": "", "roneld": " + RONELD", "roneld-nopft": " + RONELD w/o PFT"}
@@ -882,7 +882,7 @@ def test_a_dashed_curves_legend_sample_shows_its_gap(tmp_path):
     import matplotlib.image
 
     from roneld_eval.comparison.figure import Curve, curves_figure
-    from roneld_eval.report.png import write_png
+    from roneld_eval.report.figure_files import write_png
 
     thresholds = tuple(k / 100 for k in range(30, 51))
     curves = [Curve("CULane", model, method, model + ("" if method == "baseline" else " + RONELD"), thresholds,

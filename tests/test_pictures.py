@@ -238,7 +238,7 @@ def test_a_png_holds_the_pixels_savefig_draws(tmp_path, transparent):
     import matplotlib.pyplot as plt
     from PIL import Image
 
-    from roneld_eval.report.png import write_png
+    from roneld_eval.report.figure_files import write_png
 
     figure, axes = plt.subplots(figsize=(3, 2), dpi=120)
     axes.plot([0, 1, 2], [0.3, 0.9, 0.4], marker="o", label="RONELD")

@@ -675,7 +675,7 @@ def test_disk_full_while_plotting_names_the_picture(dataset, tmp_path, monkeypat
     def full(self, path, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
-    monkeypatch.setattr(Image.Image, "save", full)  # what writes the PNGs (report/png.py)
+    monkeypatch.setattr(Image.Image, "save", full)  # what writes the PNGs (report/figure_files.py)
     result = invoke(run_args(dataset, out, "--thresholds", "0.30:0.40:0.05"))
     assert result.exit_code == 2 and result.output.count("\n") == 1
     assert "accuracy_curve.png: cannot write: No space left on device" in result.output

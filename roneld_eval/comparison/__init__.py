@@ -91,12 +91,14 @@ def compare(runs: Sequence[str | Path], out: str | Path = "comparison",
             files.update(pair_files(loaded, pair_runs, pair_table, accuracy_rows, protocol, notes))
         files["summary.json"] = json.dumps(_summary(loaded, groups, accuracy_rows, ablation_rows, pair_runs, notes,
                                                     allow_mixed), indent=2) + "\n"
-        from .figure import curves_figure, save
+        from ..report.figure_files import save_figure
+        from .figure import curves_figure
 
         staging = Staging(folder)
         for name, text in files.items():
             staging.write_text(name, text)
-        save(curves_figure(_curves(groups)), [staging.file(f"curves.{suffix}") for suffix in ("png", "svg", "pdf")])
+        save_figure(curves_figure(_curves(groups)),
+                    [staging.file(f"curves.{suffix}") for suffix in ("png", "svg", "pdf")])
         written = folder.commit()
     return Comparison(loaded, comparison, pair_table, notes, tuple(written))
 

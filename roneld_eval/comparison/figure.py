@@ -10,7 +10,6 @@ means and deviations of the curves it is given; bytes are reproducible (no dates
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import matplotlib
 
@@ -21,9 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from ..errors import InputError  # noqa: E402
 from ..methods import METHOD_TABLE  # noqa: E402
-from ..report.png import write_png  # noqa: E402
 
 # Colour-blind-safe (Okabe-Ito), then matplotlib's tab10 for more models.
 COLOURS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442",
@@ -120,21 +117,3 @@ def _runs_text(counts: dict[str, int]) -> str:
     if len(set(counts.values())) == 1:
         return f" (mean ± sd, n = {next(iter(counts.values()))})"
     return " (mean ± sd, n = " + ", ".join(f"{n} {dataset}" for dataset, n in counts.items()) + ")"
-
-
-def save(figure, paths: list[Path]) -> None:
-    """PNG, SVG and PDF without dates, so the same numbers give the same bytes."""
-    metadata = {".svg": {"Date": None, "Creator": None},
-                ".pdf": {"CreationDate": None, "Creator": None, "Producer": None}}
-    try:
-        with matplotlib.rc_context({"svg.hashsalt": "roneld-eval", "pdf.fonttype": 42}):
-            for path in paths:
-                try:
-                    if path.suffix == ".png":
-                        write_png(figure, path)
-                    else:
-                        figure.savefig(path, metadata=metadata[path.suffix])
-                except OSError as error:
-                    raise InputError.unwritable(path, error) from None
-    finally:
-        plt.close(figure)

@@ -232,7 +232,7 @@ def _figure(sweeps: Sequence[Sweep], path: Path, notes: Sequence[str]) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..report.png import write_png
+    from ..report.figure_files import write_png
 
     column = sweeps[0].columns[-1]
     numbered = all(row.checkpoint is not None for sweep in sweeps for row in sweep.rows)

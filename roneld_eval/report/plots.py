@@ -11,7 +11,6 @@ from __future__ import annotations
 import functools
 import re
 import textwrap
-from pathlib import Path
 from typing import Any
 
 import matplotlib
@@ -25,9 +24,7 @@ import pandas as pd  # noqa: E402
 from ..benchmarks import CategoryPanel  # noqa: E402
 from ..config import EGO_LANES_ONLY  # noqa: E402
 from ..methods import METHOD_TABLE  # noqa: E402
-from ..errors import InputError  # noqa: E402
 from ..wording import ego_lanes_only  # noqa: E402
-from .png import write_png  # noqa: E402
 from .tables import Protocol, clips_text, dataset_name, name_parts  # noqa: E402
 
 STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
@@ -204,21 +201,6 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
     _place_axes(figure, left=left, bottom=_note(figure, note, 100) + _TICK_IN + 2 * _LINE_IN + 2 * _GAP_IN,
                 right=right, top=(title.count("\n") + 1) * _LINE_IN + 3 * _GAP_IN)
     return figure
-
-
-def save_figure(figure, png: Path, svg: Path | None = None) -> None:
-    """PNG (and SVG) without timestamps, so the same numbers give the same bytes."""
-    path = png
-    try:
-        write_png(figure, png)
-        if svg is not None:
-            path = svg
-            with matplotlib.rc_context({"svg.hashsalt": "roneld-eval"}):
-                figure.savefig(svg, metadata={"Date": None, "Creator": None})
-    except OSError as error:  # disk full, quota: name the picture, not matplotlib's internals
-        raise InputError.unwritable(path, error) from None
-    finally:
-        plt.close(figure)
 
 
 HATCHES = {name: facts.hatch for name, facts in METHOD_TABLE.items()}

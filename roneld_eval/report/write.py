@@ -204,10 +204,11 @@ def stage_report(result: RunResult, staging: Staging) -> None:
     staging.write_csv("official.csv", result.official, "%.6f")
     staging.write_text("config.toml", config_record(result))
     staging.write_text("summary.json", json.dumps(summary(result), indent=2) + "\n")
-    from .plots import accuracy_figure, category_figure, save_figure  # matplotlib: imported only to draw
+    from .figure_files import save_figure
+    from .plots import accuracy_figure, category_figure  # matplotlib: imported only to draw
 
     figure = accuracy_figure(result.accuracy, model, source, protocol)
-    save_figure(figure, staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg"))
+    save_figure(figure, [staging.file("accuracy_curve.png"), staging.file("accuracy_curve.svg")])
     if result.dataset.categories:
         from ..metrics.sweep import category_accuracy
 
@@ -216,7 +217,7 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         staging.write_csv("categories.csv", by_category, "%.6f")
         panel = benchmark_for(result.dataset.name).category_panel(result.official, protocol)
         save_figure(category_figure(by_category, panel, model, f"{threshold:g}", protocol),
-                    staging.file("categories.png"))
+                    [staging.file("categories.png")])
     from .html import build_html
 
     staging.write_text("report.html", build_html(staging.path))
