@@ -1,6 +1,6 @@
-"""roneld-eval: evaluate lane extractors (the SCNN/ENet-SAD baseline, RONELD, and any plug-in)
-on CULane and TuSimple from stored CNN probability maps, with the RONELD paper's protocol and
-the official CULane and TuSimple scores.
+"""roneld-eval: evaluate lane detectors and extractors (the SCNN/ENet-SAD baseline, RONELD, and
+any plug-in) on the lane benchmarks (CULane, TuSimple, VIL-100, OpenLane, CurveLanes, LLAMAS and
+any installed plug-in), with the RONELD paper's protocol and each benchmark's official scores.
 
 The CLI is a thin layer over these functions: `run`, `score_culane`, `score_tusimple`,
 `show`, `synthesize`, `compare` do what `roneld-eval run`, `score culane`, `score tusimple`,

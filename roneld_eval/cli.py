@@ -201,10 +201,12 @@ class _Command(click.Group):
 @click.group(cls=_Command, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(__version__, prog_name="roneld-eval")
 def main():
-    """Evaluate lane extractors on CULane and TuSimple from stored probability maps.
+    """Evaluate lane detectors and RONELD on the lane benchmarks, exactly as their official tools do.
 
-    Runs the SCNN/ENet-SAD baseline and RONELD on the same maps and reports the RONELD
-    paper's active-lane accuracy, the official CULane F1 and TuSimple scores, and runtime.
+    `run` runs the SCNN/ENet-SAD baseline and RONELD on a model's stored probability maps (or
+    another detector's lane files) and reports the RONELD paper's active-lane accuracy, each
+    benchmark's official scores and runtime; `score BENCHMARK` scores lane files with a
+    benchmark's official metric (`roneld-eval score --help` lists the benchmarks installed).
     With no arguments, `roneld-eval run` evaluates the bundled fixture.
     """
 
@@ -361,6 +363,7 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
 
 
 def _print_summary(result, out: Path) -> None:
+    from .benchmarks import benchmark_for
     from .report import tables
 
     counts = result.counts
@@ -369,6 +372,11 @@ def _print_summary(result, out: Path) -> None:
                f"{counts['labelled_frames']} scored, {counts['ego_lanes']} ego lanes; {result.wall_time_s:.1f} s")
     click.echo(f"paper's protocol: {protocol.paper()}; Acc. Inc.: {protocol.interval()}")
     click.echo(tables.comparison_table(result.accuracy, result.config.model, protocol.clips).to_markdown())
+    benchmark = benchmark_for(result.dataset.name)
+    headline = tables.official_headline(result.official, benchmark, result.config.model)
+    if headline is not None:  # what papers quote, beside the paper's table (every count in official.csv)
+        click.echo(f"official {benchmark.display_name} scores (all counts in official.csv):")
+        click.echo(headline.to_markdown())
     click.echo(f"results in {out}/")
 
 

@@ -231,9 +231,10 @@ class PaperMetricParams:
             )
         parse_thresholds(self.thresholds)
 
-    def thickness(self, base_px: int, map_width: int, map_height: int) -> int:
-        """Line thickness in map pixels for a thickness given at the 800x288 reference."""
-        if self.thickness_rule == "width":
+    def thickness(self, base_px: int, map_width: int, map_height: int, rule: str | None = None) -> int:
+        """Line thickness in map pixels for a thickness given at the 800x288 reference (by
+        `rule`, this configuration's when None)."""
+        if (rule or self.thickness_rule) == "width":
             value = int(Decimal(base_px * map_width) / Decimal(800) + Decimal("0.5"))
         else:
             value = (base_px * map_height) // 288
@@ -243,6 +244,28 @@ class PaperMetricParams:
                 f"lines thinner than {MIN_LINE_THICKNESS} px are not drawn as OpenCV draws them (raise "
                 f"paper.gt_thickness_px / paper.pred_thickness_px, or use larger maps)")
         return value
+
+    def other_rule_note(self, map_width: int, map_height: int) -> str | None:
+        """One line for maps on which the two thickness rules draw differently (not proportional
+        to 800x288), naming both and the flag to the other: the accuracy moves with the rule
+        (on the real 976x351 CULane clip, RONELD's gain by several points), so neither is silent."""
+        other = "height" if self.thickness_rule == "width" else "width"
+        pairs = {rule: (self.thickness(self.gt_thickness_px, map_width, map_height, rule),
+                        self.thickness(self.pred_thickness_px, map_width, map_height, rule))
+                 for rule in (self.thickness_rule,)}
+        try:
+            pairs[other] = (self.thickness(self.gt_thickness_px, map_width, map_height, other),
+                            self.thickness(self.pred_thickness_px, map_width, map_height, other))
+        except ConfigError:  # too thin to draw by the other rule: not an alternative to offer
+            return None
+        if pairs[self.thickness_rule] == pairs[other]:
+            return None
+        words = {"width": "the paper's text", "height": "the authors' code"}
+        (gt, pred), (other_gt, other_pred) = pairs[self.thickness_rule], pairs[other]
+        return (f"on these {map_width}x{map_height} maps the paper's accuracy drew ground truth {gt} px and "
+                f"predictions {pred} px (paper.thickness_rule = \"{self.thickness_rule}\", "
+                f"{words[self.thickness_rule]}); {words[other]} draws {other_gt} and {other_pred} px: "
+                f"--set paper.thickness_rule={other}")
 
 
 @dataclass(frozen=True)

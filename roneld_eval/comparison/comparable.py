@@ -162,6 +162,7 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
                           for value, members in values.items())
         notes.append(f"Compared with --allow-mixed: the runs differ in {setting}: {shown}.")
     groups: dict[tuple[str, str], Run] = {}
+    results: dict[tuple[str, str, str], Run] = {}
     for run in runs:
         other = groups.setdefault((run.dataset, run.label), run)
         if other is not run and run.label == run.model == other.model == LANES_MODEL:
@@ -170,6 +171,11 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
                               f"the name a lane-file run gets when it names no model; give each its detector's "
                               f"name (--label RUN=NAME, or --set model=NAME when running), one name for seeds "
                               f"of one model")
+        twin = results.setdefault((run.dataset, run.label, run.results_key), run)
+        if twin is not run:
+            raise ConfigError(f"cannot average {twin.name()} and {run.name()} as two runs of {run.label!r}: every "
+                              f"IoU of every method is the same in both, so they are one result twice (the same "
+                              f"maps in two formats, or a copied run, is the usual cause); compare one of them")
         if other.methods != run.methods:
             raise ConfigError(f"cannot average {other.name()} and {run.name()}: both are {run.label!r} on "
                               f"{dataset_name(run.dataset)} but ran different methods ({','.join(other.methods)} "

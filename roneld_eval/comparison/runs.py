@@ -61,6 +61,7 @@ class Run:
     clips: int  # distinct clips among the scored frames: the bootstrap's unit
     frames_key: str  # digest of the scored frames
     truth_key: str  # digest of the ground-truth ego lanes (frame, side) and the lane counts
+    results_key: str  # digest of every (frame, side, method, IoU): equal for runs of identical results
     columns: dict  # (method, accuracy.csv column) -> {threshold: value}, for quick look-ups
     # (clip, width, height) where its videos have sizes of their own (VIL-100)
     clip_sizes: tuple[tuple[str, int, int], ...] = ()
@@ -127,7 +128,7 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
     return Run(path=folder, label=label if label is not None else model, model=model, dataset=dataset,
                methods=methods, thresholds=thresholds, protocol=protocol, accuracy=accuracy, per_frame=per_frame,
                runtime=runtime, official=official, counts=dict(counts), clips=clips, frames_key=frames_key,
-               truth_key=truth_key, columns=_columns(accuracy),
+               truth_key=truth_key, results_key=_results_key(per_frame), columns=_columns(accuracy),
                clip_sizes=_clip_sizes(folder / "summary.json", summary))
 
 
@@ -362,6 +363,14 @@ def _check_per_frame(path: Path, per_frame: pd.DataFrame, accuracy: pd.DataFrame
     truth_key = _digest([str(counts["gt_lanes"]), str(counts["ego_lanes"])] + lanes)
     clips = len({frame.rpartition("/")[0] for frame in frames})
     return frames_key, truth_key, clips
+
+
+def _results_key(per_frame: pd.DataFrame) -> str:
+    """Every IoU of every method, in no particular row order: two runs with the same key measured
+    the same thing (seeds or checkpoints never do)."""
+    rows = (per_frame["frame"].astype(str) + "\t" + per_frame["side"].astype(str) + "\t"
+            + per_frame["method"].astype(str) + "\t" + per_frame["iou"].map(repr))
+    return _digest(sorted(rows.tolist()))
 
 
 def frames_of(run: Run) -> set[str]:

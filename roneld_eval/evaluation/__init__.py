@@ -76,6 +76,7 @@ def evaluate(
         if len(merged.map_sizes) > 1:
             notes.append("maps differ in size between clips (each clip is rescaled by its own): " + ", ".join(
                 f"{w}x{h} from clip {clip_id}" for (w, h), clip_id in merged.map_sizes.items()))
+        notes.extend(dict.fromkeys(filter(None, (config.paper.other_rule_note(w, h) for w, h in merged.map_sizes))))
     return RunResult(
         config=config,
         dataset=planned.dataset,

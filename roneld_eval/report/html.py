@@ -12,12 +12,12 @@ import base64
 import html
 import json
 import re
-from pathlib import Path
+from pathlib import Path, PurePath
 
 import pandas as pd
 
 from ..methods import METHOD_TABLE
-from .tables import Protocol, dataset_name, display_name
+from .tables import Protocol, dataset_name, display_name, official_headline
 
 STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1100px;
@@ -59,6 +59,17 @@ def _csv_table(path: Path, model: str | None = None) -> str:
     return table.to_html(index=False, float_format=lambda v: f"{v:.4f}", na_rep="n/a", border=0)
 
 
+def _official_tables(path: Path, benchmark, model: str | None) -> str:
+    """The official scores over the whole set per method, the full official.csv folded below
+    (a VIL-100 run's has a row per video and threshold: wider and longer than a page)."""
+    headline = official_headline(pd.read_csv(path), benchmark, model or "")
+    full = _csv_table(path, model)
+    if headline is None:
+        return full
+    return (_markdown_table(headline.to_markdown())
+            + f"<details><summary>Every row of official.csv</summary>{full}</details>")
+
+
 def _image(path: Path, alt: str) -> str:
     data = base64.b64encode(path.read_bytes()).decode("ascii")
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
@@ -69,6 +80,14 @@ def _present(folder: Path, name: str | None) -> Path | None:
     if not name or not (folder / name).exists():
         return None
     return folder / name
+
+
+def _shared_name(data_root, fixture: bool) -> str:
+    """The data folder as a shared page may name it: its last part, not the user's directory
+    layout (summary.json keeps the whole path)."""
+    if fixture or not isinstance(data_root, str) or not data_root:
+        return str(data_root or "?")
+    return f".../{PurePath(data_root).name} (whole path in summary.json)"
 
 
 def _benchmark(name):
@@ -93,7 +112,7 @@ def build_html(folder: Path) -> str:
              '<p class="meta">' + html.escape(
                  f"{counts.get('clips', '?')} clips, {counts.get('frames', '?')} frames, "
                  f"{counts.get('labelled_frames', '?')} scored, {counts.get('ego_lanes', '?')} ego lanes; "
-                 f"data: {summary.get('data_root', '?')}; "
+                 f"data: {_shared_name(summary.get('data_root'), fixture)}; "
                  f"roneld-eval {summary.get('versions', {}).get('roneld-eval', '?')}")
              + "</p>"]
     benchmark = _benchmark(summary.get("dataset"))
@@ -103,6 +122,10 @@ def build_html(folder: Path) -> str:
         if benchmark is not None and official:
             line += f" Official {benchmark.display_name} protocol: {official}."
         parts.append(f'<p class="meta">{html.escape(line, quote=False)}</p>')
+    notes = summary.get("notes")
+    for note in notes if isinstance(notes, list) else ():
+        if isinstance(note, str):  # summary.json is read back: text only, escaped
+            parts.append(f'<p class="meta">Note: {html.escape(note, quote=False)}.</p>')
     official_note = None if benchmark is None else benchmark.official_note(protocol)
     drawn = [f"{METHOD_TABLE[m].words} {METHOD_TABLE[m].overlay_colour}" for m in config.get("methods", METHOD_TABLE)
              if m in METHOD_TABLE]
@@ -131,7 +154,9 @@ def build_html(folder: Path) -> str:
         text = html.escape(note, quote=False) if note else _markdown_notes(markdown) if markdown else ""
         if text:
             parts.append(f'<p class="meta">{text}</p>')
-        if table_path is not None:
+        if table_path is not None and markdown is None and table_file == "official.csv" and benchmark is not None:
+            parts.append(_official_tables(table_path, benchmark, config.get("model")))
+        elif table_path is not None:
             parts.append(_csv_table(table_path, config.get("model")) if markdown is None else _markdown_table(markdown))
         if image_path is not None:
             parts.append(_image(image_path, title))

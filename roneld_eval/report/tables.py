@@ -387,3 +387,37 @@ def runtime_table(runtime: pd.DataFrame, model: str) -> Table:
         name = "Map loading" if row["method"] == "map loading" else display_name(row["method"], model)
         rows.append((name, str(row["frames"]), float(row["mean_ms"]), float(row["median_ms"]), float(row["p95_ms"])))
     return Table(("Method", "Frames", "Mean (ms)", "Median (ms)", "p95 (ms)"), tuple(rows))
+
+
+# The categories that stand for the whole set in a benchmark's official table: its total, and
+# the ego lanes a run adds (where preceding-frame tracking acts).
+WHOLE_SET = ("all", "ego")
+
+
+def official_headline(official: pd.DataFrame, benchmark, model: str) -> Table | None:
+    """The official scores papers quote, one short table: the rows over the whole set (where
+    the table has categories) and the rates and scores the benchmark declares, its counts left
+    to official.csv. None where nothing is left to show."""
+    if official is None or official.empty or "method" not in official.columns:
+        return None
+    rows = official
+    if "category" in official.columns:
+        rows = official[official["category"].isin(WHOLE_SET)]
+    kinds = {**benchmark.official_columns, **benchmark.official_optional}
+    keys = [column for column in benchmark.official_key if column in rows.columns]
+    numbers = [column for column, kind in kinds.items()
+               if column in rows.columns and column not in keys and kind.endswith("number")]
+    if rows.empty or not numbers:
+        return None
+    body = tuple((display_name(record["method"], model), *(str(record[key]) for key in keys[1:]),
+                  *(_headline_number(record[column]) for column in numbers))
+                 for record in rows.to_dict("records"))
+    return Table(("method", *keys[1:], *numbers), body)
+
+
+def _headline_number(value) -> str:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return "n/a"
+    return "n/a" if math.isnan(number) else f"{number:.4f}"
