@@ -190,7 +190,12 @@ def merge_run(parts, out: str | Path) -> RunResult:
     results come from the parts (run_parts.PartsCache), none is computed again."""
     from .run_parts import CONFIG, PartsCache, ground_truth, shards_wall_time
 
-    requested = EvalConfig.from_toml(parts[0].path / CONFIG)
+    from .lanes_io import decode_text
+    from .limits import CONFIG as CONFIG_SIZE
+
+    config_path = parts[0].path / CONFIG
+    requested = EvalConfig.from_toml_text(decode_text(parts[0].read(CONFIG, CONFIG_SIZE), config_path),
+                                          source=str(config_path))
     config = with_fixture(requested)
     if config.plugins:  # a part is untrusted: merging it must not import code it names
         raise InputError(parts[0].path / CONFIG, "names plug-in methods; merge imports no code a part names: "

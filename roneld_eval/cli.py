@@ -433,7 +433,8 @@ def merge(parts, out, debug):
     the files one unsharded command writes, byte for byte.
 
     Parts must be every shard 1..N of one command, written by this version with the same
-    settings and ground truth; anything else is refused in one line.
+    settings and ground truth, unchanged since (part.json's digests), their predictions too;
+    anything else is refused in one line.
     """
     from .shards import merge as merge_parts
 

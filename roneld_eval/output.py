@@ -546,3 +546,10 @@ class Staging:
             self.file(name).write_text(text, encoding="utf-8")
         except OSError as error:
             raise InputError.unwritable(self.out_dir / name, error) from None
+
+    def write_bytes(self, name: str, data: bytes) -> None:
+        """These bytes exactly (a part's files, whose digests are of the bytes on disk)."""
+        try:
+            self.file(name).write_bytes(data)
+        except OSError as error:
+            raise InputError.unwritable(self.out_dir / name, error) from None

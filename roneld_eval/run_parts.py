@@ -7,7 +7,8 @@ plans the run again from the part's configuration, over the whole dataset, then 
 clip's results from the parts instead of computing them: the tables, per-frame rows, intervals,
 gains and lane files are those of one unsharded run, byte for byte. A part whose clip read other
 maps or labels than the merge finds (path, size, modification time), or a clip in no part, is
-refused.
+refused; so is a clip file or config.toml that is not the one the shard wrote (part.json records
+their SHA-256, shards.sealed_manifest).
 """
 
 from __future__ import annotations
@@ -22,10 +23,10 @@ from .cache import config_key, decode_result, encode_result, fingerprint
 from .config import EvalConfig
 from .errors import InputError
 from .evaluation import ClipResult
-from .lanes_io import parse_json, read_bytes
+from .lanes_io import parse_json
 from .limits import CACHE_ENTRY
 from .model import Clip, Dataset
-from .shards import MANIFEST_NAME, PART_FORMAT, PART_VERSION, Part, Shard, digest
+from .shards import MANIFEST_NAME, PART_FORMAT, PART_VERSION, Part, Shard, content_digest, digest, sealed_manifest
 
 CLIPS = "clips"  # the part's folder of finished clips, one JSON file each
 CONFIG = "config.toml"
@@ -43,6 +44,7 @@ class PartWriter:
     def __init__(self, staging):
         self.staging = staging
         self.clip_ids: list[str] = []
+        self.digests: dict[str, str] = {}  # each clip file's, for part.json
 
     def load(self, clip: Clip, inputs: Callable[[], Sequence[Path]]) -> ClipResult | None:
         return None
@@ -50,7 +52,10 @@ class PartWriter:
     def store(self, clip: Clip, inputs: Sequence[Path], result: ClipResult) -> None:
         entry = {"clip_id": clip.clip_id, "frames": [frame.relpath for frame in clip.frames],
                  "inputs": fingerprint(inputs), "result": encode_result(result)}
-        self.staging.write_text(f"{CLIPS}/{len(self.clip_ids):06d}.json", json.dumps(entry, allow_nan=False))
+        name = f"{CLIPS}/{len(self.clip_ids):06d}.json"
+        data = json.dumps(entry, allow_nan=False).encode("utf-8")
+        self.staging.write_bytes(name, data)
+        self.digests[name] = content_digest(data)
         self.clip_ids.append(clip.clip_id)
 
 
@@ -63,8 +68,10 @@ def write_run_part(staging, config: EvalConfig, requested: EvalConfig, shard: Sh
         "shard": [shard.index, shard.count], "settings": config_key(config, version),
         "ground_truth": ground_truth(dataset), "clips": writer.clip_ids, "wall_time_s": round(wall_time_s, 3),
     }
-    staging.write_text(MANIFEST_NAME, json.dumps(manifest, indent=1, ensure_ascii=False) + "\n")
-    staging.write_text(CONFIG, requested.to_toml())
+    config_toml = requested.to_toml().encode("utf-8")
+    staging.write_bytes(CONFIG, config_toml)
+    digests = {**writer.digests, CONFIG: content_digest(config_toml)}
+    staging.write_bytes(MANIFEST_NAME, sealed_manifest(manifest, digests))
 
 
 class PartsCache:
@@ -89,8 +96,7 @@ class PartsCache:
         if clip.clip_id not in self.where:
             raise InputError(None, f"clip {clip.clip_id} is in no part: merge needs every shard's part")
         part, path = self.where[clip.clip_id]
-        data = read_bytes(path, limit=CACHE_ENTRY)
-        assert data is not None
+        data = part.read(path.relative_to(part.path).as_posix(), CACHE_ENTRY)
         entry = parse_json(data, path, "not a clip of a partial result", "not a clip of a partial result")
         try:
             if not isinstance(entry, dict) or entry.get("clip_id") != clip.clip_id:

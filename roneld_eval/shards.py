@@ -9,7 +9,12 @@ over frames) merge exactly.
 
 A part is two files in its --out folder: `part.json` (what was scored, how, by which version,
 which shard; small) and `part.npz` (the per-frame numbers, no pickles). Both are untrusted input
-to `merge`, checked field by field.
+to `merge`, checked field by field. part.json also seals the part: the SHA-256 of every other file
+of it that merge reads, and a digest of all its own fields, so that a part edited or damaged since
+its shard wrote it is refused even where the edit keeps its form (a count changed, an IoU within
+[0, 1]). The digests are plain, not keyed with the user's secret (secret_key.py): parts travel
+between the machines (and users) of a cluster, and what they guard against is an accidental or
+silent change, not someone who rewrites the digests as well.
 """
 
 from __future__ import annotations
@@ -20,17 +25,27 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 import numpy as np
 
 from .errors import ConfigError, InputError
 
+if TYPE_CHECKING:
+    from .limits import SizeLimit
+
 PART_FORMAT = "roneld-eval partial result"
-PART_VERSION = 1
+PART_VERSION = 2  # 1 (ca5cdc9 and before): no digests of the part's files
 MANIFEST_NAME = "part.json"
 ARRAYS_NAME = "part.npz"
+FILES_KEY = "files"  # in part.json: name -> SHA-256 of each other file of the part that merge reads
+SEAL_KEY = "digest"  # in part.json: the digest of all its other fields
 MAX_SHARDS = 100_000
+CHANGED = "changed since its shard wrote it (its SHA-256 is not the one part.json records): score that shard again"
+
+# A prediction tree's files of a frame (tree m of the command's trees, a frame's list entry), as
+# the command reads them: what a part's fingerprint of its predictions covers.
+FilesOf = Callable[[int, str], Iterable[Path]]
 
 
 @dataclass(frozen=True)
@@ -93,6 +108,48 @@ def digest(value: Any) -> str:
     return hashlib.sha256(json.dumps(value, sort_keys=True, ensure_ascii=False).encode("utf-8")).hexdigest()
 
 
+def content_digest(data: bytes) -> str:
+    """SHA-256 of a file's bytes: what part.json records of each other file of the part."""
+    return hashlib.sha256(data).hexdigest()
+
+
+def sealed_manifest(manifest: dict, files: dict[str, str]) -> bytes:
+    """part.json's bytes: the manifest, the SHA-256 of each other file of the part (`files`: name
+    -> content_digest) and the digest of all that."""
+    sealed = {**manifest, FILES_KEY: dict(sorted(files.items()))}
+    sealed[SEAL_KEY] = digest(sealed)
+    return (json.dumps(sealed, indent=1, sort_keys=True, ensure_ascii=False) + "\n").encode("utf-8")
+
+
+def predictions_fingerprint(trees: Sequence, files_of: FilesOf | None, frames: Sequence[str]) -> list[list[str]]:
+    """[method, root, fingerprint] of each prediction tree: its files of these frames (path, size,
+    modification time, as the labels'). Stat, not content: on 34,680 CULane prediction files
+    (scripts/bench_part_fingerprint.py) their contents took 1.2-1.6 s to hash in the page cache
+    and 9-10 s from disk, their stat 0.3-0.7 s either way, and a merge pays it again to re-check."""
+    assert files_of is not None or not trees
+    return [[tree.method, os.path.abspath(tree.root), _tree_fingerprint(files_of, m, frames)]
+            for m, tree in enumerate(trees)]
+
+
+def _tree_fingerprint(files_of, m: int, frames: Sequence[str]) -> str:
+    return files_fingerprint(path for relpath in frames for path in files_of(m, relpath))
+
+
+def check_predictions(where: Path, recorded: Any, trees: Sequence, files_of: FilesOf | None, frames: Sequence[str],
+                      present_only: bool = False) -> None:
+    """A part's predictions are still those its shard scored: each tree's files of its frames
+    (`present_only`: only the trees still where the part says; a merge elsewhere cannot see them)."""
+    if not isinstance(recorded, list) or len(recorded) != len(trees):
+        raise InputError(where, "its record of the predictions it scored is not one entry a prediction tree")
+    for m, (tree, record) in enumerate(zip(trees, recorded)):
+        if present_only and not os.path.isdir(tree.root):
+            continue
+        if record != [tree.method, os.path.abspath(tree.root), _tree_fingerprint(files_of, m, frames)]:
+            raise InputError(where, f"the predictions of {tree.method} ({tree.root}) changed since this shard scored "
+                                    "them (a file's size or modification time, or a file added or removed): score "
+                                    "that shard again")
+
+
 @dataclass(frozen=True)
 class Part:
     """One read part: its manifest and arrays, checked for form (not yet against the others)."""
@@ -106,14 +163,30 @@ class Part:
         index, count = self.manifest["shard"]
         return Shard(index, count)
 
+    def read(self, name: str, limit: SizeLimit) -> bytes:
+        """A file of the part (a relative name), refused unless it is the one its shard wrote."""
+        return _sealed_bytes(self.path, self.manifest[FILES_KEY], name, limit)
+
+
+def _sealed_bytes(folder: Path, files: dict, name: str, limit: SizeLimit) -> bytes:
+    from .lanes_io import read_bytes
+
+    path = folder / name
+    if name not in files:
+        raise InputError(path, f"not a file its {MANIFEST_NAME} records: not written by this part's shard")
+    data = read_bytes(path, limit=limit)
+    if content_digest(data) != files[name]:
+        raise InputError(path, CHANGED)
+    return data
+
 
 def write_part(staging, manifest: dict, arrays: dict[str, np.ndarray]) -> None:
     """part.json and part.npz into an output folder's staging (output.Staging)."""
-    staging.write_text(MANIFEST_NAME, json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=False) + "\n")
     from .synth import npz_bytes
 
-    with open(staging.file(ARRAYS_NAME), "wb") as handle:
-        handle.write(npz_bytes(arrays))
+    data = npz_bytes(arrays)
+    staging.write_bytes(ARRAYS_NAME, data)
+    staging.write_bytes(MANIFEST_NAME, sealed_manifest(manifest, {ARRAYS_NAME: content_digest(data)}))
 
 
 def read_part(folder: Path) -> Part:
@@ -135,9 +208,13 @@ def read_part(folder: Path) -> Part:
     manifest = parse_json(data, path, "not a partial result", "not a partial result")
     if not isinstance(manifest, dict) or manifest.get("format") != PART_FORMAT:
         raise InputError(path, "not a partial result of roneld-eval")
+    if manifest.get("format_version") == 1:
+        raise InputError(path, "a part written by an older roneld-eval, without the digests that show an edit of its "
+                               "files: score the shard again with this version")
     if manifest.get("format_version") != PART_VERSION:
         raise InputError(path, f"a partial result of format {manifest.get('format_version')!r}; this version "
                                f"reads format {PART_VERSION}: score the shard again with this version")
+    files = _sealed_files(path, manifest)
     shard = manifest.get("shard")
     if (not isinstance(shard, list) or len(shard) != 2 or any(type(v) is not int for v in shard)
             or not 1 <= shard[0] <= shard[1] <= MAX_SHARDS):
@@ -147,10 +224,22 @@ def read_part(folder: Path) -> Part:
             raise InputError(path, f"a partial result without its {key!r}")
     if not all(isinstance(manifest[key], str) for key in ("command", "version", "ground_truth")):
         raise InputError(path, "its command, version and ground truth are not text")
-    arrays_path = folder / ARRAYS_NAME  # a part of a command that keeps per-frame numbers (not `run`'s)
-    raw = read_bytes(arrays_path, missing_ok=True, limit=MAP)
-    arrays = {} if raw is None else _load_arrays(raw, arrays_path)
+    # a part of a command that keeps per-frame numbers (not `run`'s)
+    arrays = _load_arrays(_sealed_bytes(folder, files, ARRAYS_NAME, MAP), folder / ARRAYS_NAME) \
+        if ARRAYS_NAME in files else {}
     return Part(folder, manifest, arrays)
+
+
+def _sealed_files(path: Path, manifest: dict) -> dict[str, str]:
+    """The digests of the part's files, once part.json itself is as its shard wrote it."""
+    unsealed = {key: value for key, value in manifest.items() if key != SEAL_KEY}
+    if manifest.get(SEAL_KEY) != digest(unsealed):
+        raise InputError(path, "changed since its shard wrote it (its fields do not match the digest it records): "
+                               "score that shard again")
+    files = manifest.get(FILES_KEY)
+    if not isinstance(files, dict) or not all(isinstance(value, str) for value in files.values()):
+        raise InputError(path, "its digests of the part's files are not names and digests")
+    return files
 
 
 def _load_arrays(raw: bytes, path: Path) -> dict[str, np.ndarray]:
@@ -297,13 +386,24 @@ _NOT_RECORDED = {"out", "workers", "progress", "announce", "shard", "merged"}
 
 
 @dataclass(frozen=True)
+class MergedPart:
+    """What a merge checks of one part against the files it finds: the digest of the frames it
+    scored (its shard's share) and the fingerprint of their predictions."""
+
+    path: Path
+    shard: Shard
+    frames: str
+    predictions: Any
+
+
+@dataclass(frozen=True)
 class Merged:
     """What a merge hands a score command: the parts' ground truth, their arrays combined, and
-    each part's shard with the digest of the frames it scored."""
+    what to check of each part."""
 
     ground_truth: str
     arrays: dict[str, np.ndarray]
-    shares: tuple[tuple[Shard, str], ...] = ()
+    parts: tuple[MergedPart, ...] = ()
 
 
 class Sharding:
@@ -354,17 +454,21 @@ class Sharding:
                        "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees],
                        **({} if extra is None else {"extra": extra})})
 
-    def check_merged(self, keys: Sequence[str], trees, labels: Sequence[Path], clip_of, extra: Any = None) -> None:
+    def check_merged(self, keys: Sequence[str], trees, labels: Sequence[Path], clip_of, extra: Any = None, *,
+                     files_of: FilesOf | None) -> None:
         """In a merge: the frames, labels and prediction trees found now are those the shards
-        found, and each part scored its shard's share of the frames."""
+        found, each part scored its shard's share of the frames, and their prediction files
+        (`files_of`) are those it scored."""
         assert self.merged is not None
         if self.ground_truth(keys, trees, labels, extra) != self.merged.ground_truth:
             raise InputError(None, f"the labels or prediction trees found now are not those the shards of this "
                                    f"`{self.command}` found (frames, files, sizes or modification times): merge where "
                                    "the shards ran, with the same files")
-        for shard, scored in self.merged.shares:
-            if digest(self._share_of(keys, clip_of, shard)) != scored:
-                raise InputError(None, f"the part of shard {shard} did not score that shard's frames")
+        for part in self.merged.parts:
+            share = self._share_of(keys, clip_of, part.shard)
+            if digest(share) != part.frames:
+                raise InputError(part.path, f"the part of shard {part.shard} did not score that shard's frames")
+            check_predictions(part.path, part.predictions, trees, files_of, share)
 
     def merged_array(self, name: str, shape: tuple[int, ...], kind: str = "i",
                      within: tuple[float, float] | None = None) -> np.ndarray:
@@ -378,7 +482,7 @@ class Sharding:
         return array
 
     def write_part(self, folder, keys: Sequence[str], trees, labels: Sequence[Path], scored: Sequence[str],
-                   arrays: dict[str, np.ndarray], extra: Any = None) -> None:
+                   arrays: dict[str, np.ndarray], extra: Any = None, *, files_of: FilesOf | None) -> None:
         from .output import Staging
         from .version import __version__
 
@@ -386,7 +490,7 @@ class Sharding:
         manifest = {"format": PART_FORMAT, "format_version": PART_VERSION, "command": self.command,
                     "version": __version__, "shard": [self.shard.index, self.shard.count],
                     "settings": self.arguments, "ground_truth": self.ground_truth(keys, trees, labels, extra),
-                    "share": digest(list(scored))}
+                    "share": digest(list(scored)), "predictions": predictions_fingerprint(trees, files_of, scored)}
         write_part(Staging(folder), manifest, arrays)
         folder.commit()
 
@@ -448,12 +552,12 @@ def merge_by_rerun(parts: Sequence[Part], out: str | Path):
         raise InputError(first.path / MANIFEST_NAME, f"its settings are not the arguments of `{command}`")
     if not isinstance(first.manifest["ground_truth"], str):
         raise InputError(first.path / MANIFEST_NAME, "its ground truth is not a digest")
-    shares = []
+    checked = []
     for part in parts:
         if not isinstance(part.manifest.get("share"), str):
             raise InputError(part.path / MANIFEST_NAME, "its share of the frames is not a digest")
-        shares.append((part.shard, part.manifest["share"]))
-    merged = Merged(first.manifest["ground_truth"], _combined(parts), tuple(shares))
+        checked.append(MergedPart(part.path, part.shard, part.manifest["share"], part.manifest.get("predictions")))
+    merged = Merged(first.manifest["ground_truth"], _combined(parts), tuple(checked))
     try:
         return function(**arguments, out=out, merged=merged)
     except (TypeError, ValueError, KeyError, IndexError) as error:

@@ -74,6 +74,18 @@ def _refused(tmp_path, *parts) -> str:
     return result.output
 
 
+def _resealed(folder):
+    """part.json's digests made those of the part's files as they are now: what an edit that
+    rewrites the digests too leaves, so that only the merge's checks of the contents can refuse it."""
+    from roneld_eval.shards import content_digest, sealed_manifest
+
+    manifest = json.loads((folder / "part.json").read_text())
+    manifest.pop("digest", None)
+    files = {name: content_digest((folder / name).read_bytes()) for name in manifest.pop("files")}
+    (folder / "part.json").write_bytes(sealed_manifest(manifest, files))
+    return folder
+
+
 def test_a_missing_or_repeated_shard_is_refused(three_parts, tmp_path):
     p1, p2, p3 = three_parts
     assert "shard 3 of 3 is missing" in _refused(tmp_path, p1, p2)
@@ -109,14 +121,17 @@ def test_an_edited_part_is_refused_naming_its_file(three_parts, tmp_path):
         arrays = {name: loaded[name] for name in loaded.files}
     arrays["matched_iou"] = arrays["matched_iou"] + 2.0
     np.savez(edited / "part.npz", **arrays)
-    assert f"{edited / 'part.npz'}: a matched IoU outside [0, 1]" in _refused(tmp_path, p1, edited, p3)
+    assert f"{edited / 'part.npz'}: changed since its shard wrote it" in _refused(tmp_path, p1, edited, p3)
+    # with part.json's digests rewritten as well, the checks of the contents still refuse it
+    assert f"{edited / 'part.npz'}: a matched IoU outside [0, 1]" in _refused(tmp_path, p1, _resealed(edited), p3)
     (edited / "part.npz").write_bytes(b"PK\x03\x04 not a zip")
-    assert "not a readable part.npz" in _refused(tmp_path, p1, edited, p3)
+    assert "not a readable part.npz" in _refused(tmp_path, p1, _resealed(edited), p3)
     manifest = json.loads((p2 / "part.json").read_text())
     manifest["version"] = "0.0.1"
     shutil.copy(p2 / "part.npz", edited / "part.npz")
     (edited / "part.json").write_text(json.dumps(manifest))
-    assert "version" in _refused(tmp_path, p1, edited, p3)
+    assert f"{edited / 'part.json'}: changed since its shard wrote it" in _refused(tmp_path, p1, edited, p3)
+    assert "version" in _refused(tmp_path, p1, _resealed(edited), p3)
     for key, value in (("trees", "x"), ("width", 1), ("categories", [3])):
         broken = json.loads((p2 / "part.json").read_text())
         broken["settings"][key] = value
@@ -129,10 +144,101 @@ def test_an_edited_part_is_refused_naming_its_file(three_parts, tmp_path):
                 (folder / "part.json").write_text(json.dumps(manifest))
             else:
                 (folder / "part.json").write_text(json.dumps(broken))
+            _resealed(folder)
         assert "its settings are not those" in _refused(tmp_path, tmp_path / "b1", tmp_path / "b2", tmp_path / "b3")
     (edited / "part.json").write_text("{")
     assert "not a partial result" in _refused(tmp_path, p1, edited, p3)
     assert "not a partial result" in _refused(tmp_path, p1, tmp_path, p3)
+
+
+def test_a_count_edited_in_part_npz_keeping_its_form_is_refused(three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    edited = tmp_path / "edited"
+    shutil.copytree(p2, edited)
+    with np.load(p2 / "part.npz") as loaded:
+        arrays = {name: loaded[name] for name in loaded.files}
+    arrays["n_pred"] = arrays["n_pred"] + 1  # a lane more in every frame: only false positives more
+    arrays["matched_iou"] = np.where(arrays["matched_iou"] > 0.2, 0.99, arrays["matched_iou"])
+    np.savez(edited / "part.npz", **arrays)
+    output = _refused(tmp_path, p1, edited, p3)
+    assert f"error: {edited / 'part.npz'}: changed since its shard wrote it" in output
+    # the edit keeps every check of the form: with its digest rewritten too, it merges to other numbers
+    assert _invoke("merge", p1, p2, p3, "--out", tmp_path / "plain").exit_code == 0
+    assert _invoke("merge", p1, _resealed(edited), p3, "--out", tmp_path / "forged").exit_code == 0
+    assert (tmp_path / "forged" / "official.csv").read_bytes() != (tmp_path / "plain" / "official.csv").read_bytes()
+
+
+def test_a_culane_merge_refuses_predictions_changed_since_the_shards(culane_set, tmp_path):
+    maps = tmp_path / "maps"
+    shutil.copytree(culane_set / "maps", maps)
+
+    def scored(out, *extra):
+        result = _invoke("score", "culane", "--data-root", culane_set / "data", "--pred-root", f"a={maps}",
+                         "--workers", "1", "--quiet", "--out", out, *extra)
+        assert result.exit_code == 0, result.output
+        return out
+
+    whole = scored(tmp_path / "whole")
+    parts = [scored(tmp_path / f"p{k}", "--shard", f"{k}/2") for k in (1, 2)]
+    with np.load(parts[1] / "part.npz") as loaded:
+        frame = str(loaded["frames"][-1])  # a frame of shard 2
+    victim = maps / (frame.rsplit(".", 1)[0] + ".lines.txt")
+    before = victim.read_bytes()
+    victim.write_bytes(b"")  # its lanes gone, after the shards scored them
+    output = _refused(tmp_path, *parts)
+    assert f"error: {parts[1]}: the predictions of a ({maps}) changed since this shard scored them" in output
+    victim.write_bytes(before)  # the same bytes again, but written since: refused all the same
+    assert "the predictions of a" in _refused(tmp_path, *parts)
+    # merged where the predictions are not (another machine): the parts' own digests are all it can check
+    maps.rename(tmp_path / "moved")
+    result = _invoke("merge", *parts, "--out", tmp_path / "merged")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "merged" / "official.csv").read_bytes() == (whole / "official.csv").read_bytes()
+
+
+def test_a_lane_file_merge_refuses_predictions_changed_since_the_shards(tmp_path):
+    args = _lane_file_command(tmp_path, "openlane")
+    parts = []
+    for k in (1, 2):
+        result = _invoke(*args, "--quiet", "--out", tmp_path / f"p{k}", "--shard", f"{k}/2")
+        assert result.exit_code == 0, result.output
+        parts.append(tmp_path / f"p{k}")
+    victim = sorted((tmp_path / "set" / "predictions").rglob("*.json"))[-1]  # a frame of shard 2
+    record = json.loads(victim.read_text())
+    record["lane_lines"] = record["lane_lines"][:1]  # the same tree, one lane fewer
+    victim.write_text(json.dumps(record))
+    output = _refused(tmp_path, *parts)
+    assert f"error: {parts[1]}: the predictions of " in output and "changed since this shard scored them" in output
+
+
+def test_a_run_clip_edited_keeping_its_form_is_refused(tmp_path):
+    result = _invoke("synth", "--dataset", "culane", "--out", tmp_path / "set", "--clips", "2", "--frames", "3")
+    assert result.exit_code == 0, result.output
+    data, maps = tmp_path / "set" / "data", tmp_path / "set" / "maps"
+    parts = [_run(data, maps, tmp_path / f"p{k}", "--shard", f"{k}/2") for k in (1, 2)]
+    clip = parts[1] / "clips" / "000000.json"
+    entry = json.loads(clip.read_text())
+    for outcome in entry["result"]["outcomes"]:
+        outcome["ious"] = {side: 0.99 for side in outcome["ious"]}  # a better method, within [0, 1]
+    clip.write_text(json.dumps(entry))
+    output = _refused(tmp_path, *parts)
+    assert f"error: {clip}: changed since its shard wrote it" in output
+    config = parts[0] / "config.toml"
+    config.write_text(config.read_text() + "\n")
+    assert f"error: {config}: changed since its shard wrote it" in _refused(tmp_path, *parts)
+
+
+def test_parts_of_an_older_version_without_digests_are_refused(three_parts, tmp_path):
+    p1, p2, p3 = three_parts
+    old = tmp_path / "old"
+    shutil.copytree(p2, old)
+    manifest = json.loads((old / "part.json").read_text())
+    for key in ("files", "digest", "predictions"):  # what ca5cdc9 wrote: format 1, nothing sealed
+        manifest.pop(key, None)
+    manifest["format_version"] = 1
+    (old / "part.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    output = _refused(tmp_path, p1, old, p3)
+    assert f"error: {old / 'part.json'}: a part written by an older roneld-eval" in output
 
 
 def test_a_shard_needs_an_output_folder(culane_set):
@@ -301,7 +407,7 @@ def test_lane_file_parts_refuse_edited_labels_and_a_relabelled_copy(tmp_path):
     manifest = json.loads((copy / "part.json").read_text())
     manifest["shard"] = [3, 3]
     (copy / "part.json").write_text(json.dumps(manifest))
-    assert "did not score that shard's frames" in _refused(tmp_path, parts[0], parts[1], copy)
+    assert "did not score that shard's frames" in _refused(tmp_path, parts[0], parts[1], _resealed(copy))
     label = sorted((tmp_path / "set" / "labels").rglob("*.json"))[0]
     label.write_text(label.read_text())  # rewritten after the shards ran
     import os
@@ -321,6 +427,8 @@ def test_a_run_part_naming_a_plug_in_is_not_imported_by_merge(tmp_path):
     config = parts[0] / "config.toml"
     config.write_text(config.read_text() + f'\n[methods.evil]\nentry = "{evil}:make"\n')
     output = _refused(tmp_path, *parts)
+    assert not marker.exists() and f"{config}: changed since its shard wrote it" in output
+    output = _refused(tmp_path, _resealed(parts[0]), parts[1])  # its digest rewritten too
     assert not marker.exists() and ("plug-in" in output or "config" in output)
 
 
@@ -333,7 +441,7 @@ def test_a_part_npz_of_many_members_is_refused_before_they_are_inflated(three_pa
     with zipfile.ZipFile(edited / "part.npz", "a") as archive:
         for k in range(70):
             archive.writestr(f"junk_{k}.npy", b"x")
-    assert "members inflate to more than" in _refused(tmp_path, p1, edited, p3)
+    assert "members inflate to more than" in _refused(tmp_path, p1, _resealed(edited), p3)
 
 
 @pytest.mark.parametrize("dataset, name, value, message", [
@@ -351,7 +459,7 @@ def test_lane_file_parts_with_impossible_numbers_are_refused(tmp_path, dataset, 
         arrays = {key: loaded[key] for key in loaded.files}
     arrays[name] = np.full_like(arrays[name], value)
     np.savez(parts[1] / "part.npz", **arrays)
-    assert message in _refused(tmp_path, *parts)
+    assert message in _refused(tmp_path, parts[0], _resealed(parts[1]))
 
 
 def _shards_and_merge(tmp_path, args, count: int, tag: str = "") -> tuple:
@@ -420,7 +528,7 @@ def test_a_tusimple_merge_refuses_an_edited_prediction_file_or_a_part_of_other_f
     arrays = dict(np.load(parts[1] / "part.npz"))
     arrays["cat_line"] = arrays["cat_line"] + 1  # the lines of other frames
     np.savez(parts[1] / "part.npz", **arrays)
-    assert "not the prediction file's lines" in _refused(tmp_path, *parts)
+    assert "not the prediction file's lines" in _refused(tmp_path, parts[0], _resealed(parts[1]))
     pred.write_text(pred.read_text() + "\n")  # the predictions changed since the shards
     assert "not those the shards of this `score tusimple` found" in _refused(tmp_path, *parts)
 

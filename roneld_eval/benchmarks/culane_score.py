@@ -358,7 +358,7 @@ def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, datase
     from ..shards import PART_FORMAT, PART_VERSION, write_part
     from ..version import __version__
 
-    from ..shards import digest, files_fingerprint
+    from ..shards import digest, files_fingerprint, predictions_fingerprint
 
     listed = _culane_ground_truth(relpaths, dataset.categories)
     labels = files_fingerprint([labels_path(dataset.root, relpath) for relpath in relpaths])
@@ -373,6 +373,7 @@ def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, datase
         "ground_truth": digest({"list": listed, "labels": labels}), "list": listed,
         "warnings": list(warnings),
         "scored_frames": len(scored.frames),
+        "predictions": predictions_fingerprint(trees, _files_of(trees), scored.frames),
     }
     arrays = {"frames": np.array(scored.frames, dtype=str) if scored.frames else np.zeros(0, "<U1"),
               "n_gt": scored.n_gt, "n_pred": scored.n_pred, "matched_iou": scored.matched_iou}
@@ -381,6 +382,11 @@ def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, datase
     staging = Staging(folder)
     write_part(staging, manifest, arrays)
     folder.commit()
+
+
+def _files_of(trees: Sequence[PredictionTree]) -> Callable[[int, str], tuple[Path]]:
+    """A frame's prediction file in each tree (what a part fingerprints)."""
+    return lambda m, relpath: (labels_path(trees[m].root, relpath),)
 
 
 def _culane_part_settings(part) -> dict:
@@ -416,7 +422,7 @@ def _culane_part_settings(part) -> dict:
 
 def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
     """The files one unsharded `score culane` writes, from its shards' parts (checked together)."""
-    from ..shards import check_part_arrays
+    from ..shards import check_part_arrays, check_predictions
 
     first = parts[0].manifest
     settings = _culane_part_settings(parts[0])
@@ -430,6 +436,9 @@ def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
     for part in parts:
         arrays = check_part_arrays(part, len(trees), len(names))
         part_frames = [str(v) for v in arrays["frames"].tolist()]
+        # a merge that does not find the trees where the parts say (merged elsewhere) cannot check them
+        check_predictions(part.path, part.manifest.get("predictions"), trees, _files_of(trees), part_frames,
+                          present_only=True)
         frames += part_frames
         n_gt.append(arrays["n_gt"])
         n_pred.append(arrays["n_pred"])

@@ -106,8 +106,12 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         # the labels, and the images whose headers give each image's size
         label_files = [path for relpath in relpaths for path in (
             lanes_path(labels, relpath), *(under_root(images, relpath + suffix) for suffix in IMAGE_SUFFIXES))]
+
+        def files_of(m: int, relpath: str) -> tuple[Path]:
+            return (lanes_path(trees[m].root, relpath),)
+
         if merged is not None:
-            sharding.check_merged(relpaths, trees, label_files, _each_image)
+            sharding.check_merged(relpaths, trees, label_files, _each_image, files_of=files_of)
             counts = sharding.merged_array("sum_counts", (len(trees), len(thresholds), 3))
         else:
             roots = tuple(tree.root for tree in trees)
@@ -118,7 +122,8 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
                                        unit="image"), np.zeros((len(trees), len(thresholds), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
-                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts})
+                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
+                                    files_of=files_of)
                 return None
         rows = []
         for m, tree in enumerate(trees):

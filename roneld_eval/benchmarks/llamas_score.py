@@ -162,8 +162,9 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                            if _given(pred_root) else ([], []))
         map_trees = _map_trees(maps, keys, announce) if _given(maps) else []
         scored_at = tuple(thresholds.values) + MF1_THRESHOLDS
+        files_of = _files_of(trees, map_trees)
         if merged is not None:
-            sharding.check_merged(keys, [*trees, *map_trees], list(found.values()), _recording)
+            sharding.check_merged(keys, [*trees, *map_trees], list(found.values()), _recording, files_of=files_of)
             counts = sharding.merged_array("sum_counts", (len(trees), len(scored_at), 3))
             dropped = int(sharding.merged_array("sum_dropped", (1,))[0])
             refused = sharding.merged_array("sum_refused", (len(trees),))
@@ -189,7 +190,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                 assert folder is not None
                 sharding.write_part(folder, keys, [*trees, *map_trees], list(found.values()), scored, {
                     "sum_counts": counts, "sum_dropped": np.array([dropped], np.int64), "sum_refused": refused,
-                    "cat_curves": curves})
+                    "cat_curves": curves}, files_of=files_of)
                 return None
         segmentation = {}
         for m, tree in enumerate(map_trees):  # the frames in key order: the mean summed as evaluate_set sums it
@@ -232,6 +233,16 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
 
 def _given(roots: PredictionRoots) -> bool:
     return isinstance(roots, (str, Path)) or bool(roots)
+
+
+def _files_of(trees: list, map_trees: list):
+    """The files a frame is read from in each of the trees, then each of the map trees."""
+    def files_of(m: int, key: str) -> list[Path]:
+        if m < len(trees):
+            return [prediction_path(trees[m].root, key)]
+        return [map_path(map_trees[m - len(trees)].root, key, c) for c in range(1, len(CLASSES) + 1)]
+
+    return files_of
 
 
 def _map_trees(maps: PredictionRoots, keys: list[str], announce) -> list:

@@ -95,8 +95,12 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                               f"{json_path(labels, relpaths[0])})")
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
         label_files = [json_path(labels, relpath) for relpath in relpaths]
+
+        def files_of(m: int, relpath: str) -> tuple[Path]:
+            return (json_path(trees[m].root, relpath),)
+
         if merged is not None:
-            sharding.check_merged(relpaths, trees, label_files, posixpath.dirname)
+            sharding.check_merged(relpaths, trees, label_files, posixpath.dirname, files_of=files_of)
             counts = sharding.merged_array("sum_counts", (len(trees), len(modes), len(thresholds.values), 3))
         else:
             roots = tuple(tree.root for tree in trees)
@@ -108,7 +112,8 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                          np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
-                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts})
+                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
+                                    files_of=files_of)
                 return None
         rows = []
         for m, tree in enumerate(trees):

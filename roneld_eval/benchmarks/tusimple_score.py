@@ -36,7 +36,7 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
         gts = read_labels(labels)
         keys, files = list(gts), [Path(labels), Path(pred)]
         if merged is not None:
-            sharding.check_merged(keys, [], files, posixpath.dirname)
+            sharding.check_merged(keys, [], files, posixpath.dirname, files_of=None)  # pred: among `files`
             lines, _ = frame_scores(labels, pred, gts, checked_only=True)  # every line checked, none scored
             taken = sharding.merged_array("cat_line", (len(gts),), "i")
             # FP is below 0 where several labelled lanes match one prediction
@@ -52,7 +52,7 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
                 assert folder is not None
                 sharding.write_part(folder, keys, [], files, share,
                                     {"cat_line": np.array(lines, np.int64),
-                                     "cat_scores": np.array(scores, np.float64).reshape(-1, 3)})
+                                     "cat_scores": np.array(scores, np.float64).reshape(-1, 3)}, files_of=None)
                 return None
         score = mean_scores(scores, len(gts))
         if folder is not None:

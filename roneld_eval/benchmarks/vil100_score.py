@@ -135,14 +135,18 @@ PRED_FORMATS = ("lines", "png")  # .lines.txt, or MMA-Net's instance masks (maps
 _SUFFIXES = {"lines": ".lines.txt", "png": ".png"}
 
 
+def _prediction_path(root: Path, relpath: str, pred_format: str) -> Path:
+    return under_root(root, f"{image_stem(relpath)}{_SUFFIXES[pred_format]}")
+
+
 def _read_predictions(root: Path, relpath: str, pred_format: str):
     """(lanes, the instance mask's fits and height, or None for lane files)."""
+    path = _prediction_path(root, relpath, pred_format)
     if pred_format == "png":
         from ..maps.vil100_png import read_instance_png
 
-        mask = read_instance_png(under_root(root, f"{image_stem(relpath)}.png"))
+        mask = read_instance_png(path)
         return mask.lanes, mask
-    path = labels_path(root, relpath)
     predictions = read_culane_lines(path)
     check_coordinates(predictions, path)
     return predictions, None
@@ -218,8 +222,12 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                                "reads them")
         label_files = [labels_path(dataset.labels, relpath) for relpath in relpaths]
         sizes = {name: list(size) for name, size in dataset.sizes.items()}  # the shards must have read them too
+
+        def files_of(m: int, relpath: str) -> tuple[Path]:
+            return (_prediction_path(trees[m].root, relpath, pred_format),)
+
         if merged is not None:
-            sharding.check_merged(relpaths, trees, label_files, _sequence_of, sizes)
+            sharding.check_merged(relpaths, trees, label_files, _sequence_of, sizes, files_of=files_of)
             totals = _merged_totals(sharding, dataset, len(trees), len(thresholds.values), len(versions))
         else:
             share = set(sharding.share(relpaths, _sequence_of))
@@ -236,7 +244,8 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                 assert folder is not None
                 sharding.write_part(folder, relpaths, trees, label_files,
                                     [r for name in names for r in dataset.sequences[name]],
-                                    _part_arrays(totals, len(trees), len(thresholds.values), len(versions)), sizes)
+                                    _part_arrays(totals, len(trees), len(thresholds.values), len(versions)), sizes,
+                                    files_of=files_of)
                 return None
         warnings += _size_warnings(dataset, totals, trees)
         methods = tuple(tree.method for tree in trees)
