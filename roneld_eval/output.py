@@ -42,6 +42,10 @@ STAGING_PREFIX = ".staging-"
 TRASH_PREFIX = ".trash-"
 MANIFEST_FORMAT = "roneld-eval output folder"
 
+# The command whose folders may sit inside another command's (`show`'s pictures, in RUN/show by
+# default, or wherever --out puts them): never foreign there.
+PICTURES_COMMAND = "show"
+
 # Entries of the tool's own bookkeeping: never results, never foreign.
 _OWN_NAMES = {MANIFEST, LOCK, JOURNAL, CACHE, MANIFEST + ".tmp", JOURNAL + ".tmp"}
 
@@ -343,8 +347,9 @@ class OutputFolder:
                 continue
             if self._is_nested(entry):
                 nested.append(entry.name)
-            else:
+            elif not _written_by(entry, PICTURES_COMMAND):
                 foreign.append(entry.name)
+            # else: pictures `show --out` put here (of some run, not of these results): left as they are
         foreign.sort()
         if foreign:
             raise InputError(self.path, f"holds files roneld-eval did not write ({_first_names(foreign)}): results go "
@@ -394,14 +399,7 @@ class OutputFolder:
 
     def _is_nested(self, entry: Path) -> bool:
         command = self.nested.get(entry.name)
-        if command is None or not entry.is_dir() or entry.is_symlink():
-            return False
-        try:
-            # A nested command killed in its first commit left a journal and no manifest yet.
-            record = read_manifest(entry) or read_journal(entry)
-        except InputError:
-            return False
-        return record is not None and record["command"] == command
+        return command is not None and _written_by(entry, command)
 
     # ---- writing ------------------------------------------------------------------------
 
@@ -473,6 +471,18 @@ class OutputFolder:
         os.unlink(self.path / JOURNAL)
         _remove(trash)
         _remove(staging)
+
+
+def _written_by(entry: Path, command: str) -> bool:
+    """Whether `entry` is a folder (not a link) that `roneld-eval <command>` wrote."""
+    if not entry.is_dir() or entry.is_symlink():
+        return False
+    try:
+        # A command killed in its first commit left a journal and no manifest yet.
+        record = read_manifest(entry) or read_journal(entry)
+    except InputError:
+        return False
+    return record is not None and record["command"] == command
 
 
 def _journal_mac(plan: dict) -> str:

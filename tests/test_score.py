@@ -270,6 +270,25 @@ def test_a_foreign_out_is_refused_before_any_scoring(lanes, tmp_path, monkeypatc
     assert [p.name for p in out.iterdir()] == ["thesis.tex"]
 
 
+def test_a_show_folder_in_a_score_folder_is_roneld_evals_own_not_foreign(lanes, fixture_run, tmp_path):
+    # `show --run RUN --out SCORES/show` beside a score's files made the next score into SCORES
+    # refuse the folder as holding "files roneld-eval did not write (show)".
+    gt, pred = lanes
+    scores = tmp_path / "scores"
+    args = ["score", "culane", "--data-root", gt, "--pred-root", pred, "--workers", 1, "--quiet", "--out", scores]
+    assert invoke(*args).exit_code == 0
+    _, run = fixture_run
+    shown = invoke("show", "--run", run, "--worst", 1, "--out", scores / "show")
+    assert shown.exit_code == 0, shown.output
+    pictures = sorted(p.relative_to(scores) for p in (scores / "show").rglob("*.png"))
+    result = invoke(*args)
+    assert result.exit_code == 0, result.output
+    assert sorted(p.relative_to(scores) for p in (scores / "show").rglob("*.png")) == pictures  # left as they were
+    (scores / "notes").mkdir()  # a folder of the user's still is foreign
+    result = invoke(*args)
+    assert result.exit_code == 2 and "holds files roneld-eval did not write (notes)" in result.output, result.output
+
+
 def test_the_cli_presets_are_the_librarys():
     command = main.commands["score"].get_command(None, "culane")
     preset = next(p for p in command.params if p.name == "preset")
