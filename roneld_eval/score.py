@@ -12,7 +12,7 @@ import math
 import os
 import posixpath
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterator, Union
 
@@ -43,6 +43,9 @@ class PredictionTree:
     root: Path
     found: int
     listed: int
+    # Which listed files were there when the command looked (None where it did not look: a merge's
+    # record): a file missing when scored is no lanes only if it was missing then too.
+    seen: _Seen | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -77,31 +80,35 @@ def _csv_cell(value) -> object:
 
 
 class _ListedFiles:
-    """The `.lines.txt` names the list asks for, grouped by folder, to count them under any root
+    """The `.lines.txt` names the list asks for, grouped by folder, to find them under any root
     with one directory listing per folder (34,680 frames: 419 listings, not 34,680 stats)."""
 
     def __init__(self, relpaths: Sequence[str], suffix: str = ".lines.txt"):
         self.relpaths = relpaths
         self.suffix = suffix
-        self.by_folder: dict[str, list[str]] = {}
-        for relpath in relpaths:
+        self.by_folder: dict[str, list[tuple[int, str]]] = {}
+        for k, relpath in enumerate(relpaths):
             label = f"{image_stem(relpath)}{suffix}"
             # The name as the disk spells it, as under_root spells paths (UTF-8 whatever the locale).
             name = os.fsdecode(posixpath.basename(label).encode("utf-8", "surrogateescape"))
-            self.by_folder.setdefault(posixpath.dirname(label), []).append(name)
+            self.by_folder.setdefault(posixpath.dirname(label), []).append((k, name))
 
-    def count(self, root: Path) -> int:
-        found = 0
+    def present(self, root: Path) -> np.ndarray:
+        """Which of the listed files are under `root` now, in list order."""
+        there = np.zeros(len(self.relpaths), bool)
         for folder, names in self.by_folder.items():
             try:
-                present = set(os.listdir(under_root(root, folder) if folder else root))
+                listing = set(os.listdir(under_root(root, folder) if folder else root))
             except (FileNotFoundError, NotADirectoryError):
                 continue
             except OSError:
-                found += len(names)  # there but unreadable: reading the files names the problem
-                continue
-            found += sum(name in present for name in names)
-        return found
+                listing = None  # there but unreadable: reading the files names the problem
+            for k, name in names:
+                there[k] = listing is None or name in listing
+        return there
+
+    def count(self, root: Path) -> int:
+        return int(np.count_nonzero(self.present(root)))
 
     def first_missing(self, root: Path) -> Path:
         for relpath in self.relpaths:
@@ -112,6 +119,33 @@ class _ListedFiles:
 
     def path(self, root: Path, relpath: str) -> Path:
         return under_root(root, f"{image_stem(relpath)}{self.suffix}")
+
+
+@dataclass(frozen=True, eq=False)
+class _Seen:
+    """The listed files a tree held when the command looked."""
+
+    files: _ListedFiles
+    present: np.ndarray
+
+    def vanished(self, root: Path) -> Path | None:
+        """The first file that was there and is not now, or the root itself when it is gone."""
+        if not root.is_dir():
+            return root
+        gone = np.flatnonzero(self.present & ~self.files.present(root))
+        return self.files.path(root, self.files.relpaths[gone[0]]) if len(gone) else None
+
+
+def check_still_there(trees: Sequence[PredictionTree]) -> None:
+    """Refuse the scores where a prediction root, or a file in it, that was there when the command
+    looked is gone now (a clean-up script removing old checkpoints while a sweep scores them): its
+    frames were scored as frames without lanes, and the tables would say the file was there."""
+    for tree in trees:
+        gone = tree.seen.vanished(tree.root) if tree.seen is not None else None
+        if gone is not None:
+            what = "this prediction root" if gone == tree.root else "this prediction file"
+            raise InputError(gone, f"{what} was removed while the command scored it (it was there when the "
+                                   f"command looked): no result was written")
 
 
 def _subfolders(root: Path) -> list[Path]:
@@ -184,17 +218,18 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
         refuse_cut_short(root)  # `run --save-lanes` killed while putting lanes/ in place
         if not root.is_dir():
             raise InputError(root, "prediction root not found")
-        found = listed.count(root)
-        if found:
+        present = listed.present(root)
+        if present.any():
             # named as given (a link to a checkpoint keeps its own name), "." and ".." made absolute first
-            trees.append(PredictionTree(name or Path(os.path.abspath(root)).name, root, found, len(relpaths)))
+            trees.append(PredictionTree(name or Path(os.path.abspath(root)).name, root,
+                                        int(np.count_nonzero(present)), len(relpaths), _Seen(listed, present)))
             continue
         children, others = [], []
         for child in _subfolders(root):
-            count = listed.count(child)
-            if count:
-                children.append(PredictionTree(f"{name}/{child.name}" if name else child.name, child, count,
-                                               len(relpaths)))
+            present = listed.present(child)
+            if present.any():
+                children.append(PredictionTree(f"{name}/{child.name}" if name else child.name, child,
+                                               int(np.count_nonzero(present)), len(relpaths), _Seen(listed, present)))
             else:
                 others.append(child)
         if not children:
@@ -227,10 +262,11 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
 
 def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | None, progress: bool,
                   announce: Callable[[str], None] | None = None, kernel_groups: tuple[str, ...] = ("official",),
-                  unit: str = "frame") -> list:
+                  unit: str = "frame", trees: Sequence[PredictionTree] = ()) -> list:
     """`function` over tasks whose first item is their frames, in order: in worker processes for
     more than one task (all cores unless `workers`), else here; a progress bar counts frames.
-    The kernels are compiled once here first, not in every worker."""
+    The kernels are compiled once here first, not in every worker. The prediction `trees` read
+    are checked to hold, once scored, every file they held when the command looked."""
     from . import kernels
     from .progress import progress_bar
 
@@ -254,6 +290,7 @@ def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | Non
             for task in tasks:
                 pieces.append(function(task))
                 bar.update(len(task[0]))
+    check_still_there(trees)
     return pieces
 
 
@@ -277,4 +314,5 @@ def percent(value: float) -> str:
     return "n/a" if np.isnan(value) else f"{100 * value:.2f}"
 
 
-__all__ = ["PlainTable", "PredictionTree", "find_prediction_trees", "scored_pieces", "percent"]
+__all__ = ["PlainTable", "PredictionTree", "check_still_there", "find_prediction_trees", "scored_pieces",
+           "percent"]

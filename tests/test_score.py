@@ -222,6 +222,56 @@ def test_a_predicted_coordinate_beyond_float32_integers_is_named(lanes, tmp_path
     assert invoke("score", "culane", "--data-root", gt, "--pred-root", copy, "--quiet", "--workers", 1).exit_code == 0
 
 
+def _scoring_command(tmp_path, benchmark: str) -> tuple[list, Path]:
+    """A small set of `benchmark` and the command that scores it, with its one prediction root."""
+    if benchmark == "vil100":
+        golden = GOLDEN / "vil100"
+        sizes = json.loads((golden / "test_sizes.json").read_text())
+        root = tmp_path / "vil"
+        for sequence in sorted(sizes)[:2]:
+            for part in ("anno_txt", "pred_txt"):
+                shutil.copytree(golden / part / sequence, root / part / sequence)
+        (root / "sizes.json").write_text(json.dumps(sizes))
+        return (["score", "vil100", "--labels", root / "anno_txt", "--pred-root", root / "pred_txt", "--sizes",
+                 root / "sizes.json"], root / "pred_txt")
+    extra = ["--maps-format", "lanes"] if benchmark == "culane" else []
+    result = invoke("synth", "--dataset", benchmark, "--out", tmp_path / "set", "--clips", 2, "--frames", 3, *extra)
+    assert result.exit_code == 0, result.output
+    if benchmark == "culane":
+        return ["score", "culane", "--data-root", tmp_path / "set" / "data", "--pred-root",
+                tmp_path / "set" / "maps"], tmp_path / "set" / "maps"
+    command = next(line.split("roneld-eval ", 1)[1] for line in result.output.splitlines()
+                   if "roneld-eval score" in line)
+    return command.split(), tmp_path / "set" / "predictions"
+
+
+@pytest.mark.parametrize("benchmark", ["culane", "vil100", "openlane", "curvelanes", "llamas"])
+@pytest.mark.parametrize("removed", ["root", "file"])
+def test_a_prediction_root_or_file_removed_while_scoring_is_an_error_naming_it(tmp_path, monkeypatch, benchmark,
+                                                                                removed):
+    # A clean-up script removing old checkpoints while `score culane --pred-root 'ck/epoch_*'` ran:
+    # the removed epoch was scored F1 0, exit 0, its summary.md saying every frame had a file.
+    import importlib
+
+    args, root = _scoring_command(tmp_path, benchmark)
+    scorer = importlib.import_module(f"roneld_eval.benchmarks.{benchmark}_score")
+    looked = scorer.find_prediction_trees
+    suffix = {"openlane": ".json", "curvelanes": ".lines.json"}.get(benchmark, ".lines.txt")
+    victim = root if removed == "root" else sorted(root.rglob(f"*{suffix}"))[-1]
+
+    def then_removed(*given, **options):  # the command has looked: the root goes before it scores
+        found = looked(*given, **options)
+        shutil.rmtree(victim) if victim.is_dir() else victim.unlink()
+        return found
+
+    monkeypatch.setattr(scorer, "find_prediction_trees", then_removed)
+    result = invoke(*args, "--workers", 1, "--quiet", "--out", tmp_path / "scores")
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert result.output.startswith(f"error: {victim}: this prediction {removed} was removed while the command "
+                                    "scored it"), result.output
+    assert not (tmp_path / "scores").exists()  # nothing written
+
+
 # ---- the command line ------------------------------------------------------------------------
 
 

@@ -49,7 +49,8 @@ if TYPE_CHECKING:
 
     from ..metrics.raster import MaskSet
 
-from ..score import PlainTable, PredictionRoots, PredictionTree, _taking, find_prediction_trees, percent
+from ..score import (PlainTable, PredictionRoots, PredictionTree, _taking, check_still_there, find_prediction_trees,
+                     percent)
 
 
 @dataclass(frozen=True)
@@ -261,6 +262,7 @@ def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int
                 piece = _score_frames(task)
                 bar.update(len(chunk))
                 yield _piece(chunk, piece, kept)
+    check_still_there(trees)  # before the last piece is taken in: nothing is written yet
 
 
 def _piece(chunk: list[str], piece: tuple, kept: list[TruthRuns] | None) -> ScoredFrames:

@@ -119,7 +119,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
             tasks = [(chunk, labels, images, roots, thresholds) for chunk in chunks]
             counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(),
-                                       unit="image"), np.zeros((len(trees), len(thresholds), 3), np.int64))
+                                       unit="image", trees=trees), np.zeros((len(trees), len(thresholds), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
                 sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},

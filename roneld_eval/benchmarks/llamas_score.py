@@ -177,7 +177,8 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
             tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width, map_roots)
                      for chunk in chunks]
-            pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=())
+            pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(),
+                                   trees=[*trees, *map_trees])
             counts = sum((piece[0] for piece in pieces), np.zeros((len(trees), len(scored_at), 3), np.int64))
             dropped = int(sum(piece[1] for piece in pieces))
             refused = sum((piece[2] for piece in pieces), np.zeros(len(trees), np.int64))

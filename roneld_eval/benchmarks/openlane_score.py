@@ -108,7 +108,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
             tasks = [(chunk, labels, roots, IMAGE_WIDTH, IMAGE_HEIGHT, width, modes, thresholds.values)
                      for chunk in chunks]
-            counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce),
+            counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, trees=trees),
                          np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None

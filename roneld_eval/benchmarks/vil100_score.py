@@ -237,7 +237,8 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                       pred_format) for name in names]
             # instance masks are mostly decoded by the PNG maps' kernel (maps.vil100_png)
             groups = ("official", "maps") if pred_format == "png" else ("official",)
-            scored = scored_pieces(_score_sequence, tasks, workers, progress, announce, kernel_groups=groups)
+            scored = scored_pieces(_score_sequence, tasks, workers, progress, announce, kernel_groups=groups,
+                                   trees=trees)
             totals = [sequence_totals(piece, dataset.sequences[name], thresholds, temporal, versions)
                       for name, piece in zip(names, scored)]
             if sharding.shard is not None:
