@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import glob
 import math
+import os
 import re
 import textwrap
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Mapping, NamedTuple, Sequence
 
 from .errors import ConfigError, InputError
 
@@ -18,35 +19,63 @@ _WILDCARD = re.compile(r"[*?\[]")
 SWEEP_FORMAT = "roneld-eval sweep"
 
 
+class Checkpoint(NamedTuple):
+    """A prediction root of a checkpoint sweep (a glob's match, a line of a list file): its name
+    (None: named by what tells its path apart from the sweep's other checkpoints) and folder."""
+
+    name: str | None
+    folder: str
+
+
 def expand_roots(specs: Sequence) -> list:
     """--pred-root values with glob patterns replaced by the folders they match, sorted in natural
-    order, each as a (name, folder) pair, the name the parts of its path the wildcards matched
-    ('seed3/epoch_40'). Any other value (an existing path, NAME=DIR, a pair) is kept as it is; a
+    order, each a Checkpoint; then every unnamed Checkpoint (a list file's too) named by
+    `checkpoint_names`. Any other value (an existing path, NAME=DIR, a pair) is kept as it is; a
     pattern matching no folder is an error."""
     out: list = []
     for spec in specs:
-        if isinstance(spec, (tuple, list)):
-            out.append(spec)
-            continue
         text = str(spec)
-        if not _WILDCARD.search(text) or Path(text).exists():
+        if isinstance(spec, (tuple, list)) or not _WILDCARD.search(text) or Path(text).exists():
             out.append(spec)
             continue
         matches = sorted((Path(m) for m in glob.glob(text) if Path(m).is_dir()), key=lambda p: natural_key(str(p)))
         if not matches:
             raise InputError(Path(text), "no folder matches this pattern")
-        pattern = Path(text).parts
-        for match in matches:
-            parts = match.parts
-            name = "/".join(part for wanted, part in zip(pattern, parts) if _WILDCARD.search(wanted))
-            out.append((name, str(match)))
-    return out
+        out += [Checkpoint(None, str(match)) for match in matches]
+    names = checkpoint_names([spec.folder for spec in out if isinstance(spec, Checkpoint)])
+    return [spec._replace(name=spec.name or names[spec.folder]) if isinstance(spec, Checkpoint) else spec
+            for spec in out]
+
+
+def is_sweep(specs: Sequence) -> bool:
+    """Whether prediction roots hold a checkpoint sweep (a glob, a list file), not only methods."""
+    return any(isinstance(spec, Checkpoint) for spec in specs)
+
+
+def checkpoint_names(folders: Sequence[str]) -> dict[str, str]:
+    """Each folder's name in its sweep: the parts of its path between those all the sweep's
+    folders share at the start and at the end ('work_dirs/epoch_12/lines' among other epochs:
+    'epoch_12'; 'seed3/epoch_40' where seeds differ too), however the folders were given (a glob,
+    a list file, relative or absolute paths); a sweep of one folder: its folder's name. Distinct
+    folders get distinct names: they share the parts left out."""
+    paths = {folder: Path(os.path.abspath(folder)).parts for folder in folders}  # links not followed
+    if not paths:
+        return {}
+    distinct = set(paths.values())
+    shortest = min(len(parts) for parts in distinct)
+    lead = 0
+    while lead < shortest - 1 and len({parts[lead] for parts in distinct}) == 1:
+        lead += 1
+    trail = 0
+    while trail < shortest - lead - 1 and len({parts[-1 - trail] for parts in distinct}) == 1:
+        trail += 1
+    return {folder: "/".join(parts[lead:len(parts) - trail]) for folder, parts in paths.items()}
 
 
 def roots_from_file(path: str | Path) -> list:
     """A list file of prediction roots: one 'DIR' or 'NAME=DIR' a line ('#' comment lines and blank
-    lines skipped), as (name, folder) pairs; a relative DIR is relative to the file's folder, and
-    names the root as written there ('epoch_1/lines'; an absolute DIR: its folder's name)."""
+    lines skipped), each a Checkpoint; a relative DIR is relative to the file's folder, and a DIR
+    without a name is named as a glob's match is (`expand_roots`)."""
     from .lanes_io import read_text
 
     path = Path(path)
@@ -63,8 +92,7 @@ def roots_from_file(path: str | Path) -> list:
             equals, folder = "", line
         folder = folder.strip() if equals else line
         where = Path(folder) if Path(folder).is_absolute() else path.parent / folder
-        label = name.strip() if equals else (None if Path(folder).is_absolute() else folder.rstrip("/"))
-        roots.append((label, str(where)))
+        roots.append(Checkpoint(name.strip() if equals else None, str(where)))
     if not roots:
         raise ConfigError(f"{path}: lists no prediction root")
     return roots

@@ -867,7 +867,7 @@ def test_a_score_folder_that_is_no_sweep_says_what_compare_takes_of_score(tmp_pa
     result = CliRunner().invoke(main, ["compare", str(tmp_path / "one"), "--out", str(tmp_path / "c")])
     assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
     assert ("(`roneld-eval score culane` wrote it); compare takes a folder of `score` only as a checkpoint sweep, "
-            "which it writes (sweep.csv) when given several prediction roots") in result.output
+            "which it writes (sweep.csv) when given several checkpoints (a glob, --pred-roots-from)") in result.output
 
 
 def _coloured_runs(row) -> int:

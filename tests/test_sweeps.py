@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from roneld_eval.cli import main
-from roneld_eval.sweeps import checkpoint_number, expand_roots, natural_key, sweep_table
+from roneld_eval.sweeps import checkpoint_names, checkpoint_number, expand_roots, natural_key, sweep_table
 
 EPOCHS = (1, 2, 5, 10, 20, 40)
 
@@ -65,10 +65,56 @@ def test_a_list_file_names_the_roots(checkpoints, tmp_path):
     result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-roots-from", listing,
                      "--out", tmp_path / "o", "--quiet")
     assert result.exit_code == 0, result.output
-    assert [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")] == ["late", "epoch_2/lines"]  # as written
+    assert [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")] == ["late", "epoch_2"]  # as a glob's
     listing.write_text("=nothing\n")
     result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-roots-from", listing)
     assert result.exit_code == 2 and f"{listing}:1:" in result.output
+
+
+def test_checkpoints_are_named_alike_from_a_glob_or_a_list_file(checkpoints, tmp_path):
+    # A glob named a checkpoint epoch_12, --pred-roots-from named the same folder epoch_12/lines
+    # (or, absolute, "lines": every checkpoint alike, a clash).
+    data = checkpoints / "set" / "data"
+    result = _invoke("score", "culane", "--data-root", data, "--pred-root", checkpoints / "ckpt" / "epoch_*" / "lines",
+                     "--out", tmp_path / "glob", "--quiet")
+    assert result.exit_code == 0, result.output
+    named = [row["method"] for row in _rows(tmp_path / "glob" / "sweep.csv")]
+    assert named == [f"epoch_{e}" for e in EPOCHS]
+    relative, absolute = checkpoints / "ckpt" / "relative.txt", tmp_path / "absolute.txt"
+    relative.write_text("".join(f"epoch_{e}/lines\n" for e in EPOCHS))
+    absolute.write_text("".join(f"{checkpoints / 'ckpt' / f'epoch_{e}' / 'lines'}/\n" for e in EPOCHS))
+    for listing in (relative, absolute):
+        out = tmp_path / listing.stem
+        result = _invoke("score", "culane", "--data-root", data, "--pred-roots-from", listing, "--out", out, "--quiet")
+        assert result.exit_code == 0, result.output
+        assert [row["method"] for row in _rows(out / "sweep.csv")] == named
+        assert (out / "sweep.csv").read_bytes() == (tmp_path / "glob" / "sweep.csv").read_bytes()
+    # several seeds' epochs, given both ways at once: what tells them apart, seed and epoch
+    seed2 = checkpoints / "seed2"  # beside ckpt/
+    seed2.mkdir(exist_ok=True)
+    if not (seed2 / "epoch_40").exists():
+        (seed2 / "epoch_40").symlink_to(checkpoints / "ckpt" / "epoch_40")
+    result = _invoke("score", "culane", "--data-root", data, "--pred-root", seed2 / "epoch_*" / "lines",
+                     "--pred-roots-from", absolute, "--out", tmp_path / "both", "--quiet")
+    assert result.exit_code == 0, result.output
+    assert sorted(row["method"] for row in _rows(tmp_path / "both" / "sweep.csv")) == sorted(
+        [f"ckpt/epoch_{e}" for e in EPOCHS] + ["seed2/epoch_40"])
+
+
+def test_several_named_methods_are_methods_not_a_sweep(checkpoints, tmp_path):
+    # `--pred-root ours=A --pred-root theirs=B` was announced as a checkpoint sweep ("best by F1@50
+    # over all frames: ours (sweep.csv, sweep.png in OUT)") and compare took its folder for one.
+    data = checkpoints / "set" / "data"
+    result = _invoke("score", "culane", "--data-root", data, "--pred-root",
+                     f"ours={checkpoints / 'ckpt' / 'epoch_40' / 'lines'}", "--pred-root",
+                     f"theirs={checkpoints / 'ckpt' / 'epoch_1' / 'lines'}", "--out", tmp_path / "o")
+    assert result.exit_code == 0, result.output
+    assert "best by" not in result.output and "sweep" not in result.output, result.output
+    assert sorted(p.name for p in (tmp_path / "o").iterdir() if not p.name.startswith(".")) == \
+        ["official.csv", "summary.csv", "summary.md"]
+    assert {row["method"] for row in _rows(tmp_path / "o" / "summary.csv")} == {"ours", "theirs"}
+    result = _invoke("compare", tmp_path / "o", "--out", tmp_path / "c")
+    assert result.exit_code == 2 and "only as a checkpoint sweep" in result.output, result.output
 
 
 def test_a_pattern_matching_nothing_or_no_root_at_all_is_refused(checkpoints, tmp_path):
@@ -85,15 +131,25 @@ def test_names_and_order():
     table, best = sweep_table(["b", "a"], ["F1"], {"a": [0.5], "b": [0.5]})
     assert [row[0] for row in table.rows] == ["b", "a"] and best == "b"  # unnumbered: as given; ties: the first
     assert expand_roots(["x=y", "plain"]) == ["x=y", "plain"]
+    assert checkpoint_names(["w/e1/lines", "w/e2/lines", "w/s3/e2/lines"]) == {
+        "w/e1/lines": "e1", "w/e2/lines": "e2", "w/s3/e2/lines": "s3/e2"}
+    assert checkpoint_names(["w/e1/lines"]) == {"w/e1/lines": "lines"}  # nothing to tell apart: its folder's name
+    assert checkpoint_names(["w/e1", "w/e1/more"]) == {"w/e1": "e1", "w/e1/more": "e1/more"}
 
 
 def test_a_linked_root_is_named_by_the_link_not_its_target(checkpoints, tmp_path):
+    (tmp_path / "links").mkdir()
     for name in ("best", "last"):
-        (tmp_path / name).symlink_to(checkpoints / "ckpt" / "epoch_40" / "lines")
-    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-root", tmp_path / "best",
-                     "--pred-root", tmp_path / "last", "--out", tmp_path / "o", "--quiet")
+        (tmp_path / "links" / name).symlink_to(checkpoints / "ckpt" / "epoch_40" / "lines")
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-root",
+                     tmp_path / "links" / "best", "--pred-root", tmp_path / "links" / "last", "--out", tmp_path / "o",
+                     "--quiet")
     assert result.exit_code == 0, result.output  # both targets are called "lines": named so, they would clash
-    assert [row["method"] for row in _rows(tmp_path / "o" / "sweep.csv")] == ["best", "last"]
+    assert list(dict.fromkeys(row["method"] for row in _rows(tmp_path / "o" / "summary.csv"))) == ["best", "last"]
+    result = _invoke("score", "culane", "--data-root", checkpoints / "set" / "data", "--pred-root",
+                     tmp_path / "links" / "*", "--out", tmp_path / "s", "--quiet")
+    assert result.exit_code == 0, result.output  # a sweep of the links: the same names
+    assert [row["method"] for row in _rows(tmp_path / "s" / "sweep.csv")] == ["best", "last"]
 
 
 def test_globs_of_several_wildcards_and_folders_named_with_equals_signs(checkpoints, tmp_path):
@@ -180,7 +236,7 @@ def test_a_best_among_a_runs_lanes_says_what_ego_lanes_only_means(fixture_run, t
 
     _, run = fixture_run
     data, _ = fixture_roots("culane")
-    result = _invoke("score", "culane", "--data-root", data, "--pred-root", run / "lanes")
+    result = _invoke("score", "culane", "--data-root", data, "--pred-root", run / "lanes" / "*")
     assert result.exit_code == 0, result.output
     assert "best by F1@50 over all frames: baseline" in result.output
     assert ("note: roneld and roneld-nopft output the two ego lanes only: F1 over all lanes counts the outer lanes "
@@ -188,6 +244,8 @@ def test_a_best_among_a_runs_lanes_says_what_ego_lanes_only_means(fixture_run, t
     only = _invoke("score", "culane", "--data-root", data, "--pred-root", f"a={run / 'lanes' / 'roneld'}",
                    "--pred-root", f"b={run / 'lanes' / 'baseline'}")
     assert only.exit_code == 0 and "note:" not in only.output, only.output  # named as the user chose
+    methods = _invoke("score", "culane", "--data-root", data, "--pred-root", run / "lanes")
+    assert methods.exit_code == 0 and "best by" not in methods.output, methods.output  # methods, not checkpoints
 
 
 def test_the_sweep_figure_says_what_ego_lanes_only_means(monkeypatch, tmp_path):

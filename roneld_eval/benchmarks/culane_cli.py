@@ -17,12 +17,14 @@ from ..cli import OUT_FOLDER, _announcer, _guard, _no_collections_at_exit, debug
 @click.option("--pred-root", "pred_roots", multiple=True, metavar="DIR|NAME=DIR|PATTERN",
               help="Predicted .lines.txt files mirrored under DIR (one method, named by the folder or NAME), or "
                    "a folder whose subfolders each mirror the list (one method each, as run --save-lanes writes "
-                   "OUT/lanes/), or a quoted glob ('ckpt/epoch_*/lines': one method per folder, named by what the "
-                   "wildcards matched). Repeatable; all are scored in one pass. A missing file means no lanes.")
+                   "OUT/lanes/), or a quoted glob ('ckpt/epoch_*/lines': a checkpoint sweep, one checkpoint per "
+                   "folder, named by what tells its path apart: epoch_12). Repeatable; all are scored in one pass. "
+                   "A missing file means no lanes.")
 @click.option("--pred-roots-from", "roots_file", type=click.Path(path_type=Path),
-              help="A file listing prediction roots, DIR or NAME=DIR a line (relative to the file), added to "
-                   "--pred-root. With several methods, sweep.csv and sweep.png give each one's F1 over all "
-                   "frames and name the best (sweep.json: on what; `roneld-eval compare` reads sweeps).")
+              help="A file listing checkpoints' prediction roots, DIR or NAME=DIR a line (relative to the file; "
+                   "named as a glob's folders), added to --pred-root. With several checkpoints (from a glob or this "
+                   "file), sweep.csv and sweep.png give each one's F1 over all frames and name the best (sweep.json: "
+                   "on what; `roneld-eval compare` reads sweeps).")
 @click.option("--list", "list_file", type=click.Path(path_type=Path),
               help="List file (default <data-root>/list/test.txt).")
 @click.option("--iou", metavar="T|START:STOP:STEP",
@@ -63,7 +65,7 @@ def score_culane_command(data_root, pred_roots, roots_file, list_file, iou, pres
         click.echo(warning, err=True)
     if not quiet:
         _print_culane_score(score, width)
-        if len(score.trees) > 1:
+        if score.sweep and len(score.trees) > 1:
             from .culane_score import culane_sweep
 
             _, best = culane_sweep(score)

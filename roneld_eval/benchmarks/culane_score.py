@@ -91,6 +91,7 @@ class CulaneScore:
     n_frames: int
     warnings: tuple[str, ...] = ()  # e.g. a root where fewer than half the listed frames have a file
     ground_truth: str = ""  # digest of the frames scored and their categories (sweep.json: what compare checks)
+    sweep: bool = False  # checkpoints (a glob, a list file), not methods: sweep.csv names the best
 
     @property
     def methods(self) -> tuple[str, ...]:
@@ -175,21 +176,24 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     """Score `.lines.txt` predictions with the official CULane protocol, every method in one pass.
 
     `pred_root`: a folder mirroring the list, a folder of such folders (one per method), or
-    several ('NAME=DIR' names one). `iou`: one threshold (default 0.5) or a grid scored in
-    one pass ('0.50:0.95:0.05'); `preset='clrnet'` is that grid with F1@50/F1@75/mF1.
+    several ('NAME=DIR' names one); a glob pattern, or sweeps.roots_from_file's roots, are
+    checkpoints, named by what tells their paths apart, whose sweep is written too. `iou`: one
+    threshold (default 0.5) or a grid scored in one pass ('0.50:0.95:0.05'); `preset='clrnet'`
+    is that grid with F1@50/F1@75/mF1.
     A missing prediction file means no lanes (`strict`: an error). `out` gets official.csv,
     summary.csv and summary.md; with `shard` ('I/N', see roneld_eval.shards) only that share
     of the clips is scored and `out` gets its part for `merge` (None is returned).
     """
     from ..shards import parse_shard, shard_range
 
-    from ..sweeps import expand_roots
+    from ..sweeps import expand_roots, is_sweep
 
     thresholds, highlighted = _thresholds(iou, preset)
     check_lane_width(width)
     share = parse_shard(shard) if shard is not None else None
-    if not isinstance(pred_root, Mapping):  # glob patterns: one method per folder matched
+    if not isinstance(pred_root, Mapping):  # glob patterns: one checkpoint per folder matched
         pred_root = expand_roots([pred_root] if isinstance(pred_root, (str, Path)) else list(pred_root))
+    sweep = not isinstance(pred_root, Mapping) and is_sweep(pred_root)
     if share is not None and out is None:
         raise ConfigError("--shard writes a partial result for `roneld-eval merge`: give --out")
     with _taking(out, "score culane", reads=(data_root, list_file)) as folder:
@@ -214,10 +218,11 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
             assert folder is not None
             joined = _joined(pieces, len(trees))
             _keep_truth(key, kept, say)
-            _write_culane_part(folder, share, joined, dataset, relpaths, trees, warnings, iou, preset, width, strict)
+            _write_culane_part(folder, share, joined, dataset, relpaths, trees, warnings, iou, preset, width, strict,
+                               sweep)
             return None
         score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings,
-                              _culane_ground_truth(relpaths, dataset.categories))
+                              _culane_ground_truth(relpaths, dataset.categories), sweep)
         _keep_truth(key, kept, say)
         if folder is not None:
             write_culane_score(folder, score, width)
@@ -290,7 +295,7 @@ def _joined(pieces: Iterable[ScoredFrames], n_methods: int) -> ScoredFrames:
 
 
 def _culane_score(pieces: Iterable[ScoredFrames], categories, thresholds: Thresholds, highlighted, trees,
-                  n_frames: int, warnings, ground_truth: str) -> CulaneScore:
+                  n_frames: int, warnings, ground_truth: str, sweep: bool) -> CulaneScore:
     """The tables from the frames' results, each piece added up and let go as it comes: every
     method's numbers in memory at once are counts, not per-frame IoUs."""
     methods = [tree.method for tree in trees]
@@ -301,16 +306,17 @@ def _culane_score(pieces: Iterable[ScoredFrames], categories, thresholds: Thresh
     summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
     return CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
                        PlainTable(tuple(summary_columns), tuple(summary)),
-                       thresholds, highlighted, tuple(trees), n_frames, tuple(warnings), ground_truth)
+                       thresholds, highlighted, tuple(trees), n_frames, tuple(warnings), ground_truth, sweep)
 
 
 def write_culane_score(folder: OutputFolder, score: CulaneScore, width: int) -> None:
-    """official.csv, summary.csv, summary.md; with several methods sweep.csv, sweep.json and sweep.png."""
+    """official.csv, summary.csv, summary.md; for a sweep of several checkpoints sweep.csv, sweep.json
+    and sweep.png."""
     staging = Staging(folder)
     staging.write_text("official.csv", score.official_rows.to_csv())
     staging.write_text("summary.csv", score.summary_rows.to_csv())
     staging.write_text("summary.md", summary_markdown(score, width))
-    if len(score.trees) > 1:
+    if score.sweep and len(score.trees) > 1:
         from ..sweeps import plot_sweep
 
         table, best = culane_sweep(score)
@@ -356,7 +362,7 @@ def _culane_ground_truth(relpaths: Sequence[str], categories: Mapping[str, froze
 
 
 def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, dataset, relpaths, trees, warnings,
-                       iou, preset, width: int, strict: bool) -> None:
+                       iou, preset, width: int, strict: bool, sweep: bool) -> None:
     from ..shards import PART_FORMAT, PART_VERSION, write_part
     from ..version import __version__
 
@@ -368,6 +374,7 @@ def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, datase
         "format": PART_FORMAT, "format_version": PART_VERSION, "command": "score culane", "version": __version__,
         "shard": [share.index, share.count],
         "settings": {"iou": None if iou is None else str(iou), "preset": preset, "width": width, "strict": strict,
+                     "sweep": sweep,
                      "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees],
                      "categories": list(dataset.categories), "frames": len(relpaths)},
         # the list and categories (what merge checks the parts' frames against) and the label files
@@ -405,11 +412,12 @@ def _culane_part_settings(part) -> dict:
         return type(value) is int and value >= 0
 
     good = (isinstance(settings, dict)
-            and set(settings) == {"iou", "preset", "width", "strict", "trees", "categories", "frames"}
+            and set(settings) == {"iou", "preset", "width", "strict", "sweep", "trees", "categories", "frames"}
             and (settings["iou"] is None or isinstance(settings["iou"], str))
             and settings["preset"] in (None, *SCORE_PRESETS)
             and type(settings["width"]) is int and 2 <= settings["width"] <= MAX_LINE_THICKNESS
-            and isinstance(settings["strict"], bool) and texts(settings["categories"]) and count(settings["frames"])
+            and isinstance(settings["strict"], bool) and isinstance(settings["sweep"], bool)
+            and texts(settings["categories"]) and count(settings["frames"])
             and isinstance(settings["trees"], list) and texts(warnings)
             and all(isinstance(t, list) and len(t) == 4 and isinstance(t[0], str) and isinstance(t[1], str)
                     and count(t[2]) and count(t[3]) for t in settings["trees"]))
@@ -454,7 +462,7 @@ def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
     scored = ScoredFrames(tuple(frames), np.concatenate(n_gt), np.concatenate(n_pred, axis=1),
                           np.concatenate(matched, axis=1))
     score = _culane_score([scored], categories, thresholds, highlighted, trees, settings["frames"], first["warnings"],
-                          first["list"])
+                          first["list"], settings["sweep"])
     with _taking(out, "score culane") as folder:
         assert folder is not None
         write_culane_score(folder, score, settings["width"])

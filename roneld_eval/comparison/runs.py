@@ -82,7 +82,7 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
 
     folder = Path(path)
     check_finished_run(folder, "; compare takes a folder of `score` only as a checkpoint sweep, which it writes "
-                               "(sweep.csv) when given several prediction roots")
+                               "(sweep.csv) when given several checkpoints (a glob, --pred-roots-from)")
     manifest = read_manifest(folder, INPUT_RUN_REMEDY)
     assert manifest is not None  # check_finished_run refuses a folder without one
     entries = manifest["entries"]
