@@ -21,6 +21,7 @@ from typing import Any, Iterable, Literal, overload
 import numpy as np
 
 from .errors import InputError
+from .json_fields import RepeatedKey, is_finite_number, loads
 from .limits import JSON_LINES, LANES, TEXT, SizeLimit
 from .model import Lane
 
@@ -161,9 +162,11 @@ def decode_text(data: bytes, path) -> str:
 def parse_json(data: bytes | str, path, not_json: str, kind: str) -> Any:
     """A JSON file's value, or an InputError naming it: '<not_json>: <error>' for bytes that are
     not UTF-8 JSON, '<kind>: nested too deeply' where Python's parser runs out of stack (an
-    untrusted file may nest a million brackets)."""
+    untrusted file may nest a million brackets), the key where an object names one twice."""
     try:
-        return json.loads(data.decode("utf-8") if isinstance(data, bytes) else data)
+        return loads(data.decode("utf-8") if isinstance(data, bytes) else data)
+    except RepeatedKey as error:
+        raise InputError(path, str(error)) from None
     except (UnicodeDecodeError, ValueError) as error:
         raise InputError(path, f"{not_json}: {error}") from None
     except RecursionError:
@@ -219,6 +222,7 @@ def parse_culane_lines(text: str, path) -> tuple[Lane, ...]:
 # C++ evaluator's spline and cvRound saturate in ways not emulated (off by a few pixels at
 # +-2^31), and drawing such a lane overflows; no detector's lane reaches 16.7 million pixels.
 MAX_PREDICTED_COORDINATE = float(1 << 24)
+FAR_FROM_ORIGIN = "lies more than 2^24 px (16,777,216) from the image origin"
 
 
 def check_coordinates(lanes, path, line: int | None = None) -> None:
@@ -230,8 +234,7 @@ def check_coordinates(lanes, path, line: int | None = None) -> None:
             bad = np.abs(points) > MAX_PREDICTED_COORDINATE
         if bad.any():
             x, y = points[int(np.argmax(bad.any(axis=1)))]
-            problem = (f"point ({x:.10g}, {y:.10g}) lies more than 2^24 px (16,777,216) from the image origin: "
-                       "not a lane coordinate")
+            problem = f"point ({x:.10g}, {y:.10g}) {FAR_FROM_ORIGIN}: not a lane coordinate"
             if line is None:
                 raise InputError(path, problem, line=index + 1)
             raise InputError(path, f"lane {index}: {problem}", line=line)
@@ -268,7 +271,9 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
     Predictions may leave out run_time (taken as 0 ms, never penalised).
     """
     try:
-        record = json.loads(line)
+        record = loads(line)
+    except RepeatedKey as error:
+        raise InputError(path, str(error), line=number) from None
     except json.JSONDecodeError as error:
         raise InputError(path, f"not valid JSON: {error.msg}", line=number) from None
     except (ValueError, RecursionError) as error:  # a 5,000-digit number; arrays nested 100,000 deep
@@ -289,6 +294,10 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
     for index, lane in enumerate(lanes):
         if not _all_numbers(lane):
             raise InputError(path, f"lane {index} holds a value that is not a finite number", line=number)
+        if lane and max(map(abs, lane)) > MAX_PREDICTED_COORDINATE:  # as check_coordinates, for every reader
+            far = max(lane, key=abs)
+            raise InputError(path, f"lane {index}: x = {far:.10g} {FAR_FROM_ORIGIN}: not a lane coordinate",
+                             line=number)
     if "h_samples" in record:
         rows = record["h_samples"]
         if not isinstance(rows, list) or not _all_numbers(rows):
@@ -299,7 +308,7 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
                     path, f"lane {index} has {len(lane)} values but h_samples has {len(rows)}", line=number
                 )
     if "run_time" in record:
-        if not _is_number(record["run_time"]):
+        if not is_finite_number(record["run_time"]):
             raise InputError(path, "run_time must be a number (milliseconds)", line=number)
     elif predictions:
         record["run_time"] = 0
@@ -319,7 +328,7 @@ def check_h_samples(rows, path, line: int, image_height: int) -> None:
 
 
 def _all_numbers(values: list) -> bool:
-    """Whether every value is a finite number (see _is_number). Checked a value at a time, the
+    """Whether every value is a finite number (json_fields.is_finite_number). Checked a value at a time, the
     2,782 lines of TuSimple's test labels took 0.12 s on top of their 0.06 s of JSON. A finite
     sum of the magnitudes of ints and floats has no inf, NaN or integer beyond a float's range
     among them, so most lists need no loop in Python."""
@@ -329,16 +338,7 @@ def _all_numbers(values: list) -> bool:
                 return True
         except OverflowError:  # an integer beyond a float's range: the loop below says which
             pass
-    return all(_is_number(value) for value in values)
-
-
-def _is_number(value) -> bool:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return False
-    try:
-        return math.isfinite(value)
-    except OverflowError:  # an integer beyond a float's range (JSON allows 400 digits)
-        return False
+    return all(is_finite_number(value) for value in values)
 
 
 def read_tusimple_records(path: Path, predictions: bool = False,

@@ -609,6 +609,19 @@ def test_a_malformed_file_is_one_line_naming_it(name, content, message, runs, tm
     assert not (tmp_path / "out").exists()
 
 
+def test_a_key_given_twice_in_summary_json_is_refused_naming_it(runs, tmp_path):
+    # json.loads kept the last "dataset" and compared the run as what it held last
+    broken = tmp_path / "broken"
+    shutil.copytree(runs["cu_scnn"], broken)
+    text = (broken / "summary.json").read_text()
+    (broken / "summary.json").write_text(text.replace('"dataset":', '"dataset": "tusimple", "dataset":', 1))
+    result = CliRunner().invoke(main, ["compare", str(broken), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2, result.output
+    assert result.output == f"error: {broken}/summary.json: key 'dataset' appears twice in one object (JSON " \
+                            "readers differ on which one counts): give it once\n"
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize("name", ["per_frame.csv", "accuracy.csv"])
 def test_a_huge_run_table_is_refused_unread(name, runs, tmp_path):
     # compare of a run whose per_frame.csv is 4 GB gave no answer in 120 s.

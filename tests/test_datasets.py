@@ -13,7 +13,8 @@ from roneld_eval.datasets import read_dataset
 from roneld_eval.datasets.culane import read_culane
 from roneld_eval.datasets.tusimple import read_tusimple
 from roneld_eval.errors import InputError
-from roneld_eval.lanes_io import _all_numbers, _is_number, parse_culane_lines, tusimple_xs
+from roneld_eval.json_fields import is_finite_number
+from roneld_eval.lanes_io import _all_numbers, parse_culane_lines, tusimple_xs
 
 
 def test_culane_clips_frames_and_lanes(tmp_path):
@@ -122,7 +123,7 @@ _JSON_VALUES = st.one_of(st.integers(-(10**320), 10**320), st.floats(), st.boole
 @given(st.lists(_JSON_VALUES, max_size=6))
 def test_a_list_is_all_numbers_exactly_when_each_value_is_one(values):
     # The sum taken for speed must not let through what the check of each value refuses.
-    assert _all_numbers(values) == all(_is_number(value) for value in values)
+    assert _all_numbers(values) == all(is_finite_number(value) for value in values)
 
 
 def test_real_culane_lists(shared_data, tmp_path):

@@ -220,6 +220,11 @@ def test_sweeps_of_other_frames_or_a_run_beside_a_sweep_are_refused(checkpoints,
      "its best checkpoint (none) is not sweep.json's (epoch_"),
     (lambda folder: (folder / "sweep.csv").write_text((folder / "sweep.csv").read_text().replace(",0.", ",1.")),
      "a score outside [0, 1]"),
+    # read last-wins before; a RecursionError's traceback before
+    (lambda folder: (folder / "sweep.json").write_text((folder / "sweep.json").read_text().replace(
+        '"frames":', '"frames": 1, "frames":', 1)), "sweep.json: key 'frames' appears twice in one object"),
+    (lambda folder: (folder / "sweep.json").write_text("[" * 100_000 + "]" * 100_000),
+     "sweep.json: not JSON roneld-eval wrote: maximum recursion depth exceeded"),
 ])
 def test_an_edited_sweep_is_named_with_its_problem(checkpoints, tmp_path, edit, said):
     every = _sweep(checkpoints, tmp_path / "every")

@@ -22,7 +22,7 @@ from ..config import check_lane_width
 from ..datasets.llamas import (IMAGE_HEIGHT, IMAGE_WIDTH, every_label, label_of, map_path, marker_lanes,
                                prediction_path, read_record)
 from ..errors import ConfigError, InputError
-from ..lanes_io import read_culane_lines
+from ..lanes_io import check_coordinates, read_culane_lines
 from ..maps.scnn_png import read_grey_png
 from ..metrics.llamas_official import f1_of, frame_counts, interpolated, lane_mask
 from ..metrics.llamas_segmentation import CLASSES, IMAGE_HEIGHT as MAP_HEIGHT, IMAGE_WIDTH as MAP_WIDTH, approx_auc
@@ -78,11 +78,11 @@ def _predicted(path: Path, width: int) -> tuple[list, int]:
     """load_prediction then interpolate_lane: masks of the lanes of two points or more, and how
     many of them splprep refuses (where the script stops; here they are left out)."""
     masks, refused = [], 0
-    for lane in read_culane_lines(path):  # a missing file: no lanes (the script stops: FileNotFoundError)
+    lanes = read_culane_lines(path)  # a missing file: no lanes (the script stops: FileNotFoundError)
+    check_coordinates(lanes, path)  # as every reader of predicted lanes: 1e308 overflowed the drawing
+    for lane in lanes:
         if len(lane.points) < 2:
             continue
-        if not np.isfinite(lane.points).all():
-            raise InputError(path, "a lane holds a coordinate that is not a finite number")
         samples = interpolated(lane)
         if samples is None:
             refused += 1

@@ -20,7 +20,6 @@ from ..config import check_lane_width
 from ..thresholds import Thresholds, parse_thresholds
 from ..datasets.openlane import IMAGE_HEIGHT, IMAGE_WIDTH, json_path, read_lanes, read_list, every_labelled_frame
 from ..errors import ConfigError
-from ..lanes_io import check_coordinates
 from ..metrics.culane_official import f_measure, matched_result, official_masks
 from ..output import Staging
 from ..score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
@@ -52,9 +51,7 @@ def _score_frames(args) -> np.ndarray:
         truth = read_lanes(json_path(labels, relpath), categories_needed)
         gt_masks = official_masks(truth.lanes, width, height, lane_width) if truth.lanes else None
         for m, root in enumerate(pred_roots):
-            path = json_path(root, relpath)
-            predicted = read_lanes(path, categories_needed)
-            check_coordinates(predicted.lanes, path)
+            predicted = read_lanes(json_path(root, relpath), categories_needed)
             n_gt, n_pred = len(truth.lanes), len(predicted.lanes)
             if n_gt and n_pred:
                 assert gt_masks is not None

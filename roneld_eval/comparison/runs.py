@@ -10,7 +10,6 @@ traceback. Nothing here compares runs with each other (see comparison/__init__.p
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import stat
 import tomllib
@@ -22,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..json_fields import RepeatedKey, loads
 from ..lanes_io import check_regular_file
 from ..limits import RUN_TABLE
 
@@ -178,9 +178,11 @@ def _read_toml(path: Path) -> dict:
 
 def _read_json(path: Path) -> dict:
     try:
-        data = json.loads(_read_bytes(path).decode("utf-8"))
+        data = loads(_read_bytes(path).decode("utf-8"))
     except UnicodeDecodeError:
         raise InputError(path, "not UTF-8 text") from None
+    except RepeatedKey as error:
+        raise InputError(path, str(error)) from None
     except (ValueError, RecursionError) as error:
         raise InputError(path, f"not valid JSON: {error}") from None
     if not isinstance(data, dict):

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 from ..errors import ConfigError, InputError
+from ..json_fields import RepeatedKey, loads
 
 SWEEP_CSV = "sweep.csv"
 SWEEP_JSON = "sweep.json"
@@ -74,9 +75,13 @@ def read_sweep(folder: str | Path, label: str | None = None) -> Sweep:
         raise InputError(json_path, "missing: a sweep written by this version of `roneld-eval score` has it "
                                     "beside sweep.csv (score the checkpoints again)")
     try:
-        record = json.loads(_read(json_path))
+        record = loads(_read(json_path))
+    except RepeatedKey as error:
+        raise InputError(json_path, str(error)) from None
     except json.JSONDecodeError as error:
         raise InputError(json_path, f"not JSON ({error.msg}, line {error.lineno})") from None
+    except (ValueError, RecursionError) as error:  # a 5,000-digit number; arrays nested 100,000 deep
+        raise InputError(json_path, f"not JSON roneld-eval wrote: {str(error).splitlines()[0]}") from None
     from ..sweeps import SWEEP_FORMAT
 
     if not isinstance(record, dict) or record.get("format") != SWEEP_FORMAT:

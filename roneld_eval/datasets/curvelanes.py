@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
+from ..json_fields import shown
 from ..limits import LANES
 from ..image_header import image_file_size
 from ..lanes_io import decode_text, parse_json, read_bytes
@@ -85,10 +86,10 @@ def read_frame(path: Path, missing_ok: bool) -> CurveLanesFrame:
 def _number(value, path: Path, index: int, what: str) -> float:
     try:
         number = float(value) if isinstance(value, (str, int, float)) and not isinstance(value, bool) else None
-    except ValueError:
+    except (ValueError, OverflowError):  # OverflowError: an integer beyond a float's range (JSON allows 400 digits)
         number = None
     if number is None or not math.isfinite(number) or abs(number) > 1e7:
-        raise InputError(path, f"lane {index}: {what} {value!r} is not a finite number of pixels")
+        raise InputError(path, f"lane {index}: {what} {shown(value)} is not a finite number of pixels")
     return number
 
 

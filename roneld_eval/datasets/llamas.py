@@ -25,7 +25,6 @@ points all lie above row 300, where add_ys' assert fails, that lane is left out 
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -33,7 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..lanes_io import parse_json, read_bytes
+from ..json_fields import is_finite_number, shown
+from ..lanes_io import FAR_FROM_ORIGIN, MAX_PREDICTED_COORDINATE, parse_json, read_bytes
 from ..limits import CONFIG, LANES as LANE_COUNT
 from ..model import Clip, Frame, Lane
 from ._paths import check_folder, under_root
@@ -65,15 +65,18 @@ class _Bad(Exception):
 
 
 def _number(value, cast, what: str):
-    try:
-        if isinstance(value, bool):
-            raise ValueError
-        number = cast(value)
-    except (TypeError, ValueError, OverflowError):
-        raise _Bad(f"{what} {value!r} is not a number") from None
-    if isinstance(number, float) and not math.isfinite(number):
-        raise _Bad(f"{what} {value!r} is not a finite number")
-    return number
+    """A marker's coordinate as read_json casts it (int() for pixels, float() for metres). Only a
+    JSON number is taken: int() and float() would also read the string "345", which LLAMAS's
+    labels never hold (a file that does was not written by its tools), nor a pixel beyond 2^24 px,
+    where the sampling's arithmetic leaves a float's range (a 400-digit integer overflows it)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        kind = "a string" if isinstance(value, str) else type(value).__name__
+        raise _Bad(f"{what} {shown(value)} is not a number but {kind}: LLAMAS's labels hold JSON numbers")
+    if not is_finite_number(value):
+        raise _Bad(f"{what} {shown(value)} is not a finite number")
+    if cast is int and abs(value) > MAX_PREDICTED_COORDINATE:
+        raise _Bad(f"{what} {shown(value)} {FAR_FROM_ORIGIN}: not a pixel coordinate")
+    return cast(value)
 
 
 def _marker(raw) -> dict:
@@ -104,7 +107,12 @@ def _lanes_of(record) -> list[dict]:
             raise _Bad("a lane lacks its lane_id or its list of markers")
         if not raw["markers"]:
             raise _Bad(f"lane {raw['lane_id']!r} has no markers")  # min() of nothing: the code stops
-        markers = [_marker(marker) for marker in raw["markers"]]
+        markers = []
+        for number, marker in enumerate(raw["markers"]):
+            try:
+                markers.append(_marker(marker))
+            except _Bad as problem:
+                raise _Bad(f"lane {raw['lane_id']!r}, marker {number}: {problem}") from None
         starts = [marker["pixel_start"]["y"] for marker in markers]
         if max(starts) - min(starts) < MIN_LANE_HEIGHT or len(markers) < MIN_MARKERS:
             continue
@@ -257,8 +265,11 @@ def marker_lanes(record, path: Path) -> tuple[np.ndarray, tuple[MarkerLane, ...]
             raise _Bad("projection_matrix is not a 3x3 list of numbers")
         values = [v for row in matrix for v in row]
         # numpy.asarray takes the lists as they are (no float() as for the markers): numbers only
-        if any(type(v) not in (int, float) or not math.isfinite(v) or abs(v) >= 2**63 for v in values):
+        if any(not is_finite_number(v) or abs(v) >= 2**63 for v in values):
             raise _Bad("projection_matrix holds an entry that is not a finite number")
+        if not any(matrix[2]):  # project_point divides by the third coordinate: 0 for every point
+            raise _Bad("projection_matrix's last row is all zeros, so every point projects to a division by "
+                       "zero and no marker is drawn: not a camera's projection")
     except _Bad as problem:
         raise InputError(path, str(problem)) from None
     exact = np.asarray(matrix)  # as project_point makes it: int64 when every entry is an integer

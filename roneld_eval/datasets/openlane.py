@@ -9,7 +9,6 @@ is refused here with its problem named.
 
 from __future__ import annotations
 
-import math
 import os
 import posixpath
 from dataclasses import dataclass
@@ -18,8 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..json_fields import is_finite_number, shown
 from ..limits import LANES
-from ..lanes_io import decode_text, parse_json, read_bytes
+from ..lanes_io import check_coordinates, decode_text, parse_json, read_bytes
 from ..model import Lane, image_stem
 from ._paths import read_image_list, check_folder, frame_sort_key, under_root
 
@@ -73,9 +73,8 @@ def read_lanes(path: Path, need_categories: bool = True) -> OpenLaneLanes:
         if len(points) < 2:
             continue  # evaluate.cpp:285-287: not a lane
         category = line.get("category") if isinstance(line, dict) else None
-        if category is not None and (not isinstance(category, (int, float)) or isinstance(category, bool)
-                                     or not math.isfinite(category) or abs(category) >= 2**31):
-            raise InputError(path, f"lane {index}: `category` must be a number, got {category!r}")
+        if category is not None and (not is_finite_number(category) or abs(category) >= 2**31):
+            raise InputError(path, f"lane {index}: `category` must be a number, got {shown(category)}")
         if category is None and need_categories:
             raise InputError(path, f"lane {index} has no `category` (the evaluator would read an undefined value); "
                                    "score with any category only (--any-category)")
@@ -83,6 +82,7 @@ def read_lanes(path: Path, need_categories: bool = True) -> OpenLaneLanes:
         lanes.append(Lane(points[order].astype(np.float64)))
         # read as an int (a float truncated, as CJsonObject's Get), kept as uint8 (evaluate.cpp:298-299)
         categories.append(None if category is None else int(category) % 256)
+    check_coordinates(lanes, path)  # labels and predictions alike: drawn by the same spline
     return OpenLaneLanes(tuple(lanes), tuple(categories))
 
 
@@ -97,8 +97,12 @@ def _points(line, path: Path, index: int) -> np.ndarray:
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
         raise InputError(path, f"lane {index}: `uv` holds something other than numbers")
     n = len(uv[0])
-    with np.errstate(over="ignore"):
-        points = np.array([uv[0], uv[1][:n]], np.float64).T.astype(np.float32)  # cv::Point2f
+    not_finite = InputError(path, f"lane {index}: `uv` holds a value that is not a finite float32")
+    try:
+        with np.errstate(over="ignore"):
+            points = np.array([uv[0], uv[1][:n]], np.float64).T.astype(np.float32)  # cv::Point2f
+    except OverflowError:  # an integer beyond a float's range (JSON allows 400 digits)
+        raise not_finite from None
     if not np.isfinite(points).all():
-        raise InputError(path, f"lane {index}: `uv` holds a value that is not a finite float32")
+        raise not_finite
     return points
