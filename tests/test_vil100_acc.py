@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from pathlib import Path
 
 import cv2
@@ -76,14 +77,66 @@ def test_the_totals_and_acc_csv_equal_the_scripts(tmp_path):
     assert "Acc (MMA-Net) (%)" in (tmp_path / "o" / "summary.md").read_text()
 
 
-def test_a_lane_the_rvld_script_stops_at_keeps_its_first_point_at_each_y():
+# RVLD's evaluate_acc.py only ever reads what its writer wrote: dongkwonjin/RVLD 4d90de1,
+# Modeling/VIL-100/PLD/code/libs/save_prediction.py, Save_Prediction_for_eval_acc.get_2D_lane_points,
+# samples each lane at distinct rows (py_coord) and drops one of 3 points or fewer (`if len(pts) <= 3:
+# continue`); its cubic interp1d would raise on either. Other lane files go through that rule first.
+
+def test_a_lane_repeating_a_y_keeps_its_first_point_at_each_y():
     truth = [Lane.from_xy(np.linspace(500, 600, 30), np.linspace(500, 1000, 30))]
     repeated = Lane.from_xy(np.r_[np.linspace(500, 600, 30), 900.0], np.r_[np.linspace(500, 1000, 30), 500.0])
     frame = rvld_frame([repeated], truth)  # the script: "Expect x to not have duplicates"
     assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (1.0, 0.0, 0.0, 1)
-    short = Lane.from_xy([500, 520, 540], [500, 700, 900])  # fewer than 4 points: matches nothing
-    frame = rvld_frame([short], truth)
-    assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (0.0, 1.0, 1.0, 1)
+
+
+def test_a_lane_of_three_points_or_fewer_is_no_prediction_as_rvlds_writer_drops_it():
+    truth = [Lane.from_xy(np.linspace(500, 600, 30), np.linspace(500, 1000, 30))]
+    found = Lane.from_xy(np.linspace(500, 600, 30), np.linspace(500, 1000, 30))
+    short = Lane.from_xy([500, 520, 540], [500, 700, 900])
+    blank = Lane(np.zeros((0, 2)))  # a blank line of a .lines.txt
+    frame = rvld_frame([short], truth)  # counted as a prediction before: FP 1
+    assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (0.0, 0.0, 1.0, 1)
+    frame = rvld_frame([blank, short, found, short], truth)  # FP 0.75 before
+    assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (1.0, 0.0, 0.0, 2)
+    # two points at one y leave 3: not written either
+    frame = rvld_frame([Lane.from_xy([500, 510, 520, 530], [500, 500, 700, 900])], truth)
+    assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (0.0, 0.0, 1.0, 1)
+
+
+def test_a_short_lane_far_away_does_not_find_a_near_horizontal_lane():
+    # Without a fit a lane was x = -2 on every row, -100 in line_accuracy: within 20 / cos(atan 20)
+    # = 400 px of every x of this nearly horizontal lane (x 0..200 over 10 rows), so it was found.
+    truth = [Lane.from_xy(np.linspace(0, 200, 11), np.linspace(500, 510, 11))]
+    far = Lane.from_xy([1500, 1510, 1520], [800, 900, 1000])
+    frame = rvld_frame([far], truth)
+    assert (frame.accuracy, frame.fp, frame.fn, frame.stopping) == (0.0, 0.0, 1.0, 1)
+
+
+def test_short_lanes_and_blank_lines_leave_the_rvld_scripts_totals(tmp_path):
+    # The golden's lanes as RVLD's writer wrote them, plus what it never writes (a blank line, lanes of
+    # 1 to 3 points): the script's totals on the golden stay the totals.
+    pred = tmp_path / "pred_txt"
+    shutil.copytree(CASES / "pred_txt", pred)
+    for path in sorted(pred.rglob("*.lines.txt"))[::3]:
+        path.write_text(path.read_text() + "\n700 900\n10 1000 12 1030\n1900 500 1910 520 1915 540\n")
+    lines = score_vil100(CASES / "anno_txt", {"syn": pred}, list_file=CASES / "test.txt",
+                         sizes_file=CASES / "test_sizes.json", temporal=False)
+    rvld = lines.acc_overall[("syn", "rvld")]
+    official = EXPECTED["totals"]["rvld"]
+    assert (rvld.accuracy, rvld.fp, rvld.fn) == (official["acc"], official["fp"], official["fn"])
+    assert rvld.stopping == 3 * len(sorted(pred.rglob("*.lines.txt"))[::3])
+
+
+def test_the_writers_rule_is_said_beside_rvlds_acc(tmp_path):
+    result = CliRunner().invoke(main, ["score", "vil100", "--labels", str(CASES / "anno_txt"), "--pred-root",
+                                       str(CASES / "pred_txt"), "--sizes", str(CASES / "test_sizes.json"),
+                                       "--no-temporal", "--workers", "1", "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0, result.output
+    said = "a lane of 3 points or fewer (a blank line too) is no prediction"
+    assert "Acc (RVLD) (%)" in result.output and said in result.output.split("Acc (RVLD) (%)")[1]
+    summary = (tmp_path / "o" / "summary.md").read_text()
+    assert "libs/save_prediction.py, 4d90de1" in summary and said in summary
+    assert "matches no point here" not in summary  # it did not: it was a prediction that found nothing
 
 
 @settings(max_examples=60, deadline=None)

@@ -49,7 +49,7 @@ def score_vil100_command(labels, pred_roots, pred_format, list_file, image_root,
                          temporal, strict, workers, out, shard, executor, scheduler, quiet, debug):
     """Official VIL-100 F1 and mIoU per method, sequence and scenario, as MMA-Net's evaluate_iou.py
     and its CULane evaluator compute them (each sequence at its own size)."""
-    from .vil100_score import score_vil100, summary_table
+    from .vil100_score import RVLD_ACC_NOTE, score_vil100, summary_table
 
     _no_collections_at_exit()
     score = _guard(executed, debug, executor, scheduler, "score vil100", score_vil100,
@@ -66,3 +66,5 @@ def score_vil100_command(labels, pred_roots, pred_format, list_file, image_root,
         click.echo(f"{score.n_frames:,} frames of {score.n_sequences} sequences, {len(score.methods)} "
                    f"method{'s' if len(score.methods) > 1 else ''}, width {width}")
         click.echo(summary_table(score))
+        if any(version == "rvld" for _, version in score.acc_overall):
+            click.echo(RVLD_ACC_NOTE)

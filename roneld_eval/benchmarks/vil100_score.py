@@ -432,6 +432,10 @@ def summary_table(score: Vil100Score) -> str:
 
 
 _ACC_SOURCES = {"mmanet": "MMA-Net", "rvld": "RVLD"}
+# Said beside RVLD's Acc wherever it is printed (metrics.vil100_acc: the writer's rule)
+RVLD_ACC_NOTE = ("Acc (RVLD) reads each lane as RVLD's writer (libs/save_prediction.py, 4d90de1) would have "
+                 "written it, the only lanes its script reads: the first point at each y, and a lane of 3 points "
+                 "or fewer (a blank line too) is no prediction.")
 
 
 def _acc_cells(result) -> list[str]:
@@ -482,9 +486,9 @@ def summary_markdown(score: Vil100Score, width: int) -> str:
             + (" Acc, FP, FN: TuSimple's rule over at most 8 lanes a frame, means over frames, in two versions: "
                "MMA-Net's evaluate_acc.py (8f95908: each instance mask's lane fitted by a degree-2 polynomial; only "
                "with --pred-format png) and RVLD's evaluate_acc.py (4d90de1: each lane's points through a cubic "
-               "interp1d); a frame without ground truth scores accuracy 0 in both. Where a script stops on a lane "
-               "(acc.csv's stopping_lanes): RVLD's at two points at one y (the first is kept here) or fewer than 4 "
-               "(it matches no point here), MMA-Net's where its polyfit fails (it matches no point). "
+               f"interp1d); a frame without ground truth scores accuracy 0 in both. {RVLD_ACC_NOTE} Lanes where a "
+               "script would stop (acc.csv's stopping_lanes): RVLD's, as given, at two points at one y or 3 points "
+               "or fewer, MMA-Net's where its polyfit fails (that mask lane matches no point). "
                "acc.csv gives every sequence and scenario." if score.acc_overall else "")
             + "\n\n" + summary_table(score) + "\n")
 

@@ -15,11 +15,16 @@ In both a frame's accuracy is the mean of its ground-truth lanes' best accuracie
 truth) / predictions (negative where two ground-truth lanes find one prediction), FN = missed /
 ground truth; a frame without ground truth scores accuracy 0. Figures are means over frames.
 
-Where RVLD's script stops (SciPy's cubic interp1d refuses a lane with two points at one y, or
-of fewer than four points: ValueError), a lane keeps its first point at each y (RVLD's own writer,
-libs/save_prediction.py, never repeats one), and one of fewer than four left matches no point
-but still counts as a prediction; `AccFrame.stopping` counts such lanes. A lane without a fit
-(MMA-Net's polyfit raising) likewise matches no point.
+RVLD's script never meets a lane its interp1d(kind="cubic") refuses (two points at one y, or
+fewer than four points: ValueError), because RVLD's own writer never gives it one: its
+Modeling/VIL-100/PLD/code/libs/save_prediction.py (4d90de1, Save_Prediction_for_eval_acc.
+get_2D_lane_points) samples each lane at distinct rows and drops a lane of 3 points or fewer
+(`if len(pts) <= 3: continue`). Lane files from elsewhere are put through that rule first: a lane
+keeps its first point at each y, and one left with 3 points or fewer (a blank line too) is not a
+prediction, so it adds neither to FP nor, drawn at x = -2 (-100 after line_accuracy), a match
+near x = 0. `AccFrame.stopping` counts the lanes the script itself would stop at (a repeated y,
+or 3 points or fewer). A lane without a fit in MMA-Net's version (its polyfit raising) still
+counts as a prediction and matches no point, as there the mask is the prediction.
 """
 
 from __future__ import annotations
@@ -34,6 +39,9 @@ from .tusimple_official import POINT_THRESHOLD, lane_threshold, line_accuracy
 
 MAX_LANES = 8.0  # evaluate_acc.py: min(8.0, len(gt))
 OUTSIDE = -2  # RVLD: x_pred where a ground-truth row lies outside the prediction's rows
+# RVLD 4d90de1 libs/save_prediction.py, Save_Prediction_for_eval_acc.get_2D_lane_points:
+# `if len(pts) <= 3: continue`, so its evaluate_acc.py's cubic interp1d always has 4 points
+WRITTEN_MIN_POINTS = 4
 
 
 @dataclass(frozen=True)
@@ -89,33 +97,51 @@ def mmanet_frame(fits: Sequence[tuple[float, float, float] | None], truth: Seque
     return AccFrame(*_frame(accs_per_gt, len(fits), len(gtx)), stopping=sum(p is None for p in fits))
 
 
-def _interpolator(lane: Lane):
-    """(the lane's cubic interp1d, or None where it refuses even the first point at each y;
-    whether the script would stop at it). interp1d(kind="cubic") is make_interp_spline(k=3) of
-    the points sorted by y (a stable sort) and evaluated by it: built here that way, without
-    interp1d's copies and checks."""
-    from scipy.interpolate import make_interp_spline
-
+def _as_written(lane: Lane) -> tuple[Lane | None, bool]:
+    """(the lane as RVLD's writer could have written it: its first point at each y, in file order,
+    or None where 3 points or fewer are left; whether the script would stop at the lane as given)."""
     ys, xs = lane.ys, lane.xs
     _, first = np.unique(ys, return_index=True)
     repeated = first.size < ys.size
     if repeated:
-        keep = np.sort(first)  # the first point at each y, in file order
+        keep = np.sort(first)
         ys, xs = ys[keep], xs[keep]
-    order = np.argsort(ys, kind="mergesort")
+    if ys.size < WRITTEN_MIN_POINTS:
+        return None, bool(ys.size) or repeated  # a blank line is no lane to the script either
+    return Lane.from_xy(xs, ys), repeated
+
+
+def _interpolator(lane: Lane):
+    """The lane's cubic interp1d (4 points or more at distinct y), or None where the spline cannot
+    be built. interp1d(kind="cubic") is make_interp_spline(k=3) of the points sorted by y (a stable
+    sort) and evaluated by it: built here that way, without interp1d's copies and checks."""
+    from scipy.interpolate import make_interp_spline
+
+    order = np.argsort(lane.ys, kind="mergesort")
     try:
         with np.errstate(all="ignore"):
-            return make_interp_spline(ys[order], xs[order], k=3, check_finite=False), repeated
+            return make_interp_spline(lane.ys[order], lane.xs[order], k=3, check_finite=False)
     except (ValueError, np.linalg.LinAlgError):
-        return None, True
+        return None
 
 
 def rvld_frame(predictions: Sequence[Lane], truth: Sequence[Lane]) -> AccFrame:
-    """One frame as RVLD's bench: `predictions` as its result pickles hold them (lanes of points)."""
+    """One frame as RVLD's bench: `predictions` put through RVLD's writer's rule (_as_written) into
+    the lanes its result pickles would hold."""
     lanes = _ground_truth(truth)
-    preds = [lane for lane in predictions if len(lane.points)]
-    built = [_interpolator(lane) for lane in preds]
-    functions = [function for function, _ in built]
+    written = [_as_written(lane) for lane in predictions]
+    stopping = sum(stops for _, stops in written)
+    preds: list[Lane] = []
+    functions = []
+    for lane, _ in written:
+        if lane is None:  # not written: no prediction
+            continue
+        function = _interpolator(lane)
+        if function is None:  # a spline numpy cannot solve: the script would stop too
+            stopping += 1
+            continue
+        preds.append(lane)
+        functions.append(function)
     accs_per_gt = []
     for lane in lanes:
         x_gts, y_gts = lane.xs, lane.ys
@@ -125,11 +151,10 @@ def rvld_frame(predictions: Sequence[Lane], truth: Sequence[Lane]) -> AccFrame:
             y_min, y_max = np.min(pred.ys), np.max(pred.ys)
             check = (y_min <= y_gts) * (y_gts <= y_max)
             x_pred = np.zeros(check.shape[0], dtype=np.float32) + OUTSIDE
-            if function is not None:
-                x_pred[check] = function(y_gts[check])
+            x_pred[check] = function(y_gts[check])
             accs.append(line_accuracy(x_pred.astype(np.float64), x_gts, threshold))
         accs_per_gt.append(accs)
-    return AccFrame(*_frame(accs_per_gt, len(preds), len(lanes)), stopping=sum(stops for _, stops in built))
+    return AccFrame(*_frame(accs_per_gt, len(preds), len(lanes)), stopping=stopping)
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,10 @@ linked to one at t-1 by Hungarian matching on their IoU, kept when that IoU > 0.
 whatever tau: matching_lane_instance's default, :274-290). A linked pair is stable, flickering
 ("jump") or missing from the IoUs of the predictions each of its two lanes was assigned (0 when
 none): exactly one above tau and the other below is a jump, both below is missing, anything else
-stable, exact ties included (:262-270). Rs, Rj and Rm are the three counts over all pairs.
+stable (:262-270). That `else` would take an IoU of exactly tau, but the IoU is divided by the union
++ 1e-10: an overlap of exactly tau of the union comes out just below tau (equality needs a union of
+some 300,000 pixels, far beyond two 30 px lanes), so it counts as below. Rs, Rj and Rm are the
+three counts over all pairs.
 
 The IoU is that script's own, not the CULane evaluator's (:16-34, :49-55, :78-103): lanes of fewer
 than two points are dropped when read; a lane's repeated points are dropped, the rest interpolated
