@@ -18,16 +18,18 @@ CAMERA = Camera(IMAGE_WIDTH, IMAGE_HEIGHT, vanish_y=(245, 275), lane_width_px=(8
 CATEGORIES = ("normal", "crowd", "hlight", "shadow", "noline", "arrow", "curve", "cross", "night")
 
 
-def culane_lines(scene: Scene) -> str:
+def culane_lines(scene: Scene, inside: bool = False) -> str:
     """The frame's ground truth as a raw CULane `.lines.txt`: up to 4 lanes, left to right.
 
-    Points every 10 px from the bottom row up, x may leave the image a little (as in CULane).
+    Points every 10 px from the bottom row up, x may leave the image a little (as in CULane);
+    with `inside`, every point within the image (as VIL-100's labels: a label reaching past its
+    video's size is what `score vil100`'s size warning looks for).
     """
-    ys = np.arange(scene.height, scene.top_y, -10.0)
+    ys = np.arange(scene.height - 1 if inside else scene.height, scene.top_y, -10.0)
     lines = []
     for _, lateral in sorted(channel_lanes(scene).items()):
         xs = scene.boundary_x(lateral, ys)
-        keep = (xs > -60) & (xs < scene.width + 60)
+        keep = (xs >= 0) & (xs <= scene.width - 1) if inside else (xs > -60) & (xs < scene.width + 60)
         if keep.sum() < 4:
             continue
         lines.append("".join(f"{x:.3f} {int(y)} " for x, y in zip(xs[keep], ys[keep])))

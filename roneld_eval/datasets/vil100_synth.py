@@ -48,7 +48,7 @@ def synth_vil100(out: str | Path, clips: int = 3, frames: int = 100, seed: int =
             stem = f"{name}/{FRAMES_APART * k:05d}"
             path = labels / f"{stem}.lines.txt"
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(culane_lines(scene))
+            path.write_text(culane_lines(scene, inside=True))
             if maps_format == "lanes":
                 _write_lane_files(maps_root / stem, detector_lanes(scene, style, k, detector, rows))
             else:
