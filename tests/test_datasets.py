@@ -5,10 +5,12 @@ import shutil
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 from conftest import write_culane_tree
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from roneld_eval.cli import main
 from roneld_eval.datasets import read_dataset
 from roneld_eval.datasets.culane import read_culane
 from roneld_eval.datasets.tusimple import read_tusimple
@@ -59,6 +61,33 @@ def test_bad_lines_name_the_file_and_line(text, problem):
         parse_culane_lines(text, "gt/00000.lines.txt")
     assert str(caught.value).startswith("gt/00000.lines.txt:")
     assert problem.split(": ", 1)[-1] in str(caught.value)
+
+
+def test_a_folder_without_a_list_is_told_what_a_list_line_is_and_how_to_give_one(tmp_path):
+    # the message was "list file not found", naming list/test.txt, and no more
+    for name in ("00030.lines.txt", "00000.lines.txt", "00000.jpg"):
+        (tmp_path / name).write_text("100 580 200 400\n")
+    with pytest.raises(InputError) as caught:
+        read_culane(tmp_path)
+    said = str(caught.value)
+    assert said.startswith(f"{tmp_path / 'list' / 'test.txt'}: list file not found: ")
+    assert "(00000.jpg for this folder's 00000.lines.txt)" in said and "give it with --list FILE" in said
+    (tmp_path / "deeper").mkdir()
+    with pytest.raises(InputError, match=r"\(e\.g\. driver_37_30frame/05181432_0203\.MP4/00000\.jpg\).* --list FILE"):
+        read_culane(tmp_path / "deeper")
+
+
+def test_run_on_the_real_list_less_clip_says_how_to_list_it(real_clip, tmp_path):
+    result = CliRunner().invoke(main, ["run", "--dataset", "culane", "--data-root", str(real_clip), "--maps-root",
+                                       str(real_clip), "--maps-format", "scnn-png", "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert "00000.jpg for this folder's 00000.lines.txt" in result.output and "--list FILE" in result.output
+    listed = tmp_path / "list.txt"  # and the list it describes is one `run` reads
+    labels = sorted(real_clip.glob("*.lines.txt"))
+    listed.write_text("".join(f"{path.name[:-len('.lines.txt')]}.jpg\n" for path in labels))
+    result = CliRunner().invoke(main, ["run", "--dataset", "culane", "--data-root", str(real_clip), "--maps-root",
+                                       str(real_clip), "--maps-format", "scnn-png", "--list", str(listed), "--dry-run"])
+    assert result.exit_code == 0 and "1 clip, 90 frames (90 labelled, scored)" in result.output, result.output
 
 
 def test_culane_bad_trees(tmp_path):

@@ -139,6 +139,23 @@ def check_some_labels(root: Path, relpaths: list[str]) -> None:
                                "is this the CULane root?")
 
 
+def _no_list(root: Path) -> str:
+    """Why the default list is missing and how to give one: a folder of frames without CULane's
+    list/ (the RONELD authors' example clip) otherwise met a bare 'not found'."""
+    try:
+        with os.scandir(root) as entries:
+            here = min((entry.name for entry in entries if entry.name.endswith(".lines.txt")), default=None)
+    except OSError:
+        here = None
+    if here is None:
+        example = "e.g. driver_37_30frame/05181432_0203.MP4/00000.jpg"
+    else:  # frames in the root itself: a line is the image's name alone
+        example = f"{here[:-len('.lines.txt')]}.jpg for this folder's {here}"
+    return (f"list file not found: the frames to score are listed one a line, each as its image's path below "
+            f"the data root ({example}), the .lines.txt beside the image; write that list to list/test.txt "
+            "or give it with --list FILE")
+
+
 def read_culane(root: str | Path, list_file: str | Path | None = None, limit: int | None = None,
                 errors: list[InputError] | None = None, labels: bool = True,
                 require_labels: bool = False) -> Dataset:
@@ -153,7 +170,7 @@ def read_culane(root: str | Path, list_file: str | Path | None = None, limit: in
     root = Path(root)
     check_folder(root, "dataset root not found (expected a folder with list/test.txt)")
     list_path = Path(list_file) if list_file is not None else root / "list" / "test.txt"
-    check_regular_file(list_path, "list file not found")
+    check_regular_file(list_path, "list file not found" if list_file is not None else _no_list(root))
     entries = read_list_file(list_path)
 
     seen: dict[str, tuple[int, str]] = {}  # image stem -> (line, relpath): 00000.jpg and 00000.png are one frame
