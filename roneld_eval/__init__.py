@@ -4,8 +4,9 @@ any installed plug-in), with the RONELD paper's protocol and each benchmark's of
 
 The CLI is a thin layer over these functions: `run`, `score_culane`, `score_tusimple`,
 `show`, `synthesize`, `compare` do what `roneld-eval run`, `score culane`, `score tusimple`,
-`show`, `synth` and `compare` do. Names are imported when first used, so `roneld-eval --help`
-stays quick.
+`show`, `synth` and `compare` do. `RoneldTracker` runs RONELD frame by frame on a vehicle
+(`warm_up()` pays its one-time costs first). Names are imported when first used, so
+`roneld-eval --help` stays quick.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ _EXPORTS = {
     "load_maps": "maps",
     "Lane": "model", "Frame": "model", "Clip": "model", "Dataset": "model", "FrameMaps": "model",
     "Prediction": "extract.protocol", "Extractor": "extract.protocol",
+    "RoneldTracker": "extract.roneld", "warm_up": "extract.online", "FrameRefused": "extract.online",
+    "RoneldParams": "config", "MapGeometry": "geometry",
     "RoneldEvalError": "errors", "InputError": "errors", "ConfigError": "errors",
 }
 
@@ -47,10 +50,13 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # what static checkers and editors see
     from .api import run, score_culane, score_tusimple, show, synthesize  # noqa: F401
     from .comparison import compare  # noqa: F401
-    from .config import EvalConfig  # noqa: F401
+    from .config import EvalConfig, RoneldParams  # noqa: F401
     from .datasets import read_dataset  # noqa: F401
     from .errors import ConfigError, InputError, RoneldEvalError  # noqa: F401
     from .evaluation import evaluate  # noqa: F401
+    from .extract.online import FrameRefused, warm_up  # noqa: F401
     from .extract.protocol import Extractor, Prediction  # noqa: F401
+    from .extract.roneld import RoneldTracker  # noqa: F401
+    from .geometry import MapGeometry  # noqa: F401
     from .maps import load_maps  # noqa: F401
     from .model import Clip, Dataset, Frame, FrameMaps, Lane  # noqa: F401

@@ -12,16 +12,18 @@ jitter of vertical lanes (ours is deterministic).
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
 
 from ..config import RoneldParams
-from ..geometry import MapGeometry
+from ..errors import ConfigError
+from ..geometry import MapGeometry, check_map_shape
 from ..model import EGO_CHANNELS, FrameMaps, Lane, read_only
 from ..signals import deferred_signals
-from . import _kernels
+from . import _kernels, online
 from .protocol import Prediction, one_time_work
 
 
@@ -203,31 +205,126 @@ def roneld_step(
 
 @dataclass
 class RoneldTracker:
-    """RONELD over one clip: feed frames in order; `reset()` between clips.
+    """RONELD over one clip (one camera): feed frames in order; `reset()` between clips.
 
     `pft` is preceding-frame tracking: on for the method 'roneld', off for 'roneld-nopft'.
+    `geometry` places the maps in the camera image (None: lanes stay in map pixels); maps of
+    another size than its own are rescaled as `run` rescales them. The run calls the tracker
+    (`tracker(maps) -> ActiveLanes`) with maps its loader checked; a vehicle calls `update`,
+    which checks each frame, maps `channels="egolanes"` masks into SCNN's order, keeps the
+    clip's map size, and times itself (`latency()`). Built by `from_preset`, or after
+    `roneld_eval.warm_up()`, `update` compiles and imports nothing. A tracker holds no global
+    state: trackers of several cameras are independent, each used by one thread at a time.
     """
 
     params: RoneldParams = field(default_factory=RoneldParams)
     geometry: MapGeometry | None = None
     state: RoneldState = field(default_factory=RoneldState)
     pft: bool = True
+    channels: str = "scnn"  # "scnn", or "egolanes": Autoware EgoLanes' (ego left, ego right, other)
+    lane_channels: int = 4  # channels `update` takes in SCNN's order
+    latency_frames: int = 1000  # calls `latency()` summarises
+    _clip_size: tuple[int, int] | None = field(default=None, init=False, repr=False)
+    _clip_geometry: MapGeometry | None = field(default=None, init=False, repr=False)
+    _frames: int = field(default=0, init=False, repr=False)  # accepted since reset(), for messages
+    _mapped: np.ndarray | None = field(default=None, init=False, repr=False)  # EgoLanes' SCNN-order buffer
+
+    def __post_init__(self):
+        if self.channels not in online.CHANNEL_LAYOUTS:
+            raise ConfigError(f"channels must be one of {', '.join(online.CHANNEL_LAYOUTS)}, got {self.channels!r}")
+        self._latency = online.LatencyRing(self.latency_frames)
+
+    @classmethod
+    def from_preset(cls, name: str, pft: bool = True, channels: str = "scnn",
+                    image_size: tuple[int, int] | None = None, latency_frames: int = 1000,
+                    warm: bool = True) -> "RoneldTracker":
+        """A tracker with a preset's (or a configuration file's) image size, crop and RONELD
+        parameters; maps of any size are placed in the image as `run` places them (their aspect
+        checked at the first frame). `image_size` (width, height): a camera of another size (the
+        crop rows scale with it, as for VIL-100's videos). `warm`: pay numba's compile and
+        SciPy's import now (`roneld_eval.warm_up`), not in the first `update`."""
+        from ..config import EvalConfig
+
+        config = EvalConfig.from_toml(name)
+        geometry = config.geometry if image_size is None else config.geometry.at_image_size(*image_size)
+        tracker = cls(config.roneld, geometry, pft=pft, channels=channels,
+                      lane_channels=config.maps.lane_channels, latency_frames=latency_frames)
+        if warm:
+            online.warm_up()
+        return tracker
 
     def reset(self) -> None:
+        """Start a new clip: no lanes tracked, and the next frame may have another map size."""
         self.state = RoneldState()
+        self._clip_size = self._clip_geometry = None
+        self._frames = 0
 
     def __call__(self, frame: FrameMaps | np.ndarray) -> ActiveLanes:
         maps = frame.probabilities if isinstance(frame, FrameMaps) else frame
-        self.state, left, right, curve_mode = roneld_step(self.state, maps, self.params, pft=self.pft)
         height, width = maps.shape[1:]
         # Without a geometry, lanes stay in map pixels.
         geometry = (self.geometry or MapGeometry(width, height, width, height)).with_map_size(width, height)
-        return ActiveLanes(
+        self.state, lanes = self._step(maps, geometry)
+        return lanes
+
+    def _step(self, maps: np.ndarray, geometry: MapGeometry) -> tuple[RoneldState, ActiveLanes]:
+        state, left, right, curve_mode = roneld_step(self.state, maps, self.params, pft=self.pft)
+        return state, ActiveLanes(
             left=None if left is None else Lane(geometry.map_to_image(left)),
             right=None if right is None else Lane(geometry.map_to_image(right)),
             curve_mode=curve_mode,
         )
 
+    def update(self, maps: Any, exist: Any = None) -> Prediction:
+        """One frame of the clip: its lanes and its left and right active lanes in image pixels,
+        the `Prediction` the run's RONELD gives for the same maps.
+
+        `maps`: a (C, H, W) NumPy array, uint8 0..255 or float probabilities in [0, 1] (converted
+        as the run's loader converts them: float32(p) * 255, rounded half to even), C lane channels
+        in SCNN's order, or EgoLanes' three with `channels="egolanes"`. `exist` (the model's lane
+        existence) is accepted and ignored, as the authors' RONELD ignores it. A frame with another
+        shape, dtype, NaN, values outside [0, 1], or a map size other than the clip's first is
+        refused (`FrameRefused`, a ValueError) and the tracker's state stays as it was.
+        """
+        start = time.perf_counter()
+        where = f"frame {self._frames + 1}"
+        checked = online.checked_frame(maps, self.channels, self.lane_channels, where)
+        height, width = checked.shape[1:]
+        geometry = self._geometry_for(width, height, where)
+        if self.channels == "egolanes":
+            if self._mapped is None or self._mapped.shape[1:] != checked.shape[1:]:
+                self._mapped = np.empty((4, height, width), np.uint8)
+            checked = online.egolanes_as_scnn(checked, self.params.center_ratio, self._mapped)
+        self.state, lanes = self._step(read_only(checked), geometry)
+        self._clip_size, self._clip_geometry = (width, height), geometry
+        self._frames += 1
+        prediction = Prediction(tuple(lanes.as_list()), (lanes.left, lanes.right), spline=False)
+        self._latency.add((time.perf_counter() - start) * 1e3)
+        return prediction
+
+    def _geometry_for(self, width: int, height: int, where: str) -> MapGeometry:
+        """The clip's geometry: set by its first frame (its aspect checked against the configured
+        maps', as the run checks a clip's first frame), the same size required after it."""
+        if self._clip_geometry is not None:
+            if (width, height) != self._clip_size:
+                known_width, known_height = self._clip_size or (0, 0)
+                raise online.FrameRefused(where, f"maps of {width}x{height} differ from this clip's {known_width}x"
+                                                 f"{known_height} (call reset() to start a clip of another size)")
+            return self._clip_geometry
+        if self.geometry is None:
+            return MapGeometry(width, height, width, height)
+        try:
+            check_map_shape(self.geometry, width, height, where)
+        except ConfigError as error:  # its remedy is the command line's: say the tracker's
+            found = str(error).split("; ")[0]
+            raise online.FrameRefused(None, f"{found}; build the tracker from the preset of the model that wrote "
+                                            "them, or give it a MapGeometry of these maps") from None
+        return self.geometry.with_map_size(width, height)
+
+    def latency(self) -> online.Latency:
+        """p50, p99 and max of `update`'s milliseconds over the last `latency_frames` calls
+        (refused frames not counted; reset() keeps them: they time the tracker, not the clip)."""
+        return self._latency.summary()
 
 
 class RoneldExtractor:
