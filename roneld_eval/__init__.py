@@ -3,10 +3,10 @@ any plug-in) on the lane benchmarks (CULane, TuSimple, VIL-100, OpenLane, CurveL
 any installed plug-in), with the RONELD paper's protocol and each benchmark's official scores.
 
 The CLI is a thin layer over these functions: `run`, `score_culane`, `score_tusimple`,
-`show`, `synthesize`, `compare` do what `roneld-eval run`, `score culane`, `score tusimple`,
-`show`, `synth` and `compare` do. `RoneldTracker` runs RONELD frame by frame on a vehicle
-(`warm_up()` pays its one-time costs first). Names are imported when first used, so
-`roneld-eval --help` stays quick.
+`show`, `synthesize`, `compare`, `replay_clip` do what `roneld-eval run`, `score culane`,
+`score tusimple`, `show`, `synth`, `compare` and `replay` do. `RoneldTracker` runs RONELD
+frame by frame on a vehicle (`warm_up()` pays its one-time costs first). Names are imported
+when first used, so `roneld-eval --help` stays quick.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ _EXPORTS = {
     "Lane": "model", "Frame": "model", "Clip": "model", "Dataset": "model", "FrameMaps": "model",
     "Prediction": "extract.protocol", "Extractor": "extract.protocol",
     "RoneldTracker": "extract.roneld", "warm_up": "extract.online", "FrameRefused": "extract.online",
-    "RoneldParams": "config", "MapGeometry": "geometry",
+    "RoneldParams": "config", "MapGeometry": "geometry", "replay_clip": "replay",
     "RoneldEvalError": "errors", "InputError": "errors", "ConfigError": "errors",
 }
 
@@ -58,5 +58,6 @@ if TYPE_CHECKING:  # what static checkers and editors see
     from .extract.protocol import Extractor, Prediction  # noqa: F401
     from .extract.roneld import RoneldTracker  # noqa: F401
     from .geometry import MapGeometry  # noqa: F401
+    from .replay import replay_clip  # noqa: F401
     from .maps import load_maps  # noqa: F401
     from .model import Clip, Dataset, Frame, FrameMaps, Lane  # noqa: F401

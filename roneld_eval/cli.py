@@ -551,3 +551,103 @@ def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
     if not quiet:
         click.echo((Path(out) / "table_accuracy.md").read_text(encoding="utf-8"))
         click.echo(f"{counted(len(result.runs), 'run')} compared; results in {out}/")
+
+
+class _ImageSize(click.ParamType):
+    """WIDTHxHEIGHT in pixels, e.g. 1640x590."""
+
+    name = "WxH"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        width, cross, height = str(value).lower().partition("x")
+        if not cross or not width.strip().isdigit() or not height.strip().isdigit():
+            self.fail(f"{value!r} is not WIDTHxHEIGHT (e.g. 1640x590)", param, ctx)
+        size = int(width), int(height)
+        if min(size) < 1:
+            self.fail(f"{value!r}: width and height must be positive", param, ctx)
+        return size
+
+
+@main.command()
+@click.option("--maps-root", required=True, type=click.Path(path_type=Path),
+              help="The clip's maps: a folder of one clip's map files (its frames in name order), or with "
+                   "--data-root the dataset's maps root, as `run` takes it.")
+@click.option("--data-root", type=click.Path(path_type=Path),
+              help="The dataset the clip belongs to (as `run` takes it): its frames in order, and the ground truth "
+                   "that the active lanes are scored against.")
+@click.option("--clip", "clip_id", metavar="ID",
+              help="With --data-root: the clip to replay (its folder, e.g. driver_37_30frame/05181432_0203.MP4). "
+                   "Needed where the dataset holds several.")
+@click.option("--config", "config_file", metavar="FILE|PRESET",
+              help=f"Configuration file or preset ({', '.join(preset_names())}). Default: the dataset's "
+                   "default preset (scnn-culane).")
+@click.option("--dataset", type=click.Choice(benchmark_names()),
+              help="Benchmark whose default preset to use, and whose layout --data-root has.")
+@click.option("--maps-format", type=click.Choice(MAP_FORMATS),
+              help="How the maps are stored; lanes: a detector's lane files, drawn into maps. Default: the config's.")
+@click.option("--image-size", type=_ImageSize(),
+              help="The camera frame's size for a folder of maps, WIDTHxHEIGHT (default: the config's).")
+@click.option("--no-pft", is_flag=True, help="Replay RONELD without preceding-frame tracking.")
+@click.option("--set", "settings", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="Override one configuration value, as for `run` (repeatable).")
+@click.option("--video", type=click.Path(path_type=Path), metavar="FILE.mp4",
+              help="Write an MP4 of the clip: each frame with RONELD's active lanes (green) and, where labelled, "
+                   "the ground truth (blue) and each lane's IoU.")
+@click.option("--images", type=click.Path(path_type=Path),
+              help="Camera frames for the video, <IMAGES>/<frame>.jpg (or .png). Default: the data root. "
+                   "A frame without one is drawn on a blank canvas.")
+@click.option("--fps", type=click.FloatRange(min=0.1, max=240), default=10.0, show_default=True,
+              help="Frames per second of the video.")
+@click.option("--quiet", is_flag=True, help="No progress bar; print only the figures.")
+@debug_option
+def replay(maps_root, data_root, clip_id, config_file, dataset, maps_format, image_size, no_pft, settings, video,
+           images, fps, quiet, debug):
+    """Run RONELD over one recorded clip frame by frame, as on a vehicle (roneld_eval.RoneldTracker).
+
+    Prints the per-frame latency of the tracker's update (p50, p99, max; reading the maps apart),
+    the paper's ego-lane accuracy where the clip has ground truth (as `run` scores it), and with
+    --video writes an MP4 to watch the drive. Nothing else is written.
+    """
+    from .replay import replay_clip
+
+    def build() -> EvalConfig:
+        if config_file is not None:
+            config = EvalConfig.from_toml(config_file)
+            if dataset is not None and dataset != config.dataset.name:
+                raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
+        else:
+            from .api import default_config
+
+            config = default_config(dataset)
+        overrides = {"maps.root": str(maps_root), "maps.format": maps_format,
+                     "dataset.data_root": None if data_root is None else str(data_root)}
+        for setting in settings:
+            key, value = parse_setting(setting)
+            overrides[key] = value
+        return config.with_overrides(**overrides)
+
+    config = _guard(build, debug)
+    result = _guard(replay_clip, debug, config, clip_id, video, images, image_size, not no_pft, fps,
+                    progress=not quiet)
+    _print_replay(result)
+
+
+def _print_replay(result) -> None:
+    latency = result.latency
+    width, height = result.map_size
+    click.echo(f"replayed {counted(result.frames, 'frame')} of {result.clip_id} with {result.method} "
+               f"({width}x{height} maps)")
+    click.echo(f"update per frame: p50 {latency.p50_ms:.3f} ms, p99 {latency.p99_ms:.3f} ms, "
+               f"max {latency.max_ms:.3f} ms")
+    if result.accuracy is None:
+        click.echo("accuracy: no ground truth (give --data-root to score the clip)")
+    else:
+        rows = result.accuracy[result.accuracy["threshold"].isin(["0.30", "0.40", "0.50"])]
+        shown = rows if len(rows) else result.accuracy.iloc[[0, -1]]
+        click.echo(f"ego-lane accuracy (paper's protocol) over {counted(result.scored_frames, 'labelled frame')}: "
+                   + ", ".join(f"{row.n_tp}/{row.n_gt} = {row.accuracy:.3f} at IoU > {row.threshold}"
+                               for row in shown.itertuples()))
+    if result.video is not None:
+        click.echo(f"video: {result.video}")

@@ -9,6 +9,7 @@ and RONELD's thresholds are defined on 0..255; float maps in [0, 1] are rounded 
 from __future__ import annotations
 
 import os
+import re
 import stat
 from pathlib import Path
 
@@ -140,6 +141,46 @@ def load_maps(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometr
     raise InputError(None, f"unknown maps format {config.format!r}")
 
 
+def frames_in_folder(folder: Path, config: MapsConfig, lane_files=None) -> list[str]:
+    """The frames whose maps one folder holds (one clip's, not a dataset tree), as relpaths
+    `<name>.jpg` that `load_maps` finds them by, in name order (numbers by value: frame_2 before
+    frame_10); InputError for a folder that is none, or that holds no maps in this format (naming
+    the format its files are in, where they are in another)."""
+    suffix = _folder_suffix(config, lane_files)
+    try:
+        names = sorted(entry.name for entry in os.scandir(folder) if entry.is_file())
+    except NotADirectoryError:
+        raise InputError(folder, "not a folder (give the folder of one clip's maps)") from None
+    except FileNotFoundError:
+        raise InputError(folder, "no such folder") from None
+    except OSError as error:
+        raise InputError(folder, f"cannot read: {error.strerror}") from None
+    stems = [name[:-len(suffix)] for name in names if name.endswith(suffix) and len(name) > len(suffix)]
+    if not stems:
+        others = {fmt: sum(name.endswith(end) for name in names) for fmt, end in _FORMAT_SUFFIXES.items()}
+        found = max(others, key=lambda fmt: others[fmt])
+        hint = (f": it holds {others[found]} {_FORMAT_SUFFIXES[found]} files, use --maps-format {found}"
+                if others[found] else "")
+        raise InputError(folder, f"holds no {config.format} maps (files named <frame>{suffix}){hint}")
+    return [stem + ".jpg" for stem in sorted(stems, key=_natural)]
+
+
+def _folder_suffix(config: MapsConfig, lane_files) -> str:
+    if config.format != "lanes":
+        return _FORMAT_SUFFIXES[config.format]
+    from .lanes import LinesPerFrame
+
+    files = _lane_format(lane_files)
+    if not isinstance(files, LinesPerFrame) or files.name_of is not None:
+        raise InputError(None, "this benchmark's lane files do not name their frames one file each: give the "
+                               "dataset (--data-root) that lists them")
+    return files.suffix
+
+
+def _natural(name: str) -> list:
+    return [(0, int(part), "") if part.isdigit() else (1, 0, part) for part in re.split(r"(\d+)", name)]
+
+
 def map_size(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry | None = None,
              center_ratio: float = 0.5, lane_files=None) -> tuple[int, int]:
     """(width, height) of a frame's maps, as `load_maps` would give them. For PNG maps, from the
@@ -157,5 +198,6 @@ def map_size(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry
     return maps.width, maps.height
 
 
-__all__ = ["load_maps", "map_size", "required_paths", "map_stem", "found_in_other_format", "missing_reason",
+__all__ = ["load_maps", "map_size", "frames_in_folder", "required_paths", "map_stem", "found_in_other_format",
+           "missing_reason",
            "FORMATS"]
