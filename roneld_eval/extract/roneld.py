@@ -227,12 +227,12 @@ class RoneldTracker:
     _clip_size: tuple[int, int] | None = field(default=None, init=False, repr=False)
     _clip_geometry: MapGeometry | None = field(default=None, init=False, repr=False)
     _frames: int = field(default=0, init=False, repr=False)  # accepted since reset(), for messages
-    _mapped: np.ndarray | None = field(default=None, init=False, repr=False)  # EgoLanes' SCNN-order buffer
 
     def __post_init__(self):
         if self.channels not in online.CHANNEL_LAYOUTS:
             raise ConfigError(f"channels must be one of {', '.join(online.CHANNEL_LAYOUTS)}, got {self.channels!r}")
         self._latency = online.LatencyRing(self.latency_frames)
+        self._buffers = online.FrameBuffers()
 
     @classmethod
     def from_preset(cls, name: str, pft: bool = True, channels: str = "scnn",
@@ -288,13 +288,12 @@ class RoneldTracker:
         """
         start = time.perf_counter()
         where = f"frame {self._frames + 1}"
-        checked = online.checked_frame(maps, self.channels, self.lane_channels, where)
+        checked = online.checked_frame(maps, self.channels, self.lane_channels, where, self._buffers)
         height, width = checked.shape[1:]
         geometry = self._geometry_for(width, height, where)
         if self.channels == "egolanes":
-            if self._mapped is None or self._mapped.shape[1:] != checked.shape[1:]:
-                self._mapped = np.empty((4, height, width), np.uint8)
-            checked = online.egolanes_as_scnn(checked, self.params.center_ratio, self._mapped)
+            mapped = self._buffers.get("egolanes", (4, height, width), np.uint8)
+            checked = online.egolanes_as_scnn(checked, self.params.center_ratio, mapped)
         self.state, lanes = self._step(read_only(checked), geometry)
         self._clip_size, self._clip_geometry = (width, height), geometry
         self._frames += 1
