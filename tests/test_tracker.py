@@ -349,3 +349,21 @@ def test_float_levels_are_the_loaders_bit_for_bit(dtype, seed):
     for frame in (array, array[:, ::-1], np.asfortranarray(array)):
         expected = canonical_probabilities(frame, "x", MapsConfig())
         np.testing.assert_array_equal(checked_frame(frame, "scnn", 4, "x", buffers), expected)
+
+
+def test_the_readmes_vehicle_loop_runs_as_written():
+    import re
+
+    from conftest import REPO
+
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    block = next(b for b in re.findall(r"^```python\n(.*?)^```", readme, flags=re.S | re.M) if ".update(" in b)
+    assert len(block.splitlines()) <= 15
+    frames = curving_frames()
+    published, logged = [], []
+    names = {"camera": lambda: [(maps, k == 6) for k, maps in enumerate(frames)],
+             "model": lambda maps: maps.astype(np.float32) / 255,
+             "publish": published.append, "log": logged.append}
+    exec(compile(block, "README.md", "exec"), names)
+    assert len(logged) == len(frames) and logged[-1].frames == len(frames)
+    assert len(published) >= len(frames) and all(points.shape[1] == 2 for points in published)
