@@ -12,13 +12,23 @@ passes alternating:
   trackers in two threads against one tracker in one (frames per second).
 
     python scripts/bench_online.py [--repeats 30] [--frames 100000] [--thread-frames 20000]
+        [--authors DIR --authors-python PYTHON]
+
+With --authors, also the authors' RONELD (czming/RONELD-Lane-Detection's lane_detection_functions.py
+in DIR, never part of this project) in a Python of its own (its numba must be < 0.59), kept
+running beside this process and given the same frames (800x288, and the clip's own 976x351),
+passes alternating with update's.
+Its function draws each active lane into a mask too: its time includes that.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -137,6 +147,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=30, help="passes over the clip per way of running it")
     parser.add_argument("--frames", type=int, default=100_000, help="update calls of the memory check")
     parser.add_argument("--thread-frames", type=int, default=20_000, help="frames per thread in the thread check")
+    parser.add_argument("--authors", metavar="DIR", help="folder holding the authors' lane_detection_functions.py")
+    parser.add_argument("--authors-python", metavar="PYTHON", default="python3.7",
+                        help="a Python with numba < 0.59, numpy, scipy and OpenCV for the authors' code")
     args = parser.parse_args()
     if not REAL_CLIP.is_dir():
         sys.exit(f"{REAL_CLIP}: the real clip is not here; nothing measured")
@@ -170,9 +183,62 @@ def main() -> None:
             lambda: roneld_eval.RoneldTracker(params, ego_geometry, channels="egolanes").update, egolanes),
     }, args.repeats)
 
+    if args.authors is not None:
+        authors(scnn, geometry, args.authors, args.authors_python, args.repeats)
+        native = clip_maps(976, 351)  # the clip's own size, as the authors' demo runs it
+        authors(native, MapGeometry(1640, 590, 976, 351), args.authors, args.authors_python, args.repeats)
     memory(scnn, args.frames)
     kernel_share(scnn, geometry, args.repeats)
     threads(scnn, args.thread_frames)
+
+
+# Runs in the authors' Python: one pass over the clip per line read, its per-frame ms written back.
+AUTHORS_PASS = """
+import json, sys, time
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from lane_detection_functions import roneld_lane_detection
+frames = list(np.load(sys.argv[2])["frames"])
+def one_pass():
+    lanes, curves, curve_mode, times = [], np.zeros(10), False, []
+    for maps in frames:
+        start = time.perf_counter()
+        _, lanes, curves, curve_mode = roneld_lane_detection(list(maps), lanes, curves, curve_mode=curve_mode)
+        times.append((time.perf_counter() - start) * 1e3)
+    return times
+one_pass()  # its numba compiles here
+print("ready", flush=True)
+for line in sys.stdin:
+    print(json.dumps(one_pass()), flush=True)
+"""
+
+
+def authors(frames: list[np.ndarray], geometry: MapGeometry, code: str, python: str, repeats: int) -> None:
+    with tempfile.TemporaryDirectory(prefix="roneld-authors-") as folder:
+        clip = Path(folder) / "clip.npz"
+        np.savez(clip, frames=np.stack(frames))
+        theirs = subprocess.Popen([python, "-c", AUTHORS_PASS, code, str(clip)], stdin=subprocess.PIPE,
+                                  stdout=subprocess.PIPE, text=True)
+        assert theirs.stdin is not None and theirs.stdout is not None
+        try:
+            if theirs.stdout.readline().strip() != "ready":
+                sys.exit("the authors' RONELD did not start (see its error above)")
+            ours_ms: list[float] = []
+            theirs_ms: list[float] = []
+            for _ in range(repeats):
+                ours_ms += per_frame_ms(roneld_eval.RoneldTracker(RoneldParams(), geometry).update, frames)
+                theirs.stdin.write("pass\n")
+                theirs.stdin.flush()
+                theirs_ms += json.loads(theirs.stdout.readline())
+        finally:
+            theirs.stdin.close()
+            theirs.wait(timeout=60)
+    ours50, ours99 = np.percentile(ours_ms, [50, 99])
+    their50, their99 = np.percentile(theirs_ms, [50, 99])
+    height, width = frames[0].shape[1:]
+    print(f"\nthe authors' RONELD, {width}x{height}, {repeats} passes alternating with update: p50 {their50:.3f} ms, "
+          f"p99 {their99:.3f} ms; update p50 {ours50:.3f} ms, p99 {ours99:.3f} ms: {their50 / ours50:.1f}x faster "
+          f"at p50")
 
 
 def kernel_share(frames: list[np.ndarray], geometry: MapGeometry, repeats: int) -> None:
