@@ -16,7 +16,7 @@ import click
 
 from .version import __version__
 from .wording import counted
-from .benchmarks import names as benchmark_names
+from .benchmarks import names as benchmark_names, origin as benchmark_origin
 from .config import FRAMES_PER_DEFAULT_WORKER, LANES_MODEL, MAP_FORMATS, METHODS, EvalConfig, parse_setting
 from .presets import is_preset, preset_names
 from .errors import ConfigError, RoneldEvalError
@@ -382,28 +382,37 @@ def _print_summary(result, out: Path) -> None:
 
 class _BenchmarkCommands(click.Group):
     """`score BENCHMARK`: each installed benchmark brings its own command (Benchmark.score_command),
-    imported only when it is the one asked for."""
+    imported only when it is the one asked for. `score --help` lists them from their entry
+    points' metadata: a benchmark that hangs or exits at import cannot stop the list, and the
+    list costs no benchmark's import."""
 
     def list_commands(self, ctx):
-        return [name for name in benchmark_names() if self._command(name, quiet=True) is not None]
+        return list(benchmark_names())
+
+    def format_commands(self, ctx, formatter):
+        rows = [(name, benchmark_origin(name)) for name in self.list_commands(ctx)]
+        if rows:
+            with formatter.section("Commands (`roneld-eval score NAME --help` says what each scores)"):
+                formatter.write_dl(rows)
 
     def get_command(self, ctx, name):
         return self._command(name) if name in benchmark_names() else None
 
     @staticmethod
-    def _command(name: str, quiet: bool = False):
-        """The benchmark's command; one that cannot be loaded is left out of the list (`quiet`)
-        or is one line, exit 2, when asked for by name."""
+    def _command(name: str):
+        """The benchmark's command; one that cannot be loaded or has none is one line, exit 2."""
         from .benchmarks import benchmark_for
 
         try:
-            return benchmark_for(name).score_command()
+            command = benchmark_for(name).score_command()
         except Exception as error:  # a third party's package
-            if quiet:
-                return None
             raise UsageProblem(str(error) if isinstance(error, RoneldEvalError)
                                else f"benchmark {name!r}: score_command() raised {type(error).__name__}: {error}"
                                ) from None
+        if command is None:
+            raise UsageProblem(f"benchmark {name!r} has no `score` command: evaluate its maps with "
+                               f"`roneld-eval run --dataset {name}`")
+        return command
 
 
 @main.group(cls=_BenchmarkCommands)

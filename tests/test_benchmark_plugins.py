@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import ast
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -21,10 +22,10 @@ PACKAGE = Path(benchmarks.__file__).parents[2]  # the folder holding roneld_eval
 TOY = Path(__file__).parent / "toy_benchmark"
 
 
-def cli(*args: str, path: Path = TOY, check: bool = True) -> subprocess.CompletedProcess:
+def cli(*args: str, path: Path = TOY, check: bool = True, timeout: float = 300) -> subprocess.CompletedProcess:
     env = env_importing(path)
     done = subprocess.run([sys.executable, "-m", "roneld_eval", *args], capture_output=True, text=True, env=env,
-                          timeout=300)
+                          timeout=timeout)
     if check:
         assert done.returncode == 0, done.stderr
     return done
@@ -127,10 +128,10 @@ def _package(root: Path, name: str, value: str, module: str, source: str) -> Pat
      "lacks display_name, image_size, default_preset, frames_per_clip, fixture, score_command (see "
      "roneld_eval.benchmarks.Benchmark)"),
 ])
-def test_a_broken_benchmark_is_one_line_and_leaves_the_others_listed(tmp_path, source, problem):
+def test_a_broken_benchmark_is_one_line_and_is_listed_with_the_others(tmp_path, source, problem):
     path = _package(tmp_path, "bad", "bad = bad_mod:B", "bad_mod", source)
-    listed = cli("score", "--help", path=path)
-    assert "culane" in listed.stdout and "vil100" in listed.stdout and "bad" not in listed.stdout
+    listed = cli("score", "--help", path=path)  # from the metadata: its import is never tried
+    assert "culane" in listed.stdout and "vil100" in listed.stdout and "bad-pkg 0: bad_mod:B" in listed.stdout
     for args in (["score", "bad", "--help"], ["synth", "--dataset", "bad", "--out", str(tmp_path / "s")]):
         done = cli(*args, path=path, check=False)
         assert done.returncode == 2, args
@@ -147,3 +148,33 @@ def test_a_package_cannot_replace_a_built_in_benchmark(tmp_path):
     checked = subprocess.run([sys.executable, "-c", program],
                              capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(path)), check=True)
     assert checked.stdout.split() == ["roneld_eval.benchmarks.culane", "culane"]
+
+
+# What a command that imports nothing sees of the benchmarks: which of their modules it loaded.
+IMPORTED_BENCHMARKS = r"""
+import json, sys
+from roneld_eval.cli import main
+try:
+    main(sys.argv[1:])
+except SystemExit:
+    pass
+print(json.dumps(sorted(name for name in sys.modules if name.startswith("roneld_eval.benchmarks.")
+                        or name == "late_mod")))
+"""
+
+
+@pytest.mark.parametrize("at_import", ["raise SystemExit(0)", "import os\nos._exit(0)", "import time\ntime.sleep(600)"])
+def test_help_lists_the_benchmarks_from_their_metadata_and_imports_none(tmp_path, at_import):
+    # `score --help` imported every benchmark to list it: one that exited at import made it print
+    # nothing (exit 0), one that slept hung it.
+    path = _package(tmp_path, "late", "late = late_mod:B", "late_mod", at_import + "\n")
+    for args in (["--help"], ["score", "--help"]):
+        done = subprocess.run([sys.executable, "-c", IMPORTED_BENCHMARKS, *args], capture_output=True, text=True,
+                              env=env_importing(path), timeout=60)
+        assert done.returncode == 0, done.stderr
+        *shown, imported = done.stdout.splitlines()
+        assert json.loads(imported) == [], args
+        assert "Usage: " in shown[0], args
+    listed = cli("score", "--help", path=path, timeout=60).stdout
+    rows = [line.split(None, 1) for line in listed[listed.index("Commands"):].splitlines()[1:]]
+    assert {"culane": "built in", "late": "late-pkg 0: late_mod:B"}.items() <= dict(rows).items()

@@ -178,6 +178,17 @@ def names() -> tuple[str, ...]:
     return tuple(_entry_points())
 
 
+def origin(name: str) -> str:
+    """Where a registered benchmark comes from, as its entry point's metadata says (nothing is
+    imported): "built in", or its package, version and entry."""
+    point = _entry_points()[name]
+    if point.value.startswith(_OWN):
+        return "built in"
+    dist = getattr(point, "dist", None)
+    package = f"{dist.name} {dist.version}: " if dist is not None else ""
+    return f"{package}{point.value}"
+
+
 @functools.cache
 def benchmark_for(name: str) -> Benchmark:
     """The benchmark registered under `name` (as `DatasetConfig.name` gives it)."""
