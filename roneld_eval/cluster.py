@@ -15,14 +15,19 @@ import contextlib
 import inspect
 import tempfile
 import threading
+import time
 from pathlib import Path
 from typing import Any, Callable
 
 from .errors import ConfigError, InputError, RunInterrupted
 
 EXECUTORS = ("local", "dask")
-WORKER_WAIT_S = 60  # how long a remote scheduler may take to have one worker
-CONNECT_TIMEOUT_S = 20
+# How long a cluster may be without a worker (its scheduler's first one, or after the last one
+# died or left) before the command gives it up: tasks would wait for one forever.
+WORKER_WAIT_S = 60.0
+# How long a scheduler may take to answer: distributed's Client bounds the TCP connection only, and
+# waits forever on an address that accepts it and never answers.
+CONNECT_TIMEOUT_S = 20.0
 
 # A worker with several threads runs its shards one after another: compiled kernels and the
 # plug-in slot are process-wide.
@@ -94,14 +99,11 @@ def on_dask(function: Callable, arguments: dict, command: str, scheduler: str | 
                  f"({len(client.nthreads())} worker{'s' if len(client.nthreads()) > 1 else ''}, {threads} threads)")
         futures = {client.submit(shard_task, function, arguments, f"{k}/{count}", pure=False): k
                    for k in range(1, count + 1)}
-        parts: dict[int, dict[str, bytes]] = {}
         try:
             from .progress import progress_bar
 
             with progress_bar(count, "shard", "shards", disable=not progress) as bar:
-                for future in distributed.as_completed(futures):
-                    parts[futures[future]] = _result(distributed, future, futures[future], count)
-                    bar.update(1)
+                parts = _gathered(distributed, client, futures, count, bar.update)
         finally:
             for future in futures:
                 future.cancel()
@@ -117,6 +119,39 @@ def on_dask(function: Callable, arguments: dict, command: str, scheduler: str | 
                 target.write_bytes(data)
             folders.append(folder)
         return merge(folders, out)[1]
+
+
+def _gathered(distributed, client, futures: dict, count: int, advance: Callable[[int], object]
+              ) -> dict[int, dict[str, bytes]]:
+    """Each shard's part (by its number) as its task finishes; RunInterrupted once the cluster has
+    had no worker, or its scheduler has not answered, for WORKER_WAIT_S (said within it)."""
+    parts: dict[int, dict[str, bytes]] = {}
+    pending = set(futures)
+    poll = min(1.0, WORKER_WAIT_S / 20)
+    alive = time.monotonic()  # when the cluster last had a worker
+    while pending:
+        try:
+            done, pending = distributed.wait(pending, timeout=poll, return_when="FIRST_COMPLETED")
+        except TimeoutError:  # none finished meanwhile
+            done = set()
+        for future in done:
+            parts[futures[future]] = _result(distributed, future, futures[future], count)
+            advance(1)
+        if done or _has_workers(client, poll):
+            alive = time.monotonic()
+        elif time.monotonic() - alive > WORKER_WAIT_S - 2 * poll:  # a poll and an answer late at most
+            raise RunInterrupted(f"the Dask cluster at {client.scheduler.address} has had no worker for "
+                                 f"{WORKER_WAIT_S:g} s (its workers died or left, or its scheduler does not "
+                                 "answer): no result was written")
+    return parts
+
+
+def _has_workers(client, timeout_s: float) -> bool:
+    """Whether the scheduler answers within `timeout_s` and has a worker."""
+    try:
+        return bool(client.nthreads(callback_timeout=timeout_s))
+    except (OSError, TimeoutError):  # a dead or silent scheduler
+        return False
 
 
 def _result(distributed, future, k: int, count: int) -> dict[str, bytes]:
@@ -143,6 +178,7 @@ def _client(distributed, address: str | None, workers: int | None):
                 yield client
         return
     try:
+        _answers(distributed, address)
         client = distributed.Client(address, timeout=CONNECT_TIMEOUT_S)
     except (OSError, TimeoutError, ValueError) as error:
         raise ConfigError(f"--scheduler {address}: no Dask scheduler answers there ({error})") from None
@@ -150,5 +186,23 @@ def _client(distributed, address: str | None, workers: int | None):
         try:
             client.wait_for_workers(1, timeout=WORKER_WAIT_S)
         except TimeoutError:
-            raise ConfigError(f"--scheduler {address}: no worker joined it within {WORKER_WAIT_S} s") from None
+            raise ConfigError(f"--scheduler {address}: no worker joined it within {WORKER_WAIT_S:g} s") from None
         yield client
+
+
+def _answers(distributed, address: str) -> None:
+    """Connect to `address` as a Client does, handshake included, within CONNECT_TIMEOUT_S, or
+    raise TimeoutError (OSError, ValueError: nothing there, not an address); nothing is left open.
+    The Client's own timeout bounds the TCP connection only, and then waits forever for the
+    handshake of an address that accepts it and never answers."""
+    import asyncio
+
+    async def handshake() -> None:
+        comm = await asyncio.wait_for(distributed.comm.connect(address, timeout=CONNECT_TIMEOUT_S),
+                                      CONNECT_TIMEOUT_S)
+        await comm.close()
+
+    try:
+        asyncio.run(handshake())
+    except asyncio.TimeoutError:
+        raise TimeoutError(f"no answer within {CONNECT_TIMEOUT_S:g} s") from None

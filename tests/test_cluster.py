@@ -3,8 +3,11 @@ one given by --scheduler) and merge into the files the command writes in one pro
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
+import threading
+import time
 
 import pytest
 from click.testing import CliRunner
@@ -129,3 +132,100 @@ def test_a_shards_input_error_is_one_line_and_leaves_no_folder(culane_set, tmp_p
     assert "Traceback" not in said and "distributed.worker" not in said, said
     assert said.strip().splitlines()[-1].endswith("epoch_*/lines: no folder matches this pattern"), said
     assert not (tmp_path / "sweep").exists()
+
+
+@pytest.fixture
+def silent_scheduler():
+    """tcp://127.0.0.1:PORT: accepts every connection and never says a word."""
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen(16)
+    held = []
+
+    def accept():
+        while True:
+            try:
+                held.append(listener.accept()[0])
+            except OSError:  # closed
+                return
+
+    threading.Thread(target=accept, daemon=True).start()
+    yield f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+    listener.close()
+    for connection in held:
+        connection.close()
+
+
+# The command line with a short wait for a scheduler's answer, in a process a hang cannot take along.
+SHORT_CONNECT = r"""
+import sys
+import roneld_eval.cluster
+roneld_eval.cluster.CONNECT_TIMEOUT_S = 1
+from roneld_eval.cli import main
+main(sys.argv[1:], prog_name="roneld-eval")
+"""
+
+
+def test_a_scheduler_that_accepts_and_never_answers_is_one_line(culane_set, tmp_path, silent_scheduler):
+    # Client(timeout=20) bounds the TCP connection only: the command waited forever for a handshake.
+    out = tmp_path / "o"
+    done = subprocess.run([sys.executable, "-c", SHORT_CONNECT, "score", "culane", "--data-root",
+                           str(culane_set / "data"), "--pred-root", str(culane_set / "maps"), "--out", str(out),
+                           "--executor", "dask", "--scheduler", silent_scheduler], capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr == f"error: --scheduler {silent_scheduler}: no Dask scheduler answers there (no answer " \
+                          "within 1 s)\n"
+    assert not out.exists()
+
+
+STARTED, RELEASE = threading.Event(), threading.Event()
+
+
+def _held_shard(function, arguments, shard):
+    """A shard that waits, its worker killed meanwhile (a module's function: pickled by name, so the
+    in-process worker runs this one, with these events)."""
+    STARTED.set()
+    RELEASE.wait(120)
+    return {}
+
+
+def test_a_run_whose_only_worker_dies_is_one_line(tmp_path, monkeypatch):
+    # The shards' tasks waited for a worker forever.
+    import _thread
+
+    import roneld_eval.cluster as cluster
+
+    monkeypatch.setattr(cluster, "WORKER_WAIT_S", 2)
+    monkeypatch.setattr(cluster, "shard_task", _held_shard)
+    STARTED.clear()
+    RELEASE.clear()
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as local:
+        worker = next(iter(local.workers.values()))
+
+        def kill() -> None:
+            if STARTED.wait(60):
+                local.sync(worker.close, executor_wait=False)
+
+        threading.Thread(target=kill, daemon=True).start()
+        hung = threading.Timer(60, _thread.interrupt_main)  # what was a hang fails the test instead
+        hung.start()
+        try:
+            result = _invoke("run", "--workers", "1", "--quiet", "--out", tmp_path / "o", "--executor", "dask",
+                             "--scheduler", local.scheduler_address)
+        finally:
+            hung.cancel()
+            RELEASE.set()
+        assert STARTED.is_set() and worker.status.name == "closed"
+        assert result.exit_code == 1, result.output
+        assert result.output == (f"error: the Dask cluster at {local.scheduler_address} has had no worker for 2 s "
+                                 "(its workers died or left, or its scheduler does not answer): no result was "
+                                 "written\n")
+        # Nothing left running: its task released, its client gone.
+        deadline = time.monotonic() + 10
+        while (local.scheduler.tasks or set(local.scheduler.clients) - {"fire-and-forget"}) \
+                and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not local.scheduler.tasks and set(local.scheduler.clients) == {"fire-and-forget"}
+    assert not (tmp_path / "o").exists() or not [p.name for p in (tmp_path / "o").iterdir()]
