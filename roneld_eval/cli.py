@@ -405,10 +405,8 @@ class _BenchmarkCommands(click.Group):
 
         try:
             command = benchmark_for(name).score_command()
-        except Exception as error:  # a third party's package
-            raise UsageProblem(str(error) if isinstance(error, RoneldEvalError)
-                               else f"benchmark {name!r}: score_command() raised {type(error).__name__}: {error}"
-                               ) from None
+        except RoneldEvalError as error:  # a third party's is guarded (benchmarks.plugins)
+            raise UsageProblem(str(error)) from None
         if command is None:
             raise UsageProblem(f"benchmark {name!r} has no `score` command: evaluate its maps with "
                                f"`roneld-eval run --dataset {name}`")

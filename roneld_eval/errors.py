@@ -54,6 +54,11 @@ class ExtractorError(RoneldEvalError):
         return (type(self), (self.method, self.frame, self.problem))
 
 
+class PluginError(RoneldEvalError):
+    """A benchmark of another package failed in a call: it raised or exited, ended its process,
+    took longer than its time limit, or returned something malformed."""
+
+
 class RunInterrupted(RoneldEvalError):
     """A run stopped before its end (Ctrl-C, a worker killed); finished clips may be cached."""
 

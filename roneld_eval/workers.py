@@ -221,6 +221,16 @@ def stopping(executor: ProcessPoolExecutor,
     stop_pool(executor, finished=True)
 
 
+def exit_codes(processes: dict[int, Any], wait_s: float = 2.0) -> dict[int, int | None]:
+    """pid -> exit code of a broken pool's processes (`WorkerPool._processes`), all ended by now:
+    waited for up to `wait_s`, as the pool's own thread may be reaping one (its code is None here
+    until that thread has set it)."""
+    deadline = time.monotonic() + wait_s
+    while any(process.exitcode is None for process in processes.values()) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return {pid: process.exitcode for pid, process in processes.items()}
+
+
 def worker_count(asked: int | None) -> int:
     """Processes to work in: `asked`, or all usable cores when None; 1 (this process alone) in a
     daemonic process, which may start none (a Dask worker running a shard is one)."""

@@ -178,3 +178,148 @@ def test_help_lists_the_benchmarks_from_their_metadata_and_imports_none(tmp_path
     listed = cli("score", "--help", path=path, timeout=60).stdout
     rows = [line.split(None, 1) for line in listed[listed.index("Commands"):].splitlines()[1:]]
     assert {"culane": "built in", "late": "late-pkg 0: late_mod:B"}.items() <= dict(rows).items()
+
+
+# ---- a third party's benchmark is a plug-in: its import and its calls are guarded --------------
+
+
+def _variant(root: Path, name: str, body: str, at_import: str = "") -> Path:
+    """A package registering benchmark `name`: the toy one with `body` in its class (and
+    `at_import` run as its module is imported), with its own preset."""
+    preset = (TOY / "toy.toml").read_text().replace('name = "toy"', f'name = "{name}"')
+    (root / f"{name}.toml").parent.mkdir(parents=True, exist_ok=True)
+    (root / f"{name}.toml").write_text(preset)
+    source = (f"import math, os, signal, sys, time\nsys.path.insert(0, {str(TOY)!r})\nimport toy_lanes\n{at_import}\n"
+              f"class T(toy_lanes.ToyBenchmark):\n    name = {name!r}\n"
+              f"    default_preset = {str(root / f'{name}.toml')!r}\n{body or '    pass'}\nB = T()\n")
+    return _package(root, name, f"{name} = {name}_mod:B", f"{name}_mod", source)
+
+
+@pytest.mark.parametrize("at_import, problem", [
+    ("raise SystemExit(0)", "cannot be loaded: SystemExit: 0"),
+    ("os._exit(0)", "cannot be loaded: its process ended while importing it (exit status 0)"),
+    ("raise KeyError('no')", "cannot be loaded: KeyError: 'no'"),
+])
+def test_a_benchmark_that_exits_or_raises_at_import_is_one_line_naming_it(toy_runs, tmp_path, at_import, problem):
+    # SystemExit(0) or os._exit(0) at import ended `run` with exit status 0, nothing written, not a word.
+    path = _variant(tmp_path / "pkg", "gone", "", at_import)
+    out = tmp_path / "out"
+    for args in (["run", "--dataset", "gone", "--data-root", str(toy_runs / "set" / "data"), "--maps-root",
+                  str(toy_runs / "set" / "maps"), "--out", str(out), "--workers", "1"], ["score", "gone", "--help"]):
+        done = cli(*args, path=path, check=False, timeout=60)
+        assert done.returncode == 2, (args, done.stderr)
+        assert done.stdout == "" and done.stderr == f"error: benchmark 'gone' (gone_mod:B) {problem}\n", args
+    assert not out.exists()
+
+
+def _method(header: str, *lines: str) -> str:
+    """A method of the variant's class: its header ("score(self, ...)") and its lines."""
+    return f"    def {header}:\n" + "".join(f"        {line}\n" for line in lines)
+
+
+SCORE = "score(self, prepared, prediction, config)"
+PREPARE = "prepare(self, frame, config)"
+TALLY = "tally(self, methods, dataset, config)"
+
+
+def _tally_with(table: str) -> str:
+    """tally(): the toy's, whose table() is `table` (over `made`, the toy's own table)."""
+    return _method(TALLY, "tally = toy_lanes.ToyTally(methods)", "made = tally.table",
+                   f"tally.table = lambda: {table}", "return tally")
+
+
+@pytest.mark.parametrize("body, problem", [
+    (_method(SCORE, "return None"),
+     "frame seq00/000.jpg: score() returned NoneType, not an official record (an object with to_json())"),
+    (_method(SCORE, "return toy_lanes.ToyRecord(math.nan, 1)"),
+     "frame seq00/000.jpg: score() returned a record whose to_json() holds NaN or an infinite number"),
+    (_method(SCORE, "return 1 / 0"), "frame seq00/000.jpg: score() raised ZeroDivisionError: division by zero"),
+    (_method(SCORE, "sys.exit(0)"), "frame seq00/000.jpg: score() raised SystemExit: 0"),
+    # On one frame: with two workers, processes that ended on frames of two clips at once would be
+    # named in the order they are found.
+    (_method(PREPARE, "self.frame = frame.relpath", "return len(frame.lanes)")
+     + _method(SCORE, "if self.frame == 'seq00/001.jpg':", "    os._exit(0)",
+               "return toy_lanes.ToyRecord(prepared, len(prediction.lanes))"),
+     "frame seq00/001.jpg: its process ended inside the plug-in (exit status 0)"),
+    (_method(PREPARE, "if frame.relpath == 'seq00/001.jpg':", "    os.kill(os.getpid(), signal.SIGKILL)",
+             "return len(frame.lanes)"),
+     "frame seq00/001.jpg: its process ended inside the plug-in (signal 9)"),
+    (_tally_with("[[1, 2]]"), "table() returned list, not a pandas DataFrame"),
+    (_tally_with("made().drop(columns=['clips'])"), "table() returned a table without its official_columns clips"),
+    (_tally_with("made().assign(frames=-1)"),
+     "table() returned a table whose column frames holds -1, not a whole number in [0, 2^53]"),
+    (_method("lane_file(self, method, frame, lanes)", "return 'lanes'"),
+     "frame seq00/000.jpg: lane_file() returned str, not a LaneFile of a name and a text"),
+])
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_benchmark_whose_scoring_fails_stops_the_run_with_one_line(toy_runs, tmp_path, body, problem, workers):
+    # Each was a traceback from the cache, the pool or the writer, or (an exit) status 0 without a word.
+    path = _variant(tmp_path / "pkg", "flaky", body)
+    out = tmp_path / "out"
+    done = cli("run", "--dataset", "flaky", "--data-root", str(toy_runs / "set" / "data"), "--maps-root",
+               str(toy_runs / "set" / "maps"), "--out", str(out), "--workers", workers, "--quiet", "--save-lanes",
+               path=path, check=False, timeout=120)
+    assert done.returncode == 2, done.stderr
+    said = f", {problem}" if problem.startswith("frame ") else f": {problem}"
+    assert done.stderr == f"error: benchmark 'flaky' (flaky_mod:B){said}\n"
+    assert not out.exists() or not [p.name for p in out.iterdir()]  # no lock, staging or cache behind
+
+
+# The command line with short time limits (0.5 s, 0.2 s of grace past it), in a process of its own
+# that a hang cannot take with it. (On code without these limits, the test times out.)
+SHORT_LIMITS = r"""
+import contextlib, sys
+with contextlib.suppress(ImportError):
+    from roneld_eval.benchmarks import plugins
+    from roneld_eval.evaluation import plugin_call, pool
+    plugins.BENCHMARK_TIME_LIMIT_S = 0.5
+    plugin_call.OVERDUE_GRACE_S = pool.OVERDUE_GRACE_S = 0.2
+from roneld_eval.cli import main
+main(sys.argv[1:], prog_name="roneld-eval")
+"""
+
+
+# Ignores the alarm, in short sleeps: the worker cannot cut it short, the main process ends it.
+DEAF = "signal.signal(signal.SIGALRM, signal.SIG_IGN)"
+
+
+@pytest.mark.parametrize("at_import, body, problem", [
+    ("time.sleep(600)", "", " cannot be loaded: importing it took longer than 0.5 s"),
+    (f"{DEAF}\nwhile True:\n    time.sleep(0.01)", "", " cannot be loaded: importing it took longer than 0.5 s"),
+    ("", _method(SCORE, "time.sleep(600)"), ", frame seq00/000.jpg: score() took longer than 0.5 s"),
+    ("", _method(SCORE, DEAF, "while True:", "    time.sleep(0.01)"), ", frame seq00/000.jpg: took longer than 0.5 s"),
+])
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_benchmark_that_hangs_is_stopped_at_its_time_limit(toy_runs, tmp_path, at_import, body, problem, workers):
+    # One that slept at import hung `run` (and `score --help`); one that slept while scoring hung
+    # `run --workers 1`: unlike a plug-in method, it had no time limit.
+    path = _variant(tmp_path / "pkg", "slow", body, at_import)
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, "-c", SHORT_LIMITS, "run", "--dataset", "slow", "--data-root",
+                           str(toy_runs / "set" / "data"), "--maps-root", str(toy_runs / "set" / "maps"), "--out",
+                           str(out), "--workers", workers, "--quiet"], capture_output=True, text=True,
+                          env=env_importing(path), timeout=60)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr == f"error: benchmark 'slow' (slow_mod:B){problem}\n"
+    assert not out.exists() or not [p.name for p in out.iterdir()]
+
+
+def test_a_benchmark_whose_score_command_fails_is_one_line(tmp_path):
+    path = _variant(tmp_path / "pkg", "nocmd", _method("score_command(self)", "raise SystemExit(3)"))
+    done = cli("score", "nocmd", "--help", path=path, check=False, timeout=60)
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr == "error: benchmark 'nocmd' (nocmd_mod:B): score_command() raised SystemExit: 3\n"
+    path = _variant(tmp_path / "pkg2", "nocmd2", _method("score_command(self)", "return None"))
+    done = cli("score", "nocmd2", "--help", path=path, check=False, timeout=60)
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr == ("error: benchmark 'nocmd2' has no `score` command: evaluate its maps with "
+                           "`roneld-eval run --dataset nocmd2`\n")
+
+
+def test_a_third_party_benchmark_runs_on_dask_as_here(toy_runs, tmp_path):
+    # Its scoring runs in worker processes where it can start them: a Dask worker, daemonic, cannot.
+    pytest.importorskip("distributed")
+    cli("run", "--dataset", "toy", "--data-root", str(toy_runs / "set" / "data"), "--maps-root",
+        str(toy_runs / "set" / "maps"), "--pft-ablation", "--set", "model=ToyNet", "--out", str(tmp_path / "dask"),
+        "--quiet", "--workers", "2", "--executor", "dask")
+    assert (tmp_path / "dask" / "official.csv").read_bytes() == (toy_runs / "run1" / "official.csv").read_bytes()

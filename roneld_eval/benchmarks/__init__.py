@@ -196,12 +196,14 @@ def benchmark_for(name: str) -> Benchmark:
     if name not in points:
         known = ", ".join(points) or "none (is roneld-eval installed?)"
         raise ConfigError(f"unknown dataset {name!r}; choose from {known}")
-    try:
-        benchmark = points[name].load()
-    except Exception as error:  # a third party's package: say which, not a traceback
-        raise ConfigError(f"benchmark {name!r} ({points[name].value}) cannot be loaded: "
-                          f"{type(error).__name__}: {error}") from None
-    where = f"benchmark {name!r} ({points[name].value})"
+    point = points[name]
+    if not point.value.startswith(_OWN):  # a third party's: a plug-in (benchmarks.plugins)
+        from . import plugins
+
+        benchmark = plugins.load(point)
+    else:
+        benchmark = point.load()
+    where = f"benchmark {name!r} ({point.value})"
     if inspect.getattr_static(benchmark, "name", None) != name:
         raise ConfigError(f"{where} calls itself {inspect.getattr_static(benchmark, 'name', None)!r}")
     # Looked up statically: a benchmark may answer every other name with its own ConfigError.
@@ -211,6 +213,8 @@ def benchmark_for(name: str) -> Benchmark:
                    if inspect.getattr_static(benchmark, member, _MISSING) is _MISSING]
     if missing:
         raise ConfigError(f"{where} lacks {', '.join(missing)} (see roneld_eval.benchmarks.Benchmark)")
+    if not point.value.startswith(_OWN):
+        return plugins.PluginObject(benchmark, name, point.value)
     return benchmark
 
 

@@ -236,27 +236,35 @@ def read_csv(path: Path, columns: dict[str, str], optional: dict[str, str] | Non
         if kind == "text":
             out[name] = pd.Series(raw, dtype=object)  # plain objects: pandas' str arrays iterate slowly
             continue
-        numbers = np.asarray(pd.to_numeric(raw, errors="coerce"), np.float64).copy()
-        allowed = np.zeros(len(raw), bool)  # an empty optional number
-        for row in np.flatnonzero(np.isnan(numbers)):  # few: parse them one by one, spaces allowed
-            text = str(raw[row]).strip()
-            if kind == "optional number" and text.lower() in ("", "nan"):
-                allowed[row] = True
-                continue
-            try:
-                numbers[row] = float(text)
-            except ValueError:
-                pass
-        bad = ~np.isfinite(numbers) & ~allowed
-        if kind == "count":  # whole, and exact as a float (a count of 1e308 overflows the sums)
-            bad |= (numbers < 0) | (numbers != np.floor(numbers)) | (numbers > MAX_COUNT)
-        if bad.any():
-            first = int(np.flatnonzero(bad)[0])
-            expected = {"count": "a whole number in [0, 2^53]", "number": "a finite number",
-                        "optional number": "a number or empty"}[kind]
-            raise InputError(path, f"column {name}: {raw[first]!r} is not {expected}", line=first + 2)
+        numbers, first = column_numbers(raw, kind)
+        if first is not None:
+            raise InputError(path, f"column {name}: {raw[first]!r} is not {EXPECTED[kind]}", line=first + 2)
         out[name] = numbers.astype(np.int64) if kind == "count" else numbers
     return pd.DataFrame(out, columns=list(wanted))
+
+
+EXPECTED = {"count": "a whole number in [0, 2^53]", "number": "a finite number", "optional number": "a number or empty"}
+
+
+def column_numbers(raw: np.ndarray, kind: str) -> tuple[np.ndarray, int | None]:
+    """A column of a kind other than 'text' as floats, and the row of its first value that is not
+    of the kind (None: all are). Also how a benchmark plug-in's official table is checked before
+    it is written (benchmarks.plugins)."""
+    numbers = np.asarray(pd.to_numeric(raw, errors="coerce"), np.float64).copy()
+    allowed = np.zeros(len(raw), bool)  # an empty optional number
+    for row in np.flatnonzero(np.isnan(numbers)):  # few: parse them one by one, spaces allowed
+        text = str(raw[row]).strip()
+        if kind == "optional number" and text.lower() in ("", "nan"):
+            allowed[row] = True
+            continue
+        try:
+            numbers[row] = float(text)
+        except ValueError:
+            pass
+    bad = ~np.isfinite(numbers) & ~allowed
+    if kind == "count":  # whole, and exact as a float (a count of 1e308 overflows the sums)
+        bad |= (numbers < 0) | (numbers != np.floor(numbers)) | (numbers > MAX_COUNT)
+    return numbers, int(np.flatnonzero(bad)[0]) if bad.any() else None
 
 
 def _unique(path: Path, table: pd.DataFrame, keys: list[str]) -> None:

@@ -175,7 +175,7 @@ def _built(method: Method, geometry: MapGeometry, frame: Frame) -> tuple[Method,
         extractor = method.build(geometry)
     else:
         try:
-            with in_plugin_call(method, frame):  # its factory may end the process too
+            with in_plugin_call(method.name, frame.relpath):  # its factory may end the process too
                 extractor = method.build(geometry)
         except (Exception, SystemExit) as error:  # a plug-in's own bug: name it, not the runner's frames
             problem = f"building the extractor raised {raised_text(error)}"

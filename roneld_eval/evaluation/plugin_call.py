@@ -29,7 +29,7 @@ def plugin_prediction(method: Method, extractor: Extractor, maps: FrameMaps, fra
     maps = replace(maps, probabilities=read_only(maps.probabilities),
                    existence=None if maps.existence is None else read_only(maps.existence))
     try:
-        with in_plugin_call(method, frame), time_limit(method.time_limit_s):
+        with in_plugin_call(method.name, frame.relpath), time_limit(method.time_limit_s):
             start = time.perf_counter()
             prediction = extractor(maps)
             elapsed = time.perf_counter() - start
@@ -53,13 +53,14 @@ SLOTS: PluginCalls | None = None
 
 
 @contextlib.contextmanager
-def in_plugin_call(method: Method, frame: Frame) -> Iterator[None]:
-    """Within the block, this worker's shared slot names the plug-in call (plugin_calls), so the
-    main process can name it if the process ends inside."""
+def in_plugin_call(plugin: str, frame: str) -> Iterator[None]:
+    """Within the block, this worker's shared slot names the plug-in call (plugin_calls: a method's
+    name, or a benchmark's slot) and its frame, so the main process can name it if the process
+    ends inside."""
     if SLOTS is None:
         yield
         return
-    SLOTS.enter(method.name, frame.relpath)
+    SLOTS.enter(plugin, frame)
     try:
         yield
     finally:
@@ -78,3 +79,8 @@ OVERDUE_GRACE_S = 2.0
 def raised_text(error: BaseException) -> str:
     text = str(error).strip().splitlines()
     return f"{type(error).__name__}: {text[0]}" if text else type(error).__name__
+
+
+def exit_text(code: int | None) -> str:
+    """' (exit status 0)', ' (signal 9)', or '' where the exit code is not known."""
+    return "" if code is None else f" (exit status {code})" if code >= 0 else f" (signal {-code})"

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import multiprocessing
 import os
 import queue
 import signal
-import time
 from collections import deque
 from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
@@ -19,14 +19,15 @@ from typing import Callable, Iterator, Protocol, Sequence
 
 from .. import kernels
 from ..config import FRAMES_PER_DEFAULT_WORKER
-from ..errors import ExtractorError
+from ..benchmarks.plugins import plugin_of, plugin_slot
+from ..errors import ExtractorError, PluginError, RoneldEvalError
 from ..maps import required_paths
 from ..model import Clip
 from ..plugin_calls import PluginCalls
 from ..signals import deferred_signals, interruptions_unwrapped
-from ..workers import pool_context, process_pool, stopping, worker_count
+from ..workers import exit_codes, pool_context, process_pool, stopping, worker_count
 from . import one_clip, plugin_call
-from .plugin_call import OVERDUE_GRACE_S, too_slow_text
+from .plugin_call import OVERDUE_GRACE_S, exit_text, too_slow_text
 from .records import ClipResult, RunContext
 
 # ---- many clips ----------------------------------------------------------------------------
@@ -103,9 +104,12 @@ def _clip_results(clips: Sequence[Clip], context: RunContext, asked: int | None,
             cache.store(clips[index], clip_inputs(clips[index], context), result)
         return result
 
-    # A plug-in always runs in a worker process, so that one which ends its process (os._exit,
-    # a crash) ends a worker the run can name, not the run itself with exit status 0.
-    plugins = not all(method.built_in for method in context.methods)
+    # A plug-in (a method's, or a benchmark's scoring) always runs in a worker process, so that one
+    # which ends its process (os._exit, a crash) ends a worker the run can name, not the run
+    # itself with exit status 0; but in a daemonic process (a Dask worker's shard), which may start
+    # none: there its calls are guarded in the process itself.
+    plugins = not all(method.built_in for method in context.methods) or plugin_of(context.benchmark) is not None
+    plugins = plugins and not multiprocessing.current_process().daemon
     if not todo or (not plugins and workers == 0):
         with interruptions_unwrapped():  # numba's kernels run in this process
             if todo:
@@ -173,6 +177,9 @@ class _PoolGuard:
         self.calls = calls
         self.schedule = schedule
         self.limits = {method.name: method.time_limit_s for method in context.methods}
+        self.benchmark = plugin_of(context.benchmark)  # a third party's, whose calls are plug-in calls too
+        if self.benchmark is not None:
+            self.limits[plugin_slot(self.benchmark.plugin_name)] = self.benchmark.time_limit_s
         self.stopped: dict[int, tuple[str, str]] = {}  # workers ended here for a plug-in past its limit
 
     def watch(self) -> None:
@@ -186,22 +193,24 @@ class _PoolGuard:
         if any(process.exitcode is not None for process in self.processes.values()):
             raise BrokenProcessPool("a worker process ended")
 
-    def died(self) -> str | ExtractorError:
-        # Ended by now; the pool's own thread may be reaping one (its exit code is then None here
-        # until that thread has set it).
-        deadline = time.monotonic() + 2.0
-        while any(process.exitcode is None for process in self.processes.values()) and time.monotonic() < deadline:
-            time.sleep(0.01)
+    def died(self) -> str | RoneldEvalError:
+        codes = exit_codes(self.processes)
         if self.stopped:
             pid, (method, frame) = next(iter(self.stopped.items()))
-            return ExtractorError(method, frame, too_slow_text(method, self.limits[method]))
-        inside = None if self.calls is None else self.calls.died_in(
-            {pid: process.exitcode for pid, process in self.processes.items()})
+            return self._failed(method, frame, None)
+        inside = None if self.calls is None else self.calls.died_in(codes)
         if inside is not None:
             method, frame, code = inside
-            how = "" if code is None else f" (exit status {code})" if code >= 0 else f" (signal {-code})"
-            return ExtractorError(method, frame, f"its process ended inside the plug-in{how}")
+            return self._failed(method, frame, f"its process ended inside the plug-in{exit_text(code)}")
         return f"a worker process died (killed, or out of memory) while evaluating clip {self.schedule.current}"
+
+    def _failed(self, plugin: str, frame: str, problem: str | None) -> RoneldEvalError:
+        """The error of a plug-in call, a method's or the benchmark's (named by its slot): its
+        process ended (`problem`), or it was ended here past its time limit (None)."""
+        benchmark = self.benchmark
+        if benchmark is not None and plugin == plugin_slot(benchmark.plugin_name):
+            return PluginError(benchmark.failed(frame, problem or f"took longer than {benchmark.time_limit_s:g} s"))
+        return ExtractorError(plugin, frame, problem or too_slow_text(plugin, self.limits[plugin]))
 
 
 class _Schedule:
