@@ -21,12 +21,13 @@ import fcntl
 import hashlib
 import hmac
 import json
+import math
 import os
 import shutil
 import stat
 import tempfile
 from pathlib import Path
-from typing import Callable
+from typing import Callable, SupportsFloat, cast
 
 from .errors import InputError
 from .signals import held_signals
@@ -523,6 +524,16 @@ def _write_atomically(path: Path, text: str) -> None:
         raise
 
 
+def csv_float(value: object) -> str:
+    """A float as every CSV the tool writes gives it: the shortest text that reads back to the same
+    double (Python's repr; NaN empty), so a number equal to an official tool's, bit for bit, prints
+    as that tool prints it. Markdown, LaTeX and the console round (two decimals, in percent).
+    (`object`: what pandas hands a float_format.)"""
+    # numpy's repr would say np.float64(...); a float32 is written as the double it is
+    number = float(cast(SupportsFloat, value))
+    return "" if math.isnan(number) else repr(number)
+
+
 class Staging:
     """Where one command writes its files: the staging area of an `OutputFolder` it holds.
 
@@ -542,12 +553,13 @@ class Staging:
             raise InputError.unwritable(self.out_dir / name, error) from None
         return path
 
-    def write_csv(self, name: str, table, float_format: str) -> None:
-        """A pandas DataFrame as CSV (no index, '\\n' line ends), streamed: pandas formats and
-        writes it a chunk of rows at a time, so a long run's per-frame table is never one string."""
+    def write_csv(self, name: str, table) -> None:
+        """A pandas DataFrame as CSV (no index, '\\n' line ends, floats as `csv_float` writes them),
+        streamed: pandas formats and writes it a chunk of rows at a time, so a long run's per-frame
+        table is never one string."""
         try:
             with open(self.file(name), "w", encoding="utf-8", newline="") as handle:
-                table.to_csv(handle, index=False, float_format=float_format, lineterminator="\n")
+                table.to_csv(handle, index=False, float_format=csv_float, lineterminator="\n")
         except OSError as error:
             raise InputError.unwritable(self.out_dir / name, error) from None
 

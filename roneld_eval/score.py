@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import io
-import math
 import os
 import posixpath
 from collections.abc import Mapping, Sequence
@@ -22,7 +21,7 @@ import numpy as np
 from .datasets._paths import under_root
 from .errors import ConfigError, InputError
 from .model import image_stem
-from .output import OutputFolder, refuse_cut_short
+from .output import OutputFolder, csv_float, refuse_cut_short
 from .signals import terminate_as_interrupt
 
 if TYPE_CHECKING:
@@ -56,8 +55,8 @@ class PlainTable:
     rows: tuple[tuple, ...]
 
     def to_csv(self) -> str:
-        """The text pandas' `to_csv(index=False, float_format="%.6f", lineterminator="\n")` writes
-        for this table, byte for byte: floats with 6 decimals, NaN empty, csv's minimal quoting."""
+        """The text pandas' `to_csv(index=False, lineterminator="\n")` writes for this table, byte
+        for byte: floats as output.csv_float writes them (repr, NaN empty), csv's minimal quoting."""
         text = io.StringIO()
         # The dialect pandas hands csv.writer (pandas.io.formats.csvs), so that quoting is the same.
         writer = csv.writer(text, lineterminator="\n", delimiter=",", quoting=csv.QUOTE_MINIMAL, doublequote=True,
@@ -74,9 +73,7 @@ class PlainTable:
 
 def _csv_cell(value) -> object:
     # Every float column holds only floats (a NaN keeps it float), so formatting by value is by column.
-    if isinstance(value, float):
-        return "" if math.isnan(value) else "%.6f" % value
-    return value
+    return csv_float(value) if isinstance(value, float) else value
 
 
 class _ListedFiles:

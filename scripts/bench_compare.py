@@ -111,11 +111,10 @@ def write_run(folder: Path, dataset: str, model: str, per_frame: pd.DataFrame, t
         staging = Staging(out)
         staging.write_text("config.toml", config.to_toml())
         staging.write_text("summary.json", json.dumps(summary, indent=2))
-        staging.write_text("accuracy.csv", accuracy.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
-        staging.write_text("per_frame.csv", per_frame.to_csv(index=False, float_format="%.10g", lineterminator="\n"))
-        staging.write_text("runtime.csv", runtime.to_csv(index=False, float_format="%.4f", lineterminator="\n"))
-        staging.write_text("official.csv", official_table(dataset, rng).to_csv(index=False, float_format="%.6f",
-                                                                               lineterminator="\n"))
+        staging.write_csv("accuracy.csv", accuracy)  # as `run` writes them
+        staging.write_csv("per_frame.csv", per_frame)
+        staging.write_csv("runtime.csv", runtime)
+        staging.write_csv("official.csv", official_table(dataset, rng))
         out.commit()
 
 

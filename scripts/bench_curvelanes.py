@@ -113,14 +113,14 @@ def main() -> None:
         summaries = json.loads(output.strip().splitlines()[-1])
         best = max(range(1, len(THRESHOLDS)), key=lambda t: summaries[t]["f1_measure"])  # the first of equals
         expected = [(THRESHOLDS[t], summaries[t]["hit_num"], summaries[t]["pr_num"], summaries[t]["gt_num"],
-                     f"{summaries[t]['f1_measure']:.6f}") for t in (0, best)]  # official.csv has 6 decimals
+                     summaries[t]["f1_measure"]) for t in (0, best)]  # official.csv: the same double
         with open(work / "ours" / "official.csv") as table:
             rows = [(float(row["score_threshold"]), int(row["hits"]), int(row["predicted"]), int(row["truth"]),
-                     row["f1"]) for row in csv.DictReader(table)]  # the fixed threshold's, then the best's
+                     float(row["f1"])) for row in csv.DictReader(table)]  # the fixed threshold's, then the best's
         same = rows == expected
         print(f"lane_metric.py ({len(THRESHOLDS)} LaneMetricCores, {args.workers} processes): {theirs:.1f} s; "
               f"ratio {theirs / ours:.1f}x; hits/predicted/truth and F1 {'identical' if same else 'DIFFER'}: "
-              + ", ".join(f"threshold {t:g} {h}/{p}/{g} F1 {f}" for t, h, p, g, f in expected))
+              + ", ".join(f"threshold {t:g} {h}/{p}/{g} F1 {f!r}" for t, h, p, g, f in expected))
 
 
 if __name__ == "__main__":

@@ -70,7 +70,7 @@ def bench_maps(args, work: Path) -> None:
         header, row = (line.split(",") for line in table.read().splitlines()[:2])
     ours_ap = [float(row[header.index(f"ap_{name}")]) for name in ("l1", "l0", "r0", "r1")]
     theirs_ap = [official[c]["auc"] for c in (1, 2, 3, 4)]
-    same = all(abs(a - b) < 5e-7 for a, b in zip(ours_ap, theirs_ap))  # official.csv has 6 decimals
+    same = all(abs(a - b) < 5e-7 for a, b in zip(ours_ap, theirs_ap))  # what was checked: 6 decimals
     print(f"evaluate_segmentation.py ({args.workers} processes): {theirs:.1f} s; ratio {theirs / ours:.1f}x; "
           f"AP l1, l0, r0, r1 {'identical to 6 decimals' if same else 'DIFFER'}: "
           + ", ".join(f"{v:.6f}" for v in theirs_ap))

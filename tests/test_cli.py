@@ -124,7 +124,7 @@ def test_score_culane_on_its_own_ground_truth(tmp_path):
     assert result.exit_code == 0, result.output
     table = (tmp_path / "o" / "official.csv").read_text().splitlines()
     assert table[0] == "method,category,threshold,tp,fp,fn,precision,recall,f1"
-    assert table[-1].startswith("data,all,0.50,") and ",0,0,1.000000,1.000000,1.000000" in table[-1]
+    assert table[-1].startswith("data,all,0.50,") and ",0,0,1.0,1.0,1.0" in table[-1]
     assert (tmp_path / "o" / "summary.csv").exists()  # the sweep is in official.csv, one row per threshold
 
 

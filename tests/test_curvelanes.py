@@ -56,7 +56,7 @@ def test_the_command_writes_official_csv(images, tmp_path):
     assert result.exit_code == 0, result.output
     lines = (tmp_path / "out" / "official.csv").read_text().splitlines()
     assert lines[0] == "method,score_threshold,chosen,hits,predicted,truth,precision,recall,f1"
-    assert lines[1].startswith("m,0.000000,fixed,") and lines[2].startswith("m,0.300000,best on the test set,")
+    assert lines[1].startswith("m,0.0,fixed,") and lines[2].startswith("m,0.3,best on the test set,")
 
 
 def test_a_lane_with_a_repeated_point_is_refused_with_its_file(images, tmp_path):

@@ -54,8 +54,8 @@ def test_the_command_writes_both_matchings(tmp_path):
     assert result.exit_code == 0, result.output
     assert (tmp_path / "out" / "official.csv").read_text().splitlines() == [
         "method,matching,threshold,tp,fp,fn,precision,recall,f1",
-        "ex,same category,0.30,8,4,2,0.666667,0.800000,0.727273",
-        "ex,any category,0.30,10,2,0,0.833333,1.000000,0.909091"]
+        "ex,same category,0.30,8,4,2,0.6666666666666666,0.8,0.7272727272727272",
+        "ex,any category,0.30,10,2,0,0.8333333333333334,1.0,0.9090909090909091"]
 
 
 def _frame(tmp_path: Path, lanes: list[dict], name: str = "pred") -> Path:
@@ -75,7 +75,7 @@ def test_a_lane_without_category_is_refused_unless_categories_are_ignored(tmp_pa
                                   "--any-category", "--quiet", "--out", str(tmp_path / "out")])
     assert result.exit_code == 0, result.output
     assert (tmp_path / "out" / "official.csv").read_text().splitlines()[1] == (
-        "pred,any category,0.30,1,0,0,1.000000,1.000000,1.000000")
+        "pred,any category,0.30,1,0,0,1.0,1.0,1.0")
 
 
 @pytest.mark.parametrize("text, problem", [

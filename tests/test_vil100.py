@@ -95,17 +95,22 @@ def test_the_command_writes_official_csv_and_prints_the_summary(tmp_path):
     assert result.exit_code == 0, result.output
     text = (tmp_path / "out" / "official.csv").read_text()
     assert text.splitlines()[0] == "method,category,threshold,tp,fp,fn,precision,recall,f1,miou,sequences"
-    assert "syn,all,0.50,14,9,11,0.608696,0.560000,0.583333,0.467708,2" in text.splitlines()
+    # The overall F1 and mIoU as evaluate_iou.py prints them (the full float), not rounded to 6 decimals
+    for threshold, label in (("0.5", "0.50"), ("0.8", "0.80")):
+        overall = EXPECTED["thresholds"][threshold]["overall"]
+        tp, fp, fn = overall["tp"], overall["fp"], overall["fn"]
+        assert (f"syn,all,{label},{tp},{fp},{fn},{tp / (tp + fp)!r},{tp / (tp + fn)!r},{overall['f1']!r},"
+                f"{overall['miou']!r},2") in text.splitlines()
+    assert "syn,all,0.50,14,9,11,0.6086956521739131,0.56,0.5833333333333334,0.467708,2" in text.splitlines()
     assert "F1@0.80 (%)" in (tmp_path / "out" / "summary.md").read_text()
     temporal = (tmp_path / "out" / "temporal.csv").read_text().splitlines()
     assert temporal[0] == "method,category,tau,pairs,stable,jump,missing,rs,rj,rm"
-    assert "syn,all,0.80,10,3,6,1,0.300000,0.600000,0.100000" in temporal
+    assert "syn,all,0.80,10,3,6,1,0.3,0.6,0.1" in temporal
     summary = (tmp_path / "out" / "summary.csv").read_text().splitlines()
     # Acc/FP/FN beside them (RVLD's version only: lane files; checked in tests/test_vil100_acc.py)
     assert summary[0] == ("method,category,f1@0.50,f1@0.80,miou,rs@0.50,rj@0.50,rm@0.50,rs@0.80,rj@0.80,rm@0.80,"
                           "acc_rvld,fp_rvld,fn_rvld")
-    assert summary[1].startswith("syn,all,0.583333,0.416667,0.467708,0.600000,0.400000,0.000000,0.300000,0.600000,"
-                                 "0.100000,")
+    assert summary[1].startswith("syn,all,0.5833333333333334,0.41666666666666663,0.467708,0.6,0.4,0.0,0.3,0.6,0.1,")
     assert len(summary) == 2
 
 

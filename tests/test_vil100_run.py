@@ -203,8 +203,8 @@ def test_the_real_ground_truth_as_a_detectors_lanes(tmp_path):
     run = rows(tmp_path / "out" / "official.csv", "method", "category", "threshold")
     for threshold in ("0.50", "0.80"):
         baseline = run[("baseline", "all", threshold)]  # the detector's lanes are the ground truth
-        assert (baseline["fp"], baseline["fn"], baseline["f1"], baseline["miou"]) == ("0", "0", "1.000000", "1.000000")
-        assert baseline["rs"] == "1.000000" and int(baseline["pairs"]) > 0
+        assert (baseline["fp"], baseline["fn"], baseline["f1"], baseline["miou"]) == ("0", "0", "1.0", "1.0")
+        assert baseline["rs"] == "1.0" and int(baseline["pairs"]) > 0
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["counts"]["frames"] == 300
     assert summary["geometry"]["frame_sizes"] == [[1920, 1080], [1280, 720], [960, 480]]

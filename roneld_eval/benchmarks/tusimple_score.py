@@ -59,7 +59,6 @@ def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None 
             import pandas as pd
 
             table = pd.DataFrame([score.as_row()])
-            Staging(folder).write_text("official.csv", table.to_csv(index=False, float_format="%.10g",
-                                                                    lineterminator="\n"))
+            Staging(folder).write_csv("official.csv", table)
             folder.commit()
     return score

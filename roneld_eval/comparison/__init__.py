@@ -56,7 +56,7 @@ def compare(runs: Sequence[str | Path], out: str | Path = "comparison",
     0.3/0.5); `pairs` names runs "A,B" whose difference B - A gets a paired bootstrap interval.
     """
     from ..output import OutputFolder
-    from ..output import Staging
+    from ..output import Staging, csv_float
     from ..signals import terminate_as_interrupt
 
     if isinstance(runs, (str, Path)):
@@ -78,7 +78,7 @@ def compare(runs: Sequence[str | Path], out: str | Path = "comparison",
 
         comparison = comparison_table(loaded)
         pair_table = pairs_table(pair_runs, grid)
-        files: dict[str, str] = {"comparison.csv": comparison.to_csv(index=False, float_format="%.10g",
+        files: dict[str, str] = {"comparison.csv": comparison.to_csv(index=False, float_format=csv_float,
                                                                       lineterminator="\n")}
         protocol = protocol_text(loaded)
         files.update(accuracy_files(groups, accuracy_rows, notes))
@@ -87,7 +87,7 @@ def compare(runs: Sequence[str | Path], out: str | Path = "comparison",
         files.update(official_files(groups, notes))
         if pair_runs:
             files["pairs.csv"] = pair_table.assign(threshold=pair_table["threshold"].map(threshold_label)).to_csv(
-                index=False, float_format="%.10g", lineterminator="\n")
+                index=False, float_format=csv_float, lineterminator="\n")
             files.update(pair_files(loaded, pair_runs, pair_table, accuracy_rows, protocol, notes))
         files["summary.json"] = json.dumps(_summary(loaded, groups, accuracy_rows, ablation_rows, pair_runs, notes,
                                                     allow_mixed), indent=2) + "\n"

@@ -187,7 +187,9 @@ def _comparable(sweeps: Sequence[Sweep], allow_mixed: bool) -> list[str]:
 
 
 def _cell(value: float) -> str:
-    return "" if math.isnan(value) else f"{value:.6f}"
+    from ..output import csv_float
+
+    return csv_float(value)  # as read from sweep.csv: the same text
 
 
 def _table_csv(sweeps: Sequence[Sweep]) -> str:

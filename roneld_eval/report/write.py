@@ -136,10 +136,10 @@ def _stage_runtime(result: RunResult, staging: Staging, source: str, protocol, m
     """runtime.csv and runtime.md: Table V, or, for an untimed run, the frames alone and why."""
     if not result.timed:
         frames = result.runtime[["method", "frames"]].assign(mean_ms=math.nan, median_ms=math.nan, p95_ms=math.nan)
-        staging.write_csv("runtime.csv", frames, "%.4f")
+        staging.write_csv("runtime.csv", frames)
         staging.write_text("runtime.md", f"# Runtime per frame on {source}\n\n{UNTIMED}\n")
         return
-    staging.write_csv("runtime.csv", result.runtime, "%.4f")
+    staging.write_csv("runtime.csv", result.runtime)
     skewed = [str(row["method"]) for row in result.runtime.to_dict("records") if row["mean_ms"] > row["p95_ms"]]
     skew_note = (f"\n\nA mean above its 95th percentile ({', '.join(skewed)}): fewer than one frame in 20 took far "
                  "longer than the rest (a slow disk read, the machine busy with other work), and the median is the "
@@ -178,9 +178,9 @@ def stage_report(result: RunResult, staging: Staging) -> None:
     maps = f"{model}'s lanes drawn into maps" if config.maps.format == "lanes" else f"{model} probability maps"
     source = f"the bundled {name} fixture (synthetic {model}-like maps)" if result.fixture else f"{name}, {maps}"
     paper_note = f"The RONELD paper's protocol: {protocol.paper()}; a true positive needs IoU > the row's threshold."
-    staging.write_csv("accuracy.csv", result.accuracy, "%.10g")
+    staging.write_csv("accuracy.csv", result.accuracy)
     if result.gains is not None:
-        staging.write_csv("gains.csv", result.gains, "%.10g")
+        staging.write_csv("gains.csv", result.gains)
     comparison = tables.comparison_table(result.accuracy, model, protocol.clips)
     increase_note = ("Acc. Inc.: RONELD's increase over the method two columns to its left, "
                      f"its {protocol.interval()}, in bold relative to that method.")
@@ -200,8 +200,8 @@ def stage_report(result: RunResult, staging: Staging) -> None:
             f"Accuracy of {tables.display_name('roneld', model)} with and without preceding frame tracking (PFT) "
             f"on {source}. {paper_note}", f"tab:pft-{result.dataset.name}"))
     _stage_runtime(result, staging, source, protocol, model)
-    staging.write_csv("per_frame.csv", result.per_frame, "%.10g")
-    staging.write_csv("official.csv", result.official, "%.6f")
+    staging.write_csv("per_frame.csv", result.per_frame)
+    staging.write_csv("official.csv", result.official)
     staging.write_text("config.toml", config_record(result))
     staging.write_text("summary.json", json.dumps(summary(result), indent=2) + "\n")
     from .figure_files import save_figure
@@ -214,7 +214,7 @@ def stage_report(result: RunResult, staging: Staging) -> None:
 
         threshold = config.official.iou_threshold
         by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
-        staging.write_csv("categories.csv", by_category, "%.6f")
+        staging.write_csv("categories.csv", by_category)
         panel = benchmark_for(result.dataset.name).category_panel(result.official, protocol)
         save_figure(category_figure(by_category, panel, model, f"{threshold:g}", protocol),
                     [staging.file("categories.png")])
