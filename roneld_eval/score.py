@@ -234,17 +234,7 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
         for child in others:
             say(f"{child}: not a prediction tree (no file of the list), left out")
         trees += children
-    seen: dict[str, Path] = {}
-    for tree in trees:
-        try:
-            tree.method.encode("utf-8")
-        except UnicodeEncodeError:  # the method's name goes into every table
-            raise InputError(tree.root, "the folder's name is not valid Unicode text (not UTF-8): rename it, "
-                                        "or name the method with --pred-root NAME=DIR") from None
-        if tree.method in seen:
-            raise ConfigError(f"two prediction trees are named {tree.method!r} ({seen[tree.method]} and {tree.root}): "
-                              f"name them with {option} NAME=DIR")
-        seen[tree.method] = tree.root
+    check_method_names([(tree.method, tree.root) for tree in trees], f"{option} NAME=DIR")
     warnings = []
     for tree in trees:
         missing = tree.listed - tree.found
@@ -255,6 +245,23 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
             warnings.append(f"warning: {tree.root}: only {tree.found:,} of {tree.listed:,} listed frames have a "
                             f"prediction file; the other {missing:,} count as frames without lanes")
     return trees, warnings
+
+
+def check_method_names(named: Sequence[tuple[str, Path]], naming: str, what: str = "prediction trees") -> None:
+    """Each method's name, (name, where it comes from), is UTF-8 text (it goes into every table)
+    and no other's; else the error says how to name them (`naming`: '--pred-root NAME=DIR')."""
+    seen: dict[str, Path] = {}
+    for method, where in named:
+        try:
+            method.encode("utf-8")
+        except UnicodeEncodeError:
+            kind = "folder's" if what == "prediction trees" else "file's"
+            raise InputError(where, f"the {kind} name is not valid Unicode text (not UTF-8): rename it, "
+                                    f"or name the method with {naming}") from None
+        if method in seen:
+            raise ConfigError(f"two {what} are named {method!r} ({seen[method]} and {where}): name them with "
+                              f"{naming}")
+        seen[method] = where
 
 
 def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | None, progress: bool,

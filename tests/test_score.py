@@ -564,4 +564,39 @@ def test_score_tusimple_writes_and_prints_both_f1s(tmp_path):
     assert ("Accuracy 0.75  FP 0.25  FN 0.25  F1 0.75 (UFLD-v2 lane2.py)  0.75 (CLRNet tusimple_metric.py)"
             in result.output)
     table = (tmp_path / "o" / "official.csv").read_text().splitlines()
-    assert table == ["accuracy,fp,fn,f1_ufld,f1_clrnet", "0.75,0.25,0.25,0.75,0.75"]
+    # a method column, as score culane's for one root and a run's TuSimple official.csv
+    assert table == ["method,accuracy,fp,fn,f1_ufld,f1_clrnet", "pred,0.75,0.25,0.25,0.75,0.75"]
+
+
+def test_score_tusimple_scores_several_prediction_files_as_methods_in_one_pass(tmp_path, monkeypatch):
+    # `--pred A.json --pred B.json` scored only the last file, and official.csv named no method.
+    from roneld_eval.metrics import tusimple_official
+
+    rows = list(range(160, 720, 10))
+    labels = [{"lanes": [[500] * 56, [800] * 56], "h_samples": rows, "raw_file": f"clips/{k}/20.jpg"} for k in "ab"]
+    preds = [{"raw_file": "clips/b/20.jpg", "lanes": [[505] * 56, [100] * 56]},  # another order than the labels'
+             {"raw_file": "clips/a/20.jpg", "lanes": [[505] * 56, [800] * 56]}]
+    (tmp_path / "labels.json").write_text("".join(json.dumps(x) + "\n" for x in labels))
+    (tmp_path / "mine.json").write_text("".join(json.dumps(x) + "\n" for x in preds))
+    (tmp_path / "truth.json").write_text((tmp_path / "labels.json").read_text())
+    read, reading = [], tusimple_official.read_labels
+    monkeypatch.setattr(tusimple_official, "read_labels", lambda path: read.append(path) or reading(path))
+    result = invoke("score", "tusimple", "--labels", tmp_path / "labels.json", "--pred", tmp_path / "mine.json",
+                    "--pred", f"gt={tmp_path / 'truth.json'}", "--out", tmp_path / "o")
+    assert result.exit_code == 0, result.output
+    assert len(read) == 1  # the labels read once for both
+    assert (tmp_path / "o" / "official.csv").read_text().splitlines() == [
+        "method,accuracy,fp,fn,f1_ufld,f1_clrnet", "mine,0.75,0.25,0.25,0.75,0.75", "gt,1.0,0.0,0.0,1.0,1.0"]
+    assert "mine: 2 frames: Accuracy 0.75  FP 0.25" in result.output
+    assert "gt: 2 frames: Accuracy 1  FP 0" in result.output
+    # the library: one file gives its score, as before; several a score per method, each as scored alone
+    alone = {name: score_tusimple(tmp_path / "labels.json", tmp_path / f"{file}.json")
+             for name, file in (("mine", "mine"), ("gt", "truth"))}
+    assert isinstance(alone["mine"], TusimpleScore) and alone["mine"].accuracy == 0.75
+    assert score_tusimple(tmp_path / "labels.json", [tmp_path / "mine.json", f"gt={tmp_path / 'truth.json'}"]) == alone
+    assert score_tusimple(tmp_path / "labels.json", {"mine": tmp_path / "mine.json", "gt": tmp_path / "truth.json"}) \
+        == alone
+    result = invoke("score", "tusimple", "--labels", tmp_path / "labels.json", "--pred", tmp_path / "mine.json",
+                    "--pred", tmp_path / "mine.json")
+    assert result.exit_code == 2 and "two prediction files are named 'mine'" in result.output \
+        and "--pred NAME=FILE" in result.output, result.output

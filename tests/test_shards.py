@@ -504,6 +504,18 @@ def test_merged_tusimple_shards_are_the_unsharded_file(tmp_path, count):
     _same_files(whole, merged, {"official.csv"})
 
 
+def test_merged_tusimple_shards_of_several_prediction_files_are_the_unsharded_file(tmp_path):
+    labels, pred = _tusimple_set(tmp_path)
+    other = tmp_path / "other.json"  # the same frames in the labels' order: each file's own order merges
+    other.write_text("".join(sorted(pred.read_text().splitlines(keepends=True),
+                                    key=lambda line: json.loads(line)["raw_file"])))
+    args = ["score", "tusimple", "--labels", labels, "--pred", pred, "--pred", f"again={other}"]
+    whole, merged, _ = _shards_and_merge(tmp_path, args, 3)
+    _same_files(whole, merged, {"official.csv"})
+    assert [line.split(",")[0] for line in (whole / "official.csv").read_text().splitlines()] == \
+        ["method", "pred", "again"]
+
+
 @pytest.mark.long
 def test_tusimple_shards_of_the_real_labels_merge_to_lane_pys_numbers(shared_data, tmp_path):
     from test_score import real_tusimple_labels
