@@ -165,9 +165,12 @@ def test_compare_does_not_average_two_unnamed_detectors_as_seeds_of_one(tmp_path
     invoke(["compare", *runs, "--label", f"{runs[0]}=CLRNet", "--label", f"{runs[1]}=LaneATT", "--out",
             str(tmp_path / "named")])
     assert "n = 2" not in (tmp_path / "named" / "table_accuracy.md").read_text()
-    invoke(["compare", *runs, "--label", f"{runs[0]}=CLRNet", "--label", f"{runs[1]}=CLRNet", "--out",
-            str(tmp_path / "seeds")])
-    assert "| CLRNet (n = 2) |" in (tmp_path / "seeds" / "table_accuracy.md").read_text()
+    # Named as one model's seeds, the two are still one result twice (the same lane files): refused.
+    result = CliRunner().invoke(main, ["compare", *runs, "--label", f"{runs[0]}=CLRNet", "--label",
+                                       f"{runs[1]}=CLRNet", "--out", str(tmp_path / "seeds")])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert "as two runs of 'CLRNet': every IoU of every method is the same in both" in result.output
+    assert not (tmp_path / "seeds").exists()
 
 
 def test_another_benchmarks_lane_files_are_named_with_the_dataset_that_reads_them(tmp_path):
