@@ -157,9 +157,13 @@ class ResultCache:
         return hmac.new(self._secret, body.encode("utf-8", "surrogateescape"), hashlib.sha256).hexdigest()
 
     def _invalid(self, path: Path, problem: str) -> None:
-        """Say why an entry is not used, and count it."""
+        """Say why an entry is not used, count it, and remove it: a folder in its place would
+        otherwise stop the run where the recomputed clip is kept (the cache's folder is the
+        tool's own, removed whole when a run finishes)."""
         self.note(f"note: {path}: cache entry ignored ({problem}); recomputing that clip")
         self.reasons["invalid cache entry"] += 1
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
 
     def summary(self) -> str:
         """'reused 3 clips; computed 2 (1 not finished, 1 maps or labels changed)'."""

@@ -337,6 +337,8 @@ def cache_entries(out: Path) -> list[Path]:
     pytest.param(lambda p: p.write_text("[]"), id="not-an-entry"),
     pytest.param(lambda p: p.write_bytes(b"\xff\xfe garbage"), id="binary"),
     pytest.param(lambda p: (p.unlink(), os.mkfifo(p)), id="fifo"),
+    pytest.param(lambda p: (p.unlink(), p.symlink_to("/dev/zero")), id="link-to-dev-zero"),
+    pytest.param(lambda p: (p.unlink(), p.mkdir()), id="folder"),
     pytest.param(lambda p: os.truncate(p, 1536 * 2**20), id="huge"),  # read whole before: 1.5 GB
 ])
 def test_an_invalid_cache_entry_is_recomputed_with_a_note(dataset, tmp_path, monkeypatch, tamper):
