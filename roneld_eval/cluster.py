@@ -86,7 +86,7 @@ def on_dask(function: Callable, arguments: dict, command: str, scheduler: str | 
         import distributed
     except ImportError:
         raise ConfigError("--executor dask needs Dask: pip install 'roneld-eval[cluster]'") from None
-    from .output import OutputFolder
+    from .output import OutputFolder, write_file
     from .shards import merge
 
     out = Path(arguments["out"])
@@ -116,7 +116,7 @@ def on_dask(function: Callable, arguments: dict, command: str, scheduler: str | 
                 if not target.resolve().is_relative_to(folder.resolve()):
                     raise InputError(folder, f"a worker sent a file outside its part ({name[:80]!r})")
                 target.parent.mkdir(parents=True, exist_ok=True)
-                target.write_bytes(data)
+                write_file(target, data)  # a full scratch disk names the file
             folders.append(folder)
         return merge(folders, out)[1]
 

@@ -227,7 +227,11 @@ class OutputFolder:
         except OSError as error:
             raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
         locked_before = os.path.lexists(self.path / LOCK)  # a command killed here left its lock file
-        self._take_lock()
+        try:
+            self._take_lock()
+        except BaseException:
+            self._remove_if_empty()
+            raise
         try:
             cut_short = read_journal(self.path)
             self.incomplete = cut_short is not None
@@ -300,8 +304,14 @@ class OutputFolder:
             if same:
                 break
             os.close(descriptor)
-        os.ftruncate(descriptor, 0)
-        os.write(descriptor, str(os.getpid()).encode())
+        try:
+            os.ftruncate(descriptor, 0)
+            os.write(descriptor, str(os.getpid()).encode())
+        except OSError as error:  # a full disk: the lock is given up, its file not left behind
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+            os.close(descriptor)
+            raise InputError.unwritable(path, error) from None
         self._lock = descriptor
 
     def _release_lock(self) -> None:
@@ -484,6 +494,18 @@ def _written_by(entry: Path, command: str) -> bool:
     except InputError:
         return False
     return record is not None and record["command"] == command
+
+
+def write_file(path: Path, data: str | bytes) -> None:
+    """One file of a command's output (text as UTF-8); any OSError an InputError naming it: a
+    full disk's names no file ("[Errno 28] No space left on device" alone)."""
+    try:
+        if isinstance(data, str):
+            path.write_text(data, encoding="utf-8")
+        else:
+            path.write_bytes(data)
+    except OSError as error:
+        raise InputError.unwritable(path, error) from None
 
 
 def _journal_mac(plan: dict) -> str:

@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from .errors import InputError
+from .output import write_file
 
 CHANNELS = 4
 MAP_WIDTH, MAP_HEIGHT = 800, 288
@@ -236,7 +237,7 @@ def clip_style(index: int, rng: np.random.Generator, n_frames: int, quality: flo
 def _write_maps(path: Path, maps: np.ndarray, maps_format: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     if maps_format == "npy":
-        np.save(path.with_suffix(".npy"), maps)
+        write_file(path.with_suffix(".npy"), npy_bytes(maps))
     elif maps_format == "npz":
         existence = (maps.reshape(CHANNELS, -1).max(axis=1) > 127).astype(np.float32)
         # np.savez_compressed stamps zip entries with the current time; write our own archive
@@ -244,15 +245,33 @@ def _write_maps(path: Path, maps: np.ndarray, maps_format: str) -> None:
         _save_npz_deterministic(path.with_suffix(".npz"), probs=maps, exist=existence)
     elif maps_format == "scnn-png":
         for channel in range(CHANNELS):
-            cv2.imwrite(str(path.with_name(f"{path.name}_{channel + 1}_avg.png")), maps[channel])
+            write_file(path.with_name(f"{path.name}_{channel + 1}_avg.png"), png_bytes(maps[channel]))
         existence = (maps.reshape(CHANNELS, -1).max(axis=1) > 127).astype(int)
-        path.with_name(path.name + ".exist.txt").write_text(" ".join(map(str, existence)) + " \n")
+        write_file(path.with_name(path.name + ".exist.txt"), " ".join(map(str, existence)) + " \n")
     else:
         raise InputError(None, f"unknown maps format {maps_format!r}")
 
 
 def _save_npz_deterministic(path: Path, **arrays: np.ndarray) -> None:
-    path.write_bytes(npz_bytes(arrays, compresslevel=9))
+    write_file(path, npz_bytes(arrays, compresslevel=9))
+
+
+def npy_bytes(array: np.ndarray) -> bytes:
+    """What np.save writes, made in memory: written through write_file, a full disk names the file."""
+    import io
+
+    buffer = io.BytesIO()
+    np.save(buffer, array)
+    return buffer.getvalue()
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """What cv2.imwrite writes, made in memory: imwrite says nothing of a full disk but libpng's
+    own line on stderr, and returns False, leaving the file short or missing."""
+    done, encoded = cv2.imencode(".png", image)
+    if not done:
+        raise ValueError("OpenCV could not encode the image as PNG")
+    return encoded.tobytes()
 
 
 def npz_bytes(arrays: dict[str, np.ndarray], compresslevel: int | None = None) -> bytes:

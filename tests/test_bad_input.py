@@ -260,6 +260,53 @@ def test_debug_shows_where_a_renamed_write_error_came_from(sets, monkeypatch):
 # ---- skipping ------------------------------------------------------------------------------
 
 
+def _synth_set(out: Path) -> dict:
+    assert CliRunner().invoke(main, ["synth", "--dataset", "openlane", "--out", str(out)]).exit_code == 0
+    return {path: path.read_bytes() for path in out.rglob("*") if path.is_file()}
+
+
+def test_disk_full_while_synth_writes_a_label_names_it(tmp_path, monkeypatch):
+    # It said "error: [Errno 28] No space left on device", naming no file.
+    import errno
+
+    out = tmp_path / "set"
+    earlier = _synth_set(out)
+    original = Path.write_text
+
+    def full(self, data, *args, **kwargs):
+        if self.name == "155000100000.json":
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))  # as a full disk: no file named
+        return original(self, data, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "write_text", full)
+    result = CliRunner().invoke(main, ["synth", "--dataset", "openlane", "--out", str(out), "--seed", "1"])
+    monkeypatch.undo()
+    named = out / "labels" / "segment-01000" / "155000100000.json"
+    assert result.exit_code == 2 and result.output == f"error: {named}: cannot write: No space left on device\n"
+    assert {path: path.read_bytes() for path in out.rglob("*") if path.is_file()} == earlier  # no lock either
+
+
+def test_a_synth_whose_pictures_cannot_be_written_stops_and_names_one(tmp_path):
+    # cv2.imwrite returned False on a failed write: synth committed a set of truncated PNG maps, exit 0.
+    import subprocess
+    import sys
+
+    resource = pytest.importorskip("resource")  # POSIX
+
+    def small_files_only():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))  # the PNG maps are larger; Python ignores SIGXFSZ
+
+    out = tmp_path / "set"
+    done = subprocess.run([sys.executable, "-m", "roneld_eval", "synth", "--dataset", "culane", "--maps-format",
+                           "scnn-png", "--out", str(out)], capture_output=True, text=True, timeout=300,
+                          preexec_fn=small_files_only)
+    assert done.returncode == 2, (done.stdout, done.stderr)
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {out / 'maps'}/") and lines[0].endswith(
+        "_avg.png: cannot write: File too large"), done.stderr
+    assert not out.exists()  # nothing committed, the new folder removed again
+
+
 def test_skip_mode_skips_and_lists(sets):
     root_all, out = sets
     root = root_all / "culane"

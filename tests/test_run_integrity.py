@@ -908,6 +908,32 @@ def test_a_full_disk_while_writing_the_commit_journal_leaves_the_earlier_results
     assert (out / "accuracy.csv").read_text() == "earlier\n"
 
 
+@pytest.mark.parametrize("earlier", [True, False])
+def test_a_full_disk_while_taking_the_lock_names_it_and_leaves_no_lock(tmp_path, monkeypatch, earlier):
+    # It said "error: [Errno 28] No space left on device", naming no file, and left an empty lock.
+    out = tmp_path / "out"
+    if earlier:
+        with output.OutputFolder(out, "run") as folder:
+            (folder.staging() / "accuracy.csv").write_text("earlier\n")
+            folder.commit()
+    before = sorted(path.name for path in out.iterdir()) if earlier else None
+
+    def full(descriptor, data):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(output.os, "write", full)
+    with pytest.raises(InputError) as caught:
+        with output.OutputFolder(out, "run"):
+            pass
+    monkeypatch.undo()
+    assert str(caught.value) == f"{out / output.LOCK}: cannot write: No space left on device"
+    if earlier:
+        assert sorted(path.name for path in out.iterdir()) == before  # no lock left
+        assert (out / "accuracy.csv").read_text() == "earlier\n"
+    else:
+        assert not out.exists()  # the folder this command made, removed again
+
+
 _SYNTH_KILLED_IN_ITS_COMMIT = """
 import os, signal, sys
 from roneld_eval import output

@@ -10,6 +10,7 @@ from typing import Iterable
 import numpy as np
 
 from ..model import image_stem
+from ..output import write_file
 from ..synth import (Camera, Scene, SynthResult, _write_maps, channel_lanes, clip_style, detector_lanes,
                      render_maps, scene_sequence)
 from .culane import IMAGE_HEIGHT, IMAGE_WIDTH
@@ -39,9 +40,9 @@ def culane_lines(scene: Scene, inside: bool = False) -> str:
 def _write_lane_files(stem: Path, lanes: list[tuple[np.ndarray, float]]) -> None:
     """A detector's CULane output: <stem>.lines.txt, and <stem>.scores.txt with its lane scores."""
     stem.parent.mkdir(parents=True, exist_ok=True)
-    stem.with_name(stem.name + ".lines.txt").write_text(
-        "".join(" ".join(f"{x:.2f} {int(y)}" for x, y in points[::-1]) + "\n" for points, _ in lanes))
-    stem.with_name(stem.name + ".scores.txt").write_text("".join(f"{score:.3f}\n" for _, score in lanes))
+    write_file(stem.with_name(stem.name + ".lines.txt"),
+               "".join(" ".join(f"{x:.2f} {int(y)}" for x, y in points[::-1]) + "\n" for points, _ in lanes))
+    write_file(stem.with_name(stem.name + ".scores.txt"), "".join(f"{score:.3f}\n" for _, score in lanes))
 
 
 def synth_culane(out: str | Path, clips: int = 3, frames: int = 12, seed: int = 0, maps_format: str = "npy",
@@ -70,7 +71,7 @@ def synth_culane(out: str | Path, clips: int = 3, frames: int = 12, seed: int = 
             stem = image_stem(relpath)
             label_path = data_root / f"{stem}.lines.txt"
             label_path.parent.mkdir(parents=True, exist_ok=True)
-            label_path.write_text(culane_lines(scene))
+            write_file(label_path, culane_lines(scene))
             if maps_format == "lanes":
                 rows = np.arange(scene.height - 1, 0, -10)[::-1]
                 _write_lane_files(maps_root / stem, detector_lanes(scene, style, k, detector, rows))
@@ -82,12 +83,11 @@ def synth_culane(out: str | Path, clips: int = 3, frames: int = 12, seed: int = 
             if progress is not None:
                 progress(1)
     (data_root / "list" / "test_split").mkdir(parents=True, exist_ok=True)
-    (data_root / "list" / "test.txt").write_text("".join(line + "\n" for line in listing))
+    write_file(data_root / "list" / "test.txt", "".join(line + "\n" for line in listing))
     for number, name in enumerate(CATEGORIES):
         if categories[name]:
-            (data_root / "list" / "test_split" / f"test{number}_{name}.txt").write_text(
-                "".join(line + "\n" for line in categories[name])
-            )
+            write_file(data_root / "list" / "test_split" / f"test{number}_{name}.txt",
+                       "".join(line + "\n" for line in categories[name]))
     return SynthResult(data_root, maps_root, "culane", maps_format, len(structure), total)
 
 
@@ -148,7 +148,7 @@ def synth_lane_files(out: str | Path, frames: int = 2000, seed: int = 0) -> tupl
             path.parent.mkdir(parents=True, exist_ok=True)
             if root is pred_root and rng.random() < 0.04:
                 continue
-            path.write_text(text(lanes))
+            write_file(path, text(lanes))
     (gt_root / "list").mkdir(parents=True, exist_ok=True)
-    (gt_root / "list" / "test.txt").write_text("".join(line + "\n" for line in listing))
+    write_file(gt_root / "list" / "test.txt", "".join(line + "\n" for line in listing))
     return gt_root, pred_root

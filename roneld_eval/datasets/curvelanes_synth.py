@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..synth import Camera, SynthResult, lane_file_scenes
+from ..output import write_file
+from ..synth import Camera, SynthResult, lane_file_scenes, png_bytes
 
 SIZES = ((2560, 1440), (1570, 660), (1280, 720))  # CurveLanes ships several sizes
 
@@ -19,8 +20,6 @@ def _lane(points: np.ndarray) -> list[dict]:
 
 
 def synth_curvelanes(out: str | Path, clips: int = 3, frames: int = 1, seed: int = 0, progress=None) -> SynthResult:
-    import cv2
-
     out = Path(out)
     labels, predictions, images = out / "labels", out / "predictions", out / "images"
     for folder in (labels, predictions, images):
@@ -32,10 +31,10 @@ def synth_curvelanes(out: str | Path, clips: int = 3, frames: int = 1, seed: int
                         top_margin_px=(0.02 * height, 0.05 * height))
         for _, k, _, truth, detected in lane_file_scenes(camera, 1, frames, seed + 1000 * index):
             name = f"{seed:02d}{index:04d}{k:04d}"
-            (labels / f"{name}.lines.json").write_text(json.dumps({"Lines": [_lane(points) for points in truth]}))
-            (predictions / f"{name}.lines.json").write_text(json.dumps(
+            write_file(labels / f"{name}.lines.json", json.dumps({"Lines": [_lane(points) for points in truth]}))
+            write_file(predictions / f"{name}.lines.json", json.dumps(
                 {"Lines": [{"points": _lane(points), "score": round(score, 3)} for points, score in detected]}))
-            cv2.imwrite(str(images / f"{name}.png"), np.zeros((height, width), np.uint8))
+            write_file(images / f"{name}.png", png_bytes(np.zeros((height, width), np.uint8)))
             total += 1
             if progress is not None:
                 progress(1)

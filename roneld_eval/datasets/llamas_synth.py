@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from ..synth import Camera, SynthResult, lane_file_scenes
+from ..output import write_file
+from ..synth import Camera, SynthResult, lane_file_scenes, png_bytes
 from .llamas import IMAGE_HEIGHT, IMAGE_WIDTH
 
 CAMERA = Camera(IMAGE_WIDTH, IMAGE_HEIGHT, vanish_y=(250, 290), lane_width_px=(520, 640), top_margin_px=(10, 30))
@@ -67,7 +68,7 @@ def synth_llamas(out: str | Path, clips: int = 3, frames: int = 10, seed: int = 
         label = labels / recording / f"{name}.json"
         label.parent.mkdir(parents=True, exist_ok=True)
         projection = [[FOCAL, 0.0, IMAGE_WIDTH / 2], [0.0, FOCAL, float(scene.vanish_y)], [0.0, 0.0, 1.0]]
-        label.write_text(json.dumps({"projection_matrix": projection, "lanes": lanes}))
+        write_file(label, json.dumps({"projection_matrix": projection, "lanes": lanes}))
         target = predictions / recording / f"{name}.lines.txt"
         target.parent.mkdir(parents=True, exist_ok=True)
         if maps:  # the model's maps at the frame's size, and a background class as the script reads it too
@@ -75,10 +76,10 @@ def synth_llamas(out: str | Path, clips: int = 3, frames: int = 10, seed: int = 
                       for plane in rendered[0]]
             planes.insert(0, 255 - np.max(planes, axis=0))
             for c, plane in enumerate(planes):
-                cv2.imwrite(str(target.with_name(f"{name}.json_{c}.png")), plane)
+                write_file(target.with_name(f"{name}.json_{c}.png"), png_bytes(plane))
         else:
-            target.write_text("".join(" ".join(f"{x:.2f} {y:.0f}" for x, y in points) + "\n"
-                                      for points, _ in detected))
+            write_file(target, "".join(" ".join(f"{x:.2f} {y:.0f}" for x, y in points) + "\n"
+                                       for points, _ in detected))
         total += 1
         if progress is not None:
             progress(1)

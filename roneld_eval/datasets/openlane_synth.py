@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output import write_file
 from ..synth import Camera, SynthResult, lane_file_scenes
 from .openlane import IMAGE_HEIGHT, IMAGE_WIDTH
 
@@ -40,7 +41,7 @@ def synth_openlane(out: str | Path, clips: int = 3, frames: int = 4, seed: int =
             categories = [3 - c if rng.random() < confusion else c for c in categories]
             target = root / f"{relpath}.json"
             target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_text(_record(f"validation/{relpath}.jpg", lanes, categories))
+            write_file(target, _record(f"validation/{relpath}.jpg", lanes, categories))
         total += 1
         if progress is not None:
             progress(1)

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output import write_file
 from ..synth import (Camera, Scene, SynthResult, _write_maps, channel_lanes, clip_style, detector_lanes,
                      render_maps, scene_sequence)
 from .tusimple import IMAGE_HEIGHT, IMAGE_WIDTH
@@ -62,10 +63,10 @@ def synth_tusimple(out: str | Path, clips: int = 3, frames: int = 20, seed: int 
             "h_samples": list(ROWS),
             "raw_file": posixpath.join(clip_id, f"{frames}.jpg"),
         }))
-    (data_root / "test_label.json").write_text("".join(record + "\n" for record in records))
+    write_file(data_root / "test_label.json", "".join(record + "\n" for record in records))
     if maps_format == "lanes":
         maps_root.mkdir(parents=True, exist_ok=True)
-        (maps_root / "predictions.json").write_text("".join(line + "\n" for line in predictions))
+        write_file(maps_root / "predictions.json", "".join(line + "\n" for line in predictions))
     return SynthResult(data_root, maps_root, "tusimple", maps_format, clips, total)
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output import write_file
 from ..synth import (Camera, SynthResult, _write_maps, clip_style, detector_lanes, render_maps,
                      scene_sequence)
 from .culane_synth import _write_lane_files, culane_lines
@@ -48,7 +49,7 @@ def synth_vil100(out: str | Path, clips: int = 3, frames: int = 100, seed: int =
             stem = f"{name}/{FRAMES_APART * k:05d}"
             path = labels / f"{stem}.lines.txt"
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(culane_lines(scene, inside=True))
+            write_file(path, culane_lines(scene, inside=True))
             if maps_format == "lanes":
                 _write_lane_files(maps_root / stem, detector_lanes(scene, style, k, detector, rows))
             else:
@@ -56,5 +57,5 @@ def synth_vil100(out: str | Path, clips: int = 3, frames: int = 100, seed: int =
             total += 1
             if progress is not None:
                 progress(1)
-    (data_root / SIZES_FILE).write_text(json.dumps(sizes, indent=1) + "\n")
+    write_file(data_root / SIZES_FILE, json.dumps(sizes, indent=1) + "\n")
     return SynthResult(data_root, maps_root, "vil100", maps_format, clips, total)
