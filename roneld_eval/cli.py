@@ -471,7 +471,7 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
 
     total = clips * (frames or _guard(benchmark_for, debug, dataset).frames_per_clip)
     _guard(check_environment, debug)  # before the bar: a bound set wrong is one line, not under a bar
-    with progress_bar(total, "frame", "generating", disable=total < 200) as bar:
+    with progress_bar(total, "frame", "generating", wanted=total >= 200) as bar:
         result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
     scored = result.score_command is not None  # a benchmark scored from lane files: labels and predictions
     click.echo(f"{'labels' if scored else 'data root'}: {result.data_root}")

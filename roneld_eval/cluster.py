@@ -102,7 +102,7 @@ def on_dask(function: Callable, arguments: dict, command: str, scheduler: str | 
         try:
             from .progress import progress_bar
 
-            with progress_bar(count, "shard", "shards", disable=not progress) as bar:
+            with progress_bar(count, "shard", "shards", wanted=progress) as bar:
                 parts = _gathered(distributed, client, futures, count, bar.update)
         finally:
             for future in futures:

@@ -279,7 +279,7 @@ def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | Non
     from .workers import worker_count
 
     pieces = []
-    with progress_bar(sum(len(task[0]) for task in tasks), unit, "scoring", disable=not progress) as bar:
+    with progress_bar(sum(len(task[0]) for task in tasks), unit, "scoring", wanted=progress) as bar:
         if len(tasks) > 1 and worker_count(workers) != 1:
             from .workers import process_pool, stopping
 

@@ -827,8 +827,11 @@ def test_a_bound_set_to_no_number_is_one_line_before_any_work(tmp_path, monkeypa
     assert sorted(path.name for path in tmp_path.iterdir()) == ["gt", "list.txt", "pred"]
 
 
-def test_a_progress_bar_stopped_by_an_error_is_erased_above_its_line(tmp_path):
+def test_a_progress_bar_stopped_by_an_error_is_erased_above_its_line(tmp_path, monkeypatch):
     # The error's one line stood under "scoring:   0%|  | 0/1", a bar that would never go on.
+    from roneld_eval import progress
+
+    monkeypatch.setattr(progress, "stderr_is_terminal", lambda: True)  # bars are drawn on terminals only
     _one_frame_of_1001_lanes(tmp_path)
     result = CliRunner().invoke(main, ["score", "culane", "--data-root", str(tmp_path / "gt"), "--pred-root",
                                        str(tmp_path / "pred"), "--list", str(tmp_path / "list.txt")])

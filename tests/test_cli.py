@@ -314,3 +314,27 @@ def test_ctrl_c_while_the_command_starts_is_one_line(raised):
     assert (done.returncode, done.stderr, done.stdout) == (130, "interrupted\n", "")
     scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
     assert scripts["roneld-eval"] == "roneld_eval.console:main"  # the command, as python -m runs it
+
+
+def test_no_command_draws_a_progress_bar_where_stderr_is_not_a_terminal(tmp_path, monkeypatch):
+    # `score` and `synth` drew theirs into pipes and logs (`synth --dataset vil100`: one 30 KB
+    # line), `run` not: all alike now, a bar on a terminal only.
+    from roneld_eval import progress
+
+    lanes = tmp_path / "openlane"
+    assert CliRunner().invoke(main, ["synth", "--dataset", "openlane", "--out", str(lanes)]).exit_code == 0
+    commands = {
+        "generating": ["synth", "--dataset", "vil100", "--out", str(tmp_path / "set")],  # 300 frames
+        "scoring": ["score", "openlane", "--labels", str(lanes / "labels"), "--pred-root", str(lanes / "predictions"),
+                    "--workers", "1"],
+        "evaluating": ["run", "--workers", "1", "--out", str(tmp_path / "run")],
+    }
+    for bar, args in commands.items():
+        result = CliRunner().invoke(main, args)  # stderr: not a terminal
+        assert result.exit_code == 0, result.output
+        assert bar not in result.output and "\r" not in result.output, (args, result.output[-300:])
+    monkeypatch.setattr(progress, "stderr_is_terminal", lambda: True)
+    for bar, args in commands.items():
+        result = CliRunner().invoke(main, args + (["--out", str(tmp_path / "score")] if bar == "scoring" else []))
+        assert result.exit_code == 0, result.output
+        assert f"\r{bar}: 100%" in result.output, (args, result.output[-300:])

@@ -253,7 +253,7 @@ def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int
         kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
     from ..progress import progress_bar
 
-    with progress_bar(len(relpaths), "frame", "scoring", disable=not progress) as bar:
+    with progress_bar(len(relpaths), "frame", "scoring", wanted=progress) as bar:
         if workers > 1:
             from ..workers import process_pool, stopping
 

@@ -57,9 +57,7 @@ def evaluate(
     processes = min(worker_count(config.workers), max(len(clips), 1))
     kernels.prepare(announce=announce or (lambda message: None), needed=context.kernel_groups(), processes=processes)
     merged = _Merged(config, context.benchmark.tally(config.methods, planned.dataset, config), planned.skipped)
-    # None: no bar where stderr is not a terminal (CI logs), as tqdm documents.
-    with progress_bar(sum(len(clip.frames) for clip in clips), "frame", "evaluating",
-                      disable=None if progress else True) as bar:
+    with progress_bar(sum(len(clip.frames) for clip in clips), "frame", "evaluating", wanted=progress) as bar:
         results = _clip_results(clips, context, config.workers, cache, advance=bar.update, meanwhile=meanwhile)
         for clip, result in zip(clips, results, strict=True):  # strict: runs the generator to its end
             merged.add(clip, result, lane_sink)
