@@ -38,9 +38,16 @@ from typing import Any
 
 import hashlib
 
-import numba
-from numba.core import caching as _numba_caching
-from numba.core import config as _numba_config
+from .signals import deferred_signals
+
+# A signal waits for numba's import: cut short in the initialisation of its C extensions, numba
+# prints the interruption and fails for good ("ImportError: numba._devicearray failed to
+# import", exit 1 with a traceback, 1 of 60 `score openlane` signalled 0.4-0.6 s in). The
+# modules that import a kernel package import this module first.
+with deferred_signals():
+    import numba
+    from numba.core import caching as _numba_caching
+    from numba.core import config as _numba_config
 
 # numba.core.config defines its settings (CACHE_DIR among them) at run time, from the
 # environment, so a type checker sees none of them.

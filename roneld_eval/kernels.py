@@ -36,6 +36,7 @@ from typing import Any, Callable, Iterable
 from ._numba_cache import cache_dir, compile_now, in_cache
 from .metrics import _kernels as metric_kernels
 from .metrics.raster import warm_up as warm_up_scoring
+from .signals import deferred_signals
 
 GROUPS = ("roneld", "baseline", "official", "paper", "maps")
 EXTRACTION = ("roneld", "baseline")
@@ -271,7 +272,8 @@ def _compile_in_parallel(order: list[Step], processes: int, announce: Callable[[
     """
     if cache_dir() is None:
         for step in order:
-            _compile_step(step)
+            with deferred_signals():  # as in warm_up: numba must not be interrupted half way
+                _compile_step(step)
         return
     from .workers import pool_context
 
@@ -338,7 +340,11 @@ def warm_up(needed: Iterable[str] | None = None) -> None:
     groups = _groups(needed)
     extraction = tuple(group for group in groups if group in EXTRACTION)
     scoring = tuple(group for group in groups if group in SCORING)
-    with _collector_paused():
+    # A signal waits for the end (signals.deferred_signals): raised inside numba's loading or a
+    # kernel's first call (which unpickles its constants), its exception left half-made objects
+    # behind: the next call into them crashed (SIGSEGV in 2 of 100 `score openlane` signalled in
+    # their last second), or llvmlite freed one twice at exit (SIGABRT).
+    with deferred_signals(), _collector_paused():
         if extraction:
             from .extract import warm_up as warm_up_extraction
 

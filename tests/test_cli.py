@@ -338,3 +338,25 @@ def test_no_command_draws_a_progress_bar_where_stderr_is_not_a_terminal(tmp_path
         result = CliRunner().invoke(main, args + (["--out", str(tmp_path / "score")] if bar == "scoring" else []))
         assert result.exit_code == 0, result.output
         assert f"\r{bar}: 100%" in result.output, (args, result.output[-300:])
+
+
+def test_ctrl_c_while_numba_initialises_is_an_interruption():
+    # Cut short in the initialisation of numba's C extensions, numba printed the interruption and
+    # failed for good: "ImportError: numba._devicearray failed to import", a traceback, exit 1.
+    import sys
+
+    from conftest import env_importing
+
+    program = (
+        "import os, signal, sys\n"
+        "class Interrupting:\n"
+        "    def find_spec(self, name, path, target=None):\n"
+        "        if name == 'numba._devicearray':\n"
+        "            os.kill(os.getpid(), signal.SIGINT)\n"
+        "sys.meta_path.insert(0, Interrupting())\n"
+        "import runpy\n"
+        "runpy.run_module('roneld_eval', run_name='__main__')\n")
+    done = subprocess.run([sys.executable, "-c", program, "score", "openlane", "--labels", "x", "--pred-root", "y"],
+                          capture_output=True, text=True, env=env_importing(), timeout=120)
+    assert (done.returncode, done.stderr.strip(), done.stdout) == (130, "interrupted", ""), done.stderr
+

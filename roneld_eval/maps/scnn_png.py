@@ -22,6 +22,7 @@ from ..lanes_io import decode_text, parse_number, read_bytes
 from ..limits import MAP
 from ..model import FrameMaps
 from ._checks import canonical_existence
+from .. import _numba_cache  # noqa: F401  (numba imported first, a signal deferred meanwhile)
 from ._kernels import unfilter_stream
 
 

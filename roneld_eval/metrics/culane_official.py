@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Iterable, Mapping, Sequence
 import numpy as np
 
 from ..model import Lane
+from .. import _numba_cache  # noqa: F401  (numba imported first, a signal deferred meanwhile)
 from . import _kernels
 from .iou import KM_TOLERANCE
 from .raster import LaneMask, LaneRuns, MaskList, MaskSet, official_mask_set

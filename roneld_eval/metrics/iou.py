@@ -6,6 +6,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .. import _numba_cache  # noqa: F401  (numba imported first, a signal deferred meanwhile)
 from ._kernels import run_overlap
 from .raster import LaneMask
 
