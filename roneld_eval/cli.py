@@ -61,8 +61,10 @@ def _check_path_text(value) -> None:
 
 def _guard(function, debug: bool, *args, **kwargs):
     """Call the library; bad input becomes one line and exit 2, Ctrl-C a short note and 130."""
+    from .output import commits_so_far
     from .signals import interruptions_unwrapped
 
+    commits = commits_so_far()
     try:
         for value in (*args, *kwargs.values()):
             _check_path_text(value)
@@ -72,7 +74,8 @@ def _guard(function, debug: bool, *args, **kwargs):
     except RoneldEvalError as error:
         _fail(error, debug)
     except KeyboardInterrupt as error:
-        _interrupted(error, ": no result was written")
+        complete = commits_so_far() > commits  # on the way back from a commit: not "nothing written"
+        _interrupted(error, ": the results are complete" if complete else ": no result was written")
     except MemoryError:
         _fail(RoneldEvalError("out of memory (try fewer --workers)"), debug)
     except OSError as error:

@@ -1,6 +1,8 @@
-"""The `roneld-eval` command (and `python -m roneld_eval`): Ctrl-C while the command line's modules
-are still being imported, its first 0.1-0.3 s, ends it with the one line any interruption gives
-and 130, not Python's traceback (the command's own handling starts once they are imported)."""
+"""The `roneld-eval` command (and `python -m roneld_eval`). A signal while the command line's
+modules are still being imported, its first 0.1-0.3 s, ends it with the one line any interruption
+gives and 128 + n, not Python's traceback nor a silent death (the command's own handling starts
+once they are imported); once the command is over, signals are ignored until the process has
+exited (signals.ignored_to_the_end)."""
 
 from __future__ import annotations
 
@@ -8,13 +10,19 @@ import sys
 
 
 def main() -> None:
-    from .signals import interruption_name, interruptions_unwrapped
+    from .signals import ignored_to_the_end, interruption_name, interruptions_unwrapped, terminate_as_interrupt
 
     try:
-        with interruptions_unwrapped():  # an extension module's initialisation cut by Ctrl-C
+        # SIGTERM and SIGHUP as Ctrl-C from the start, not only once the command's handling starts.
+        with terminate_as_interrupt(), interruptions_unwrapped():  # an extension's initialisation cut short
             from .cli import main as command
-    except KeyboardInterrupt as error:
+
+            try:
+                command()
+            finally:  # the command is over (it exits): a signal now could only kill the exit without a word
+                ignored_to_the_end()
+    except KeyboardInterrupt as error:  # while importing, or the moment between the command's end and this
+        ignored_to_the_end()
         reason, code = interruption_name(error)
         sys.stderr.write(f"{reason}\n")
         sys.exit(code)
-    command()

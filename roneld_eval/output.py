@@ -24,13 +24,14 @@ import json
 import math
 import os
 import shutil
+import signal
 import stat
 import tempfile
 from pathlib import Path
 from typing import Callable, SupportsFloat, cast
 
-from .errors import InputError
-from .signals import held_signals
+from .errors import InputError, RunInterrupted
+from .signals import deferred_signals, held_signals, signal_number
 
 # Where `run` writes without --out: a folder this repository's git ignores (out/), so a run in
 # a clone never rewrites the committed results/.
@@ -228,8 +229,10 @@ class OutputFolder:
             raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
         locked_before = os.path.lexists(self.path / LOCK)  # a command killed here left its lock file
         try:
-            self._take_lock()
+            with deferred_signals():  # the lock file and what releases it made together: none left behind
+                self._take_lock()
         except BaseException:
+            self._release_lock()  # taken, then the signal that waited for it
             self._remove_if_empty()
             raise
         try:
@@ -246,16 +249,21 @@ class OutputFolder:
         if self.committed:
             with held_signals():  # the results are complete: a signal now must not say otherwise
                 self._release_lock()
+            if isinstance(error, KeyboardInterrupt):  # nor one between the commit and here
+                number = signal_number(error)
+                raise RunInterrupted(f"{signal.Signals(number).name} received after the results were put in "
+                                     "place; they are complete", exit_code=128 + number) from None
             return
         staging = self._staging
-        try:
-            if self._staging is not None:
-                shutil.rmtree(self._staging, ignore_errors=True)
-                self._staging = None
-        finally:
-            self._release_lock()
-            if kind is not None:
-                self._remove_if_empty()
+        with deferred_signals():  # removed whole and unlocked, whatever comes meanwhile; said after
+            try:
+                if self._staging is not None:
+                    shutil.rmtree(self._staging, ignore_errors=True)
+                    self._staging = None
+            finally:
+                self._release_lock()
+                if kind is not None:
+                    self._remove_if_empty()
         renamed = self._named_as_output(error, staging)
         if renamed is not None:
             raise renamed.with_traceback(trace) from None  # --debug still shows where it failed
@@ -418,7 +426,8 @@ class OutputFolder:
         """The private folder to write this command's results into."""
         if self._staging is None:
             try:
-                self._staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=self.path))
+                with deferred_signals():  # made and known together: a signal between left it behind
+                    self._staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=self.path))
             except OSError as error:
                 raise InputError(self.path, f"cannot write results here: {error.strerror}") from None
         return self._staging
@@ -443,6 +452,8 @@ class OutputFolder:
             self._apply(staging, trash, entries, old)
             self._staging = None
             self.committed = True
+            global _commits
+            _commits += 1
             if then is not None:
                 then()
         return [self.path / name for name in entries]
@@ -494,6 +505,15 @@ def _written_by(entry: Path, command: str) -> bool:
     except InputError:
         return False
     return record is not None and record["command"] == command
+
+
+_commits = 0  # folders this process committed so far (commits_so_far)
+
+
+def commits_so_far() -> int:
+    """How many output folders this process has committed: an interruption that comes once a
+    command's own has committed, on its way back, ends a command whose results are complete."""
+    return _commits
 
 
 def write_file(path: Path, data: str | bytes) -> None:

@@ -80,7 +80,7 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
     scoring = _Scoring(config, method)
     image_root = images if images is not None else config.dataset.data_root
     with _video_file(video, fps) as write, progress_bar(len(clip.frames), "frame", "replaying",
-                                                        disable=None if progress else True) as bar:
+                                                        wanted=progress) as bar:
         geometry: MapGeometry | None = None
         for frame in clip.frames:
             maps = context.load(frame)

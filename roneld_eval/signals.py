@@ -40,7 +40,8 @@ def _in_main_thread() -> bool:
 
 @contextlib.contextmanager
 def _handling(numbers, handler):
-    """`handler` for these signals within the block (main thread only; elsewhere a no-op)."""
+    """`handler` for these signals within the block (main thread only; elsewhere a no-op); after
+    it, the previous handlers again, but where the block set another (`ignored_to_the_end`)."""
     if not _in_main_thread():
         yield
         return
@@ -51,7 +52,34 @@ def _handling(numbers, handler):
         yield
     finally:
         for number, old in previous.items():
-            signal.signal(number, old)
+            if signal.getsignal(number) is handler:
+                signal.signal(number, old)
+
+
+def ignored_to_the_end() -> None:
+    """Ctrl-C, SIGTERM and SIGHUP ignored from now until the process ends (the command line's,
+    once its command is over). Python hands a signal with a Python handler back to the default
+    action while it shuts down: in the last tens of ms of an exit, after the command had said
+    all and its results were complete, SIGTERM or SIGHUP ended the process without a word (and
+    status 143 or 129), Ctrl-C gave a traceback. An ignored one stays ignored."""
+    if _in_main_thread():
+        for number in _HELD:
+            signal.signal(number, signal.SIG_IGN)
+    _interruption_handled()
+
+
+def _interruption_handled() -> None:
+    """Tell CPython that no interruption went unhandled: once a KeyboardInterrupt has left an
+    exec() or eval() of a string (as numba, dataclasses and namedtuple make their code), CPython
+    ends the process with SIGINT at exit, whatever caught it since (`_Py_UnhandledKeyboardInterrupt`):
+    a Ctrl-C while `score` imported numba said "interrupted" and then died of SIGINT, status -2.
+    The command has said its line and chosen its status. A Python without that flag: nothing."""
+    try:
+        import ctypes
+
+        ctypes.c_int.in_dll(ctypes.pythonapi, "_Py_UnhandledKeyboardInterrupt").value = 0
+    except (ImportError, AttributeError, ValueError, OSError):
+        pass
 
 
 @contextlib.contextmanager
@@ -121,6 +149,11 @@ def interruptions_unwrapped():
         raise interruption from None
 
 
+def signal_number(error: KeyboardInterrupt) -> int:
+    """The signal an interruption stands for: SIGINT for Ctrl-C."""
+    return error.number if isinstance(error, Terminated) else signal.SIGINT
+
+
 def interruption_name(error: BaseException) -> tuple[str, int]:
     """('interrupted', 130) for Ctrl-C, ('terminated (SIGTERM)', 143) for a signal."""
     if isinstance(error, Terminated):
@@ -158,7 +191,9 @@ def deferred_signals():
     sent again, to the handler that was there before (which raises, ends the process, or
     ignores it, as it would have).
 
-    For a fork of this process: a signal handled while the interpreter runs its fork hooks
+    Around numba's loading and first calls (kernels.warm_up): interrupted there, numba and
+    llvmlite leave half-made objects that crash the process later. For a fork of this process:
+    a signal handled while the interpreter runs its fork hooks
     (logging's, threading's) raises inside them, where the exception is printed as "Exception
     ignored" and lost, and the interrupted run would carry on. Blocking the signals in the
     forking thread alone cannot prevent it: any other thread (tqdm's monitor, a library's) may

@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
+from .signals import deferred_signals
+
 if TYPE_CHECKING:
     from .metrics.raster import LaneRuns, MaskSet
 
@@ -376,8 +378,10 @@ def save(key: str, truth: TruthRuns, note: Callable[[str], None]) -> None:
     try:
         entries = _entries_folder(create=True)
         assert entries is not None
-        staging = Path(tempfile.mkdtemp(prefix=f".{key[:16]}.", dir=entries))
+        staging: Path | None = None
         try:
+            with deferred_signals():  # made and known together: a signal between left it behind
+                staging = Path(tempfile.mkdtemp(prefix=f".{key[:16]}.", dir=entries))
             for name in ARRAYS:
                 np.save(staging / f"{name}.npy", np.ascontiguousarray(getattr(truth, name)), allow_pickle=False)
             (staging / MAC_NAME).write_text(json.dumps(_signature(staging, secret_key(note))), encoding="utf-8")
@@ -386,7 +390,8 @@ def save(key: str, truth: TruthRuns, note: Callable[[str], None]) -> None:
             except OSError:  # another command wrote the same entry first
                 pass
         finally:
-            shutil.rmtree(staging, ignore_errors=True)
+            if staging is not None:
+                shutil.rmtree(staging, ignore_errors=True)
         kept = sorted((path for path in entries.iterdir() if own_entry(path)),
                       key=lambda path: os.lstat(path).st_mtime_ns, reverse=True)
         for old in kept[MAX_ENTRIES:]:

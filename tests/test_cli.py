@@ -340,6 +340,71 @@ def test_no_command_draws_a_progress_bar_where_stderr_is_not_a_terminal(tmp_path
         assert f"\r{bar}: 100%" in result.output, (args, result.output[-300:])
 
 
+@pytest.mark.parametrize("number", [15, 1])  # SIGTERM, SIGHUP
+def test_a_signal_while_the_command_starts_is_one_line(number):
+    # Before the command's handling started, SIGTERM or SIGHUP ended the process without a word.
+    import sys
+
+    from conftest import env_importing
+
+    program = (
+        "import os, sys\n"
+        "class Signalling:\n"
+        "    def find_spec(self, name, path, target=None):\n"
+        "        if name == 'click':\n"
+        f"            os.kill(os.getpid(), {number})\n"
+        "sys.meta_path.insert(0, Signalling())\n"
+        "import runpy\n"
+        "runpy.run_module('roneld_eval', run_name='__main__')\n")
+    done = subprocess.run([sys.executable, "-c", program, "run"], capture_output=True, text=True,
+                          env=env_importing(), timeout=120)
+    name = "SIGTERM" if number == 15 else "SIGHUP"
+    assert (done.returncode, done.stderr, done.stdout) == (128 + number, f"terminated ({name})\n", "")
+
+
+def test_signals_once_the_command_is_over_do_not_kill_its_exit():
+    # Python gives a signal back to its default action as it shuts down: SIGTERM or SIGHUP in the
+    # last tens of ms of an exit ended a finished command without a word (2 of 106 `score
+    # openlane` signalled in their last second), Ctrl-C printed a traceback.
+    import sys
+
+    from conftest import env_importing
+    from roneld_eval.version import __version__
+
+    program = (
+        "import atexit, os, signal, sys\n"
+        "atexit.register(lambda: [os.kill(os.getpid(), n) for n in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)])\n"
+        "sys.argv[0] = 'roneld-eval'\n"
+        "from roneld_eval.console import main\n"
+        "main()\n")
+    done = subprocess.run([sys.executable, "-c", program, "--version"], capture_output=True, text=True,
+                          env=env_importing(), timeout=120)
+    assert (done.returncode, done.stderr, done.stdout) == (0, "", f"roneld-eval, version {__version__}\n")
+
+
+def test_a_signal_after_the_results_are_committed_says_they_are_complete(tmp_path, monkeypatch):
+    # It said "terminated (SIGTERM): no result was written" of results already in place.
+    import signal
+
+    from roneld_eval.benchmarks import openlane_score
+
+    lanes = tmp_path / "set"
+    assert CliRunner().invoke(main, ["synth", "--dataset", "openlane", "--out", str(lanes)]).exit_code == 0
+    original = openlane_score.score_openlane
+
+    def signalled_on_return(*args, **kwargs):
+        score = original(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGTERM)  # on its way back to the command line, past the folder's end
+        return score
+
+    monkeypatch.setattr(openlane_score, "score_openlane", signalled_on_return)
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["score", "openlane", "--labels", str(lanes / "labels"), "--pred-root",
+                                       str(lanes / "predictions"), "--out", str(out), "--quiet"])
+    assert (result.exit_code, result.output) == (143, "terminated (SIGTERM): the results are complete\n")
+    assert sorted(path.name for path in out.iterdir()) == [".roneld-run.json", "official.csv", "summary.md"]
+
+
 def test_ctrl_c_while_numba_initialises_is_an_interruption():
     # Cut short in the initialisation of numba's C extensions, numba printed the interruption and
     # failed for good: "ImportError: numba._devicearray failed to import", a traceback, exit 1.
@@ -360,3 +425,27 @@ def test_ctrl_c_while_numba_initialises_is_an_interruption():
                           capture_output=True, text=True, env=env_importing(), timeout=120)
     assert (done.returncode, done.stderr.strip(), done.stdout) == (130, "interrupted", ""), done.stderr
 
+
+def test_ctrl_c_that_left_an_exec_of_a_string_ends_in_the_status_said(tmp_path):
+    # CPython ends `python -m` with SIGINT at exit once a KeyboardInterrupt has left an exec() of a
+    # string (numba's, dataclasses' and namedtuple's generated code), however it was handled:
+    # "interrupted: no result was written" and then death by SIGINT, status -2, not 130.
+    import sys
+
+    from conftest import env_importing
+
+    probe = tmp_path / "probe"
+    probe.mkdir()
+    (probe / "__init__.py").write_text("")
+    (probe / "__main__.py").write_text(
+        "from roneld_eval import api\n"
+        "def interrupted(*args, **kwargs):\n"
+        "    exec('raise KeyboardInterrupt')\n"
+        "api.synthesize = interrupted\n"
+        "from roneld_eval.console import main\n"
+        "main()\n")
+    env = env_importing()
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), env["PYTHONPATH"]])
+    done = subprocess.run([sys.executable, "-m", "probe", "synth", "--dataset", "openlane", "--out",
+                           str(tmp_path / "unused")], capture_output=True, text=True, env=env, timeout=120)
+    assert (done.returncode, done.stderr, done.stdout) == (130, "interrupted: no result was written\n", "")

@@ -1050,3 +1050,47 @@ def test_a_users_folder_named_like_a_leftover_is_foreign_where_the_tool_never_wr
     assert result.exit_code == 2 and "holds files roneld-eval did not write (.staging-mine)" in result.output
     assert sorted(p.name for p in folder.iterdir()) == [".staging-mine"]
     assert (folder / ".staging-mine" / "important").read_text() == "precious"
+
+
+@pytest.mark.parametrize("number", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+def test_a_signal_between_the_commit_and_the_folders_end_says_the_results_are_complete(tmp_path, number):
+    # It went on as an interruption of the work ("no result was written"), the results in place.
+    from roneld_eval.signals import terminate_as_interrupt
+
+    out = tmp_path / "out"
+    with pytest.raises(BaseException) as caught, terminate_as_interrupt():  # a Ctrl-C must not stop pytest
+        with output.OutputFolder(out, "run") as folder:
+            (folder.staging() / "accuracy.csv").write_text("new\n")
+            folder.commit()
+            os.kill(os.getpid(), number)
+    assert isinstance(caught.value, RunInterrupted), repr(caught.value)
+    assert caught.value.exit_code == 128 + number and "they are complete" in str(caught.value)
+    assert signal.Signals(number).name in str(caught.value)
+    assert sorted(path.name for path in out.iterdir()) == [output.MANIFEST, "accuracy.csv"]  # no lock
+
+
+@pytest.mark.parametrize("made", ["lock", "staging"])
+def test_a_signal_while_the_lock_or_the_staging_folder_is_made_leaves_neither(tmp_path, monkeypatch, made):
+    # Between the lock file's creation and the descriptor kept to release it (or mkdtemp and the
+    # staging folder's name kept), a signal left the file or the folder behind (1 of 500 tries).
+    from roneld_eval.signals import Terminated, terminate_as_interrupt
+
+    out = tmp_path / "out"
+    with output.OutputFolder(out, "run") as folder:
+        (folder.staging() / "accuracy.csv").write_text("earlier\n")
+        folder.commit()
+    module, name = (output.fcntl, "flock") if made == "lock" else (output.tempfile, "mkdtemp")
+    original = getattr(module, name)
+
+    def signalled(*args, **kwargs):
+        done = original(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGTERM)
+        return done
+
+    monkeypatch.setattr(module, name, signalled)
+    with pytest.raises(BaseException) as caught, terminate_as_interrupt():
+        with output.OutputFolder(out, "run") as folder:
+            folder.staging()
+    monkeypatch.undo()
+    assert isinstance(caught.value, Terminated), repr(caught.value)
+    assert sorted(path.name for path in out.iterdir()) == [output.MANIFEST, "accuracy.csv"]
