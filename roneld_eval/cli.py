@@ -214,6 +214,19 @@ def main():
     """
 
 
+def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
+    """The configuration `--config` names (a file or preset), else `--dataset`'s default; the two
+    must not name different datasets."""
+    from .api import default_config
+
+    if config_file is None:
+        return default_config(dataset)
+    config = EvalConfig.from_toml(config_file)
+    if dataset is not None and dataset != config.dataset.name:
+        raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
+    return config
+
+
 @main.command()
 @click.option("--config", "config_file", metavar="FILE|PRESET",
               help=f"Configuration TOML file or preset name ({', '.join(preset_names())}). "
@@ -288,12 +301,7 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
     _no_collections_at_exit()
 
     def build() -> EvalConfig:
-        if config_file is not None:
-            config = EvalConfig.from_toml(config_file)
-            if dataset is not None and dataset != config.dataset.name:
-                raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
-        else:
-            config = api.default_config(dataset)
+        config = _given_config(config_file, dataset)
         overrides = {
             "dataset.data_root": None if data_root is None else str(data_root),
             "maps.root": None if maps_root is None else str(maps_root),
@@ -623,14 +631,7 @@ def replay(maps_root, data_root, clip_id, config_file, dataset, maps_format, ima
     from .replay import replay_clip
 
     def build() -> EvalConfig:
-        if config_file is not None:
-            config = EvalConfig.from_toml(config_file)
-            if dataset is not None and dataset != config.dataset.name:
-                raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
-        else:
-            from .api import default_config
-
-            config = default_config(dataset)
+        config = _given_config(config_file, dataset)
         overrides = {"maps.root": str(maps_root), "maps.format": maps_format,
                      "dataset.data_root": None if data_root is None else str(data_root)}
         for setting in settings:

@@ -113,12 +113,16 @@ def test_parts_of_another_list_are_refused(culane_set, three_parts, tmp_path):
     assert "ground truth" in _refused(tmp_path, p1, p2, tmp_path / "o")
 
 
+def _copy_with_arrays(part, copy):
+    """A copy of `part` at `copy`, and the arrays of its part.npz to edit."""
+    shutil.copytree(part, copy)
+    with np.load(part / "part.npz") as loaded:
+        return copy, {name: loaded[name] for name in loaded.files}
+
+
 def test_an_edited_part_is_refused_naming_its_file(three_parts, tmp_path):
     p1, p2, p3 = three_parts
-    edited = tmp_path / "edited"
-    shutil.copytree(p2, edited)
-    with np.load(p2 / "part.npz") as loaded:
-        arrays = {name: loaded[name] for name in loaded.files}
+    edited, arrays = _copy_with_arrays(p2, tmp_path / "edited")
     arrays["matched_iou"] = arrays["matched_iou"] + 2.0
     np.savez(edited / "part.npz", **arrays)
     assert f"{edited / 'part.npz'}: changed since its shard wrote it" in _refused(tmp_path, p1, edited, p3)
@@ -153,10 +157,7 @@ def test_an_edited_part_is_refused_naming_its_file(three_parts, tmp_path):
 
 def test_a_count_edited_in_part_npz_keeping_its_form_is_refused(three_parts, tmp_path):
     p1, p2, p3 = three_parts
-    edited = tmp_path / "edited"
-    shutil.copytree(p2, edited)
-    with np.load(p2 / "part.npz") as loaded:
-        arrays = {name: loaded[name] for name in loaded.files}
+    edited, arrays = _copy_with_arrays(p2, tmp_path / "edited")
     arrays["n_pred"] = arrays["n_pred"] + 1  # a lane more in every frame: only false positives more
     arrays["matched_iou"] = np.where(arrays["matched_iou"] > 0.2, 0.99, arrays["matched_iou"])
     np.savez(edited / "part.npz", **arrays)
@@ -198,11 +199,7 @@ def test_a_culane_merge_refuses_predictions_changed_since_the_shards(culane_set,
 
 def test_a_lane_file_merge_refuses_predictions_changed_since_the_shards(tmp_path):
     args = _lane_file_command(tmp_path, "openlane")
-    parts = []
-    for k in (1, 2):
-        result = _invoke(*args, "--quiet", "--out", tmp_path / f"p{k}", "--shard", f"{k}/2")
-        assert result.exit_code == 0, result.output
-        parts.append(tmp_path / f"p{k}")
+    parts = _two_shards(args, tmp_path)
     victim = sorted((tmp_path / "set" / "predictions").rglob("*.json"))[-1]  # a frame of shard 2
     record = json.loads(victim.read_text())
     record["lane_lines"] = record["lane_lines"][:1]  # the same tree, one lane fewer
@@ -355,13 +352,19 @@ def test_merged_lane_file_scores_are_the_unsharded_files(tmp_path, dataset, monk
         assert "AP mean" in (tmp_path / "whole" / "summary.md").read_text()
 
 
-def test_a_lane_file_merge_refuses_files_that_moved_since_the_shards(tmp_path):
-    args = _lane_file_command(tmp_path, "openlane")
+def _two_shards(args, tmp_path):
+    """The parts of the command `args` in two shards, p1 and p2 under tmp_path."""
     parts = []
     for k in (1, 2):
         result = _invoke(*args, "--quiet", "--out", tmp_path / f"p{k}", "--shard", f"{k}/2")
         assert result.exit_code == 0, result.output
         parts.append(tmp_path / f"p{k}")
+    return parts
+
+
+def test_a_lane_file_merge_refuses_files_that_moved_since_the_shards(tmp_path):
+    args = _lane_file_command(tmp_path, "openlane")
+    parts = _two_shards(args, tmp_path)
     victim = sorted((tmp_path / "set" / "predictions").rglob("*.json"))[0]
     victim.unlink()  # one prediction file fewer: the tree the merge finds is not the shards'
     output = _refused(tmp_path, *parts)
