@@ -25,7 +25,7 @@ from .wording import counted
 from .cache import ResultCache
 from .evaluation import RunPlan, RunResult, evaluate, plan
 from .output import DEFAULT_OUT, INPUT_RUN_REMEDY, JOURNAL, OutputFolder, Staging, read_manifest
-from .signals import interruption_name, terminate_as_interrupt
+from .signals import interruption_name, interruptions_unwrapped, terminate_as_interrupt
 from .report.tables import Protocol
 from .report.write import LaneWriter, load_drawing, stage_report
 
@@ -124,7 +124,8 @@ def _kept_for_resume(cache: ResultCache):
     """Finished clips stay in the cache for --resume when the run is interrupted (a worker died,
     Ctrl-C, SIGTERM or SIGHUP, evaluating or writing the report), and go on any other failure."""
     try:
-        yield
+        with interruptions_unwrapped():  # one that C code swallowed and replaced is still one
+            yield
     except RunInterrupted:
         raise
     except KeyboardInterrupt as error:

@@ -14,7 +14,7 @@ import sys
 import threading
 from typing import Iterator
 
-from .errors import RunInterrupted
+from .errors import RoneldEvalError, RunInterrupted
 
 _ENDING = (signal.SIGTERM, signal.SIGHUP)
 _HELD = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -30,8 +30,20 @@ class Terminated(KeyboardInterrupt):
         self.exit_code = 128 + number
 
 
+# The signal of every interruption this module's handlers raised, in order: one that C code then
+# swallowed and replaced with an error of its own is still known (interruptions_unwrapped).
+_delivered: list[int] = []
+
+
 def _raise_terminated(number, frame):
+    _delivered.append(number)
     raise Terminated(number)
+
+
+def _raise_interrupt(number, frame):
+    """Ctrl-C as Python's own handler raises it, noted."""
+    _delivered.append(number)
+    raise KeyboardInterrupt
 
 
 def _in_main_thread() -> bool:
@@ -84,9 +96,13 @@ def _interruption_handled() -> None:
 
 @contextlib.contextmanager
 def terminate_as_interrupt():
-    """Within the block, SIGTERM and SIGHUP raise `Terminated` (a KeyboardInterrupt), and an
-    interruption raised where Python cannot raise it is sent again (`_lost_interruptions_resent`)."""
-    with _handling(_ENDING, _raise_terminated), _lost_interruptions_resent():
+    """Within the block, SIGTERM and SIGHUP raise `Terminated` (a KeyboardInterrupt), Ctrl-C its
+    KeyboardInterrupt as before (unless it is ignored, as in a background job), each noted for
+    `interruptions_unwrapped`, and an interruption raised where Python cannot raise it is sent
+    again (`_lost_interruptions_resent`)."""
+    ctrl_c = (signal.SIGINT,) if _in_main_thread() and signal.getsignal(signal.SIGINT) is signal.default_int_handler \
+        else ()
+    with _handling(_ENDING, _raise_terminated), _handling(ctrl_c, _raise_interrupt), _lost_interruptions_resent():
         yield
 
 
@@ -139,11 +155,19 @@ def interruption_within(error: BaseException | None) -> KeyboardInterrupt | None
 def interruptions_unwrapped():
     """Within the block, an exception an interruption caused (interruption_within) is raised as
     that interruption: what runs numba's kernels in this process is then stopped as by Ctrl-C
-    anywhere else, not as by a bug."""
+    anywhere else, not as by a bug. So is any other error but the tool's own that follows an
+    interruption raised within the block (terminate_as_interrupt's handlers note each): C code
+    that called back into Python may swallow it and raise its own, naming no cause (matplotlib's
+    Agg renderer, cut short while drawing a run's figure: "ValueError: Invalid bounding box", a
+    traceback and exit 1, in 2 of 53 `run` signalled in their last second)."""
+    delivered = len(_delivered)
     try:
         yield
     except Exception as error:
         interruption = interruption_within(error)
+        if interruption is None and len(_delivered) > delivered and not isinstance(error, RoneldEvalError):
+            number = _delivered[-1]
+            interruption = KeyboardInterrupt() if number == signal.SIGINT else Terminated(number)
         if interruption is None:
             raise
         raise interruption from None

@@ -629,6 +629,33 @@ def test_interrupted_run_writes_nothing_and_resume_gives_the_same_numbers(sets, 
     assert not (out / ".roneld-cache").exists()  # kept only while unfinished
 
 
+@pytest.mark.parametrize("number", [2, 15])  # SIGINT, SIGTERM
+def test_an_interruption_that_c_code_replaced_with_its_own_error_is_the_interruption(tmp_path, monkeypatch, number):
+    # matplotlib's Agg renderer, cut short while drawing a run's figure, raises "ValueError:
+    # Invalid bounding box" and drops the interruption: a traceback and exit 1 (2 of 53 `run`
+    # signalled in their last second), and the finished clips were dropped as after a bug.
+    from roneld_eval.report import figure_files
+
+    original, here = figure_files.write_png, os.getpid()
+
+    def swallowing(figure, path):
+        if os.getpid() != here:  # a figure drawn in a forked process
+            return original(figure, path)
+        try:
+            os.kill(here, number)
+        except KeyboardInterrupt:
+            pass  # as C code that clears the error it was handed and sets its own
+        raise ValueError("Invalid bounding box")
+
+    monkeypatch.setattr(figure_files, "write_png", swallowing)
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["run", "--workers", "1", "--quiet", "--out", str(out)])
+    said = "interrupted" if number == 2 else "terminated (SIGTERM)"
+    assert result.exit_code == 128 + number and result.output.count("\n") == 1, result.output
+    assert result.output.startswith(f"error: {said}: no result was written; ") and "--resume" in result.output
+    assert [path.name for path in out.iterdir()] == [".roneld-cache"]  # the finished clips, for --resume
+
+
 def test_ctrl_c_inside_a_numba_kernel_keeps_the_finished_clips(sets, monkeypatch, tmp_path):
     """numba's compiled code calls back into Python, where Ctrl-C may land: it came out of the
     kernel as a SystemError, printed as a traceback, and the finished clips were dropped as after
