@@ -83,8 +83,11 @@ class PluginCalls:
         ended = [(pid, code) for pid, code in exit_codes.items() if pid in calls]
         if not ended:
             return None
-        by_us = (-signal.SIGTERM, -signal.SIGKILL)
-        # An unknown code (the pool's thread reaped the process first) ranks between the two.
-        pid, code = sorted(ended, key=lambda item: 1 if item[1] is None else 2 if item[1] in by_us else 0)[0]
+        # An unknown code (the pool's thread reaped the process first) ranks after any other; of
+        # the signals the pool and the run end workers with, SIGTERM (sent first, to every worker
+        # left) ranks last: a SIGKILL is a worker that ignored it past its grace, or one that a
+        # plug-in killed itself, and comes first.
+        rank = {None: 1, -signal.SIGKILL: 2, -signal.SIGTERM: 3}
+        pid, code = sorted(ended, key=lambda item: rank.get(item[1], 0))[0]
         method, frame, _ = calls[pid]
         return method, frame, code

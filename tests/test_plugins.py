@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -492,3 +493,17 @@ def test_a_plugin_file_imports_the_modules_beside_it(tmp_path, monkeypatch):
     monkeypatch.setattr("sys.path", list(__import__("sys").path))
     factory = resolve_entry(f"{folder / 'my_lanes.py'}:make")
     assert factory(None, {})(None) == 7
+
+
+def test_a_worker_killed_inside_a_call_is_named_before_one_the_pool_terminated(monkeypatch):
+    # Two workers inside plug-in calls: one killed itself (SIGKILL), the other was ended by the
+    # pool's SIGTERM afterwards; the line named whichever the pool listed first (CI: the second).
+    from roneld_eval.plugin_calls import PluginCalls
+
+    calls = {11: ("flaky", "seq02/004.jpg", 0.0), 12: ("flaky", "seq00/001.jpg", 0.0)}
+    monkeypatch.setattr(PluginCalls, "open_calls", lambda self: calls)
+    tracker = PluginCalls.__new__(PluginCalls)
+    assert tracker.died_in({11: -signal.SIGTERM, 12: -signal.SIGKILL}) == ("flaky", "seq00/001.jpg",
+                                                                            -signal.SIGKILL)
+    assert tracker.died_in({11: -signal.SIGTERM, 12: None})[1] == "seq00/001.jpg"
+    assert tracker.died_in({11: 3, 12: -signal.SIGKILL})[1] == "seq02/004.jpg"
