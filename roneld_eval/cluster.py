@@ -11,6 +11,7 @@ processes is started for the command and closed after it. Dask is an optional ex
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import inspect
 import tempfile
@@ -132,11 +133,16 @@ def _gathered(distributed, client, futures: dict, count: int, advance: Callable[
     while pending:
         try:
             done, pending = distributed.wait(pending, timeout=poll, return_when="FIRST_COMPLETED")
+            for future in done:
+                parts[futures[future]] = _result(distributed, future, futures[future], count)
+                advance(1)
         except TimeoutError:  # none finished meanwhile
             done = set()
-        for future in done:
-            parts[futures[future]] = _result(distributed, future, futures[future], count)
-            advance(1)
+        except (concurrent.futures.CancelledError, distributed.comm.core.CommClosedError):
+            # The client cancels every task when it loses its scheduler (a scheduler killed or
+            # gone): the cluster is lost, not a shard.
+            raise RunInterrupted(f"the Dask scheduler at {client.scheduler.address} stopped answering (the "
+                                 "connection to it was lost): no result was written") from None
         if done or _has_workers(client, poll):
             alive = time.monotonic()
         elif time.monotonic() - alive > WORKER_WAIT_S - 2 * poll:  # a poll and an answer late at most

@@ -3,6 +3,7 @@ one given by --scheduler) and merge into the files the command writes in one pro
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import subprocess
 import sys
@@ -228,4 +229,43 @@ def test_a_run_whose_only_worker_dies_is_one_line(tmp_path, monkeypatch):
                 and time.monotonic() < deadline:
             time.sleep(0.05)
         assert not local.scheduler.tasks and set(local.scheduler.clients) == {"fire-and-forget"}
+    assert not (tmp_path / "o").exists() or not [p.name for p in (tmp_path / "o").iterdir()]
+
+
+def test_a_run_whose_scheduler_is_killed_is_one_line(tmp_path, monkeypatch):
+    # The client cancelled every task on losing its scheduler, and FuturesCancelledError came out as
+    # a traceback (found by an independent check, scheduler killed with SIGKILL mid-run).
+    import _thread
+
+    import roneld_eval.cluster as cluster
+
+    monkeypatch.setattr(cluster, "WORKER_WAIT_S", 30)
+    monkeypatch.setattr(cluster, "shard_task", _held_shard)
+    STARTED.clear()
+    RELEASE.clear()
+    local = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None)
+    try:
+        address = local.scheduler_address
+
+        def kill() -> None:
+            if STARTED.wait(60):
+                local.sync(local.scheduler.close)
+
+        threading.Thread(target=kill, daemon=True).start()
+        hung = threading.Timer(60, _thread.interrupt_main)  # what was a hang fails the test instead
+        hung.start()
+        try:
+            result = _invoke("run", "--workers", "1", "--quiet", "--out", tmp_path / "o", "--executor", "dask",
+                             "--scheduler", address)
+        finally:
+            hung.cancel()
+            RELEASE.set()
+    finally:
+        with contextlib.suppress(Exception):  # its scheduler is gone: closing waits 30 s for it otherwise
+            local.close(timeout=1)
+    assert STARTED.is_set()
+    assert "Traceback" not in result.output
+    assert result.exit_code == 1, result.output
+    assert result.output.endswith("no result was written\n") and result.output.count("\n") == 1, result.output
+    assert "Dask" in result.output and address in result.output
     assert not (tmp_path / "o").exists() or not [p.name for p in (tmp_path / "o").iterdir()]
