@@ -595,6 +595,8 @@ class _ImageSize(click.ParamType):
 @click.option("--data-root", type=click.Path(path_type=Path),
               help="The dataset the clip belongs to (as `run` takes it): its frames in order, and the ground truth "
                    "that the active lanes are scored against.")
+@click.option("--list", "list_file", type=click.Path(path_type=Path),
+              help="With --data-root: the list of its frames (default: the dataset's list, as `run` reads it).")
 @click.option("--clip", "clip_id", metavar="ID",
               help="With --data-root: the clip to replay (its folder, e.g. driver_37_30frame/05181432_0203.MP4). "
                    "Needed where the dataset holds several.")
@@ -620,8 +622,8 @@ class _ImageSize(click.ParamType):
               help="Frames per second of the video.")
 @click.option("--quiet", is_flag=True, help="No progress bar; print only the figures.")
 @debug_option
-def replay(maps_root, data_root, clip_id, config_file, dataset, maps_format, image_size, no_pft, settings, video,
-           images, fps, quiet, debug):
+def replay(maps_root, data_root, list_file, clip_id, config_file, dataset, maps_format, image_size, no_pft, settings,
+           video, images, fps, quiet, debug):
     """Run RONELD over one recorded clip frame by frame, as on a vehicle (roneld_eval.RoneldTracker).
 
     Prints the per-frame latency of the tracker's update (p50, p99, max; reading the maps apart),
@@ -633,7 +635,8 @@ def replay(maps_root, data_root, clip_id, config_file, dataset, maps_format, ima
     def build() -> EvalConfig:
         config = _given_config(config_file, dataset)
         overrides = {"maps.root": str(maps_root), "maps.format": maps_format,
-                     "dataset.data_root": None if data_root is None else str(data_root)}
+                     "dataset.data_root": None if data_root is None else str(data_root),
+                     "dataset.list_file": None if list_file is None else str(list_file)}
         for setting in settings:
             key, value = parse_setting(setting)
             overrides[key] = value

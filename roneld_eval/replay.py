@@ -78,6 +78,8 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
                             lane_channels=config.maps.lane_channels, latency_frames=len(clip.frames))
     warm_up()
     scoring = _Scoring(config, method)
+    if images is not None and not Path(images).is_dir():
+        raise InputError(images, "no such folder of camera frames (--images)")
     image_root = images if images is not None else config.dataset.data_root
     with _video_file(video, fps) as write, progress_bar(len(clip.frames), "frame", "replaying",
                                                         wanted=progress) as bar:
@@ -95,7 +97,8 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
                 write(_picture(frame, prediction, ious, geometry, method, config, image_root,
                                tracker.latency(), clip))
             bar.update(1)
-    return ReplayResult(clip.clip_id, method, len(clip.frames), scoring.frames, (maps.width, maps.height),
+    name = clip.clip_id or Path(config.dataset.data_root or config.maps.root).resolve().name
+    return ReplayResult(name, method, len(clip.frames), scoring.frames, (maps.width, maps.height),
                         tracker.latency(), scoring.accuracy(), None if video is None else Path(video))
 
 
@@ -187,6 +190,7 @@ def _video_file(video: str | Path | None, fps: float) -> Iterator[Callable[[np.n
         raise InputError(path, "is a folder: name the video file")
     partial = path.with_name(f".{path.stem}.{os.getpid()}.partial.mp4")
     writer: list = []
+    frames_written = [0]
 
     def write(picture: np.ndarray) -> None:
         if not writer:
@@ -200,17 +204,34 @@ def _video_file(video: str | Path | None, fps: float) -> Iterator[Callable[[np.n
         if picture.shape[1::-1] != writer[1]:
             picture = cv2.resize(picture, writer[1])
         writer[0].write(picture)
+        frames_written[0] += 1
 
     try:
         yield write
         if writer:
             writer[0].release()
+            _check_video(partial, path, written=frames_written[0])
             os.replace(partial, path)
     finally:
         if writer:
             writer[0].release()
         with contextlib.suppress(FileNotFoundError):
             partial.unlink()
+
+
+def _check_video(partial: Path, path: Path, written: int) -> None:
+    """OpenCV's writer says nothing when a frame cannot be written (a full disk: the file ends
+    without its index): the finished file is read back and must hold every frame written."""
+    import cv2
+
+    capture = cv2.VideoCapture(str(partial))
+    try:
+        frames = int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) if capture.isOpened() else 0
+    finally:
+        capture.release()
+    if frames != written:
+        raise InputError(path, f"the video could not be written whole ({frames} of {written} frames readable; "
+                               "is the disk full?)")
 
 
 def _picture(frame: Frame, prediction: Prediction, ious: dict[str, float], geometry: MapGeometry, method: str,

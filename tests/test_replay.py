@@ -157,3 +157,47 @@ def test_the_command_in_a_process_prints_no_traceback(tmp_path):
                           capture_output=True, text=True, env=env_importing(), timeout=120)
     assert done.returncode == 2 and done.stderr.strip() == f"error: {tmp_path}: holds no npy maps (files named " \
                                                          "<frame>.npy)", done.stderr
+
+
+def test_what_an_independent_check_found_is_one_line_not_a_silent_result(tmp_path, monkeypatch):
+    clip = next(path for path in sorted(FIXTURE_MAPS.rglob("*.MP4")) if path.is_dir())
+    folder = tmp_path / "clip"
+    shutil.copytree(clip, folder)
+    frames = sorted(folder.glob("*.npz"))
+    # A frame's maps that are a FIFO or a folder were passed over: fewer frames replayed, exit 0.
+    frames[1].unlink()
+    os.mkfifo(frames[1])
+    one_line(invoke("replay", "--maps-root", folder, "--maps-format", "npz"),
+             f"{frames[1]}: is not a regular file")
+    frames[1].unlink()
+    frames[1].mkdir()
+    one_line(invoke("replay", "--maps-root", folder, "--maps-format", "npz"), f"{frames[1]}: is not a regular file")
+    frames[1].rmdir()
+    # --images that do not exist drew every frame on a blank canvas without a word.
+    one_line(invoke("replay", "--maps-root", folder, "--maps-format", "npz", "--images", tmp_path / "none",
+                    "--video", tmp_path / "v.mp4"), f"{tmp_path / 'none'}: no such folder of camera frames")
+    assert not (tmp_path / "v.mp4").exists()
+    # A video that cannot be written whole (a full disk: OpenCV's writer fails without a word) was
+    # kept and announced, exit 0.
+    real_write = cv2.VideoWriter.write
+
+    def dropping(self, picture):  # the frames after the first never reach the file
+        dropping.calls += 1
+        if dropping.calls == 1:
+            real_write(self, picture)
+
+    dropping.calls = 0
+    monkeypatch.setattr(cv2.VideoWriter, "write", dropping)
+    one_line(invoke("replay", "--maps-root", folder, "--maps-format", "npz", "--video", tmp_path / "v.mp4"),
+             f"{tmp_path / 'v.mp4'}: the video could not be written whole (1 of {len(frames) - 1} frames readable")
+    assert not list(tmp_path.glob("*.mp4")) and not list(tmp_path.glob(".*.mp4"))
+
+
+def test_a_dataset_clip_takes_a_list_and_is_named(real_clip, tmp_path):
+    listed = tmp_path / "frames.txt"
+    listed.write_text("".join(f"{path.name[:5]}.jpg\n" for path in sorted(real_clip.glob("*_1_avg.png"))))
+    result = invoke("replay", "--data-root", real_clip, "--maps-root", real_clip, "--maps-format", "scnn-png",
+                    "--list", listed, "--quiet")
+    assert result.exit_code == 0, result.output
+    assert f"replayed 90 frames of {real_clip.name} with roneld" in result.output
+    assert "over 90 labelled frames" in result.output

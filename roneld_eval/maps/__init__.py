@@ -148,13 +148,17 @@ def frames_in_folder(folder: Path, config: MapsConfig, lane_files=None) -> list[
     the format its files are in, where they are in another)."""
     suffix = _folder_suffix(config, lane_files)
     try:
-        names = sorted(entry.name for entry in os.scandir(folder) if entry.is_file())
+        entries = list(os.scandir(folder))
     except NotADirectoryError:
         raise InputError(folder, "not a folder (give the folder of one clip's maps)") from None
     except FileNotFoundError:
         raise InputError(folder, "no such folder") from None
     except OSError as error:
         raise InputError(folder, f"cannot read: {error.strerror}") from None
+    for entry in entries:  # a frame's maps that are no file are refused, not passed over
+        if entry.name.endswith(suffix) and not entry.is_file():
+            raise InputError(Path(folder) / entry.name, "is not a regular file (a folder, a FIFO or a device)")
+    names = sorted(entry.name for entry in entries if entry.is_file())
     stems = [name[:-len(suffix)] for name in names if name.endswith(suffix) and len(name) > len(suffix)]
     if not stems:
         others = {fmt: sum(name.endswith(end) for name in names) for fmt, end in _FORMAT_SUFFIXES.items()}
