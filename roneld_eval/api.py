@@ -365,5 +365,6 @@ def check_finished_run(run_dir: Path, other_kinds: str = "") -> None:
         raise InputError(run_dir, f"not a folder written by `roneld-eval run` (`roneld-eval {manifest['command']}` "
                                   f"wrote it){other_kinds}")
     for name in ("config.toml", "per_frame.csv"):
-        if name not in manifest["entries"] or not (run_dir / name).is_file():
+        if name not in manifest["entries"]:
             raise InputError(run_dir / name, "missing from this run folder")
+        check_regular_file(run_dir / name, "missing from this run folder")  # a FIFO or a device named so

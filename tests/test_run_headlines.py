@@ -118,3 +118,21 @@ def test_the_package_says_every_builtin_benchmark_it_scores():
         assert re.sub(r" 2D$", "", shown) in description, shown
     help_text = CliRunner().invoke(main, ["--help"]).output
     assert "CULane and TuSimple" not in help_text and "score BENCHMARK" in help_text
+
+
+def test_compare_calls_a_run_file_that_is_a_fifo_or_a_device_what_it_is(fixture_run, tmp_path):
+    # Both were "missing from this run folder", which they are not.
+    import os
+
+    _, out = fixture_run
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    (copy / "per_frame.csv").unlink()
+    (copy / "per_frame.csv").symlink_to("/dev/zero")
+    with pytest.raises(Exception, match="per_frame.csv: is a device, not a regular file"):
+        compare([out, copy], tmp_path / "compared")
+    (copy / "per_frame.csv").unlink()
+    os.mkfifo(copy / "per_frame.csv")
+    result = CliRunner().invoke(main, ["compare", str(out), str(copy), "--out", str(tmp_path / "compared")])
+    assert result.exit_code == 2 and "per_frame.csv: is a FIFO (named pipe), not a regular file" in result.stderr, \
+        result.output
