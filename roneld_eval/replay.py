@@ -84,7 +84,7 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
     with _video_file(video, fps) as write, progress_bar(len(clip.frames), "frame", "replaying",
                                                         wanted=progress) as bar:
         geometry: MapGeometry | None = None
-        for frame in clip.frames:
+        for index, frame in enumerate(clip.frames, start=1):
             maps = context.load(frame)
             if geometry is None:  # as the run, at the clip's first frame (the tracker keeps its size)
                 geometry = _checked_geometry(config, frame, maps.width, maps.height, context)
@@ -95,7 +95,7 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
             ious = scoring.add(frame, prediction, geometry)
             if write is not None:
                 write(_picture(frame, prediction, ious, geometry, method, config, image_root,
-                               tracker.latency(), clip))
+                               tracker.latency(), f"{index}/{len(clip.frames)}"))
             bar.update(1)
     name = clip.clip_id or Path(config.dataset.data_root or config.maps.root).resolve().name
     return ReplayResult(name, method, len(clip.frames), scoring.frames, (maps.width, maps.height),
@@ -235,9 +235,10 @@ def _check_video(partial: Path, path: Path, written: int) -> None:
 
 
 def _picture(frame: Frame, prediction: Prediction, ious: dict[str, float], geometry: MapGeometry, method: str,
-             config: EvalConfig, image_root: str | Path | None, latency: Latency, clip: Clip) -> np.ndarray:
-    """One frame of the video: the camera image (a blank canvas without one) with the active
-    lanes, the ground truth's ego lanes and other lanes where labelled, IoUs beside the lanes."""
+             config: EvalConfig, image_root: str | Path | None, latency: Latency, position: str) -> np.ndarray:
+    """One frame of the video (`position`: 'k/n' in its clip): the camera image (a blank canvas
+    without one) with the active lanes, the ground truth's ego lanes and other lanes where
+    labelled, IoUs beside the lanes."""
     from .report.overlays import FramePicture, draw_frame
 
     ground_truth: tuple = (None, None)
@@ -247,10 +248,9 @@ def _picture(frame: Frame, prediction: Prediction, ious: dict[str, float], geome
         chosen = {id(lane) for lane in ground_truth}
         others = tuple(lane for lane in frame.lanes if id(lane) not in chosen and len(lane) >= 2)
     picture = FramePicture(frame.relpath, ground_truth, {method: prediction.active}, {method: ious}, others)
-    index = clip.frames.index(frame) + 1
     scores = "  ".join(f"{side} IoU {iou:.2f}" for side, iou in ious.items()) or (
         "no ground truth" if not frame.labelled else "no ego lane in the ground truth")
-    caption = (f"{posixpath.basename(image_stem(frame.relpath))}  {index}/{len(clip.frames)}  {scores}  "
+    caption = (f"{posixpath.basename(image_stem(frame.relpath))}  {position}  {scores}  "
                f"update p50 {latency.p50_ms:.2f} ms")
     return draw_frame(picture, _background(frame, geometry, image_root), caption)
 
