@@ -8,6 +8,7 @@ from conftest import lane_map
 from scipy import integrate
 
 from roneld_eval.extract import _kernels as K
+from roneld_eval.extract.online import egolanes_as_scnn, egolanes_planes
 from roneld_eval.extract.roneld import CONSTANTS
 
 # ---- obvious versions, written from shared/docs/roneld-method.md ------------------------------
@@ -66,9 +67,29 @@ def test_extract_points_matches_the_obvious_scan(seed):
     expected_points, expected_conf = obvious_extract_points(channel, threshold, stride)
     row_max = channel.max(axis=1)
     for kernel in (K.extract_points, K.extract_points.py_func):
-        xs, ys, conf = kernel(channel, row_max, threshold, stride)
+        xs, ys, conf = kernel(channel, row_max, threshold, stride, np.int64(0), channel.shape[1])
         assert list(zip(xs.tolist(), ys.tolist())) == expected_points
         assert conf.tolist() == [float(c) for c in expected_conf]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_extract_points_within_columns_is_the_scan_of_the_map_zeroed_outside_them(seed):
+    rng = np.random.default_rng(300 + seed)
+    channel = random_channel(rng)
+    width = channel.shape[1]
+    low, high = sorted(int(v) for v in rng.integers(0, width + 1, 2))
+    zeroed = np.zeros_like(channel)
+    zeroed[:, low:high] = channel[:, low:high]
+    threshold = max(int(channel.max()) // 3, 1)  # the frame's, as frame_lanes takes it
+    stride = channel.shape[0] // 20
+    expected = K.extract_points(zeroed, zeroed.max(axis=1), threshold, stride, np.int64(0), width)
+    assert len(expected[0]) or low == high or not zeroed.any() or zeroed.max() < threshold
+    row_max = K.channel_row_maxima(channel[None], np.zeros(1, np.int64), np.array([low]), np.array([high]))[0]
+    np.testing.assert_array_equal(row_max, zeroed.max(axis=1))
+    for kernel in (K.extract_points, K.extract_points.py_func):
+        got = kernel(channel, row_max, threshold, stride, np.int64(low), np.int64(high))
+        for got_values, expected_values in zip(got, expected):
+            np.testing.assert_array_equal(got_values, expected_values)
 
 
 def test_row_maxima_and_threshold():
@@ -273,7 +294,7 @@ def test_channel_lane_matches_the_method_step_by_step(seed):
     row_max = K.row_maxima(maps)
     threshold = K.frame_threshold(row_max)
     stride = maps.shape[1] // CONSTANTS.rows_per_point
-    arguments = (maps[0], row_max[0], threshold, stride, CONSTANTS.min_straight_points,
+    arguments = (maps[0], row_max[0], threshold, stride, np.int64(0), maps.shape[2], CONSTANTS.min_straight_points,
                  CONSTANTS.min_curve_points, CONSTANTS.curve_top_points, CONSTANTS.outlier_fraction)
     got = K.channel_lane(*arguments)
     expected = obvious_channel_lane(maps[0], threshold, stride)
@@ -294,7 +315,7 @@ def test_channel_lane_matches_the_method_step_by_step(seed):
 def test_frame_lanes_packs_every_channels_lane(seed):
     rng = np.random.default_rng(100 + seed)
     maps = random_frame(rng)
-    arguments = (CONSTANTS.rows_per_point, CONSTANTS.min_straight_points, CONSTANTS.min_curve_points,
+    arguments = (*_whole(maps), CONSTANTS.rows_per_point, CONSTANTS.min_straight_points, CONSTANTS.min_curve_points,
                  CONSTANTS.curve_top_points, CONSTANTS.outlier_fraction)
     counts, xs, ys, fields = K.frame_lanes(maps, *arguments)
     threshold = max(int(maps.max()) // 3, 1)
@@ -322,3 +343,26 @@ def test_frame_lanes_packs_every_channels_lane(seed):
     python = K.frame_lanes.py_func(maps, *arguments)
     np.testing.assert_array_equal(python[0], counts)
     np.testing.assert_allclose(python[3], fields, rtol=1e-12)
+
+
+def _whole(maps):
+    channels, _, width = maps.shape
+    return np.arange(channels), np.zeros(channels, np.int64), np.full(channels, width, np.int64)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_frame_lanes_reads_egolanes_planes_as_the_channels_they_map_to(seed):
+    """EgoLanes' masks read in place (planes 2, 0, 1, 2 split at the vehicle) give exactly the
+    lanes of the four channels egolanes_as_scnn builds."""
+    rng = np.random.default_rng(200 + seed)
+    masks = random_frame(rng, channels=3)
+    center = float(rng.choice([0.5, 0.37, 0.61]))
+    mapped = egolanes_as_scnn(masks, center)
+    constants = (CONSTANTS.rows_per_point, CONSTANTS.min_straight_points, CONSTANTS.min_curve_points,
+                 CONSTANTS.curve_top_points, CONSTANTS.outlier_fraction)
+    planes = egolanes_planes(masks.shape[2], center)
+    for kernel in (K.frame_lanes, K.frame_lanes.py_func):
+        got = kernel(masks, planes.planes, planes.lows, planes.highs, *constants)
+        expected = kernel(mapped, *_whole(mapped), *constants)
+        for got_values, expected_values in zip(got, expected):
+            np.testing.assert_array_equal(got_values, expected_values)

@@ -37,13 +37,24 @@ def window_max(channel, row, left, right):
 @cached_njit(nogil=True)
 def row_maxima(maps):
     """(C, H) maximum of every row of every channel: one pass over the maps."""
-    channels, height, width = maps.shape
+    channels, _, width = maps.shape
+    planes = np.arange(channels)
+    return channel_row_maxima(maps, planes, np.zeros(channels, np.int64), np.full(channels, width, np.int64))
+
+
+@cached_njit(nogil=True)
+def channel_row_maxima(maps, planes, lows, highs):
+    """(C, H) maximum of every row of every channel, channel c being maps[planes[c]] with its
+    columns outside [lows[c], highs[c]) read as 0 (see frame_lanes)."""
+    channels = planes.size
+    height = maps.shape[1]
     out = np.empty((channels, height), np.uint8)
-    start = np.int64(0)  # a typed 0: a literal 0 would compile window_max once more
     for channel in range(channels):
-        plane = maps[channel]
+        plane = maps[planes[channel]]
+        low = lows[channel]
+        high = highs[channel]
         for row in range(height):
-            out[channel, row] = window_max(plane, row, start, width)
+            out[channel, row] = window_max(plane, row, low, high)
     return out
 
 
@@ -58,13 +69,16 @@ def frame_threshold(row_max):
 
 
 @cached_njit(nogil=True)
-def extract_points(channel, row_max, threshold, stride):
-    """Adaptive lane point extraction of one (H, W) uint8 map (row_max: its row maxima).
+def extract_points(channel, row_max, threshold, stride, low, high):
+    """Adaptive lane point extraction of one (H, W) uint8 map (row_max: its row maxima), its
+    columns outside [low, high) read as 0 (0 and W: the whole map).
 
     Scans rows from the top; in the first row whose window holds a value >= threshold, the
     highest value of rows [row, row + stride) in the window (first in row-major order on ties)
     is a lane point. The window then becomes that x +/- W/4, and the scan resumes stride + 1
     rows further down. Returns (xs, ys, confidences) in scan order, top first.
+    The columns read as 0 are left out of every window rather than read: a point's value is at
+    least the threshold (>= 1), so neither the maxima nor the first column holding one change.
     """
     height, width = channel.shape
     quarter = width * 0.25
@@ -72,14 +86,13 @@ def extract_points(channel, row_max, threshold, stride):
     ys = np.empty(height, np.int64)
     confidences = np.empty(height, np.float64)
     count = 0
-    # Typed zeros: literal ones would have type inference compile window_max for them too.
-    left: int | np.int64 = np.int64(0)
-    right = width
+    left: int | np.int64 = low
+    right: int | np.int64 = high
     row = np.int64(0)
     while row < height:
         # The whole-row maximum rules most rows out without touching the map again.
         if row_max[row] >= threshold and (
-            (left == 0 and right == width) or window_max(channel, row, left, right) >= threshold
+            (left == low and right == high) or window_max(channel, row, left, right) >= threshold
         ):
             end = min(row + stride, height)
             best = 0
@@ -99,10 +112,10 @@ def extract_points(channel, row_max, threshold, stride):
             ys[count] = best_row
             confidences[count] = best
             count += 1
-            low = best_x - quarter
-            high = best_x + quarter
-            left = int(low) if low >= 0 else 0
-            right = int(high) if high <= width else width
+            below = best_x - quarter
+            above = best_x + quarter
+            left = max(int(below) if below >= 0 else 0, low)
+            right = min(int(above) if above <= width else width, high)
             row += stride
         row += 1
     return xs[:count].copy(), ys[:count].copy(), confidences[:count].copy()
@@ -262,13 +275,15 @@ def line_distance(slope_a, intercept_a, slope_b, intercept_b, height):
 
 
 @cached_njit(nogil=True)
-def channel_lane(channel, row_max, threshold, stride, min_points, min_curve_points, top_points, outlier_fraction):
-    """Points, curve flag and line of one channel, as RONELD builds a lane from a map.
+def channel_lane(channel, row_max, threshold, stride, low, high, min_points, min_curve_points, top_points,
+                 outlier_fraction):
+    """Points, curve flag and line of one channel (its columns [low, high): extract_points), as
+    RONELD builds a lane from a map.
 
     Returns (xs, ys, confidences, curve, slope, intercept, rms_confidence); xs is empty when the
     channel yields no lane (min_points points or fewer). Straight lanes lose their outliers.
     """
-    xs, ys, confidences = extract_points(channel, row_max, threshold, stride)
+    xs, ys, confidences = extract_points(channel, row_max, threshold, stride, low, high)
     if xs.size <= min_points:
         empty = np.empty(0, np.int64)
         return empty, empty, np.empty(0, np.float64), False, 0.0, 0.0, 0.0
@@ -296,14 +311,19 @@ N_FIELDS = 10
 
 
 @cached_njit(nogil=True)
-def frame_lanes(maps, rows_per_point, min_points, min_curve_points, top_points, outlier_fraction):
-    """channel_lane for every channel of a (C, H, W) frame, packed into flat arrays.
+def frame_lanes(maps, planes, lows, highs, rows_per_point, min_points, min_curve_points, top_points,
+                outlier_fraction):
+    """channel_lane for every channel of a frame, packed into flat arrays.
 
+    Channel c is maps[planes[c]] with its columns outside [lows[c], highs[c]) read as 0: the
+    identity (planes 0..C-1, columns 0..W) reads a (C, H, W) frame as it is; EgoLanes' three
+    masks are read as SCNN's four channels this way without building them (online.py).
     Returns (counts, xs, ys, fields): counts[c] points of channel c follow those of channel
     c - 1 in xs/ys; fields is an (L, N_FIELDS) matrix, one row per lane found (weight 0).
     """
-    channels, height, _ = maps.shape
-    row_max = row_maxima(maps)
+    channels = planes.size
+    height = maps.shape[1]
+    row_max = channel_row_maxima(maps, planes, lows, highs)
     threshold = frame_threshold(row_max)
     stride = height // rows_per_point
     counts = np.zeros(channels, np.int64)
@@ -314,7 +334,7 @@ def frame_lanes(maps, rows_per_point, min_points, min_curve_points, top_points, 
     lanes = 0
     for channel in range(channels):
         xs, ys, confidences, curve, slope, intercept, rms_confidence = channel_lane(
-            maps[channel], row_max[channel], threshold, stride,
+            maps[planes[channel]], row_max[channel], threshold, stride, lows[channel], highs[channel],
             min_points, min_curve_points, top_points, outlier_fraction,
         )
         n = xs.size
@@ -451,12 +471,13 @@ _MAPS = types.Array(types.uint8, 3, "C", readonly=True)
 _FIELDS = types.Array(types.float64, 2, "C")
 _VALUES = types.Array(types.float64, 1, "C")
 _ROWS = types.Array(types.int64, 1, "C")
+_PLANES = types.Array(types.int64, 1, "C", readonly=True)  # online.ChannelPlanes' frozen arrays
 _I, _F = types.int64, types.float64
 
 ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     # roneld.current_lanes, roneld_step
     "roneld": [
-        (frame_lanes, (_MAPS, _I, _I, _I, _I, _F)),
+        (frame_lanes, (_MAPS, _PLANES, _PLANES, _PLANES, _I, _I, _I, _I, _F)),
         (track_lanes, (_FIELDS, _FIELDS, _VALUES, _F, _F, _F, _F)),
         (choose_active, (_FIELDS, _F, _F, types.boolean)),
     ],

@@ -86,13 +86,21 @@ class ActiveLanes:
         return [lane for lane in (self.left, self.right) if lane is not None]
 
 
-def current_lanes(maps: np.ndarray, constants: RoneldConstants = CONSTANTS):
+def current_lanes(maps: np.ndarray, constants: RoneldConstants = CONSTANTS,
+                  channels: online.ChannelPlanes | None = None):
     """The lanes RONELD sees in one frame's (C, H, W) uint8 maps, in channel order.
 
-    Returns (fields, points) as in RoneldState (weights 0).
+    `channels`: how the lane channels are read from the maps' planes (online.ChannelPlanes);
+    None reads the C planes as the C channels. Returns (fields, points) as in RoneldState
+    (weights 0).
     """
+    if channels is None:
+        channels = online.whole_planes(maps.shape[0], maps.shape[2])
     counts, xs, ys, fields = _kernels.frame_lanes(
         read_only(maps),  # one compiled specialisation for every kind of maps
+        channels.planes,
+        channels.lows,
+        channels.highs,
         constants.rows_per_point,
         constants.min_straight_points,
         constants.min_curve_points,
@@ -161,17 +169,18 @@ def lane_outline(xs: np.ndarray, ys: np.ndarray, slope: float, intercept: float,
 
 def roneld_step(
     state: RoneldState, maps: np.ndarray, params: RoneldParams, constants: RoneldConstants = CONSTANTS,
-    pft: bool = True,
+    pft: bool = True, channels: online.ChannelPlanes | None = None,
 ) -> tuple[RoneldState, np.ndarray | None, np.ndarray | None, bool]:
     """One frame: new state, left and right polylines in map pixels (or None), curve mode.
 
     `pft=False` is RONELD without preceding-frame tracking (the method 'roneld-nopft').
+    `channels`: the lane channels read from the maps' planes (current_lanes).
     """
     if not pft:
         # The ablation empties the state before every frame, curve memory included.
         state = RoneldState()
     _, height, width = maps.shape
-    fields, points = current_lanes(maps, constants)
+    fields, points = current_lanes(maps, constants, channels)
     tracked, sources = _kernels.track_lanes(
         state.fields, fields, lane_gains(fields, constants), float(height),
         width / constants.merge_width_divisor, constants.decay, constants.min_weight,
@@ -267,8 +276,9 @@ class RoneldTracker:
         self.state, lanes = self._step(maps, geometry)
         return lanes
 
-    def _step(self, maps: np.ndarray, geometry: MapGeometry) -> tuple[RoneldState, ActiveLanes]:
-        state, left, right, curve_mode = roneld_step(self.state, maps, self.params, pft=self.pft)
+    def _step(self, maps: np.ndarray, geometry: MapGeometry,
+              channels: online.ChannelPlanes | None = None) -> tuple[RoneldState, ActiveLanes]:
+        state, left, right, curve_mode = roneld_step(self.state, maps, self.params, pft=self.pft, channels=channels)
         return state, ActiveLanes(
             left=None if left is None else Lane(geometry.map_to_image(left)),
             right=None if right is None else Lane(geometry.map_to_image(right)),
@@ -291,10 +301,10 @@ class RoneldTracker:
         checked = online.checked_frame(maps, self.channels, self.lane_channels, where, self._buffers)
         height, width = checked.shape[1:]
         geometry = self._geometry_for(width, height, where)
-        if self.channels == "egolanes":
-            mapped = self._buffers.get("egolanes", (4, height, width), np.uint8)
-            checked = online.egolanes_as_scnn(checked, self.params.center_ratio, mapped)
-        self.state, lanes = self._step(read_only(checked), geometry)
+        planes = None
+        if self.channels == "egolanes":  # read as SCNN's channels in place (egolanes_planes), not copied
+            planes = online.egolanes_planes(width, self.params.center_ratio)
+        self.state, lanes = self._step(read_only(checked), geometry, planes)
         self._clip_size, self._clip_geometry = (width, height), geometry
         self._frames += 1
         prediction = Prediction(tuple(lanes.as_list()), (lanes.left, lanes.right), spline=False)
