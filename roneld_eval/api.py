@@ -264,13 +264,13 @@ def _unfinished(reason: str, cache: ResultCache) -> str:
 # ---- scoring lane files: benchmarks/*_score.py ----------------------------------------------
 
 # Re-exported, loaded on first use: `run` needs none of these modules (25 ms of its start-up).
-_LOADED_ON_USE = {"CulaneScore": "benchmarks.culane_score", "score_culane": "benchmarks.culane_score",
-                  "score_tusimple": "benchmarks.tusimple_score", "SynthResult": "synth", "synthesize": "synth"}
+_LOADED_ON_USE = {"CulaneScore": "benchmarks.culane.score", "score_culane": "benchmarks.culane.score",
+                  "score_tusimple": "benchmarks.tusimple.score", "SynthResult": "synth", "synthesize": "synth"}
 
 
 if TYPE_CHECKING:
-    from .benchmarks.culane_score import CulaneScore, score_culane
-    from .benchmarks.tusimple_score import score_tusimple
+    from .benchmarks.culane.score import CulaneScore, score_culane
+    from .benchmarks.tusimple.score import score_tusimple
     from .synth import SynthResult, synthesize
 
 

@@ -192,7 +192,7 @@ def parse_number(token: str, path, line: int) -> float:
     return float(token)
 
 
-def parse_culane_lines(text: str, path) -> tuple[Lane, ...]:
+def parse_lines_txt(text: str, path) -> tuple[Lane, ...]:
     """CULane `.lines.txt`: one lane per line, `x y x y ...` in image pixels.
 
     Every line is a lane, an empty one too (the official evaluator counts it, with IoU 0).
@@ -240,13 +240,13 @@ def check_coordinates(lanes, path, line: int | None = None) -> None:
             raise InputError(path, f"lane {index}: {problem}", line=line)
 
 
-def read_culane_lines(path: Path, missing_ok: bool = True) -> tuple[Lane, ...]:
+def read_lines_txt(path: Path, missing_ok: bool = True) -> tuple[Lane, ...]:
     """Lanes of one `.lines.txt`; a missing file means no lanes when `missing_ok`."""
     path = Path(path)
     data = read_bytes(path, missing_ok=missing_ok)
     if data is None:
         return ()
-    return parse_culane_lines(decode_text(data, path), path)
+    return parse_lines_txt(decode_text(data, path), path)
 
 
 def format_coordinate(value: float) -> str:
@@ -254,7 +254,7 @@ def format_coordinate(value: float) -> str:
     return np.format_float_positional(np.float32(value), trim="-")
 
 
-def format_culane_lines(lanes: Iterable[Lane]) -> str:
+def format_lines_txt(lanes: Iterable[Lane]) -> str:
     """`.lines.txt` text, one lane per line, coordinates as float32 like the C++ reader keeps them."""
     out = []
     for lane in lanes:
@@ -401,3 +401,16 @@ def format_tusimple_record(raw_file: str, lanes_xs: list[list[float]], h_samples
         "run_time": run_time,
     }
     return json.dumps(record, separators=(", ", ": "))
+
+
+def check_inside_image(lanes, path, width: int, height: int) -> None:
+    """Refuse points farther outside the image than its own size (labels overshoot a little)."""
+    for number, lane in enumerate(lanes, start=1):
+        points = lane.points
+        if not len(points):
+            continue
+        xs, ys = points[:, 0], points[:, 1]
+        bad = (xs < -width) | (xs > 2 * width) | (ys < -height) | (ys > 2 * height)
+        if bad.any():
+            x, y = points[np.argmax(bad)]
+            raise InputError(path, f"point ({x:g}, {y:g}) lies far outside the {width}x{height} image", line=number)

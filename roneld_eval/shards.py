@@ -343,7 +343,7 @@ def check_part_arrays(part: Part, n_methods: int, n_categories: int) -> dict[str
 
 # The commands whose parts merge, and where their merger lives (module:function): each takes the
 # checked parts in shard order and the output folder, and writes what one unsharded command writes.
-MERGERS = {"score culane": "roneld_eval.benchmarks.culane_score:merge_culane_parts", "run": "roneld_eval.api:merge_run"}
+MERGERS = {"score culane": "roneld_eval.benchmarks.culane.score:merge_culane_parts", "run": "roneld_eval.api:merge_run"}
 
 
 def merge(folders: Sequence[str | Path], out: str | Path):
@@ -376,11 +376,11 @@ def merge(folders: Sequence[str | Path], out: str | Path):
 # find the frames and prediction trees the shards had.
 
 RERUN_COMMANDS = {
-    "score tusimple": "roneld_eval.benchmarks.tusimple_score:score_tusimple",
-    "score vil100": "roneld_eval.benchmarks.vil100_score:score_vil100",
-    "score openlane": "roneld_eval.benchmarks.openlane_score:score_openlane",
-    "score curvelanes": "roneld_eval.benchmarks.curvelanes_score:score_curvelanes",
-    "score llamas": "roneld_eval.benchmarks.llamas_score:score_llamas",
+    "score tusimple": "roneld_eval.benchmarks.tusimple.score:score_tusimple",
+    "score vil100": "roneld_eval.benchmarks.vil100.score:score_vil100",
+    "score openlane": "roneld_eval.benchmarks.openlane.score:score_openlane",
+    "score curvelanes": "roneld_eval.benchmarks.curvelanes.score:score_curvelanes",
+    "score llamas": "roneld_eval.benchmarks.llamas.score:score_llamas",
 }
 _NOT_RECORDED = {"out", "workers", "progress", "announce", "shard", "merged"}
 

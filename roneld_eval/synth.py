@@ -367,3 +367,29 @@ def _moved(made: SynthResult, staging: Path, out: Path) -> SynthResult:
                    maps_root=out / Path(made.maps_root).relative_to(staging),
                    score_command=None if command is None else
                    tuple(word.replace(str(staging), str(out), 1) for word in command))
+
+
+def scene_lines_txt(scene: Scene, inside: bool = False) -> str:
+    """The frame's ground truth as a raw `.lines.txt` (CULane's label format): up to 4 lanes, left to right.
+
+    Points every 10 px from the bottom row up, x may leave the image a little (as in CULane);
+    with `inside`, every point within the image (as VIL-100's labels: a label reaching past its
+    video's size is what `score vil100`'s size warning looks for).
+    """
+    ys = np.arange(scene.height - 1 if inside else scene.height, scene.top_y, -10.0)
+    lines = []
+    for _, lateral in sorted(channel_lanes(scene).items()):
+        xs = scene.boundary_x(lateral, ys)
+        keep = (xs >= 0) & (xs <= scene.width - 1) if inside else (xs > -60) & (xs < scene.width + 60)
+        if keep.sum() < 4:
+            continue
+        lines.append("".join(f"{x:.3f} {int(y)} " for x, y in zip(xs[keep], ys[keep])))
+    return "".join(line + "\n" for line in lines)
+
+
+def write_lines_txt(stem: Path, lanes: list[tuple[np.ndarray, float]]) -> None:
+    """A detector's `.lines.txt` output: <stem>.lines.txt, and <stem>.scores.txt with its lane scores."""
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    write_file(stem.with_name(stem.name + ".lines.txt"),
+               "".join(" ".join(f"{x:.2f} {int(y)}" for x, y in points[::-1]) + "\n" for points, _ in lanes))
+    write_file(stem.with_name(stem.name + ".scores.txt"), "".join(f"{score:.3f}\n" for _, score in lanes))

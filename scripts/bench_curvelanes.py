@@ -88,7 +88,7 @@ def main() -> None:
     if (args.official is None) != (args.official_python is None):
         parser.error("--official and --official-python go together")
     with tempfile.TemporaryDirectory() as folder:
-        from roneld_eval.datasets.curvelanes_synth import synth_curvelanes
+        from roneld_eval.benchmarks.curvelanes.synth import synth_curvelanes
 
         work = Path(folder)
         clips = max(1, args.frames // 100)  # 100 images a size, three sizes in turn

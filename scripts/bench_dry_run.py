@@ -40,7 +40,7 @@ def official_list() -> list[str]:
 
 def build(root: Path, relpaths: list[str], maps_format: str) -> tuple[Path, Path]:
     """(data root, maps root) of the layout; the first frame's maps from `synth`."""
-    from roneld_eval.datasets.culane_synth import synth_culane
+    from roneld_eval.benchmarks.culane.synth import synth_culane
 
     data, maps = root / "data", root / "maps"
     (data / "list").mkdir(parents=True)

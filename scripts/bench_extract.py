@@ -29,7 +29,7 @@ from roneld_eval.config import BaselineParams, MapsConfig, RoneldParams  # noqa:
 from roneld_eval.extract import RoneldTracker, baseline_lanes, sample_rows, warm_up  # noqa: E402
 from roneld_eval.geometry import MapGeometry  # noqa: E402
 from roneld_eval.maps import load_maps  # noqa: E402
-from roneld_eval.datasets.culane_synth import CAMERA  # noqa: E402
+from roneld_eval.benchmarks.culane.synth import CAMERA  # noqa: E402
 from roneld_eval.synth import ClipStyle, render_maps, scene_sequence  # noqa: E402
 
 REAL_CLIP = REPO.parent / "shared" / "data" / "culane-scnn-clip"

@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parents[1]
 def generate(out: Path, n_labels: int, seed: int = 0, maps_format: str = "lanes") -> None:
     """`synth --dataset llamas`: labels as dashed markers and a detector's lanes (or a model's
     maps), 100 a recording."""
-    from roneld_eval.datasets.llamas_synth import synth_llamas
+    from roneld_eval.benchmarks.llamas.synth import synth_llamas
 
     clips = max(1, n_labels // 100)
     synth_llamas(out / "set", clips, max(1, n_labels // clips), seed, maps_format)

@@ -44,7 +44,7 @@ import deflate  # noqa: E402
 from roneld_eval.config import EvalConfig  # noqa: E402
 from roneld_eval.maps import load_maps, map_stem  # noqa: E402
 from roneld_eval.maps._kernels import unfilter_stream  # noqa: E402
-from roneld_eval.datasets.culane_synth import synth_culane  # noqa: E402
+from roneld_eval.benchmarks.culane.synth import synth_culane  # noqa: E402
 from roneld_eval.workers import default_workers  # noqa: E402
 
 REAL_CLIP = REPO.parent / "shared" / "data" / "culane-scnn-clip"

@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from roneld_eval.api import score_culane  # noqa: E402
-from roneld_eval.datasets.culane_synth import synth_lane_files  # noqa: E402
+from roneld_eval.benchmarks.culane.synth import synth_lane_files  # noqa: E402
 
 
 def run_official(tool: Path, gt: Path, pred: Path, threshold: str) -> tuple[float, tuple[int, int, int]]:

@@ -35,7 +35,7 @@ def generate(work: Path, n_frames: int) -> list[str]:
     import cv2
     import numpy as np
 
-    from roneld_eval.datasets.openlane_synth import synth_openlane
+    from roneld_eval.benchmarks.openlane.synth import synth_openlane
 
     clips = max(1, n_frames // 100)
     synth_openlane(work / "set", clips, max(1, n_frames // clips))

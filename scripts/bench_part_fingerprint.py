@@ -59,7 +59,7 @@ def main() -> None:
     parser.add_argument("--clips", type=int, default=2890, help="12 frames each: 2890 is CULane's 34,680")
     parser.add_argument("--set", type=Path, help="a set `synth --maps-format lanes` wrote (else one is made)")
     args = parser.parse_args()
-    from roneld_eval.datasets.culane import labels_path
+    from roneld_eval.benchmarks.culane.reader import labels_path
     from roneld_eval.shards import files_fingerprint
 
     with tempfile.TemporaryDirectory() as folder:

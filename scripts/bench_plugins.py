@@ -23,7 +23,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from roneld_eval.datasets.culane_synth import synth_culane  # noqa: E402
+from roneld_eval.benchmarks.culane.synth import synth_culane  # noqa: E402
 from roneld_eval.workers import default_workers  # noqa: E402
 
 NO_OP = f"{REPO / 'tests' / 'plugin_extractors.py'}:no_op"

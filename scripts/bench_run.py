@@ -60,7 +60,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from roneld_eval.evaluation import default_workers  # noqa: E402
-from roneld_eval.datasets.culane_synth import synth_culane  # noqa: E402
+from roneld_eval.benchmarks.culane.synth import synth_culane  # noqa: E402
 
 TEST_LIST = REPO.parent / "shared" / "data" / "culane-lists" / "test.txt"
 
@@ -413,13 +413,13 @@ def compare_scoring(data: Path, maps: Path, folder: Path, frames: int, repeats: 
 def lane_mask_ms(data: Path, lanes_wanted: int = 4000) -> None:
     """ms per official lane mask (1640x590, 30 px) on the set's ground-truth lanes, both ways."""
     from roneld_eval import kernels
-    from roneld_eval.lanes_io import read_culane_lines
+    from roneld_eval.lanes_io import read_lines_txt
     from roneld_eval.metrics.raster import official_mask, official_mask_by_canvas
 
     kernels.warm_up(["official"])
     lanes = []
     for path in sorted(data.rglob("*.lines.txt")):
-        lanes += [lane for lane in read_culane_lines(path) if len(lane) >= 2]
+        lanes += [lane for lane in read_lines_txt(path) if len(lane) >= 2]
         if len(lanes) >= lanes_wanted:
             break
     for name, draw in (("canvas (old)", official_mask_by_canvas), ("runs per row (new)", official_mask)):

@@ -33,7 +33,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from roneld_eval.datasets.culane_synth import synth_lane_files  # noqa: E402
+from roneld_eval.benchmarks.culane.synth import synth_lane_files  # noqa: E402
 
 WIDTH, HEIGHT = 1640, 590
 VIDEOS = 419
@@ -101,14 +101,14 @@ def generate(root: Path, frames: int, methods: int, seed: int = 0) -> tuple[Path
 
 def reference_pairs() -> int:
     """Lane pairs (ground truth x prediction) in the set the C++ evaluator was timed on."""
-    from roneld_eval.lanes_io import read_culane_lines
+    from roneld_eval.lanes_io import read_lines_txt
 
     with tempfile.TemporaryDirectory(prefix="roneld-bench-ref-") as folder:
         gt, pred = synth_lane_files(folder, CPP_FRAMES, CPP_SEED)
         pairs = 0
         for path in gt.rglob("*.lines.txt"):
             other = pred / path.relative_to(gt)
-            pairs += len(read_culane_lines(path)) * len(read_culane_lines(other))
+            pairs += len(read_lines_txt(path)) * len(read_lines_txt(other))
         return pairs
 
 

@@ -50,10 +50,10 @@ import numpy as np; lap("numpy")
 import numba; lap("numba")
 from numba.core.registry import cpu_target
 cpu_target.target_context.refresh(); lap("numba's registries (its first cache load; imports scipy.linalg)")
-from roneld_eval.metrics import culane_official; lap("roneld_eval.metrics (creating the numba dispatchers)")
+from roneld_eval.metrics import lane_iou_f1; lap("roneld_eval.metrics (creating the numba dispatchers)")
 from roneld_eval.model import Lane
 lanes = [Lane(np.array([[x, 590.0], [x + 200, 400.0], [x + 300, 300.0]])) for x in (300.0, 900.0)]
-culane_official.evaluate_culane_frame(lanes, lanes); lap("the scoring kernels' first call (loaded from the cache)")
+lane_iou_f1.match_frame(lanes, lanes); lap("the scoring kernels' first call (loaded from the cache)")
 import pandas; lap("pandas (not imported by score culane)")
 print(json.dumps(laps))
 """
@@ -99,7 +99,7 @@ def median_pair(samples: list[tuple[float, float]]) -> tuple[float, float]:
 
 def one_frame_set(folder: Path) -> tuple[Path, Path]:
     """A CULane root with one listed frame (4 ground-truth lanes) and a prediction tree for it."""
-    from roneld_eval.datasets.culane_synth import synth_lane_files
+    from roneld_eval.benchmarks.culane.synth import synth_lane_files
 
     return synth_lane_files(folder, frames=1, seed=0)
 

@@ -41,7 +41,7 @@ def main() -> None:
     parser.add_argument("--roots", default="1,2,10,50")
     args = parser.parse_args()
     counts = [int(v) for v in args.roots.split(",")]
-    from roneld_eval.datasets.culane_synth import synth_lane_files
+    from roneld_eval.benchmarks.culane.synth import synth_lane_files
 
     with tempfile.TemporaryDirectory() as folder:
         work = Path(folder)

@@ -35,7 +35,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=34680)
     args = parser.parse_args()
-    from roneld_eval.datasets.culane_synth import synth_lane_files
+    from roneld_eval.benchmarks.culane.synth import synth_lane_files
 
     with tempfile.TemporaryDirectory() as folder:
         work = Path(folder)

@@ -17,8 +17,8 @@ from click.testing import CliRunner
 from roneld_eval import api
 from roneld_eval.cli import main
 from roneld_eval.errors import RunInterrupted
-from roneld_eval.datasets.culane_synth import synth_culane
-from roneld_eval.datasets.tusimple_synth import synth_tusimple
+from roneld_eval.benchmarks.culane.synth import synth_culane
+from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
 
 SENTINEL = "method,threshold,n_tp,n_gt,accuracy\nearlier,0.30,1,1,1\n"
 EARLIER = [".roneld-run.json", "accuracy.csv"]
@@ -765,9 +765,9 @@ def test_same_numbers_on_every_run(sets, tmp_path):
 
 
 def test_a_killed_worker_ends_scoring_clearly(tmp_path, monkeypatch):
-    from roneld_eval.datasets.culane_synth import synth_lane_files
+    from roneld_eval.benchmarks.culane.synth import synth_lane_files
 
-    from roneld_eval.benchmarks import culane_score as score
+    from roneld_eval.benchmarks.culane import score
 
     gt, pred = synth_lane_files(tmp_path / "lanes", frames=450, seed=1)
     original = score.frame_result
@@ -793,9 +793,9 @@ def test_a_signal_while_scoring_leaves_no_pool_traceback(tmp_path, monkeypatch, 
     import threading
     import time
 
-    from roneld_eval.benchmarks import culane_score as score
+    from roneld_eval.benchmarks.culane import score
     from roneld_eval.signals import Terminated
-    from roneld_eval.datasets.culane_synth import synth_lane_files
+    from roneld_eval.benchmarks.culane.synth import synth_lane_files
 
     gt, pred = synth_lane_files(tmp_path / "lanes", frames=1200, seed=1)
     original = score.frame_result

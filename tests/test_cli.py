@@ -181,7 +181,7 @@ def test_a_signal_before_any_command_runs_is_one_line_and_128_plus_n(monkeypatch
 
 
 def test_a_dry_run_checks_and_says_what_would_be_scored_and_writes_nothing(tmp_path, monkeypatch):
-    from roneld_eval.datasets.culane_synth import synth_culane
+    from roneld_eval.benchmarks.culane.synth import synth_culane
 
     monkeypatch.chdir(tmp_path)
     result = CliRunner().invoke(main, ["run", "--dry-run"])
@@ -204,7 +204,7 @@ def test_a_dry_run_checks_and_says_what_would_be_scored_and_writes_nothing(tmp_p
 def test_a_clip_skipped_for_maps_of_another_format_says_which_format_it_found(tmp_path):
     # Without --on-error skip the run said "found 00000.npz: use --maps-format npz"; with it, only
     # "maps missing ... 00000.npy".
-    from roneld_eval.datasets.culane_synth import synth_culane
+    from roneld_eval.benchmarks.culane.synth import synth_culane
 
     made = synth_culane(tmp_path / "set", clips=2, frames=2, seed=1, maps_format="npz")
     args = ["run", "--data-root", str(made.data_root), "--maps-root", str(made.maps_root), "--on-error", "skip",
@@ -216,7 +216,7 @@ def test_a_clip_skipped_for_maps_of_another_format_says_which_format_it_found(tm
 
 @pytest.mark.parametrize("level", ["deeper", "higher"])
 def test_a_maps_root_one_level_off_names_the_folder_that_holds_the_maps(tmp_path, level):
-    from roneld_eval.datasets.culane_synth import synth_culane
+    from roneld_eval.benchmarks.culane.synth import synth_culane
 
     synth_culane(tmp_path / "set", clips=1, frames=2, seed=1)
     maps = tmp_path / "set" / "maps"
@@ -228,7 +228,7 @@ def test_a_maps_root_one_level_off_names_the_folder_that_holds_the_maps(tmp_path
 
 
 def test_maps_stored_height_width_channels_say_how_to_transpose(tmp_path):
-    from roneld_eval.datasets.culane_synth import synth_culane
+    from roneld_eval.benchmarks.culane.synth import synth_culane
 
     synth_culane(tmp_path / "set", clips=1, frames=2, seed=1)
     first = sorted((tmp_path / "set" / "maps").rglob("*.npy"))[0]
@@ -386,7 +386,7 @@ def test_a_signal_after_the_results_are_committed_says_they_are_complete(tmp_pat
     # It said "terminated (SIGTERM): no result was written" of results already in place.
     import signal
 
-    from roneld_eval.benchmarks import openlane_score
+    from roneld_eval.benchmarks.openlane import score as openlane_score
 
     lanes = tmp_path / "set"
     assert CliRunner().invoke(main, ["synth", "--dataset", "openlane", "--out", str(lanes)]).exit_code == 0

@@ -808,7 +808,7 @@ def test_sigterm_while_working_is_one_line_and_leaves_nothing(command, runs, tmp
 
     import roneld_eval.api as api_module
     import roneld_eval.comparison as comparison
-    import roneld_eval.benchmarks.culane_score as scoring
+    import roneld_eval.benchmarks.culane.score as scoring
 
     def terminated(*args, **kwargs):
         os.kill(os.getpid(), signal.SIGTERM)
@@ -871,7 +871,7 @@ def test_an_untimed_run_s_runtime_is_said_to_be_unmeasured(fixture_run, tmp_path
 def test_a_score_folder_that_is_no_sweep_says_what_compare_takes_of_score(tmp_path):
     # It said only "not a folder written by `roneld-eval run` (`roneld-eval score culane` wrote it)",
     # though compare takes score's folders as sweeps.
-    from roneld_eval.datasets.culane_synth import synth_culane
+    from roneld_eval.benchmarks.culane.synth import synth_culane
 
     made = synth_culane(tmp_path / "set", clips=1, frames=2, seed=1, maps_format="lanes")
     scored = CliRunner().invoke(main, ["score", "culane", "--data-root", str(made.data_root), "--pred-root",

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from roneld_eval.benchmarks.curvelanes_score import _score_frames, score_curvelanes
+from roneld_eval.benchmarks.curvelanes.score import _score_frames, score_curvelanes
 from roneld_eval.cli import main
-from roneld_eval.datasets.curvelanes import read_list
+from roneld_eval.benchmarks.curvelanes.reader import read_list
 
 GOLDEN = Path(__file__).parent / "golden" / "curvelanes"
 EXPECTED = json.loads((GOLDEN / "lane_metric.json").read_text())
@@ -78,7 +78,7 @@ def test_a_missing_image_is_one_line(tmp_path):
 
 
 def test_by_default_the_best_of_vegas_list_is_given_beside_the_fixed_threshold(images, tmp_path):
-    from roneld_eval.benchmarks.curvelanes_score import VEGA_THRESHOLDS, score_curvelanes
+    from roneld_eval.benchmarks.curvelanes.score import VEGA_THRESHOLDS, score_curvelanes
 
     command = ["score", "curvelanes", "--labels", str(GOLDEN / "labels"), "--pred-root", f"m={GOLDEN / 'pred'}",
                "--image-root", str(images), "--quiet"]

@@ -12,11 +12,11 @@ from hypothesis import strategies as st
 
 from roneld_eval.cli import main
 from roneld_eval.datasets import read_dataset
-from roneld_eval.datasets.culane import read_culane
-from roneld_eval.datasets.tusimple import read_tusimple
+from roneld_eval.benchmarks.culane.reader import read_culane
+from roneld_eval.benchmarks.tusimple.reader import read_tusimple
 from roneld_eval.errors import InputError
 from roneld_eval.json_fields import is_finite_number
-from roneld_eval.lanes_io import _all_numbers, parse_culane_lines, tusimple_xs
+from roneld_eval.lanes_io import _all_numbers, parse_lines_txt, tusimple_xs
 
 
 def test_culane_clips_frames_and_lanes(tmp_path):
@@ -43,11 +43,11 @@ def test_culane_clips_frames_and_lanes(tmp_path):
 
 def test_culane_lines_follow_the_official_reader():
     # Every line is a lane, an empty one too; a final newline does not start another.
-    lanes = parse_culane_lines("1 2 3 4 \n\n5 6 7 8\n", "x")
+    lanes = parse_lines_txt("1 2 3 4 \n\n5 6 7 8\n", "x")
     assert [len(lane) for lane in lanes] == [2, 0, 2]
-    assert parse_culane_lines("", "x") == ()
-    assert len(parse_culane_lines("\n", "x")) == 1
-    assert parse_culane_lines("-38.0034 440 8.8 430\r\n", "x")[0].points[0].tolist() == [-38.0034, 440]
+    assert parse_lines_txt("", "x") == ()
+    assert len(parse_lines_txt("\n", "x")) == 1
+    assert parse_lines_txt("-38.0034 440 8.8 430\r\n", "x")[0].points[0].tolist() == [-38.0034, 440]
 
 
 @pytest.mark.parametrize("text, problem", [
@@ -58,7 +58,7 @@ def test_culane_lines_follow_the_official_reader():
 ])
 def test_bad_lines_name_the_file_and_line(text, problem):
     with pytest.raises(InputError) as caught:
-        parse_culane_lines(text, "gt/00000.lines.txt")
+        parse_lines_txt(text, "gt/00000.lines.txt")
     assert str(caught.value).startswith("gt/00000.lines.txt:")
     assert problem.split(": ", 1)[-1] in str(caught.value)
 
@@ -172,15 +172,15 @@ def test_real_culane_lists(shared_data, tmp_path):
 
 
 def test_real_culane_raw_labels(shared_data):
-    from roneld_eval.lanes_io import read_culane_lines
+    from roneld_eval.lanes_io import read_lines_txt
 
     files = sorted((shared_data / "culane-raw-labels").glob("*.lines.txt"))
     assert len(files) == 47
     for path in files:
-        lanes = read_culane_lines(path)
+        lanes = read_lines_txt(path)
         assert 2 <= len(lanes) <= 4
         assert all(len(lane) >= 2 for lane in lanes)
-    first = read_culane_lines(shared_data / "culane-raw-labels" / "00000.lines.txt")
+    first = read_lines_txt(shared_data / "culane-raw-labels" / "00000.lines.txt")
     assert first[0].points[0].tolist() == [-38.0034, 440.0]
 
 

@@ -7,11 +7,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from roneld_eval.config import MapsConfig
-from roneld_eval.datasets.culane import read_list_file
+from roneld_eval.benchmarks.culane.reader import read_list_file
 from roneld_eval.errors import InputError
 from roneld_eval.lanes_io import (
-    parse_culane_lines,
-    read_culane_lines,
+    parse_lines_txt,
+    read_lines_txt,
     read_tusimple_records,
 )
 from roneld_eval.maps import load_maps
@@ -35,8 +35,8 @@ def _ok_or_input_error(function, *args):
 @FUZZ
 @given(st.lists(NUMBERISH, max_size=40).map(" ".join))
 def test_culane_lines_from_number_like_tokens(text):
-    if _ok_or_input_error(parse_culane_lines, text, "f.lines.txt"):
-        for lane in parse_culane_lines(text, "f.lines.txt"):
+    if _ok_or_input_error(parse_lines_txt, text, "f.lines.txt"):
+        for lane in parse_lines_txt(text, "f.lines.txt"):
             assert np.isfinite(lane.points).all()
 
 
@@ -45,7 +45,7 @@ def test_culane_lines_from_number_like_tokens(text):
 def test_culane_lines_from_random_bytes(tmp_path_factory, data):
     path = tmp_path_factory.mktemp("f") / "x.lines.txt"
     path.write_bytes(data)
-    _ok_or_input_error(read_culane_lines, path)
+    _ok_or_input_error(read_lines_txt, path)
 
 
 @FUZZ

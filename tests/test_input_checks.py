@@ -36,15 +36,15 @@ from roneld_eval.config import (
 from roneld_eval.presets import preset_names
 from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.datasets import read_dataset
-from roneld_eval.datasets.culane import read_culane
-from roneld_eval.datasets.tusimple import read_tusimple
+from roneld_eval.benchmarks.culane.reader import read_culane
+from roneld_eval.benchmarks.tusimple.reader import read_tusimple
 from roneld_eval.errors import ConfigError, InputError
 from roneld_eval.extract.roneld import RoneldTracker
-from roneld_eval.lanes_io import read_culane_lines, read_text
+from roneld_eval.lanes_io import read_lines_txt, read_text
 from roneld_eval.maps import load_maps, required_paths
 from roneld_eval.model import Frame, image_stem
-from roneld_eval.datasets.culane_synth import synth_culane
-from roneld_eval.datasets.tusimple_synth import synth_tusimple
+from roneld_eval.benchmarks.culane.synth import synth_culane
+from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
 
 ROWS = list(range(160, 720, 10))
 
@@ -483,7 +483,7 @@ def test_boms_are_dropped_in_every_text_input(sets, tmp_path):
     assert dataset.n_frames == 4 and dataset.clips[0].frames[0].relpath.startswith("driver_100")
     members = set().union(*dataset.categories.values())
     assert members == {f.relpath for c in dataset.clips for f in c.frames}  # no first frame lost
-    assert len(dataset.clips[0].frames[0].lanes) == len(read_culane_lines(labels))
+    assert len(dataset.clips[0].frames[0].lanes) == len(read_lines_txt(labels))
     assert not read_text(labels).startswith("\ufeff")
 
     exist = sorted((sets / "culane-png" / "maps").rglob("*.exist.txt"))[0]

@@ -17,8 +17,8 @@ from roneld_eval.geometry import MapGeometry
 from roneld_eval.maps import load_maps
 from roneld_eval.maps.lanes import RIDGE_HALF_WIDTH_PX, draw_lane_maps
 from roneld_eval.model import Lane
-from roneld_eval.datasets.culane_synth import synth_culane
-from roneld_eval.datasets.tusimple_synth import synth_tusimple
+from roneld_eval.benchmarks.culane.synth import synth_culane
+from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
 
 GEOMETRY = MapGeometry(1640, 590, 800, 288)
 MAPS = MapsConfig(format="lanes")

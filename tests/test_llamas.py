@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from roneld_eval.benchmarks.llamas_score import _predicted, score_llamas
+from roneld_eval.benchmarks.llamas.score import _predicted, score_llamas
 from roneld_eval.cli import main
-from roneld_eval.datasets.llamas import every_label, four_lanes, read_label
+from roneld_eval.benchmarks.llamas.reader import every_label, four_lanes, read_label
 from roneld_eval.errors import InputError
-from roneld_eval.metrics.llamas_official import frame_counts, lane_mask
+from roneld_eval.benchmarks.llamas.official import frame_counts, lane_mask
 
 GOLDEN = Path(__file__).parent / "golden" / "llamas"
 EXPECTED = json.loads((GOLDEN / "expected.json").read_text())

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from roneld_eval.cli import main
 from roneld_eval.maps.scnn_png import read_grey_png
-from roneld_eval.metrics.llamas_segmentation import approx_auc
+from roneld_eval.benchmarks.llamas.segmentation import approx_auc
 
 
 def _official_auc(prediction: np.ndarray, label: np.ndarray) -> dict:
@@ -198,8 +198,8 @@ GOLDEN_AP = Path(__file__).parent / "golden" / "llamas_ap"
 def test_the_ap_of_every_image_and_its_mean_are_the_official_scripts():
     # unsupervised_llamas 9b99f46 evaluate_segmentation.py --multi_class, run unchanged on these files
     # (tests/golden/llamas_ap/README.md): every image's four numbers per class, and the means
-    from roneld_eval.benchmarks.llamas_score import _class_curves, _segmentation_label, score_llamas
-    from roneld_eval.datasets.llamas import every_label, read_record
+    from roneld_eval.benchmarks.llamas.score import _class_curves, _segmentation_label, score_llamas
+    from roneld_eval.benchmarks.llamas.reader import every_label, read_record
 
     expected = json.loads((GOLDEN_AP / "expected.json").read_text())
     labels = GOLDEN_AP / "labels" / "valid"

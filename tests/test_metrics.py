@@ -14,17 +14,17 @@ from roneld_eval.config import PaperMetricParams
 
 from roneld_eval.thresholds import parse_thresholds
 from roneld_eval.geometry import MapGeometry
-from roneld_eval.lanes_io import parse_culane_lines
-from roneld_eval.metrics.culane_official import (
+from roneld_eval.lanes_io import parse_lines_txt
+from roneld_eval.metrics.lane_iou_f1 import (
     category_table,
-    evaluate_culane_frame,
+    match_frame,
     f_measure,
     sum_counts,
 )
 from roneld_eval.metrics.iou import match_lanes
 from roneld_eval.metrics.paper import bottom_x, ego_lanes, ego_masks, side_ious
 from roneld_eval.metrics.sweep import sweep_accuracy
-from roneld_eval.metrics.tusimple_official import bench_frame, mean_scores
+from roneld_eval.benchmarks.tusimple.official import bench_frame, mean_scores
 from roneld_eval.model import Lane
 
 
@@ -38,7 +38,7 @@ def vertical(x, top=300, bottom=590):
 def test_culane_frame_counts():
     gt = [vertical(300), vertical(800), vertical(1300)]
     pred = [vertical(805), vertical(300), vertical(1000), Lane(np.zeros((0, 2)))]
-    result = evaluate_culane_frame(gt, pred)
+    result = match_frame(gt, pred)
     assert (result.n_gt, result.n_pred) == (3, 4)
     assert result.matched_iou[0] == 1.0
     assert result.matched_iou[1] == pytest.approx(25 / 35, abs=0.02)  # 5 px shift of a ~31 px band
@@ -48,16 +48,16 @@ def test_culane_frame_counts():
 
 
 def test_culane_empty_sides():
-    assert sum_counts([evaluate_culane_frame([], [vertical(1)])], [0.5]).fp.tolist() == [1]
-    assert sum_counts([evaluate_culane_frame([vertical(1)], [])], [0.5]).fn.tolist() == [1]
+    assert sum_counts([match_frame([], [vertical(1)])], [0.5]).fp.tolist() == [1]
+    assert sum_counts([match_frame([vertical(1)], [])], [0.5]).fn.tolist() == [1]
     # A ground-truth lane of one point still counts (IoU 0): FN.
-    counts = sum_counts([evaluate_culane_frame([Lane([[5, 5]]), vertical(300)], [vertical(300)])], [0.5])
+    counts = sum_counts([match_frame([Lane([[5, 5]]), vertical(300)], [vertical(300)])], [0.5])
     assert (counts.tp[0], counts.fn[0]) == (1, 1)
 
 
 def test_threshold_is_strict():
     gt, pred = [vertical(300)], [vertical(300)]
-    result = evaluate_culane_frame(gt, pred)
+    result = match_frame(gt, pred)
     assert result.true_positives(0.999) == 1 and result.true_positives(1.0) == 0
 
 
@@ -80,8 +80,8 @@ def test_f_measure_like_the_official_output():
 
 
 def test_category_table():
-    results = {"a.jpg": evaluate_culane_frame([vertical(300)], [vertical(300)]),
-               "b.jpg": evaluate_culane_frame([], [vertical(300)])}
+    results = {"a.jpg": match_frame([vertical(300)], [vertical(300)]),
+               "b.jpg": match_frame([], [vertical(300)])}
     table = category_table(results, {"normal": frozenset({"a.jpg"}), "cross": frozenset({"b.jpg"})}, 0.5)
     assert table["category"].tolist() == ["normal", "cross", "all"]
     assert table[["tp", "fp", "fn"]].values.tolist() == [[1, 0, 0], [0, 1, 0], [1, 1, 0]]
@@ -91,9 +91,9 @@ def test_culane_parity_with_the_official_evaluator():
     golden = json.loads((GOLDEN / "culane_official.json").read_text())
     results = []
     for frame in golden["frames"]:
-        gt = parse_culane_lines(frame["gt"], frame["frame"])
-        pred = parse_culane_lines(frame["pred"], frame["frame"]) if frame["pred"] is not None else ()
-        results.append(evaluate_culane_frame(gt, pred))
+        gt = parse_lines_txt(frame["gt"], frame["frame"])
+        pred = parse_lines_txt(frame["pred"], frame["frame"]) if frame["pred"] is not None else ()
+        results.append(match_frame(gt, pred))
     thresholds = sorted(golden["results"], key=float)
     counts = sum_counts(results, [float(t) for t in thresholds])
     ours = {t: dict(tp=int(counts.tp[k]), fp=int(counts.fp[k]), fn=int(counts.fn[k])) for k, t in enumerate(thresholds)}
@@ -121,7 +121,7 @@ def test_tusimple_hand_checked():
 
 def _bench_lane_by_lane(pred, gt, y_samples):
     """LaneEval.bench as lane.py writes it: line_accuracy of each prediction, one at a time."""
-    from roneld_eval.metrics.tusimple_official import lane_threshold
+    from roneld_eval.metrics.point_accuracy import lane_threshold
 
     def line_accuracy(pred, gt, thresh):  # lane.py's own
         pred = np.where(pred >= 0, pred, -100)

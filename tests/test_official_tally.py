@@ -11,11 +11,11 @@ import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roneld_eval.benchmarks.culane import BENCHMARK as CULANE, CulaneOfficial
-from roneld_eval.benchmarks.tusimple import BENCHMARK as TUSIMPLE, TusimpleOfficial
+from roneld_eval.benchmarks.culane.benchmark import BENCHMARK as CULANE, CulaneOfficial
+from roneld_eval.benchmarks.tusimple.benchmark import BENCHMARK as TUSIMPLE, TusimpleOfficial
 from roneld_eval.config import EvalConfig
-from roneld_eval.metrics.culane_official import CulaneFrameResult, category_table
-from roneld_eval.metrics.tusimple_official import mean_scores
+from roneld_eval.metrics.lane_iou_f1 import FrameMatches, category_table
+from roneld_eval.benchmarks.tusimple.official import mean_scores
 from roneld_eval.model import Dataset
 
 # -inf: unmatched; NaN: an IoU of nothing (above no threshold either way)
@@ -23,9 +23,9 @@ IOUS = st.one_of(st.just(float("-inf")), st.just(float("nan")), st.floats(0.0, 1
 
 
 @st.composite
-def frame_results(draw) -> CulaneFrameResult:
+def frame_results(draw) -> FrameMatches:
     matched = draw(st.lists(IOUS, max_size=5))
-    return CulaneFrameResult(len(matched), draw(st.integers(0, 6)), np.array(matched, np.float64))
+    return FrameMatches(len(matched), draw(st.integers(0, 6)), np.array(matched, np.float64))
 
 
 @st.composite

@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from roneld_eval.benchmarks.openlane_score import MODES, _score_frames, score_openlane
+from roneld_eval.benchmarks.openlane.score import MODES, _score_frames, score_openlane
 from roneld_eval.cli import main
-from roneld_eval.datasets.openlane import read_list
+from roneld_eval.benchmarks.openlane.reader import read_list
 
 GOLDEN = Path(__file__).parent / "golden" / "openlane"
 EXPECTED = json.loads((GOLDEN / "lane2d_evaluator.json").read_text())["sets"]

@@ -24,10 +24,10 @@ from roneld_eval.errors import ConfigError, RunInterrupted
 from roneld_eval.extract.protocol import Prediction, ego_pair, prediction_problem
 from roneld_eval.extract.registry import methods_of, resolve_entry
 from roneld_eval.maps import load_maps
-from roneld_eval.metrics.culane_official import evaluate_culane_frame
+from roneld_eval.metrics.lane_iou_f1 import match_frame
 from roneld_eval.metrics.paper import ego_masks, side_ious
 from roneld_eval.model import Lane
-from roneld_eval.datasets.culane_synth import synth_culane
+from roneld_eval.benchmarks.culane.synth import synth_culane
 
 
 PLUGINS = Path(__file__).with_name("plugin_extractors.py")
@@ -77,7 +77,7 @@ def direct_scores(root: Path, config: EvalConfig):
             truth = ego_masks(frame.lanes, config.geometry, config.paper, config.roneld.center_ratio)
             for side, iou in side_ious(truth, prediction.active, config.geometry, config.paper).items():
                 ious[(frame.relpath, side)] = iou
-            matched[frame.relpath] = evaluate_culane_frame(frame.lanes, list(prediction.lanes)).true_positives(0.5)
+            matched[frame.relpath] = match_frame(frame.lanes, list(prediction.lanes)).true_positives(0.5)
     return ious, matched
 
 
@@ -254,7 +254,7 @@ def test_resume_sees_a_helper_the_plugin_imports_only_while_it_runs(dataset, tmp
 
 
 def test_a_stateful_plugin_sees_every_frame_and_a_stateless_one_only_scored_ones(tmp_path):
-    from roneld_eval.datasets.tusimple_synth import synth_tusimple
+    from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
 
     synth_tusimple(tmp_path / "t", clips=1, frames=20, seed=1)  # only the 20th frame is labelled
     config = api.default_config("tusimple").with_overrides(**{

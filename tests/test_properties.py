@@ -6,7 +6,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from roneld_eval.thresholds import parse_thresholds
-from roneld_eval.metrics.culane_official import evaluate_culane_frame
+from roneld_eval.metrics.lane_iou_f1 import match_frame
 from roneld_eval.metrics.iou import mask_iou
 from roneld_eval.metrics.raster import mask_from_pixels, official_mask
 from roneld_eval.metrics.sweep import sweep_accuracy
@@ -84,10 +84,10 @@ def separated_lanes(draw):
 @given(separated_lanes(), st.randoms(use_true_random=False))
 def test_counts_do_not_depend_on_lane_order(frame, random):
     gt, pred = frame
-    before = evaluate_culane_frame(gt, pred)
+    before = match_frame(gt, pred)
     shuffled_gt, shuffled_pred = list(gt), list(pred)
     random.shuffle(shuffled_gt)
     random.shuffle(shuffled_pred)
-    after = evaluate_culane_frame(shuffled_gt, shuffled_pred)
+    after = match_frame(shuffled_gt, shuffled_pred)
     for threshold in (0.1, 0.3, 0.5, 0.7):
         assert before.true_positives(threshold) == after.true_positives(threshold)

@@ -17,11 +17,11 @@ import pytest
 from click.testing import CliRunner
 
 from roneld_eval.cli import main
-from roneld_eval.datasets.curvelanes_synth import synth_curvelanes
-from roneld_eval.datasets.llamas_synth import synth_llamas
-from roneld_eval.datasets.openlane_synth import synth_openlane
-from roneld_eval.datasets.tusimple_synth import synth_tusimple
-from roneld_eval.datasets.vil100_synth import synth_vil100
+from roneld_eval.benchmarks.curvelanes.synth import synth_curvelanes
+from roneld_eval.benchmarks.llamas.synth import synth_llamas
+from roneld_eval.benchmarks.openlane.synth import synth_openlane
+from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
+from roneld_eval.benchmarks.vil100.synth import synth_vil100
 
 DIGITS_400 = 10**400 - 1
 

@@ -112,8 +112,8 @@ def test_the_submitit_recipe_runs_as_written(tmp_path, monkeypatch):
     import sys
     import types
 
-    from roneld_eval.datasets.culane_synth import synth_lane_files
-    from roneld_eval.benchmarks.culane_score import score_culane
+    from roneld_eval.benchmarks.culane.synth import synth_lane_files
+    from roneld_eval.benchmarks.culane.score import score_culane
 
     block = next(b for b in re.findall(r"^```python\n(.*?)^```", README, flags=re.S | re.M) if "submitit" in b)
     gt, pred = synth_lane_files(tmp_path / "set", 90)

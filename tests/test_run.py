@@ -18,8 +18,8 @@ import roneld_eval
 from roneld_eval import api
 from roneld_eval.config import EvalConfig
 from roneld_eval.extract import roneld
-from roneld_eval.lanes_io import read_culane_lines
-from roneld_eval.metrics.culane_official import evaluate_culane_frame
+from roneld_eval.lanes_io import read_lines_txt
+from roneld_eval.metrics.lane_iou_f1 import match_frame
 
 
 def test_fixture_accuracy_equals_the_committed_results(fixture_run):
@@ -122,8 +122,8 @@ def test_saved_lanes_score_like_the_run(fixture_run):
         for clip in dataset.clips:
             for frame in clip.frames:
                 stem = frame.relpath.rsplit(".", 1)[0]
-                lanes = read_culane_lines(out / "lanes" / method / f"{stem}.lines.txt")
-                outcome = evaluate_culane_frame(frame.lanes, lanes)
+                lanes = read_lines_txt(out / "lanes" / method / f"{stem}.lines.txt")
+                outcome = match_frame(frame.lanes, lanes)
                 tp += outcome.true_positives(0.5)
                 fp += outcome.n_pred - outcome.true_positives(0.5)
                 fn += outcome.n_gt - outcome.true_positives(0.5)

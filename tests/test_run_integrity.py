@@ -30,7 +30,7 @@ from conftest import interrupt_after
 
 from roneld_eval.cli import main
 from roneld_eval.errors import InputError, RunInterrupted
-from roneld_eval.datasets.culane_synth import synth_culane
+from roneld_eval.benchmarks.culane.synth import synth_culane
 
 
 @pytest.fixture(scope="module")

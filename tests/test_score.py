@@ -20,13 +20,13 @@ from tusimple_perturbation import digest, perturbed_predictions
 
 from roneld_eval.cli import main
 from roneld_eval.errors import ConfigError, InputError
-from roneld_eval.metrics.culane_official import CulaneFrameResult, ScoredFrames, highlight_name, sum_counts, sweep_rows
-from roneld_eval.metrics.tusimple_official import TusimpleScore, f1_clrnet, f1_ufld
+from roneld_eval.metrics.lane_iou_f1 import FrameMatches, ScoredFrames, highlight_name, sum_counts, sweep_rows
+from roneld_eval.benchmarks.tusimple.official import TusimpleScore, f1_clrnet, f1_ufld
 from roneld_eval.report.tables import Table
-from roneld_eval.benchmarks.culane_score import SCORE_PRESETS, first_threshold_table, score_culane
-from roneld_eval.benchmarks.tusimple_score import score_tusimple
+from roneld_eval.benchmarks.culane.score import SCORE_PRESETS, first_threshold_table, score_culane
+from roneld_eval.benchmarks.tusimple.score import score_tusimple
 from roneld_eval.score import PlainTable
-from roneld_eval.datasets.culane_synth import synth_lane_files
+from roneld_eval.benchmarks.culane.synth import synth_lane_files
 
 GRID = "0.50:0.95:0.05"
 LABELS = ["0.50", "0.55", "0.60", "0.65", "0.70", "0.75", "0.80", "0.85", "0.90", "0.95"]
@@ -296,8 +296,8 @@ def test_the_console_shows_the_summary_and_the_files_hold_everything(lanes, tmp_
 
 @pytest.mark.parametrize("command", ["culane", "tusimple"])
 def test_a_foreign_out_is_refused_before_any_scoring(lanes, tmp_path, monkeypatch, command):
-    import roneld_eval.metrics.tusimple_official as tusimple_official
-    import roneld_eval.benchmarks.culane_score as scoring
+    import roneld_eval.benchmarks.tusimple.official as tusimple_official
+    import roneld_eval.benchmarks.culane.score as scoring
 
     def no_work(*args, **kwargs):
         raise AssertionError("scored before the output folder was checked")
@@ -439,7 +439,7 @@ def test_score_culane_on_one_frame_starts_without_pandas_or_matplotlib(tmp_path)
        st.lists(st.sampled_from([0.0, 0.3, 0.5, 0.55, 0.75, 0.95]), min_size=1, max_size=4, unique=True))
 def test_sweep_rows_count_like_one_pass_per_threshold(frames, thresholds):
     """The sorted, vectorised counts equal summing every frame at each threshold on its own."""
-    results = {f"f{k}.jpg": CulaneFrameResult(len(ious), n_pred, np.array(ious, np.float64))
+    results = {f"f{k}.jpg": FrameMatches(len(ious), n_pred, np.array(ious, np.float64))
                for k, (ious, n_pred, _) in enumerate(frames)}
     category = {"odd": frozenset(f"f{k}.jpg" for k, (_, _, odd) in enumerate(frames) if odd)}
     table = sweep_rows(ScoredFrames.from_results([results]), ["m"], category, thresholds)
@@ -517,7 +517,7 @@ def test_tusimple_angle_thresholds_are_numpys_as_lane_py_computes_them(shared_da
     score = score_tusimple(labels, pred)
     # lane.py's thresholds are numpy's here: as the math module's where numpy has no SIMD arctan
     # and cos of its own (no AVX-512), else as on the machine the tools ran on for the golden.
-    from roneld_eval.metrics.tusimple_official import PIXEL_THRESHOLD, lane_slope, lane_threshold
+    from roneld_eval.metrics.point_accuracy import PIXEL_THRESHOLD, lane_slope, lane_threshold
 
     truth = [json.loads(line) for line in labels.read_text().splitlines()]
     thresholds = []
@@ -538,7 +538,7 @@ def test_tusimple_angle_thresholds_are_numpys_as_lane_py_computes_them(shared_da
 
 
 def test_score_tusimple_on_every_frame_of_a_clip_says_what_to_do(tmp_path):
-    from roneld_eval.datasets.tusimple_synth import synth_tusimple
+    from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
 
     synth_tusimple(tmp_path / "t", clips=2, seed=1, maps_format="lanes")  # predictions for frames 1..20
     labels, every = tmp_path / "t" / "data" / "test_label.json", tmp_path / "t" / "maps" / "predictions.json"
@@ -570,7 +570,7 @@ def test_score_tusimple_writes_and_prints_both_f1s(tmp_path):
 
 def test_score_tusimple_scores_several_prediction_files_as_methods_in_one_pass(tmp_path, monkeypatch):
     # `--pred A.json --pred B.json` scored only the last file, and official.csv named no method.
-    from roneld_eval.metrics import tusimple_official
+    from roneld_eval.benchmarks.tusimple import official as tusimple_official
 
     rows = list(range(160, 720, 10))
     labels = [{"lanes": [[500] * 56, [800] * 56], "h_samples": rows, "raw_file": f"clips/{k}/20.jpg"} for k in "ab"]

@@ -489,7 +489,7 @@ def _same_files(whole, merged, wanted: set[str]) -> None:
 def _tusimple_set(tmp_path, clips: int = 5):
     """Labels of `clips` clips and a detector's predictions of the labelled frames, in another
     order than the labels' (a merge must add the frames up in the prediction file's order)."""
-    from roneld_eval.datasets.tusimple_synth import synth_tusimple
+    from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
 
     synth_tusimple(tmp_path / "t", clips=clips, seed=3, maps_format="lanes")
     labels = tmp_path / "t" / "data" / "test_label.json"
@@ -530,7 +530,7 @@ def test_tusimple_shards_of_the_real_labels_merge_to_lane_pys_numbers(shared_dat
     pred.write_text("".join(lines[::-1]))
     whole, merged, parts = _shards_and_merge(tmp_path, ["score", "tusimple", "--labels", labels, "--pred", pred], 4)
     _same_files(whole, merged, {"official.csv"})
-    from roneld_eval.benchmarks.tusimple_score import score_tusimple
+    from roneld_eval.benchmarks.tusimple.score import score_tusimple
     from roneld_eval.shards import merge
 
     _, score = merge(parts, tmp_path / "again")  # to the last bit, frames added in the prediction file's order

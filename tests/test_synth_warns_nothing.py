@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from roneld_eval.cli import main
-from roneld_eval.datasets.vil100_synth import SIZES
+from roneld_eval.benchmarks.vil100.synth import SIZES
 
 # each benchmark's smallest set that still covers what it varies (VIL-100: every one of its sizes)
 SETS = {"culane": ("--clips", "2", "--frames", "3"), "tusimple": ("--clips", "2"),

@@ -58,7 +58,7 @@ def test_a_second_score_takes_the_ground_truth_from_the_cache_and_draws_nothing(
     data, maps = lane_set / "data", lane_set / "maps"
     _score(data, maps, tmp_path / "first")
     assert len(_entries(cache)) == 1
-    import roneld_eval.benchmarks.culane_score as scoring
+    import roneld_eval.benchmarks.culane.score as scoring
 
     def no_labels(*args, **kwargs):
         raise AssertionError("the ground truth was read and drawn again")

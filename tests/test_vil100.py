@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
+from roneld_eval.benchmarks.vil100.score import _score_sequence, score_vil100
 from roneld_eval.cli import main
 from roneld_eval.errors import ConfigError, InputError
-from roneld_eval.datasets.vil100 import read_vil100, scenarios_of
-from roneld_eval.metrics.vil100_official import printed
-from roneld_eval.metrics.vil100_temporal import sequence_counts
+from roneld_eval.benchmarks.vil100.reader import read_vil100, scenarios_of
+from roneld_eval.benchmarks.vil100.official import printed
+from roneld_eval.benchmarks.vil100.temporal import sequence_counts
 
 GOLDEN = Path(__file__).parent / "golden" / "vil100"
 EXPECTED = json.loads((GOLDEN / "mmanet_evaluator.json").read_text())
@@ -240,7 +240,7 @@ def test_a_lane_drawn_where_it_reaches_has_the_pixels_of_the_whole_canvas():
     every segment with cv2.line on the whole canvas (full_canvas_mask): the same pixels, for lanes
     inside, across and outside the image's edges."""
     from roneld_eval.metrics.line_masks import full_canvas_mask
-    from roneld_eval.metrics.vil100_temporal import _interpolated, lane_mask
+    from roneld_eval.benchmarks.vil100.temporal import _interpolated, lane_mask
     from roneld_eval.model import Lane
 
     rng = np.random.default_rng(3)

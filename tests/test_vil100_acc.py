@@ -17,14 +17,14 @@ from click.testing import CliRunner
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from roneld_eval.benchmarks.vil100_score import _score_sequence, score_vil100
+from roneld_eval.benchmarks.vil100.score import _score_sequence, score_vil100
 from roneld_eval.cli import main
-from roneld_eval.datasets.vil100 import read_vil100
-from roneld_eval.maps.vil100_png import (GREY_WEIGHTS, colour_greys, instance_lanes, lines_text, lit_pixels,
+from roneld_eval.benchmarks.vil100.reader import read_vil100
+from roneld_eval.benchmarks.vil100.maps_png import (GREY_WEIGHTS, colour_greys, instance_lanes, lines_text, lit_pixels,
                                              read_instance_png)
 from roneld_eval.errors import InputError
-from roneld_eval.lanes_io import read_culane_lines
-from roneld_eval.metrics.vil100_acc import mmanet_frame, rvld_frame
+from roneld_eval.lanes_io import read_lines_txt
+from roneld_eval.benchmarks.vil100.acc import mmanet_frame, rvld_frame
 from roneld_eval.model import Lane
 
 GOLDEN = Path(__file__).parent / "golden" / "vil100"
@@ -186,7 +186,7 @@ def test_the_quadratic_fit_is_np_polyfits_to_the_last_bit(pixels, rows, columns_
     # pixel order np.where gives: the fit decides every written x.
     import warnings
 
-    from roneld_eval.maps.vil100_png import quadratic_fit
+    from roneld_eval.benchmarks.vil100.maps_png import quadratic_fit
 
     random = np.random.default_rng(seed)
     ys = np.sort(random.integers(0, rows, pixels) + 1)  # above the bottom row: polyfit's scale is not 0
@@ -198,7 +198,7 @@ def test_the_quadratic_fit_is_np_polyfits_to_the_last_bit(pixels, rows, columns_
 
 
 def test_a_fit_of_no_pixel_is_refused_as_np_polyfit_refuses_it():
-    from roneld_eval.maps.vil100_png import quadratic_fit
+    from roneld_eval.benchmarks.vil100.maps_png import quadratic_fit
 
     none = np.zeros(0, np.intp)
     with pytest.raises(TypeError) as ours:
@@ -227,7 +227,7 @@ def test_masks_decoded_here_are_pillows_pixels(tmp_path_factory, height, width, 
     # decoded by the maps' PNG kernel; every other PNG still by Pillow, which refuses what it did.
     from PIL import Image
 
-    from roneld_eval.maps.vil100_png import _grey_image, _plain_pixels
+    from roneld_eval.benchmarks.vil100.maps_png import _grey_image, _plain_pixels
 
     random = np.random.default_rng(seed)
     mask = (random.integers(0, lanes + 1, (height, width)) * (random.random((height, width)) < 0.3)).astype(np.uint8)
@@ -292,7 +292,7 @@ def _differ_only_in_lapacks_last_bits(lanes, ours: str, theirs: str, description
     between machines (OpenBLAS picks its kernels by CPU): np.polyfit gives 1000.9999999999999
     on one and 1001.0000000000002 on another, and the script's %d writes 1000 or 1001. The
     script run here writes what we write; against the golden text only those x may differ, by one."""
-    from roneld_eval.maps.vil100_png import Y_STEP
+    from roneld_eval.benchmarks.vil100.maps_png import Y_STEP
 
     near_integer = set()
     for lane in lanes:
@@ -344,7 +344,7 @@ def _render_masks(labels: Path, out: Path, sizes: dict) -> None:
         relative = path.relative_to(labels)
         width, height = sizes[relative.parts[0]]["width"], sizes[relative.parts[0]]["height"]
         mask = np.zeros((height, width), np.uint8)
-        for k, lane in enumerate(read_culane_lines(path)):
+        for k, lane in enumerate(read_lines_txt(path)):
             if len(lane.points):
                 points = np.round(lane.points).astype(np.int32).reshape(-1, 1, 2)
                 cv2.polylines(mask, [points], False, k + 1, thickness=max(1, round(30 * width / 1920)))

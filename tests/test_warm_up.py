@@ -28,7 +28,7 @@ from roneld_eval._numba_cache import cache_dir, in_cache
 from roneld_eval.config import BaselineParams, EvalConfig, PaperMetricParams, RoneldParams
 from roneld_eval.extract import RoneldTracker, baseline_lanes, curving_clip
 from roneld_eval.geometry import MapGeometry
-from roneld_eval.metrics.culane_official import evaluate_culane_frame, official_masks
+from roneld_eval.metrics.lane_iou_f1 import match_frame, official_masks
 from roneld_eval.metrics.paper import ego_masks, side_ious
 from roneld_eval.model import FrameMaps, Lane
 
@@ -91,7 +91,7 @@ def test_a_clip_in_curve_mode_compiles_nothing_after_warm_up(warm):
             for active in predictions:
                 side_ious(gt_masks, active, geometry, paper, spline=True)
                 found = [lane for lane in active if lane is not None]
-                evaluate_culane_frame(truth, found, 1640, 590, 30, gt_masks=official_truth,
+                match_frame(truth, found, 1640, 590, 30, gt_masks=official_truth,
                                       pred_masks=official_masks(found, 1640, 590, 30))
     assert modes[-1] and not modes[0], "the clip must enter curve mode (its spline path) part-way"
     assert added_since(warm) == {}
@@ -211,7 +211,7 @@ print(len(unfilter_grey.signatures))
 def test_a_run_on_png_maps_decodes_them_in_the_workers_only(tmp_path):
     # The main process checks the first frame's map size from a PNG header: it loads no decoding
     # kernel, nor numba's machinery with it (0.3 s and 50 MB before the workers could start).
-    from roneld_eval.datasets.culane_synth import synth_culane
+    from roneld_eval.benchmarks.culane.synth import synth_culane
 
     made = synth_culane(tmp_path / "set", clips=2, frames=3, maps_format="scnn-png")
     env = env_importing()

@@ -28,7 +28,7 @@ from roneld_eval import workers as workers_module
 from roneld_eval.evaluation import one_clip, pool
 from roneld_eval.datasets import read_dataset
 from roneld_eval.errors import InputError
-from roneld_eval.datasets.culane_synth import synth_culane
+from roneld_eval.benchmarks.culane.synth import synth_culane
 
 OUTPUTS = ("accuracy.csv", "per_frame.csv", "official.csv", "gains.csv")
 LENGTHS = [30, 23, 26, 19, 5]

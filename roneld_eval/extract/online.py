@@ -35,8 +35,9 @@ class FrameRefused(InputError, ValueError):
 
 class FrameBuffers:
     """Arrays one tracker reuses frame after frame (a float frame's conversion to uint8 levels):
-    fresh multi-megabyte temporaries each frame cost more than the frame's own work where the allocator hands them back to the system and takes them again (page faults:
-    float maps took 9-14 ms a frame that way on the 2-core machine, 1 ms with the memory reused)."""
+    fresh multi-megabyte temporaries each frame cost more than the frame's own work where the
+    allocator hands them back to the system and takes them again (page faults: float maps took
+    9-14 ms a frame that way on the 2-core machine, 1 ms with the memory reused)."""
 
     def __init__(self) -> None:
         self._arrays: dict[str, np.ndarray] = {}

@@ -19,7 +19,7 @@ from ..datasets._paths import under_root
 from ..errors import InputError
 from ..model import FrameMaps, image_stem
 from .npy import load_npy, load_npz
-from .llamas_png import llamas_png_paths, load_llamas_png
+from ..benchmarks.llamas.maps_png import llamas_png_paths, load_llamas_png
 from .scnn_png import load_scnn_png, png_size, scnn_png_paths
 
 FORMATS = ("npy", "npz", "scnn-png", "llamas-png")

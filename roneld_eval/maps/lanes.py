@@ -35,7 +35,7 @@ from ..config import MapsConfig
 from ..datasets._paths import normalise_relpath, under_root
 from ..errors import InputError
 from ..geometry import MapGeometry
-from ..lanes_io import (check_coordinates, decode_text, lane_from_tusimple, parse_culane_lines, read_bytes,
+from ..lanes_io import (check_coordinates, decode_text, lane_from_tusimple, parse_lines_txt, read_bytes,
                         read_tusimple_records)
 from ..model import EGO_CHANNELS, FrameMaps, Lane, image_stem
 
@@ -65,7 +65,7 @@ class LinesPerFrame:
     def read(self, root: Path, relpath: str) -> LanesAndScores:
         stem = self._stem(root, relpath)
         path = stem.with_name(stem.name + self.suffix)
-        lanes = parse_culane_lines(decode_text(read_bytes(path), path), path)
+        lanes = parse_lines_txt(decode_text(read_bytes(path), path), path)
         check_coordinates(lanes, path)
         return lanes, _read_scores(stem.with_name(stem.name + SCORES_SUFFIX), len(lanes))
 

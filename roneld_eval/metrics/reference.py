@@ -14,7 +14,7 @@ from contextlib import contextmanager
 from typing import Iterator
 
 from .._numba_cache import compile_now
-from . import _kernels, culane_official, paper, raster
+from . import _kernels, lane_iou_f1, paper, raster
 
 
 @contextmanager
@@ -22,10 +22,10 @@ def drawn_masks() -> Iterator[None]:
     """Within the block, official and paper masks are drawn on canvases (the old path)."""
     for kernel, signature in _kernels.REFERENCE_SIGNATURES:  # before any timing starts
         compile_now(kernel, signature)
-    saved = culane_official.official_mask_set, paper.map_mask_set
-    culane_official.official_mask_set = raster.official_mask_set_by_canvas
+    saved = lane_iou_f1.official_mask_set, paper.map_mask_set
+    lane_iou_f1.official_mask_set = raster.official_mask_set_by_canvas
     paper.map_mask_set = raster.map_mask_set_by_canvas
     try:
         yield
     finally:
-        culane_official.official_mask_set, paper.map_mask_set = saved
+        lane_iou_f1.official_mask_set, paper.map_mask_set = saved

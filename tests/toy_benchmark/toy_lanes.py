@@ -20,7 +20,7 @@ import numpy as np
 
 from roneld_eval.benchmarks import LaneFile
 from roneld_eval.errors import InputError
-from roneld_eval.lanes_io import format_culane_lines, read_culane_lines
+from roneld_eval.lanes_io import format_lines_txt, read_lines_txt
 from roneld_eval.maps.lanes import LinesPerFrame
 from roneld_eval.model import Clip, Dataset, Frame
 from roneld_eval.synth import Camera, SynthResult, _write_maps, channel_lanes, clip_style, render_maps, scene_sequence
@@ -95,7 +95,7 @@ class ToyBenchmark:
             by_clip.setdefault(posixpath.dirname(line), []).append(line)
         clips = []
         for clip_id, relpaths in list(by_clip.items())[:limit]:
-            frames = tuple(Frame(relpath, read_culane_lines(_labels(root, relpath), missing_ok=False))
+            frames = tuple(Frame(relpath, read_lines_txt(_labels(root, relpath), missing_ok=False))
                            for relpath in sorted(relpaths))
             clips.append(Clip(clip_id, frames))
         return Dataset(self.name, root, WIDTH, HEIGHT, tuple(clips), source_file=listing)
@@ -122,7 +122,7 @@ class ToyBenchmark:
         return ToyRecord(int(n_gt), int(n_pred))
 
     def lane_file(self, method, frame, lanes):
-        return LaneFile(f"{method}/{frame.stem}.lanes.txt", format_culane_lines(lanes))
+        return LaneFile(f"{method}/{frame.stem}.lanes.txt", format_lines_txt(lanes))
 
     def synthesize(self, out, clips, frames, seed, maps_format, progress):
         data, maps_root = out / "data", out / "maps"
@@ -181,7 +181,7 @@ def score_toy(data_root, pred_root):
     for clip in dataset.clips:
         for frame in clip.frames:
             n_gt += len(frame.lanes)
-            n_pred += len(read_culane_lines(_labels(pred_root, frame.relpath)))
+            n_pred += len(read_lines_txt(_labels(pred_root, frame.relpath)))
     click.echo(f"{dataset.n_frames} frames: {n_gt} ground-truth lanes, {n_pred} predicted")
 
 

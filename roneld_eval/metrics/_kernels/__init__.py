@@ -103,7 +103,7 @@ ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
         (overlap, (_I, _I, _MASK, _I, _I, _MASK)),
         (run_overlap, (_I, _RUNS, _RUNS, _I, _RUNS, _RUNS)),
     ],
-    # culane_official.official_masks (raster.official_mask_set) and LaneRuns.ious
+    # lane_iou_f1.official_masks (raster.official_mask_set) and LaneRuns.ious
     "official": [
         (lane_set_runs, _LANE_SET),
         (lane_set_ious, _SET_IOUS),

@@ -1,0 +1,255 @@
+"""CULane (Pan et al., AAAI 2018): scored by the official evaluator's protocol
+(SCNN tools/lane_evaluation) over all lanes at full resolution, per category, and the same
+protocol restricted to the two ego lanes ("ego" row); lanes written as mirrored .lines.txt."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
+
+import numpy as np
+from ...config import EvalConfig
+from .. import CategoryPanel, LaneFile
+from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, labels_path, read_culane, with_labels
+from ...json_fields import json_number, read_count, read_float, read_list
+from ...lanes_io import format_lines_txt
+from ...maps.lanes import LinesPerFrame
+from ...metrics.lane_iou_f1 import (OFFICIAL_COLUMNS, FrameMatches, f_measure, matched_result,
+                                       official_masks)
+from ...metrics.paper import ego_lanes
+from ...metrics.raster import MaskSet
+from ...model import Clip, Dataset, Frame, Lane
+
+if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors
+    import pandas as pd
+
+    from ...extract.protocol import Prediction
+
+
+def _official_settings(protocol) -> str:
+    """The official CULane protocol as the run drew it (`protocol`: report.tables.Protocol)."""
+    g = protocol.geometry
+    return (f"all lanes drawn {g.official_lane_width_px} px wide at {g.image_width}x{g.image_height}, "
+            f"a match counts when IoU > {g.official_iou_threshold:g}")
+
+
+@dataclass(frozen=True)
+class CulaneOfficial:
+    """One frame of one method: the official outcome over all lanes, and over the ego lanes
+    alone (whose recall is the paper's accuracy measured the official way: full resolution,
+    30 px, one-to-one matching)."""
+
+    all_lanes: FrameMatches
+    ego: FrameMatches
+
+    def to_json(self) -> Any:
+        # tolist(): Python floats at once, not a numpy scalar per value (the main process encodes every frame)
+        return {"culane": [[part.n_gt, part.n_pred, [json_number(v) for v in part.matched_iou.tolist()]]
+                           for part in (self.all_lanes, self.ego)]}
+
+
+@dataclass(frozen=True, eq=False)
+class _Truth:
+    lanes: tuple[Lane, ...]
+    masks: MaskSet  # official_masks of the lanes
+    ego_rows: list[int]
+    size: tuple[int, int, int]  # image width, height, official lane width
+
+
+class CulaneBenchmark:
+    name = "culane"
+    display_name = "CULane"
+    image_size = (IMAGE_WIDTH, IMAGE_HEIGHT)
+    default_preset = "scnn-culane"
+    frames_per_clip = 12
+    fixture: str | None = "culane"
+    kernel_groups = ("official",)
+    missing_maps_hint = ""
+    detector_lanes = LinesPerFrame()  # what run --save-lanes writes
+
+    def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
+             labels: bool) -> Dataset:
+        return read_culane(root, list_file, limit, errors, labels, require_labels=True)
+
+    def with_labels(self, clip: Clip, root: Path, errors: list | None) -> Clip:
+        return with_labels(clip, root, errors)
+
+    def synthesize(self, out: Path, clips: int, frames: int, seed: int, maps_format: str, progress) -> Any:
+        from .synth import synth_culane
+
+        return synth_culane(out, clips, frames, seed, maps_format, progress=progress)
+
+    def label_paths(self, clip: Clip, data_root: Path | None, label_file: Path | None) -> list[Path]:
+        if data_root is None:
+            return []
+        return [labels_path(data_root, frame.relpath) for frame in clip.frames]
+
+    def prepare(self, frame: Frame, config: EvalConfig) -> _Truth:
+        width, height = config.dataset.image_width, config.dataset.image_height
+        size = (width, height, config.official.lane_width_px)
+        ego = ego_lanes(frame.lanes, width, height, config.roneld.center_ratio)
+        rows = [i for lane in ego if lane is not None for i, other in enumerate(frame.lanes) if other is lane]
+        return _Truth(frame.lanes, official_masks(frame.lanes, *size), rows, size)
+
+    def score(self, prepared: _Truth, prediction: Prediction, config: EvalConfig) -> CulaneOfficial:
+        lanes = prediction.lanes
+        # Every IoU at once; the ego lanes' outcome is matched on its rows and columns (the same
+        # IoUs match_frame would compute again for those lanes alone).
+        if prepared.lanes and lanes:
+            similarity = prepared.masks.ious(official_masks(lanes, *prepared.size))
+        else:
+            similarity = np.zeros((len(prepared.lanes), len(lanes)))
+        active = [i for lane in prediction.active if lane is not None for i, other in enumerate(lanes) if other is lane]
+        return CulaneOfficial(matched_result(similarity), matched_result(similarity, prepared.ego_rows, active))
+
+    def tally(self, methods: Sequence[str], dataset: Dataset, config: EvalConfig) -> "CulaneTally":
+        return CulaneTally(tuple(methods), dataset.categories, config.official.iou_threshold)
+
+    def decode(self, value: Any) -> CulaneOfficial:
+        if not isinstance(value, dict) or set(value) != {"culane"}:
+            raise TypeError("not a CULane official record")
+        parts = []
+        for n_gt, n_pred, matched in read_list(value["culane"]):
+            ious = np.array([read_float(v) for v in read_list(matched)], np.float64)
+            if ious.size != read_count(n_gt):
+                raise ValueError("matched IoUs do not match the lane count")
+            parts.append(FrameMatches(read_count(n_gt), read_count(n_pred), ious))
+        if len(parts) != 2:
+            raise ValueError("a CULane record holds all lanes and ego lanes")
+        return CulaneOfficial(*parts)
+
+    def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
+        return LaneFile(f"{method}/{frame.stem}.lines.txt", format_lines_txt(lanes))
+
+    def score_command(self):
+        from .cli import score_culane_command
+
+        return score_culane_command
+
+    def official_protocol(self, protocol) -> str | None:
+        return _official_settings(protocol)
+
+    def official_note(self, protocol) -> str:
+        return ("SCNN's CULane evaluator per category, and 'ego': the two ego lanes only"
+                + (f"; {_official_settings(protocol)}." if protocol is not None else "."))
+
+    def category_panel(self, official: pd.DataFrame, protocol) -> CategoryPanel:
+        return CategoryPanel(official[["method", "category", "f1"]].rename(columns={"f1": "score"}),
+                             "Official CULane F1, all lanes", "F1",
+                             None if protocol is None else _official_settings(protocol),
+                             "F1 over all lanes counts the outer lanes as missed (compare on the 'ego' row of "
+                             "official.csv)")
+
+    # official.csv as compare reads it back: required and optional columns, and its key
+    official_columns = {"method": "text", "category": "text", "tp": "count", "fp": "count", "fn": "count",
+                        "f1": "optional number"}
+    official_optional: dict[str, str] = {}
+    official_key = ("method", "category")
+
+    def check_official(self, path: Path, table: pd.DataFrame) -> None:
+        pass
+
+    def official_comparison(self, groups) -> tuple[Any, str]:
+        """compare's official table of these run groups (one dataset), and the text above it."""
+        settings = dict(groups[0].runs[0].protocol)
+        text = (f"Official {self.display_name} F1 (%) per category (all lanes, "
+                f"{settings.get('official.lane_width_px')} px wide, a match counts when IoU > "
+                f"{settings.get('official.iou_threshold')}); for 'cross', which has no lanes, the number of false "
+                f"positives. 'ego': the same protocol on the two ego lanes and each method's two active lanes.")
+        return _official_grid(groups), text
+
+
+def _official_grid(groups):
+    """Official CULane F1 (%) per category (rows) for every model and method (columns); 'cross' as FP."""
+    from ...comparison.groups import all_found, method_header, method_name, ordered_methods
+    from ...comparison.tables import EMPTY, Cell, Column, Grid, Stat, Text
+
+    categories = list(dict.fromkeys(c for g in groups for r in g.runs for c in r.official["category"]))
+    categories = [c for c in categories if c not in ("all", "ego")] + [c for c in ("all", "ego") if c in categories]
+    columns, makers = [], []
+    for group in groups:
+        for method in ordered_methods(group.methods):
+            columns.append(Column(method_name(method, group.label) + ("" if group.n == 1 else f" (n = {group.n})"),
+                                  method_header(method, group.label), group.title()))
+            makers.append((group, method))
+    rows = []
+    for category in categories:
+        cells: list[Cell] = []
+        for group, method in makers:
+            hits = []
+            for run in group.runs:
+                table = run.official
+                hit = table[(table["method"] == method) & (table["category"] == category)]
+                hits.append(None if hit.empty else hit.iloc[0])
+            found = all_found(hits)
+            if found is None:
+                cells.append(EMPTY)
+            elif category == "cross":  # no lanes to find: the field reports its false positives
+                cells.append(Stat(tuple(float(f["fp"]) for f in found), decimals=0))
+            else:
+                cells.append(Stat(tuple(float(f["f1"]) for f in found), decimals=1, scale=100))
+        rows.append((Text("cross (FP)" if category == "cross" else category), *cells))
+    return Grid((Column("Category", ("Category",)),), tuple(columns), tuple(rows))
+
+
+class _Counts:
+    """One method's official counts so far, per category (its lists, then `all`)."""
+
+    def __init__(self, categories: Mapping[str, frozenset[str]], threshold: float):
+        self.categories = list(categories.items())
+        self.threshold = threshold
+        # [ground-truth lanes, predicted lanes, true positives] of each category, then of every frame
+        # (a list, not keyed by name: a category list may itself be called "all")
+        self.sums = [[0, 0, 0] for _ in range(len(self.categories) + 1)]
+
+    def add(self, relpath: str, result: FrameMatches) -> None:
+        frame = (result.n_gt, result.n_pred, result.true_positives(self.threshold))
+        for sums, (_, members) in zip(self.sums, self.categories):
+            if relpath in members:
+                _add(sums, frame)
+        _add(self.sums[-1], frame)
+
+    def rows(self, method: str, every_frame: str = "all") -> list[tuple]:
+        """(method, category, tp, fp, fn, precision, recall, f1) per category, then `every_frame`,
+        as sweep_rows gives them (counts summed before any ratio)."""
+        names = [name for name, _ in self.categories] + [every_frame]
+        rows = []
+        for name, (n_gt, n_pred, tp) in zip(names, self.sums):
+            fp, fn = n_pred - tp, n_gt - tp
+            rows.append((method, name, tp, fp, fn, *f_measure(tp, fp, fn)))
+        return rows
+
+
+def _add(sums: list[int], frame: tuple[int, int, int]) -> None:
+    for index, value in enumerate(frame):
+        sums[index] += value
+
+
+class CulaneTally:
+    """The official table, counted frame by frame at the run's one threshold: a few integers
+    per method and category, so the main process stays the same size however many frames."""
+
+    def __init__(self, methods: Sequence[str], categories: Mapping[str, frozenset[str]], threshold: float):
+        # all lanes per category, and the ego lanes alone (one "ego" row)
+        self.counts = {method: (_Counts(categories, threshold), _Counts({}, threshold)) for method in methods}
+
+    def add(self, method: str, relpath: str, record: CulaneOfficial) -> None:
+        every, ego = self.counts[method]
+        every.add(relpath, record.all_lanes)
+        ego.add(relpath, record.ego)
+
+    def end_clip(self, clip_id: str) -> None:
+        pass  # frame metrics only
+
+    def table(self) -> pd.DataFrame:
+        rows = []
+        for method, (every, ego) in self.counts.items():
+            rows += every.rows(method) + ego.rows(method, every_frame="ego")
+        columns = [column for column in OFFICIAL_COLUMNS if column != "threshold"]
+        import pandas as pd
+
+        return pd.DataFrame(rows, columns=columns)
+
+
+BENCHMARK = CulaneBenchmark()

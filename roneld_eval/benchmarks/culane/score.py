@@ -1,0 +1,518 @@
+"""`score culane`: the official CULane scores of lane files, as SCNN's tools/lane_evaluation computes them.
+
+Every prediction tree (one method each) is scored in one pass over the ground truth: each
+frame's labels are read and drawn once (or taken from the ground-truth cache), then matched
+against every method's lanes. The matched IoUs are kept, so a whole threshold grid (CLRNet's mF1:
+0.50..0.95) costs no second pass. Prediction roots are checked before any work: a root where no
+file of the list is stops with the path looked for and the folder that would match.
+
+Start-up matters here (one frame should score in well under a second): the tables are plain
+tuples written with the csv module, byte for byte what pandas' to_csv wrote, and pandas is
+imported only when a DataFrame is asked for (CulaneScore.official, .summary, .table).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Iterator
+
+import numpy as np
+
+from ...config import check_lane_width
+
+from ...thresholds import Thresholds, parse_thresholds
+from .reader import read_culane
+from .reader import labels_path, read_frame_labels
+from ...errors import ConfigError, InputError
+from ...lanes_io import check_coordinates, read_lines_txt
+from ...metrics.lane_iou_f1 import (
+    OFFICIAL_COLUMNS,
+    GroupCounts,
+    ScoredFrames,
+    frame_result,
+    highlight_name,
+    official_masks,
+    summary_records,
+)
+from ...output import OutputFolder
+from ...report.tables import Table
+from ...output import Staging
+from ... import truth_cache
+from ...truth_cache import TruthRuns
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ...metrics.raster import MaskSet
+
+from ...score import (PlainTable, PredictionRoots, PredictionTree, _taking, check_still_there, find_prediction_trees,
+                     percent)
+
+
+@dataclass(frozen=True)
+class ScorePreset:
+    """A threshold grid as a paper family reports it, and the thresholds its tables single out."""
+
+    iou: str
+    highlighted: tuple[str, ...]
+    source: str
+
+
+SCORE_PRESETS = {
+    # CLRNet README (mF1, F1@50, F1@75) and clrnet/datasets/culane.py: np.linspace(0.5, 0.95, 10).
+    "clrnet": ScorePreset("0.50:0.95:0.05", ("0.50", "0.75"), "CLRNet: mF1 over IoU 0.50:0.95:0.05, F1@50, F1@75"),
+}
+
+
+# The thresholds papers single out, shown whenever the grid holds them.
+HIGHLIGHTS = ("0.50", "0.75")
+
+
+CHUNK_FRAMES = 200
+
+
+@dataclass(frozen=True)
+class CulaneScore:
+    """Official CULane scores of one or more prediction trees (methods) over a threshold grid.
+
+    `official` and `summary` give the tables as DataFrames (importing pandas on first use);
+    `official_rows` and `summary_rows` are the same tables as plain rows.
+    """
+
+    official_rows: PlainTable  # method, category, threshold, tp, fp, fn, precision, recall, f1
+    summary_rows: PlainTable  # method, category, F1@50 / F1@75 (those in the grid), mF1 (grids of 2+)
+    thresholds: Thresholds
+    highlighted: tuple[str, ...]  # threshold labels the summary shows one by one
+    trees: tuple[PredictionTree, ...]
+    n_frames: int
+    warnings: tuple[str, ...] = ()  # e.g. a root where fewer than half the listed frames have a file
+    ground_truth: str = ""  # digest of the frames scored and their categories (sweep.json: what compare checks)
+    sweep: bool = False  # checkpoints (a glob, a list file), not methods: sweep.csv names the best
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        return tuple(tree.method for tree in self.trees)
+
+    @cached_property
+    def official(self) -> pd.DataFrame:
+        """method, category, threshold, tp, fp, fn, precision, recall, f1 (official.csv)."""
+        return self.official_rows.to_frame()
+
+    @cached_property
+    def summary(self) -> pd.DataFrame:
+        """method, category, F1@50 / F1@75 (those in the grid), mF1 (grids of 2+) (summary.csv)."""
+        return self.summary_rows.to_frame()
+
+    @property
+    def first_rows(self) -> PlainTable:
+        """The rows at the first threshold: method, category, tp, fp, fn, precision, recall, f1."""
+        at = OFFICIAL_COLUMNS.index("threshold")
+        return PlainTable(self.official_rows.columns[:at] + self.official_rows.columns[at + 1:],
+                          tuple(row[:at] + row[at + 1:] for row in self.official_rows.rows
+                                if row[at] == self.thresholds.labels[0]))
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """The rows at the first threshold: method, category, tp, fp, fn, precision, recall, f1."""
+        first = self.official[self.official["threshold"] == self.thresholds.labels[0]]
+        return first.drop(columns="threshold").reset_index(drop=True)
+
+
+def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns | None]:
+    """One chunk of frames against every method: (n_gt, n_pred per method, matched IoUs per
+    method, and the ground truth as drawn when `keep_truth`). `truth`: (a checked entry of the
+    ground-truth cache, the chunk's first frame in it) to take the frames' drawn lanes from."""
+    relpaths, data_root, pred_roots, width, height, lane_width, truth, keep_truth = args
+    cached = None if truth is None else truth_cache.open_entry(truth[0])
+    n_gt = np.zeros(len(relpaths), np.int64)
+    n_pred = np.zeros((len(pred_roots), len(relpaths)), np.int64)
+    ious: list[list[np.ndarray]] = [[] for _ in pred_roots]
+    drawn: list[tuple[int, MaskSet | None]] = []
+    for k, relpath in enumerate(relpaths):
+        gt_masks: MaskSet | None
+        if cached is not None:
+            n_gt[k], gt_masks = cached.frame(truth[1] + k)
+        else:
+            lanes = read_frame_labels(data_root, relpath)
+            n_gt[k] = len(lanes)
+            gt_masks = official_masks(lanes, width, height, lane_width) if lanes else None  # drawn once, for all
+            if keep_truth:
+                drawn.append((len(lanes), gt_masks))
+        for m, pred_root in enumerate(pred_roots):
+            path = labels_path(pred_root, relpath)
+            predictions = read_lines_txt(path)
+            check_coordinates(predictions, path)
+            result = frame_result(int(n_gt[k]), gt_masks, predictions, width, height, lane_width)
+            n_pred[m, k] = result.n_pred
+            ious[m].append(result.matched_iou)
+    matched = np.array([np.concatenate(parts) if parts else np.zeros(0) for parts in ious], np.float64)
+    kept = truth_cache.from_frames(drawn) if keep_truth and cached is None else None
+    return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum())), kept
+
+
+def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds, tuple[str, ...]]:
+    """The grid and the thresholds the summary singles out (0.50 and 0.75 when in the grid)."""
+    if preset is not None:
+        if preset not in SCORE_PRESETS:
+            raise ConfigError(f"unknown preset {preset!r}; choose from {', '.join(SCORE_PRESETS)}")
+        if iou is not None and parse_thresholds(str(iou)) != parse_thresholds(SCORE_PRESETS[preset].iou):
+            raise ConfigError(f"--preset {preset} is IoU {SCORE_PRESETS[preset].iou}; it contradicts --iou {iou}")
+        thresholds = parse_thresholds(SCORE_PRESETS[preset].iou)
+        return thresholds, SCORE_PRESETS[preset].highlighted
+    thresholds = parse_thresholds(str(0.5 if iou is None else iou))
+    highlighted = tuple(label for label in thresholds.labels if label in HIGHLIGHTS)
+    return thresholds, highlighted or thresholds.labels[:1]
+
+
+def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
+                 iou: str | float | None = None, width: int = 30, out: str | Path | None = None,
+                 workers: int | None = None, progress: bool = False,
+                 announce: Callable[[str], None] | None = None, preset: str | None = None,
+                 strict: bool = False, shard: str | None = None) -> CulaneScore | None:
+    """Score `.lines.txt` predictions with the official CULane protocol, every method in one pass.
+
+    `pred_root`: a folder mirroring the list, a folder of such folders (one per method), or
+    several ('NAME=DIR' names one); a glob pattern, or sweeps.roots_from_file's roots, are
+    checkpoints, named by what tells their paths apart, whose sweep is written too. `iou`: one
+    threshold (default 0.5) or a grid scored in one pass ('0.50:0.95:0.05'); `preset='clrnet'`
+    is that grid with F1@50/F1@75/mF1.
+    A missing prediction file means no lanes (`strict`: an error). `out` gets official.csv,
+    summary.csv and summary.md; with `shard` ('I/N', see roneld_eval.shards) only that share
+    of the clips is scored and `out` gets its part for `merge` (None is returned).
+    """
+    from ...shards import parse_shard, shard_range
+
+    from ...sweeps import expand_roots, is_sweep
+
+    thresholds, highlighted = _thresholds(iou, preset)
+    check_lane_width(width)
+    share = parse_shard(shard) if shard is not None else None
+    if not isinstance(pred_root, Mapping):  # glob patterns: one checkpoint per folder matched
+        pred_root = expand_roots([pred_root] if isinstance(pred_root, (str, Path)) else list(pred_root))
+    sweep = not isinstance(pred_root, Mapping) and is_sweep(pred_root)
+    if share is not None and out is None:
+        raise ConfigError("--shard writes a partial result for `roneld-eval merge`: give --out")
+    with _taking(out, "score culane", reads=(data_root, list_file)) as folder:
+        dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
+        relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
+        # every shard finds the methods over the whole list: the same trees (and counts) in every part
+        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
+        if share is not None:
+            cut = shard_range([len(c.frames) for c in dataset.clips], share)
+            clips = dataset.clips[cut.start:cut.stop]
+            scored_relpaths = [frame.relpath for clip in clips for frame in clip.frames]
+        else:
+            scored_relpaths = relpaths
+        say = announce or (lambda message: None)
+        key = truth_cache.truth_key(dataset.root, scored_relpaths, dataset.image_width, dataset.image_height,
+                                    width, labels_path) if truth_cache.enabled() else None
+        truth = None if key is None else truth_cache.load(key, len(scored_relpaths), dataset.image_width,
+                                                           dataset.image_height, say)
+        kept: list[TruthRuns] | None = [] if key is not None and truth is None else None
+        pieces = _culane_pieces(scored_relpaths, dataset, trees, width, workers, progress, announce, truth, kept)
+        if share is not None:
+            assert folder is not None
+            joined = _joined(pieces, len(trees))
+            _keep_truth(key, kept, say)
+            _write_culane_part(folder, share, joined, dataset, relpaths, trees, warnings, iou, preset, width, strict,
+                               sweep)
+            return None
+        score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings,
+                              _culane_ground_truth(relpaths, dataset.categories), sweep)
+        _keep_truth(key, kept, say)
+        if folder is not None:
+            write_culane_score(folder, score, width)
+    return score
+
+
+def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int | None, progress: bool,
+                   announce, truth: Path | None = None, kept: list[TruthRuns] | None = None) -> Iterator[ScoredFrames]:
+    """Every method's frame results on these frames, chunk after chunk, in their order. `truth`:
+    a checked entry of the ground-truth cache holding these frames; else, with `kept` given, the
+    ground truth as drawn is appended to it chunk by chunk."""
+    image_width, image_height = dataset.image_width, dataset.image_height
+    roots = tuple(tree.root for tree in trees)
+    chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
+    tasks = [(chunk, dataset.root, roots, image_width, image_height, width,
+              None if truth is None else (str(truth), i * CHUNK_FRAMES), kept is not None)
+             for i, chunk in enumerate(chunks)]
+    if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
+        from ...workers import worker_count
+
+        workers = min(worker_count(workers), len(chunks))
+    else:
+        workers = 1
+    from ... import kernels
+
+    kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
+    if workers == 1:
+        kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
+    from ...progress import progress_bar
+
+    with progress_bar(len(relpaths), "frame", "scoring", wanted=progress) as bar:
+        if workers > 1:
+            from ...workers import process_pool, stopping
+
+            died = "a worker process died (killed, or out of memory) while scoring: no result was written"
+            with stopping(process_pool(workers), lambda: died) as pool:
+                for chunk, piece in zip(chunks, pool.map(_score_frames, tasks)):
+                    bar.update(len(chunk))
+                    yield _piece(chunk, piece, kept)
+        else:
+            for chunk, task in zip(chunks, tasks):
+                piece = _score_frames(task)
+                bar.update(len(chunk))
+                yield _piece(chunk, piece, kept)
+    check_still_there(trees)  # before the last piece is taken in: nothing is written yet
+
+
+def _piece(chunk: list[str], piece: tuple, kept: list[TruthRuns] | None) -> ScoredFrames:
+    n_gt, n_pred, matched, truth = piece
+    if kept is not None and truth is not None:
+        kept.append(truth)
+    return ScoredFrames(tuple(chunk), n_gt, n_pred, matched)
+
+
+def _keep_truth(key: str | None, kept: list[TruthRuns] | None, say: Callable[[str], None]) -> None:
+    """The ground truth drawn by this command, cached for the next ones (when it was not already)."""
+    if key is not None and kept is not None:
+        truth_cache.save(key, truth_cache.joined(kept), say)
+
+
+def _joined(pieces: Iterable[ScoredFrames], n_methods: int) -> ScoredFrames:
+    """The pieces as one, frames in order (a shard keeps every frame's numbers in its part)."""
+    pieces = list(pieces)
+    return ScoredFrames(
+        tuple(frame for piece in pieces for frame in piece.frames),
+        np.concatenate([p.n_gt for p in pieces]) if pieces else np.zeros(0, np.int64),
+        np.concatenate([p.n_pred for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0), np.int64),
+        np.concatenate([p.matched_iou for p in pieces], axis=1) if pieces else np.zeros((n_methods, 0)),
+    )
+
+
+def _culane_score(pieces: Iterable[ScoredFrames], categories, thresholds: Thresholds, highlighted, trees,
+                  n_frames: int, warnings, ground_truth: str, sweep: bool) -> CulaneScore:
+    """The tables from the frames' results, each piece added up and let go as it comes: every
+    method's numbers in memory at once are counts, not per-frame IoUs."""
+    methods = [tree.method for tree in trees]
+    counts = GroupCounts.zeros(len(methods), len(categories) + 1, thresholds.values)
+    for piece in pieces:
+        counts.add(piece, categories)
+    official = counts.records(methods, list(categories), thresholds.labels)
+    summary_columns, summary = summary_records(official, highlighted, thresholds.labels)
+    return CulaneScore(PlainTable(OFFICIAL_COLUMNS, tuple(official)),
+                       PlainTable(tuple(summary_columns), tuple(summary)),
+                       thresholds, highlighted, tuple(trees), n_frames, tuple(warnings), ground_truth, sweep)
+
+
+def write_culane_score(folder: OutputFolder, score: CulaneScore, width: int) -> None:
+    """official.csv, summary.csv, summary.md; for a sweep of several checkpoints sweep.csv, sweep.json
+    and sweep.png."""
+    staging = Staging(folder)
+    staging.write_text("official.csv", score.official_rows.to_csv())
+    staging.write_text("summary.csv", score.summary_rows.to_csv())
+    staging.write_text("summary.md", summary_markdown(score, width))
+    if score.sweep and len(score.trees) > 1:
+        from ...sweeps import plot_sweep
+
+        table, best = culane_sweep(score)
+        staging.write_text("sweep.csv", table.to_csv())
+        staging.write_text("sweep.json", sweep_record("score culane", score.ground_truth, score.n_frames, width,
+                                                      score.thresholds.labels, table.columns[2:-1], best))
+        plot_sweep(table, staging.file("sweep.png"), f"CULane, all frames: {len(score.trees)} methods, "
+                                                      f"IoU {grid_text(score.thresholds)}")
+    folder.commit()
+
+
+def sweep_record(command: str, ground_truth: str, n_frames: int, width: int, thresholds: Sequence[str],
+                 columns: Sequence[str], best: str | None) -> str:
+    """sweep.json: what a sweep was scored on and how, for `compare` to check sweeps against
+    each other (their sweep.csv alone names no frames)."""
+    import json
+
+    from ...sweeps import SWEEP_FORMAT
+    from ...version import __version__
+
+    return json.dumps({"format": SWEEP_FORMAT, "command": command, "version": __version__, "frames": n_frames,
+                       "ground_truth": ground_truth, "width": width, "thresholds": list(thresholds),
+                       "columns": list(columns), "best": best}, indent=1) + "\n"
+
+
+def culane_sweep(score: CulaneScore):
+    """(sweep.csv's table, the best method): each method's headline F1s over all frames."""
+    from ...sweeps import sweep_table
+
+    columns = score.summary_rows.columns[2:]
+    values = {row[0]: row[2:] for row in score.summary_rows.rows if row[1] == "all"}
+    return sweep_table(score.methods, columns, values)
+
+
+def _culane_ground_truth(relpaths: Sequence[str], categories: Mapping[str, frozenset[str]]) -> str:
+    """What the parts of one command share: the list's frames in order and each category's frames
+    among them (what merge checks the parts' frames against)."""
+    from ...shards import digest
+
+    listed = set(relpaths)
+    return digest({"frames": list(relpaths),
+                   "categories": [[name, sorted(members & listed)] for name, members in categories.items()]})
+
+
+def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, dataset, relpaths, trees, warnings,
+                       iou, preset, width: int, strict: bool, sweep: bool) -> None:
+    from ...shards import PART_FORMAT, PART_VERSION, write_part
+    from ...version import __version__
+
+    from ...shards import digest, files_fingerprint, predictions_fingerprint
+
+    listed = _culane_ground_truth(relpaths, dataset.categories)
+    labels = files_fingerprint([labels_path(dataset.root, relpath) for relpath in relpaths])
+    manifest = {
+        "format": PART_FORMAT, "format_version": PART_VERSION, "command": "score culane", "version": __version__,
+        "shard": [share.index, share.count],
+        "settings": {"iou": None if iou is None else str(iou), "preset": preset, "width": width, "strict": strict,
+                     "sweep": sweep,
+                     "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees],
+                     "categories": list(dataset.categories), "frames": len(relpaths)},
+        # the list and categories (what merge checks the parts' frames against) and the label files
+        # (path, size, modification time: what the parts must agree on)
+        "ground_truth": digest({"list": listed, "labels": labels}), "list": listed,
+        "warnings": list(warnings),
+        "scored_frames": len(scored.frames),
+        "predictions": predictions_fingerprint(trees, _files_of(trees), scored.frames),
+    }
+    arrays = {"frames": np.array(scored.frames, dtype=str) if scored.frames else np.zeros(0, "<U1"),
+              "n_gt": scored.n_gt, "n_pred": scored.n_pred, "matched_iou": scored.matched_iou}
+    for k, members in enumerate(dataset.categories.values()):
+        arrays[f"category_{k}"] = np.array([frame in members for frame in scored.frames], bool)
+    staging = Staging(folder)
+    write_part(staging, manifest, arrays)
+    folder.commit()
+
+
+def _files_of(trees: Sequence[PredictionTree]) -> Callable[[int, str], tuple[Path]]:
+    """A frame's prediction file in each tree (what a part fingerprints)."""
+    return lambda m, relpath: (labels_path(trees[m].root, relpath),)
+
+
+def _culane_part_settings(part) -> dict:
+    """A `score culane` part's settings, each field's type checked (an untrusted file)."""
+    from ...config import MAX_LINE_THICKNESS
+    from ...shards import MANIFEST_NAME
+
+    settings, warnings = part.manifest["settings"], part.manifest.get("warnings")
+
+    def texts(value) -> bool:
+        return isinstance(value, list) and all(isinstance(v, str) for v in value)
+
+    def count(value) -> bool:
+        return type(value) is int and value >= 0
+
+    good = (isinstance(settings, dict)
+            and set(settings) == {"iou", "preset", "width", "strict", "sweep", "trees", "categories", "frames"}
+            and (settings["iou"] is None or isinstance(settings["iou"], str))
+            and settings["preset"] in (None, *SCORE_PRESETS)
+            and type(settings["width"]) is int and 2 <= settings["width"] <= MAX_LINE_THICKNESS
+            and isinstance(settings["strict"], bool) and isinstance(settings["sweep"], bool)
+            and texts(settings["categories"]) and count(settings["frames"])
+            and isinstance(settings["trees"], list) and texts(warnings)
+            and all(isinstance(t, list) and len(t) == 4 and isinstance(t[0], str) and isinstance(t[1], str)
+                    and count(t[2]) and count(t[3]) for t in settings["trees"]))
+    if good:
+        methods = [t[0] for t in settings["trees"]]
+        good = (len(set(methods)) == len(methods) and settings["frames"] < 1 << 31
+                and all(t[2] <= t[3] == settings["frames"] for t in settings["trees"]))
+    if not good:
+        raise InputError(part.path / MANIFEST_NAME, "its settings are not those `score culane --shard` writes")
+    return settings
+
+
+def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
+    """The files one unsharded `score culane` writes, from its shards' parts (checked together)."""
+    from ...shards import check_part_arrays, check_predictions
+
+    first = parts[0].manifest
+    settings = _culane_part_settings(parts[0])
+    thresholds, highlighted = _thresholds(settings["iou"], settings["preset"])
+    trees = tuple(PredictionTree(method, Path(root), found, listed)
+                  for method, root, found, listed in settings["trees"])
+    names = settings["categories"]
+    frames: list[str] = []
+    n_gt, n_pred, matched = [], [], []
+    members: list[list[str]] = [[] for _ in names]
+    for part in parts:
+        arrays = check_part_arrays(part, len(trees), len(names))
+        part_frames = [str(v) for v in arrays["frames"].tolist()]
+        # a merge that does not find the trees where the parts say (merged elsewhere) cannot check them
+        check_predictions(part.path, part.manifest.get("predictions"), trees, _files_of(trees), part_frames,
+                          present_only=True)
+        frames += part_frames
+        n_gt.append(arrays["n_gt"])
+        n_pred.append(arrays["n_pred"])
+        matched.append(arrays["matched_iou"])
+        for k in range(len(names)):
+            members[k] += [f for f, inside in zip(part_frames, arrays[f"category_{k}"].tolist()) if inside]
+    categories = {name: frozenset(found) for name, found in zip(names, members)}
+    if _culane_ground_truth(frames, categories) != first.get("list"):
+        raise InputError(parts[-1].path, f"the parts hold {len(frames):,} frames, not the {settings['frames']:,} "
+                                         "frames of the list (and its categories) in order: not one command's shards")
+    scored = ScoredFrames(tuple(frames), np.concatenate(n_gt), np.concatenate(n_pred, axis=1),
+                          np.concatenate(matched, axis=1))
+    score = _culane_score([scored], categories, thresholds, highlighted, trees, settings["frames"], first["warnings"],
+                          first["list"], settings["sweep"])
+    with _taking(out, "score culane") as folder:
+        assert folder is not None
+        write_culane_score(folder, score, settings["width"])
+    return score
+
+
+def grid_text(thresholds: Thresholds) -> str:
+    """'0.50, 0.55, ..., 0.95 (10 thresholds)' or '0.5' for one."""
+    labels = thresholds.labels
+    if len(labels) == 1:
+        return labels[0]
+    shown = ", ".join(labels) if len(labels) <= 4 else f"{labels[0]}, {labels[1]}, ..., {labels[-1]}"
+    return f"{shown} ({len(labels)} thresholds)"
+
+
+def summary_table(score: CulaneScore) -> Table:
+    """The summary as papers print it: F1 in percent, two decimals."""
+    rows = tuple(tuple(str(v) if k < 2 else percent(float(v)) for k, v in enumerate(row))
+                 for row in score.summary_rows.rows)
+    return Table(score.summary_rows.columns, rows)
+
+
+_RATIOS = {"precision": "precision (%)", "recall": "recall (%)", "f1": "F1 (%)"}
+
+
+def first_threshold_table(score: CulaneScore) -> Table:
+    """The counts, and precision, recall and F1 in percent as summary.md and papers print them,
+    at the first threshold, as the console shows them."""
+    first = score.first_rows
+    columns = tuple(_RATIOS.get(column, column) for column in first.columns)
+    rows = tuple(tuple(percent(v) if column in _RATIOS else str(v) for column, v in zip(first.columns, row))
+                 for row in first.rows)
+    return Table(columns, rows)
+
+
+def summary_markdown(score: CulaneScore, width: int) -> str:
+    """summary.md: what was measured, then F1@50, F1@75 and mF1 per method and category."""
+    lines = [
+        "# CULane, official protocol",
+        "",
+        f"SCNN tools/lane_evaluation: lanes drawn {width} px wide at 1640x590, one-to-one matching, a true "
+        f"positive when IoU > threshold. {score.n_frames:,} frames; IoU {grid_text(score.thresholds)}.",
+    ]
+    if len(score.thresholds) > 1:
+        lines.append("mF1 is the mean F1 over those thresholds (CLRNet's mF1 is the grid 0.50:0.95:0.05).")
+    lines += ["F1 in percent. Every count is in official.csv (one row per method, category and threshold).", ""]
+    for tree in score.trees:
+        lines.append(f"- `{tree.method}`: {tree.root} ({tree.found:,} of {tree.listed:,} frames have a file)")
+    lines += ["", summary_table(score).to_markdown()]
+    return "\n".join(lines)
+
+
+__all__ = ["score_culane", "CulaneScore", "SCORE_PRESETS", "highlight_name"]

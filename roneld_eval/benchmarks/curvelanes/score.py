@@ -1,0 +1,146 @@
+"""`score curvelanes`: predicted `.lines.json` files scored as CondLaneNet's lane_metric.py scores
+CurveLanes (aliyun/conditional-lane-detection c57b242; official.py), each image at
+its own size, every method in one pass; at a fixed score threshold and, when a list is given, the
+best F1 over it, labelled as chosen on the test set (as vega's summary reports it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ...errors import ConfigError, InputError
+from ...datasets._paths import under_root
+from .reader import (IMAGE_SUFFIXES, SUFFIX, every_labelled_image, image_size, lanes_path, read_frame,
+                                   read_list)
+
+from .official import f_measure, has_zero_step, hits, iou_matrix
+from ...output import Staging
+from ...score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ...shards import Merged, Sharding
+
+COLUMNS = ("method", "score_threshold", "chosen", "hits", "predicted", "truth", "precision", "recall", "f1")
+CHUNK_FRAMES = 100
+
+
+@dataclass(frozen=True)
+class CurveLanesScore:
+    rows: PlainTable
+    methods: tuple[str, ...]
+    n_frames: int
+    warnings: tuple[str, ...] = ()
+
+
+def _zero_step(path: Path, index: int) -> InputError:
+    return InputError(path, f"lane {index} has two equal consecutive points: CondLaneNet's spline divides by zero "
+                            "there (and its drawing stops on NaN)")
+
+
+def _score_frames(args) -> np.ndarray:
+    """(methods, thresholds, 3): hits, predicted and ground-truth lanes of a chunk of images.
+
+    Each file is read and each lane drawn once; a score threshold keeps a subset of the
+    predictions, whose columns of the one IoU matrix are matched (the same IoUs, in the same
+    order, as drawing the kept lanes alone)."""
+    relpaths, labels, images, pred_roots, thresholds = args
+    counts = np.zeros((len(pred_roots), len(thresholds), 3), np.int64)
+    for relpath in relpaths:
+        width, height = image_size(images, relpath)
+        path = lanes_path(labels, relpath)
+        truth = read_frame(path, True).lanes
+        for index, lane in enumerate(truth):
+            if has_zero_step(lane, width, height):
+                raise _zero_step(path, index)
+        for m, root in enumerate(pred_roots):
+            path = lanes_path(root, relpath)
+            frame = read_frame(path, True)
+            kept = [[k for k, score in enumerate(frame.scores) if score is None or score > threshold]
+                    for threshold in thresholds]
+            used = sorted({k for chosen in kept for k in chosen})
+            for chosen in kept:  # in threshold order, named by its place among the lanes kept
+                for index, k in enumerate(chosen):
+                    if has_zero_step(frame.lanes[k], width, height):
+                        raise _zero_step(path, index)
+            matrix = iou_matrix(truth, [frame.lanes[k] for k in used], width, height) if truth else None
+            column = {k: j for j, k in enumerate(used)}
+            for t, chosen in enumerate(kept):
+                found = 0 if matrix is None or not chosen else hits(matrix[:, [column[k] for k in chosen]])
+                counts[m, t] += (found, len(chosen), len(truth))
+    return counts
+
+
+# The score thresholds vega's shipped lane configuration searches (huawei-noah/vega 0f1d0d0,
+# examples/nas/auto_lane/auto_lane.yml, LaneMetric thresh_list; LaneMetric.summary takes the best):
+# `score curvelanes` reports the best of them unless told another list.
+VEGA_THRESHOLDS = (0.56, 0.60, 0.63, 0.66, 0.70, 0.73, 0.76, 0.80, 0.83, 0.86, 0.90, 0.93)
+
+
+def _each_image(relpath: str) -> str:
+    return relpath  # every image is its own clip
+
+
+def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root: str | Path,
+                     list_file: str | Path | None = None, score_threshold: float = 0.0,
+                     best_of: Sequence[float] = (), out: str | Path | None = None, workers: int | None = None,
+                     progress: bool = False, announce: Callable[[str], None] | None = None,
+                     strict: bool = False, shard: str | None = None,
+                     merged: Merged | None = None) -> CurveLanesScore | None:
+    """Score CurveLanes predictions mirroring `labels`; a lane with a score is kept above the threshold.
+    With `shard` ('I/N'), only that share of the images, written as a part to `out` (None is returned)."""
+    thresholds = [float(score_threshold), *(float(t) for t in best_of if float(t) != float(score_threshold))]
+    if not all(np.isfinite(thresholds)):
+        raise ConfigError("score thresholds must be finite numbers")
+    sharding = Sharding("score curvelanes", shard, out, merged, dict(
+        labels=labels, pred_root=pred_root, image_root=image_root, list_file=list_file,
+        score_threshold=float(score_threshold), best_of=[float(t) for t in best_of], strict=strict))
+    labels, images = Path(labels), Path(image_root)
+    with _taking(out, "score curvelanes", reads=(labels, images, list_file)) as folder:
+        relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels)
+        if not any(lanes_path(labels, relpath).exists() for relpath in relpaths):
+            raise ConfigError(f"no listed image has its labels under {labels} (first looked for: "
+                              f"{lanes_path(labels, relpaths[0])})")
+        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=SUFFIX)
+        # the labels, and the images whose headers give each image's size
+        label_files = [path for relpath in relpaths for path in (
+            lanes_path(labels, relpath), *(under_root(images, relpath + suffix) for suffix in IMAGE_SUFFIXES))]
+
+        def files_of(m: int, relpath: str) -> tuple[Path]:
+            return (lanes_path(trees[m].root, relpath),)
+
+        if merged is not None:
+            sharding.check_merged(relpaths, trees, label_files, _each_image, files_of=files_of)
+            counts = sharding.merged_array("sum_counts", (len(trees), len(thresholds), 3))
+        else:
+            roots = tuple(tree.root for tree in trees)
+            scored = sharding.share(relpaths, _each_image)
+            chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
+            tasks = [(chunk, labels, images, roots, thresholds) for chunk in chunks]
+            counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(),
+                                       unit="image", trees=trees), np.zeros((len(trees), len(thresholds), 3), np.int64))
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
+                                    files_of=files_of)
+                return None
+        rows = []
+        for m, tree in enumerate(trees):
+            rows.append(_row(tree.method, thresholds[0], "fixed", counts[m, 0]))
+            if best_of:
+                listed = [t for t, value in enumerate(thresholds) if value in [float(b) for b in best_of]]
+                best = max(listed, key=lambda t: (f_measure(*counts[m, t])[2], -t))
+                rows.append(_row(tree.method, thresholds[best], "best on the test set", counts[m, best]))
+        score = CurveLanesScore(PlainTable(COLUMNS, tuple(rows)), tuple(t.method for t in trees), len(relpaths),
+                                tuple(warnings))
+        if folder is not None:
+            staging = Staging(folder)
+            staging.write_text("official.csv", score.rows.to_csv())
+            folder.commit()
+    return score
+
+
+def _row(method: str, threshold: float, chosen: str, counts) -> tuple:
+    hits, predicted, truth = (int(v) for v in counts)
+    return (method, threshold, chosen, hits, predicted, truth, *f_measure(hits, predicted, truth))

@@ -1,0 +1,305 @@
+"""`score llamas`: predicted `.lines.txt` files scored as LLAMAS's culane_metric/evaluate.py scores
+them (karstenBehrendt/unsupervised_llamas 9b99f46: datasets.llamas for the labels,
+official.py for the metric), every method and threshold in one pass over the labels.
+Papers print F1 at IoU 0.5 (the script's), at 0.75, and mF1 as CLRNet computes it
+(Turoad/CLRNet 7269e9d, clrnet/utils/llamas_metric.py:230-244 with the thresholds of
+clrnet/datasets/llamas.py:178): F1 / 10 added up over np.linspace(0.5, 0.95, 10), whose ninth
+value is 0.8999999999999999; it is always scored, whatever --iou asks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ...config import check_lane_width
+from .reader import (IMAGE_HEIGHT, IMAGE_WIDTH, every_label, label_of, map_path, marker_lanes,
+                               prediction_path, read_record)
+from ...errors import ConfigError, InputError
+from ...lanes_io import check_coordinates, read_lines_txt
+from ...maps.scnn_png import read_grey_png
+from .official import f1_of, frame_counts, interpolated, lane_mask
+from .segmentation import CLASSES, IMAGE_HEIGHT as MAP_HEIGHT, IMAGE_WIDTH as MAP_WIDTH, approx_auc
+from .segmentation import class_masks, mean_curves, ClassCurve
+from ...output import Staging
+from ...report.tables import Table
+from ...score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
+from ...shards import Merged, Sharding
+from ...thresholds import Thresholds, parse_thresholds
+
+DEFAULT_IOU = "0.50:0.95:0.05"  # mF1's grid; 0.5 is the script's own threshold
+LANE_WIDTH = 30  # evaluate.py --width default
+COLUMNS = ("method", "threshold", "tp", "fp", "fn", "precision", "recall", "f1")
+AP_COLUMNS = ("ap_l1", "ap_l0", "ap_r0", "ap_r1", "ap_mean")
+CHUNK_FRAMES = 200
+MF1_THRESHOLDS = tuple(np.linspace(0.5, 0.95, 10).tolist())
+
+
+@dataclass(frozen=True)
+class LlamasScore:
+    rows: PlainTable
+    thresholds: Thresholds
+    methods: tuple[str, ...]
+    n_frames: int
+    stopping: dict  # where the script stops: "labels" (lanes add_ys refuses), per method "lanes" splprep refuses
+    mf1s: dict  # method -> CLRNet's mF1
+    warnings: tuple[str, ...] = ()
+    # method -> per class l1, l0, r0, r1 the mean ClassCurve (recall, precision, threshold, AUC) of
+    # its probability maps, as evaluate_segmentation.py prints them; methods given maps only
+    segmentation: dict = dataclasses.field(default_factory=dict)
+
+    def ap(self, method: str, name: str) -> float:
+        """AP of a class (l1, l0, r0, r1), or 'mean' over the four; NaN for a method without maps."""
+        return _ap_values(self.segmentation.get(method))[(*CLASSES, "mean").index(name)]
+
+    def f1(self, method: str, label: str) -> float:
+        """F1 at a threshold; NaN for a method given maps only."""
+        return next((row[7] for row in self.rows.rows if row[0] == method and row[1] == label), math.nan)
+
+    def mf1(self, method: str) -> float:
+        return self.mf1s.get(method, math.nan)
+
+
+def _ap_values(curves) -> tuple[float, ...]:
+    """AP of l1, l0, r0, r1 and their mean (ours: the script prints the classes); NaN without maps."""
+    if curves is None:
+        return (math.nan,) * (len(CLASSES) + 1)
+    aps = tuple(curve.auc for curve in curves)
+    return (*aps, sum(aps) / len(aps))
+
+
+def _predicted(path: Path, width: int) -> tuple[list, int]:
+    """load_prediction then interpolate_lane: masks of the lanes of two points or more, and how
+    many of them splprep refuses (where the script stops; here they are left out)."""
+    masks, refused = [], 0
+    lanes = read_lines_txt(path)  # a missing file: no lanes (the script stops: FileNotFoundError)
+    check_coordinates(lanes, path)  # as every reader of predicted lanes: 1e308 overflowed the drawing
+    for lane in lanes:
+        if len(lane.points) < 2:
+            continue
+        samples = interpolated(lane)
+        if samples is None:
+            refused += 1
+            continue
+        masks.append(lane_mask(samples, IMAGE_WIDTH, IMAGE_HEIGHT, width))
+    return masks, refused
+
+
+def _class_curves(root: Path, key: str, masks: np.ndarray) -> list[ClassCurve]:
+    """single_threaded_multi_eval_single_image for classes 1..4: each map against its class."""
+    curves = []
+    for c, truth in enumerate(masks, start=1):
+        path = map_path(root, key, c)
+        values = read_grey_png(path)  # the script stops on a missing map (imread gives None)
+        if values.shape != (MAP_HEIGHT, MAP_WIDTH):
+            raise InputError(path, f"a {values.shape[1]}x{values.shape[0]} map: LLAMAS's labels are "
+                                   f"{MAP_WIDTH}x{MAP_HEIGHT}")
+        curves.append(approx_auc(values, truth))
+    return curves
+
+
+def _segmentation_label(record, path: Path) -> np.ndarray:
+    projection, lanes = marker_lanes(record, path)
+    try:
+        return class_masks(projection, lanes)
+    except KeyError as missing:  # dataset_constants.DICT_COLORS has l0..l7 and r0..r8 only
+        raise InputError(path, f"lane {missing} has no colour in LLAMAS's segmentation labels "
+                               "(l0..l7, r0..r8), where evaluate_segmentation.py stops") from None
+
+
+def _score_frames(args):
+    keys, labels, pred_roots, thresholds, width, map_roots = args
+    counts = np.zeros((len(pred_roots), len(thresholds), 3), np.int64)
+    dropped, refused = 0, np.zeros(len(pred_roots), np.int64)
+    curves: list[list[list[ClassCurve]]] = [[] for _ in map_roots]  # per method, per frame, per class
+    for key in keys:
+        record = read_record(labels[key])
+        if pred_roots:
+            label = label_of(record, labels[key])
+            dropped += label.dropped_above
+            truth = [lane_mask(lane.points, IMAGE_WIDTH, IMAGE_HEIGHT, width) for lane in label.lanes]
+            for m, root in enumerate(pred_roots):
+                predicted, stopped = _predicted(prediction_path(root, key), width)
+                refused[m] += stopped
+                counts[m] += frame_counts(truth, predicted, thresholds)
+        if map_roots:
+            masks = _segmentation_label(record, labels[key])
+            for m, root in enumerate(map_roots):
+                curves[m].append(_class_curves(root, key, masks))
+    return counts, dropped, refused, curves
+
+
+def _recording(key: str) -> str:
+    return key.split("/")[0]  # a recording is a clip
+
+
+def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str | None = None,
+                 width: int = LANE_WIDTH, out: str | Path | None = None, workers: int | None = None,
+                 progress: bool = False, announce: Callable[[str], None] | None = None, strict: bool = False,
+                 maps: PredictionRoots = (), shard: str | None = None,
+                 merged: Merged | None = None) -> LlamasScore | None:
+    """Score `.lines.txt` predictions (`<recording>/<frame>.lines.txt`, `pred_root`) for F1 and
+    probability maps (`<recording>/<frame>.json_<c>.png`, `maps`) for AP against every label below
+    `labels` (one split's folder of `<recording>/<frame>.json`). With `shard` ('I/N'), only that
+    share of the recordings, written as a part to `out` (None is returned)."""
+    thresholds = parse_thresholds(iou or DEFAULT_IOU)
+    check_lane_width(width)
+    if not _given(pred_root) and not _given(maps):
+        raise ConfigError("nothing to score: give --pred-root (lane files, for F1) or --maps (probability "
+                          "maps, for AP), or both")
+    sharding = Sharding("score llamas", shard, out, merged, dict(
+        labels=labels, pred_root=pred_root, iou=iou, width=width, strict=strict, maps=maps))
+    with _taking(out, "score llamas", reads=(labels,)) as folder:
+        found = every_label(Path(labels))
+        keys = list(found)
+        trees, warnings = (find_prediction_trees(pred_root, keys, strict, announce, suffix=".lines.txt")
+                           if _given(pred_root) else ([], []))
+        map_trees = _map_trees(maps, keys, announce) if _given(maps) else []
+        scored_at = tuple(thresholds.values) + MF1_THRESHOLDS
+        files_of = _files_of(trees, map_trees)
+        if merged is not None:
+            sharding.check_merged(keys, [*trees, *map_trees], list(found.values()), _recording, files_of=files_of)
+            counts = sharding.merged_array("sum_counts", (len(trees), len(scored_at), 3))
+            dropped = int(sharding.merged_array("sum_dropped", (1,))[0])
+            refused = sharding.merged_array("sum_refused", (len(trees),))
+            curves = sharding.merged_array("cat_curves", (len(keys) if map_trees else 0, len(map_trees),
+                                                          len(CLASSES), 4), kind="f", within=(0.0, 1.0))
+        else:
+            roots = tuple(tree.root for tree in trees)
+            map_roots = tuple(tree.root for tree in map_trees)
+            scored = sharding.share(keys, _recording)
+            chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
+            tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width, map_roots)
+                     for chunk in chunks]
+            pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(),
+                                   trees=[*trees, *map_trees])
+            counts = sum((piece[0] for piece in pieces), np.zeros((len(trees), len(scored_at), 3), np.int64))
+            dropped = int(sum(piece[1] for piece in pieces))
+            refused = sum((piece[2] for piece in pieces), np.zeros(len(trees), np.int64))
+            # (frames, map methods, classes, recall/precision/threshold/AUC), the frames in key order
+            per_frame = [[[(c.recall, c.precision, c.threshold, c.auc) for c in piece[3][m][f]]
+                          for m in range(len(map_trees))]
+                         for piece in pieces for f in range(len(piece[3][0]) if map_trees else 0)]
+            curves = np.array(per_frame, np.float64).reshape(len(per_frame), len(map_trees), len(CLASSES), 4)
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, keys, [*trees, *map_trees], list(found.values()), scored, {
+                    "sum_counts": counts, "sum_dropped": np.array([dropped], np.int64), "sum_refused": refused,
+                    "cat_curves": curves}, files_of=files_of)
+                return None
+        segmentation = {}
+        for m, tree in enumerate(map_trees):  # the frames in key order: the mean summed as evaluate_set sums it
+            segmentation[tree.method] = tuple(mean_curves([ClassCurve(*(float(v) for v in curves[f, m, c]))
+                                                           for f in range(len(curves))])
+                                              for c in range(len(CLASSES)))
+        rows, mf1s = [], {}
+        for m, tree in enumerate(trees):
+            ap = _ap_values(segmentation.get(tree.method))
+            for t, label in enumerate(thresholds.labels):
+                tp, fp, fn = (int(v) for v in counts[m, t])
+                rows.append((tree.method, label, tp, fp, fn, *f1_of(tp, fp, fn), *ap))
+            mean = 0.0
+            for t in range(len(thresholds.values), len(scored_at)):  # llamas_metric.py: mean_f1 += f1 / 10
+                mean += f1_of(*(int(v) for v in counts[m, t]))[2] / len(MF1_THRESHOLDS)
+            mf1s[tree.method] = mean
+        methods = tuple(dict.fromkeys([tree.method for tree in trees] + [tree.method for tree in map_trees]))
+        for method in methods:
+            if method not in mf1s:  # maps only: one row, of AP
+                rows.append((method, "", None, None, None, math.nan, math.nan, math.nan,
+                             *_ap_values(segmentation[method])))
+        stopping = {"labels": int(dropped), **{tree.method: int(refused[m]) for m, tree in enumerate(trees)}}
+        if dropped:
+            warnings.append(f"warning: {dropped} labelled lanes have their valid points above row 300 only, where "
+                            "evaluate.py stops (add_ys' assert): left out")
+        for tree in trees:
+            if stopping[tree.method]:
+                warnings.append(f"warning: {tree.method}: {stopping[tree.method]} lanes that scipy's splprep "
+                                "refuses, where evaluate.py stops: left out")
+        score = LlamasScore(PlainTable(COLUMNS + AP_COLUMNS, tuple(rows)), thresholds, methods, len(keys), stopping,
+                            mf1s, tuple(warnings), segmentation)
+        if folder is not None:
+            staging = Staging(folder)
+            staging.write_text("official.csv", score.rows.to_csv())
+            staging.write_text("summary.csv", summary_rows(score).to_csv())
+            staging.write_text("summary.md", summary_markdown(score, width))
+            folder.commit()
+    return score
+
+
+def _given(roots: PredictionRoots) -> bool:
+    return isinstance(roots, (str, Path)) or bool(roots)
+
+
+def _files_of(trees: list, map_trees: list):
+    """The files a frame is read from in each of the trees, then each of the map trees."""
+    def files_of(m: int, key: str) -> list[Path]:
+        if m < len(trees):
+            return [prediction_path(trees[m].root, key)]
+        return [map_path(map_trees[m - len(trees)].root, key, c) for c in range(1, len(CLASSES) + 1)]
+
+    return files_of
+
+
+def _map_trees(maps: PredictionRoots, keys: list[str], announce) -> list:
+    """The probability-map trees, each holding every label's maps (evaluate_segmentation.py stops
+    at the first missing one)."""
+    trees, _ = find_prediction_trees(maps, keys, False, announce, suffix=".json_1.png", option="--maps")
+    for tree in trees:
+        if tree.found < tree.listed:
+            first = next(map_path(tree.root, key, 1) for key in keys if not map_path(tree.root, key, 1).exists())
+            raise InputError(tree.root, f"{tree.listed - tree.found:,} of {tree.listed:,} labels have no probability "
+                                        f"maps (first: {first}); the AP needs every label's <frame>.json_1..4.png")
+    return trees
+
+
+def _headline(score: LlamasScore) -> list[tuple[str, str, Callable[[str], float]]]:
+    """(printed name, summary.csv column, value of a method) of each headline number: F1 at 0.5 and
+    0.75 and mF1 where lane files were scored, AP per class and its mean where maps were."""
+    labels = dict(zip((round(v, 2) for v in score.thresholds.values), score.thresholds.labels))
+    out: list[tuple[str, str, Callable[[str], float]]] = []
+    if score.mf1s:
+        for value in (0.5, 0.75):
+            if value in labels:
+                name = f"F1@{labels[value]}"
+                out.append((name, name.lower(), functools.partial(score.f1, label=labels[value])))
+        out.append(("mF1", "mf1", score.mf1))
+    if score.segmentation:
+        for name in (*CLASSES, "mean"):
+            out.append((f"AP {name}", f"ap_{name}", functools.partial(score.ap, name=name)))
+    return out
+
+
+def summary_rows(score: LlamasScore) -> PlainTable:
+    heads = _headline(score)
+    columns = ("method", *(column for _, column, _ in heads))
+    return PlainTable(columns, tuple((method, *(f(method) for _, _, f in heads)) for method in score.methods))
+
+
+def summary_table(score: LlamasScore) -> Table:
+    """summary.csv in percent, as papers print it."""
+    heads = [name for name, _, _ in _headline(score)]
+    rows = tuple((row[0], *(percent(value) for value in row[1:])) for row in summary_rows(score).rows)
+    return Table(("method", *(f"{name} (%)" for name in heads)), rows)
+
+
+def summary_markdown(score: LlamasScore, width: int) -> str:
+    return (f"# LLAMAS, official protocol\n\n{score.n_frames:,} labels on a {IMAGE_WIDTH}x{IMAGE_HEIGHT} canvas, lanes "
+            f"{width} px wide, a match counts when IoU > the threshold (unsupervised_llamas "
+            "culane_metric/evaluate.py, 9b99f46, its official discrete IoU): the labels' four lanes l1, l0, r0, r1 "
+            "from its spline_creator over rows 300..716, predictions through splprep at 50 samples. mF1: CLRNet's "
+            "(llamas_metric.py, 7269e9d), F1 / 10 summed over np.linspace(0.5, 0.95, 10). official.csv gives every "
+            "threshold.\n\n"
+            + (AP_NOTE if score.segmentation else "")
+            + summary_table(score).to_markdown())
+
+
+AP_NOTE = ("AP: the probability maps <frame>.json_<c>.png of classes l1, l0, r0, r1 against the label's markers "
+           "drawn per class, over 101 thresholds, averaged over the labels (unsupervised_llamas "
+           "evaluation/evaluate_segmentation.py --multi_class, 9b99f46); 'AP mean' is the mean of the four "
+           "classes (ours: the script prints each class).\n\n")

@@ -1,0 +1,33 @@
+"""OpenLane (Chen et al., ECCV 2022), its 2D lanes: scored from lane JSON files as its lane2d
+evaluator scores them (`score openlane`: score.py)."""
+
+from __future__ import annotations
+
+from ..lane_files_only import LaneFilesOnly
+
+
+class OpenLaneBenchmark(LaneFilesOnly):
+    name = "openlane"
+    display_name = "OpenLane"
+    no_run_reason = ("RONELD's maps and presets are for 4-lane segmentation models, and its frames carry up to "
+                     "some 20 lanes of 14 categories")
+    frames_per_clip = 4  # what `synth` writes a clip
+    image_size = (1920, 1280)
+    kernel_groups = ("official",)
+    official_columns = {"method": "text", "matching": "text", "threshold": "text", "tp": "count", "fp": "count",
+                        "fn": "count", "f1": "optional number"}
+    official_optional: dict[str, str] = {}
+    official_key = ("method", "matching", "threshold")
+
+    def score_command(self):
+        from .cli import score_openlane_command
+
+        return score_openlane_command
+
+    def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
+        from .synth import synth_openlane
+
+        return synth_openlane(out, clips, frames, seed, progress=progress)
+
+
+BENCHMARK = OpenLaneBenchmark()

@@ -1,0 +1,150 @@
+"""`score openlane`: predicted lane JSON files scored as OpenLane's 2D evaluator scores them
+(OpenDriveLab/OpenLane 8a0ce6b, eval/LANE_evaluation/lane2d), both ways it can: lanes matched only
+to lanes of their own category (its default) and matched whatever their category (`-k ARG`, which,
+against its name, turns the category off: src/counter.cpp:93-110). Every threshold and both ways
+in one pass over the ground truth; the IoU is the CULane evaluator's (same spline, drawing and
+matching: metrics.lane_iou_f1), on a 1920x1280 canvas, lanes 30 px wide.
+"""
+
+from __future__ import annotations
+
+import posixpath
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ...config import check_lane_width
+
+from ...thresholds import Thresholds, parse_thresholds
+from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, json_path, read_lanes, read_list, every_labelled_frame
+from ...errors import ConfigError
+from ...metrics.lane_iou_f1 import f_measure, matched_result, official_masks
+from ...output import Staging
+from ...score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ...shards import Merged, Sharding
+
+DEFAULT_IOU = "0.3"  # evaluate.cpp:121 (its help() says 0.4)
+LANE_WIDTH = 30  # evaluate.cpp:120 (its help() says 10)
+MODES = ("same category", "any category")  # the evaluator's default, and with -k
+COLUMNS = ("method", "matching", "threshold", "tp", "fp", "fn", "precision", "recall", "f1")
+CHUNK_FRAMES = 200
+
+
+@dataclass(frozen=True)
+class OpenLaneScore:
+    rows: PlainTable
+    thresholds: Thresholds
+    methods: tuple[str, ...]
+    modes: tuple[str, ...]
+    n_frames: int
+    warnings: tuple[str, ...] = ()
+
+
+def _score_frames(args) -> np.ndarray:
+    """(methods, modes, thresholds, 3): TP, FP, FN of one chunk of frames."""
+    relpaths, labels, pred_roots, width, height, lane_width, modes, thresholds = args
+    counts = np.zeros((len(pred_roots), len(modes), len(thresholds), 3), np.int64)
+    categories_needed = MODES[0] in modes
+    for relpath in relpaths:
+        truth = read_lanes(json_path(labels, relpath), categories_needed)
+        gt_masks = official_masks(truth.lanes, width, height, lane_width) if truth.lanes else None
+        for m, root in enumerate(pred_roots):
+            predicted = read_lanes(json_path(root, relpath), categories_needed)
+            n_gt, n_pred = len(truth.lanes), len(predicted.lanes)
+            if n_gt and n_pred:
+                assert gt_masks is not None
+                similarity = gt_masks.ious(official_masks(predicted.lanes, width, height, lane_width))
+            else:
+                similarity = np.zeros((n_gt, n_pred))
+            for k, mode in enumerate(modes):
+                matrix = similarity
+                if mode == MODES[0] and n_gt and n_pred:
+                    same = np.equal.outer(np.array(truth.categories), np.array(predicted.categories))
+                    matrix = np.where(same, similarity, 0.0)
+                matched = matched_result(matrix).matched_iou
+                for t, threshold in enumerate(thresholds):
+                    tp = int(np.count_nonzero(matched > threshold))
+                    counts[m, k, t] += (tp, n_pred - tp, n_gt - tp)
+    return counts
+
+
+def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
+                   iou: str | None = None, width: int = LANE_WIDTH, modes: tuple[str, ...] = MODES,
+                   out: str | Path | None = None, workers: int | None = None, progress: bool = False,
+                   announce: Callable[[str], None] | None = None, strict: bool = False, shard: str | None = None,
+                   merged: Merged | None = None) -> OpenLaneScore | None:
+    """Score OpenLane JSON predictions mirroring `labels` (`<segment>/<frame>.json`). With `shard`
+    ('I/N'), only that share of the segments, written as a part to `out` (None is returned)."""
+    thresholds = parse_thresholds(iou or DEFAULT_IOU)
+    check_lane_width(width)
+    modes = tuple(modes)
+    if not modes or any(mode not in MODES for mode in modes) or len(set(modes)) != len(modes):
+        raise ConfigError(f"matching must be among {', '.join(MODES)}")
+    sharding = Sharding("score openlane", shard, out, merged, dict(
+        labels=labels, pred_root=pred_root, list_file=list_file, iou=iou, width=width, modes=modes, strict=strict))
+    labels = Path(labels)
+    with _taking(out, "score openlane", reads=(labels, list_file)) as folder:
+        relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_frame(labels)
+        if not any(json_path(labels, relpath).exists() for relpath in relpaths):
+            raise ConfigError(f"no listed image has its annotation under {labels} (first looked for: "
+                              f"{json_path(labels, relpaths[0])})")
+        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
+        label_files = [json_path(labels, relpath) for relpath in relpaths]
+
+        def files_of(m: int, relpath: str) -> tuple[Path]:
+            return (json_path(trees[m].root, relpath),)
+
+        if merged is not None:
+            sharding.check_merged(relpaths, trees, label_files, posixpath.dirname, files_of=files_of)
+            counts = sharding.merged_array("sum_counts", (len(trees), len(modes), len(thresholds.values), 3))
+        else:
+            roots = tuple(tree.root for tree in trees)
+            scored = sharding.share(relpaths, posixpath.dirname)  # a segment is a clip
+            chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
+            tasks = [(chunk, labels, roots, IMAGE_WIDTH, IMAGE_HEIGHT, width, modes, thresholds.values)
+                     for chunk in chunks]
+            counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, trees=trees),
+                         np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
+                                    files_of=files_of)
+                return None
+        rows = []
+        for m, tree in enumerate(trees):
+            for k, mode in enumerate(modes):
+                for t, label in enumerate(thresholds.labels):
+                    tp, fp, fn = (int(v) for v in counts[m, k, t])
+                    rows.append((tree.method, mode, label, tp, fp, fn, *f_measure(tp, fp, fn)))
+        score = OpenLaneScore(PlainTable(COLUMNS, tuple(rows)), thresholds, tuple(t.method for t in trees), modes,
+                              len(relpaths), tuple(warnings))
+        if folder is not None:
+            staging = Staging(folder)
+            staging.write_text("official.csv", score.rows.to_csv())
+            staging.write_text("summary.md", summary_markdown(score, width))
+            folder.commit()
+    return score
+
+
+def summary_table(score: OpenLaneScore) -> str:
+    head = [f"F1@{label} {mode} (%)" for mode in score.modes for label in score.thresholds.labels]
+    lines = ["| method | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
+    rows = {(r[0], r[1], r[2]): r for r in score.rows.rows}
+    for method in score.methods:
+        cells = []
+        for mode in score.modes:
+            for label in score.thresholds.labels:
+                f1 = rows[(method, mode, label)][8]
+                cells.append("n/a" if f1 != f1 else f"{100 * f1:.2f}")
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def summary_markdown(score: OpenLaneScore, width: int) -> str:
+    return (f"# OpenLane 2D, official protocol\n\n{score.n_frames:,} images on a {IMAGE_WIDTH}x{IMAGE_HEIGHT} canvas, "
+            f"lanes {width} px wide, a match counts when IoU > the threshold (OpenLane eval/LANE_evaluation/lane2d, "
+            "8a0ce6b). 'same category': a lane matches only a lane of its own category (the evaluator's default); "
+            "'any category': as with its -k flag. Lanes of fewer than two points are left out.\n\n"
+            + summary_table(score) + "\n")

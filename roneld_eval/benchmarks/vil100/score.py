@@ -1,0 +1,495 @@
+"""`score vil100`: predicted `.lines.txt` files scored as MMA-Net's evaluation/evaluate_iou.py and
+its modified CULane evaluator score them (yujun0-0/MMA-Net 8f95908), every method in one pass
+over the ground truth, every threshold at once (the C++ tool needs one run per sequence and
+threshold). Sequences are scored at their own size, in parallel.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+from ...config import check_lane_width
+
+from ...thresholds import Thresholds, parse_thresholds
+from .reader import SCENARIOS, labels_path, read_vil100, scenarios_of
+from ...datasets._paths import under_root
+from ...errors import ConfigError, InputError
+from ...model import image_stem
+from ...lanes_io import check_coordinates, check_inside_image, read_lines_txt
+from ...metrics.lane_iou_f1 import FrameMatches, match_frame, f_measure, official_masks
+from .acc import AccFrame, mmanet_frame, rvld_frame
+from .acc import means as acc_means
+from .official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
+from .temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
+from ...output import Staging
+from ...score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
+from ...shards import Merged, Sharding
+
+DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers report both
+LANE_WIDTH = 30  # evaluate_iou.py:22, for every sequence whatever its size
+COLUMNS = ("method", "category", "threshold", "tp", "fp", "fn", "precision", "recall", "f1", "miou", "sequences")
+TEMPORAL_COLUMNS = ("method", "category", "tau", "pairs", "stable", "jump", "missing", "rs", "rj", "rm")
+ACC_COLUMNS = ("method", "category", "version", "frames", "accuracy", "fp", "fn", "stopping_lanes")
+# the two Acc/FP/FN scripts (metrics.vil100_acc), as acc.csv and summary.csv name them
+ACC_VERSIONS = ("mmanet", "rvld")
+
+
+@dataclass(frozen=True)
+class Vil100Score:
+    """Official VIL-100 scores of one or more methods: `rows` as official.csv holds them (per
+    sequence, per scenario, then 'all', at each threshold)."""
+
+    rows: PlainTable
+    temporal_rows: PlainTable | None  # RVLD's Rs, Rj, Rm per sequence and over all, at each threshold as tau
+    thresholds: Thresholds
+    methods: tuple[str, ...]
+    n_frames: int
+    n_sequences: int
+    overall: dict  # (method, threshold label) -> PooledScore
+    temporal_overall: dict  # (method, threshold label) -> TemporalCounts (empty without the temporal metrics)
+    acc_rows: PlainTable | None = None  # Acc/FP/FN per sequence, scenario and all, in both versions
+    acc_overall: dict = field(default_factory=dict)  # (method, version) -> AccMeans; MMA-Net's needs masks
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass
+class ScoredSequence:
+    """One sequence against every method: per method, each frame's matched result and mIoU;
+    with the temporal metrics, the ground truth's links between consecutive frames and, per
+    method, each frame's assigned IoUs (RVLD's own IoU)."""
+
+    frames: list[list[tuple[FrameMatches, float]]]
+    links: list[list[tuple[int, int]]] = field(default_factory=list)
+    assigned: list[list[np.ndarray]] = field(default_factory=list)
+    # per method, each frame's Acc/FP/FN: RVLD's version, and MMA-Net's (None without instance masks)
+    acc: list[list[tuple[AccFrame, AccFrame | None]]] = field(default_factory=list)
+    # frames whose ground truth reaches beyond the sequence's size (a wrong size?); per method,
+    # masks of another size than the sequence's (the script reads them at their own)
+    truth_outside: list[str] = field(default_factory=list)
+    odd_masks: list[list[str]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class SequenceTotals:
+    """A sequence reduced to what the tables need, as arrays a shard's part can hold: per method
+    and threshold TP, FP, FN and RVLD's stable, jump and missing pairs; per method its mIoU; per
+    frame and method each Acc version's accuracy, FP, FN and stopping lanes (means over frames in
+    frame order need the frames); per frame the flags behind the size warnings."""
+
+    counts: np.ndarray  # (methods, thresholds, 3) int64: tp, fp, fn
+    temporal: np.ndarray  # (methods, thresholds, 3) int64: stable, jump, missing (zeros without)
+    miou: np.ndarray  # (methods,) float64, the sequence's mIoU before printing
+    acc: np.ndarray  # (frames, methods, versions, 4) float64
+    truth_outside: np.ndarray  # (frames,) int64: 1 where the ground truth reaches past the size
+    odd_masks: np.ndarray  # (frames, methods) int64: 1 where a mask is of another size
+
+    def sequence_score(self, name: str, m: int, t: int) -> SequenceScore:
+        tp, fp, fn = (int(v) for v in self.counts[m, t])
+        return SequenceScore(name, tp, fp, fn, float(self.miou[m]))
+
+    def temporal_counts(self, m: int, t: int) -> TemporalCounts:
+        return TemporalCounts(*(int(v) for v in self.temporal[m, t]))
+
+    def acc_frames(self, m: int, v: int) -> list[AccFrame]:
+        return [AccFrame(float(a), float(p), float(n), int(k)) for a, p, n, k in self.acc[:, m, v].tolist()]
+
+
+def versions_of(pred_format: str) -> tuple[str, ...]:
+    """The Acc versions a prediction format gives: MMA-Net's reads instance masks only."""
+    return ACC_VERSIONS if pred_format == "png" else ACC_VERSIONS[1:]
+
+
+def sequence_totals(piece: ScoredSequence, relpaths: Sequence[str], thresholds: Thresholds, temporal: bool,
+                    versions: Sequence[str]) -> SequenceTotals:
+    n_methods, n_frames = len(piece.frames), len(relpaths)
+    counts = np.zeros((n_methods, len(thresholds.values), 3), np.int64)
+    temporal_counts = np.zeros_like(counts)
+    miou = np.zeros(n_methods)
+    acc = np.zeros((n_frames, n_methods, len(versions), 4))
+    for m, frames in enumerate(piece.frames):
+        for t, value in enumerate(thresholds.values):
+            score = sequence_score("", [r for r, _ in frames], [v for _, v in frames], value)
+            counts[m, t] = score.tp, score.fp, score.fn
+            miou[m] = score.miou
+            if temporal:
+                found = sequence_counts(piece.links, piece.assigned[m], value)
+                temporal_counts[m, t] = found.stable, found.jump, found.missing
+        for v, version in enumerate(versions):
+            for k, pair in enumerate(piece.acc[m]):
+                frame = pair[ACC_VERSIONS[::-1].index(version)]  # (RVLD's, MMA-Net's)
+                assert frame is not None
+                acc[k, m, v] = frame.accuracy, frame.fp, frame.fn, frame.stopping
+    outside = set(piece.truth_outside)
+    odd = [set(names) for names in piece.odd_masks] or [set()] * n_methods
+    return SequenceTotals(counts, temporal_counts, miou, acc, np.array([r in outside for r in relpaths], np.int64),
+                          np.array([[r in names for names in odd] for r in relpaths], np.int64).reshape(n_frames, -1))
+
+
+PRED_FORMATS = ("lines", "png")  # .lines.txt, or MMA-Net's instance masks (maps.vil100_png)
+_SUFFIXES = {"lines": ".lines.txt", "png": ".png"}
+
+
+def _prediction_path(root: Path, relpath: str, pred_format: str) -> Path:
+    return under_root(root, f"{image_stem(relpath)}{_SUFFIXES[pred_format]}")
+
+
+def _read_predictions(root: Path, relpath: str, pred_format: str):
+    """(lanes, the instance mask's fits and height, or None for lane files)."""
+    path = _prediction_path(root, relpath, pred_format)
+    if pred_format == "png":
+        from .maps_png import read_instance_png
+
+        mask = read_instance_png(path)
+        return mask.lanes, mask
+    predictions = read_lines_txt(path)
+    check_coordinates(predictions, path)
+    return predictions, None
+
+
+def _score_sequence(args) -> ScoredSequence:
+    relpaths, labels, pred_roots, width, height, lane_width, temporal, pred_format = args
+    out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots], [[] for _ in pred_roots], [],
+                         [[] for _ in pred_roots])
+    previous: list | None = None
+    for relpath in relpaths:
+        path = labels_path(labels, relpath)
+        truth = read_lines_txt(path)  # a missing file: no lanes, as the C++ reader ("fail")
+        check_inside_image(truth, path, width, height)
+        if any(((lane.xs > width + 1) | (lane.ys > height + 1)).any() for lane in truth):
+            out.truth_outside.append(relpath)
+        gt_masks = official_masks(truth, width, height, lane_width) if truth else None
+        if temporal:
+            linked = [lane_mask(lane, width, height) for lane in usable(truth)]
+            out.links.append([] if previous is None else links(linked, previous))
+            previous = linked
+        for m, root in enumerate(pred_roots):
+            predictions, mask = _read_predictions(root, relpath, pred_format)
+            if mask is not None and mask.height is not None and (mask.width, mask.height) != (width, height):
+                out.odd_masks[m].append(relpath)
+            result = match_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
+            out.frames[m].append((result, frame_miou(result)))
+            mmanet = None if mask is None else mmanet_frame(mask.fits, truth, mask.height or height)
+            out.acc[m].append((rvld_frame(predictions, truth), mmanet))
+            if temporal:
+                drawn = [lane_mask(lane, width, height) for lane in usable(predictions)]
+                out.assigned[m].append(assigned_ious(linked, drawn))
+    return out
+
+
+def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
+                 image_root: str | Path | None = None, json_root: str | Path | None = None,
+                 sizes_file: str | Path | None = None, iou: str | None = None, width: int = LANE_WIDTH,
+                 out: str | Path | None = None, workers: int | None = None, progress: bool = False,
+                 announce: Callable[[str], None] | None = None, strict: bool = False,
+                 temporal: bool = True, pred_format: str = "lines", shard: str | None = None,
+                 merged: Merged | None = None) -> Vil100Score | None:
+    """Score `.lines.txt` predictions mirroring `labels` (`<sequence>/<frame>.lines.txt`).
+
+    Sizes come from exactly one of `image_root`, `json_root` and `sizes_file`. `iou`: one
+    threshold, a comma list or a grid (default 0.5 and 0.8). `temporal`: also RVLD's Rs, Rj and
+    Rm with each threshold as tau. `pred_format`: "lines" (`.lines.txt`) or "png" (MMA-Net's
+    instance masks `<sequence>/<frame>.png`, converted as its generate_iou_pred_txt.py converts
+    them). `out` gets official.csv, temporal.csv, summary.csv and summary.md. With `shard`
+    ('I/N'), only that share of the sequences, written as a part to `out` (None is returned).
+    """
+    if pred_format not in PRED_FORMATS:
+        raise ConfigError(f"prediction format must be one of {', '.join(PRED_FORMATS)}, got {pred_format!r}")
+    thresholds = parse_thresholds(iou or DEFAULT_IOU)
+    check_lane_width(width)
+    sharding = Sharding("score vil100", shard, out, merged, dict(
+        labels=labels, pred_root=pred_root, list_file=list_file, image_root=image_root, json_root=json_root,
+        sizes_file=sizes_file, iou=iou, width=width, strict=strict, temporal=temporal, pred_format=pred_format),
+        paths=("labels", "list_file", "image_root", "json_root", "sizes_file"))
+    versions = versions_of(pred_format)
+    with _taking(out, "score vil100", reads=(labels, list_file, image_root, json_root, sizes_file)) as folder:
+        dataset = read_vil100(labels, list_file, image_root, json_root, sizes_file)
+        relpaths = [relpath for frames in dataset.sequences.values() for relpath in frames]
+        trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=_SUFFIXES[pred_format])
+        if dataset.unlabelled:
+            first = labels_path(dataset.labels, dataset.unlabelled[0])
+            said = (f"{len(dataset.unlabelled):,} of {len(relpaths):,} listed frames have no ground-truth file "
+                    f"(first: {first})")
+            if strict:
+                raise InputError(dataset.labels, f"{said}; --strict needs every one")
+            # Every VIL-100 test frame has one (40 are empty): a missing one is a wrong list or folder.
+            warnings.insert(0, f"warning: {said}; they count as frames without lanes, as MMA-Net's evaluator "
+                               "reads them")
+        label_files = [labels_path(dataset.labels, relpath) for relpath in relpaths]
+        sizes = {name: list(size) for name, size in dataset.sizes.items()}  # the shards must have read them too
+
+        def files_of(m: int, relpath: str) -> tuple[Path]:
+            return (_prediction_path(trees[m].root, relpath, pred_format),)
+
+        if merged is not None:
+            sharding.check_merged(relpaths, trees, label_files, _sequence_of, sizes, files_of=files_of)
+            totals = _merged_totals(sharding, dataset, len(trees), len(thresholds.values), len(versions))
+        else:
+            share = set(sharding.share(relpaths, _sequence_of))
+            roots = tuple(tree.root for tree in trees)
+            names = [name for name, frames in dataset.sequences.items() if frames[0] in share]
+            tasks = [(dataset.sequences[name], dataset.labels, roots, *dataset.sizes[name], width, temporal,
+                      pred_format) for name in names]
+            # instance masks are mostly decoded by the PNG maps' kernel (maps.vil100_png)
+            groups = ("official", "maps") if pred_format == "png" else ("official",)
+            scored = scored_pieces(_score_sequence, tasks, workers, progress, announce, kernel_groups=groups,
+                                   trees=trees)
+            totals = [sequence_totals(piece, dataset.sequences[name], thresholds, temporal, versions)
+                      for name, piece in zip(names, scored)]
+            if sharding.shard is not None:
+                assert folder is not None
+                sharding.write_part(folder, relpaths, trees, label_files,
+                                    [r for name in names for r in dataset.sequences[name]],
+                                    _part_arrays(totals, len(trees), len(thresholds.values), len(versions)), sizes,
+                                    files_of=files_of)
+                return None
+        warnings += _size_warnings(dataset, totals, trees)
+        methods = tuple(tree.method for tree in trees)
+        names = list(dataset.sequences)
+        rows, overall = official_rows(names, methods, totals, thresholds)
+        temporal_table, temporal_overall = (temporal_rows(names, methods, totals, thresholds) if temporal
+                                            else ([], {}))
+        acc_table, acc_overall = acc_rows(names, methods, totals, versions)
+        score = Vil100Score(PlainTable(COLUMNS, tuple(rows)),
+                            PlainTable(TEMPORAL_COLUMNS, tuple(temporal_table)) if temporal else None,
+                            thresholds, methods, len(relpaths), len(dataset.sequences), overall, temporal_overall,
+                            PlainTable(ACC_COLUMNS, tuple(acc_table)), acc_overall, tuple(warnings))
+        if folder is not None:
+            staging = Staging(folder)
+            staging.write_text("official.csv", score.rows.to_csv())
+            if score.temporal_rows is not None:
+                staging.write_text("temporal.csv", score.temporal_rows.to_csv())
+            assert score.acc_rows is not None
+            staging.write_text("acc.csv", score.acc_rows.to_csv())
+            staging.write_text("summary.csv", summary_rows(score).to_csv())
+            staging.write_text("summary.md", summary_markdown(score, width))
+            folder.commit()
+    return score
+
+
+def _sequence_of(relpath: str) -> str:
+    return relpath.split("/")[0]
+
+
+# A part's arrays: per sequence (counts, temporal, miou) and per frame (acc, flags), in list order.
+_PER_SEQUENCE = ("counts", "temporal", "miou")
+_PER_FRAME = ("acc", "truth_outside", "odd_masks")
+
+
+def _part_arrays(totals: Sequence[SequenceTotals], n_methods: int, n_thresholds: int,
+                 n_versions: int) -> dict[str, np.ndarray]:
+    shapes = {"counts": (n_methods, n_thresholds, 3), "temporal": (n_methods, n_thresholds, 3),
+              "miou": (n_methods,), "acc": (n_methods, n_versions, 4), "truth_outside": (), "odd_masks": (n_methods,)}
+    out = {}
+    for name in (*_PER_SEQUENCE, *_PER_FRAME):
+        arrays = [getattr(piece, name) for piece in totals]
+        dtype = np.float64 if name in ("miou", "acc") else np.int64
+        if name in _PER_SEQUENCE:
+            out[f"cat_{name}"] = np.array(arrays, dtype).reshape(-1, *shapes[name])
+        else:
+            out[f"cat_{name}"] = (np.concatenate(arrays).astype(dtype) if arrays
+                                  else np.zeros((0, *shapes[name]), dtype))
+    return out
+
+
+def _merged_totals(sharding: Sharding, dataset, n_methods: int, n_thresholds: int,
+                   n_versions: int) -> list[SequenceTotals]:
+    """The parts' arrays cut back into sequences, every shape and range checked."""
+    n_sequences, n_frames = len(dataset.sequences), dataset.n_frames
+    counts = sharding.merged_array("cat_counts", (n_sequences, n_methods, n_thresholds, 3), "i", within=(0, 1 << 40))
+    temporal = sharding.merged_array("cat_temporal", (n_sequences, n_methods, n_thresholds, 3), "i",
+                                     within=(0, 1 << 40))
+    miou = sharding.merged_array("cat_miou", (n_sequences, n_methods), "f", within=(0.0, 1.0))
+    acc = sharding.merged_array("cat_acc", (n_frames, n_methods, n_versions, 4), "f", within=(-1e6, 1e6))  # FP < 0
+    outside = sharding.merged_array("cat_truth_outside", (n_frames,), "i", within=(0, 1))
+    odd = sharding.merged_array("cat_odd_masks", (n_frames, n_methods), "i", within=(0, 1))
+    totals, first = [], 0
+    for s, frames in enumerate(dataset.sequences.values()):
+        end = first + len(frames)
+        totals.append(SequenceTotals(counts[s], temporal[s], miou[s], acc[first:end], outside[first:end],
+                                     odd[first:end]))
+        first = end
+    return totals
+
+
+def _size_warnings(dataset, totals: Sequence[SequenceTotals], trees) -> list[str]:
+    """Said when a sequence's size looks wrong: the ground truth of half its frames or more reaching
+    past it (a lane may leave the image now and then), or masks of another size."""
+    out = []
+    for (name, size), piece in zip(dataset.sizes.items(), totals):
+        frames = dataset.sequences[name]
+        outside = [relpath for relpath, flag in zip(frames, piece.truth_outside) if flag]
+        if 2 * len(outside) >= len(frames) > 0:
+            out.append(f"warning: {name}: the ground truth of {len(outside)} frames reaches beyond its "
+                       f"{size[0]}x{size[1]} size (first: {outside[0]}): is the size right?")
+        for m, tree in enumerate(trees):
+            odd = [relpath for relpath, flag in zip(frames, piece.odd_masks[:, m]) if flag]
+            if odd:
+                out.append(f"warning: {tree.method}: {len(odd)} masks of {name} are not {size[0]}x{size[1]} (first: "
+                           f"{odd[0]}); each is read at its own size, as generate_iou_pred_txt.py reads it")
+    return out
+
+
+def official_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence[SequenceTotals],
+                  thresholds: Thresholds):
+    """official.csv's rows (per sequence, per scenario, then 'all', at each threshold) and the
+    pooled 'all' score per (method, threshold label)."""
+    rows, overall = [], {}
+    for m, method in enumerate(methods):
+        for t, label in enumerate(thresholds.labels):
+            per_sequence = [piece.sequence_score(name, m, t) for name, piece in zip(names, totals)]
+            for score in per_sequence:
+                rows.append(_row(method, score.sequence, label, score.tp, score.fp, score.fn, score.miou, 1))
+            for code, scenario in enumerate(SCENARIOS):
+                members = [s for s in per_sequence if code in scenarios_of(s.sequence)]
+                if members:
+                    group = pooled(members)
+                    rows.append(_row(method, f"scenario {code} ({scenario})", label, group.tp, group.fp, group.fn,
+                                     group.miou, group.sequences))
+            every = pooled(per_sequence)
+            overall[(method, label)] = every
+            rows.append(_row(method, "all", label, every.tp, every.fp, every.fn, every.miou, every.sequences))
+    return rows, overall
+
+
+def temporal_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence[SequenceTotals],
+                  thresholds: Thresholds):
+    """temporal.csv's rows: per sequence, per scenario (its sequences' pairs pooled) and all."""
+    rows, overall = [], {}
+    for m, method in enumerate(methods):
+        for t, label in enumerate(thresholds.labels):
+            per_sequence = {name: piece.temporal_counts(m, t) for name, piece in zip(names, totals)}
+            rows += [_temporal_row(method, name, label, counts) for name, counts in per_sequence.items()]
+            for code, scenario in enumerate(SCENARIOS):
+                members = [counts for name, counts in per_sequence.items() if code in scenarios_of(name)]
+                if members:
+                    pooled_counts = sum(members, TemporalCounts())
+                    rows.append(_temporal_row(method, f"scenario {code} ({scenario})", label, pooled_counts))
+            every = sum(per_sequence.values(), TemporalCounts())
+            overall[(method, label)] = every
+            rows.append(_temporal_row(method, "all", label, every))
+    return rows, overall
+
+
+def acc_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence[SequenceTotals],
+             versions: Sequence[str]):
+    """acc.csv's rows (per sequence, per scenario, all; RVLD's version, and MMA-Net's where the
+    predictions are instance masks) and the 'all' means per (method, version). A group's figures
+    are means over its frames, as the scripts divide their sums by the number of frames."""
+    rows, overall = [], {}
+    for m, method in enumerate(methods):
+        for v, version in enumerate(versions):
+            per_sequence = {name: piece.acc_frames(m, v) for name, piece in zip(names, totals)}
+            groups = [(name, frames) for name, frames in per_sequence.items()]
+            for code, scenario in enumerate(SCENARIOS):
+                members = [frame for name, frames in per_sequence.items() if code in scenarios_of(name)
+                           for frame in frames]
+                if members:
+                    groups.append((f"scenario {code} ({scenario})", members))
+            every = [frame for frames in per_sequence.values() for frame in frames]
+            groups.append(("all", every))
+            for category, frames in groups:
+                result = acc_means(frames)
+                rows.append((method, category, version, result.frames, result.accuracy, result.fp, result.fn,
+                             result.stopping))
+            overall[(method, version)] = acc_means(every)
+    return rows, overall
+
+
+def _temporal_row(method: str, category: str, label: str, counts: TemporalCounts) -> tuple:
+    return (method, category, label, counts.pairs, counts.stable, counts.jump, counts.missing, *counts.rates)
+
+
+def _row(method: str, category: str, label: str, tp: int, fp: int, fn: int, miou: float, sequences: int) -> tuple:
+    return (method, category, label, tp, fp, fn, *f_measure(tp, fp, fn), float(miou), sequences)
+
+
+
+def summary_table(score: Vil100Score) -> str:
+    """Markdown: per method, F1 (%) at each threshold and mIoU (%), over every sequence."""
+    labels = score.thresholds.labels
+    temporal = [(label, name) for label in labels for name in ("Rs", "Rj", "Rm")] if score.temporal_overall else []
+    versions = [version for version in ACC_VERSIONS if any(key[1] == version for key in score.acc_overall)]
+    acc = [f" {name} ({_ACC_SOURCES[version]}) {unit}|" for version in versions
+           for name, unit in (("Acc", "(%) "), ("FP", ""), ("FN", ""))]
+    lines = ["| method | " + " | ".join(f"F1@{label} (%)" for label in labels) + " | mIoU (%) |"
+             + "".join(f" {name}@{label} (%) |" for label, name in temporal) + "".join(acc),
+             "|---" * (len(labels) + 2 + len(temporal) + len(acc)) + "|"]
+    for method in score.methods:
+        results: list[PooledScore] = [score.overall[(method, label)] for label in labels]
+        f1s = [percent(result.ratios[2]) for result in results]
+        rates = [percent(rate) for label in labels if temporal
+                 for rate in score.temporal_overall[(method, label)].rates]
+        accs = [text for version in versions for text in _acc_cells(score.acc_overall.get((method, version)))]
+        lines.append(f"| {method} | " + " | ".join(f1s) + f" | {percent(results[0].miou)} |"
+                     + "".join(f" {rate} |" for rate in rates) + "".join(f" {text} |" for text in accs))
+    return "\n".join(lines)
+
+
+_ACC_SOURCES = {"mmanet": "MMA-Net", "rvld": "RVLD"}
+# Said beside RVLD's Acc wherever it is printed (metrics.vil100_acc: the writer's rule)
+RVLD_ACC_NOTE = ("Acc (RVLD) reads each lane as RVLD's writer (libs/save_prediction.py, 4d90de1) would have "
+                 "written it, the only lanes its script reads: the first point at each y, and a lane of 3 points "
+                 "or fewer (a blank line too) is no prediction.")
+
+
+def _acc_cells(result) -> list[str]:
+    if result is None:
+        return ["n/a"] * 3
+    return [percent(result.accuracy), f"{result.fp:.4f}", f"{result.fn:.4f}"]
+
+
+def summary_rows(score: Vil100Score) -> PlainTable:
+    """The numbers papers print, per method for all sequences and each scenario: F1 at each
+    threshold, mIoU, and Rs, Rj, Rm with each threshold as tau (fractions, as official.csv)."""
+    labels = score.thresholds.labels
+    official = {(r[0], r[1], r[2]): r for r in score.rows.rows}
+    temporal = {} if score.temporal_rows is None else {(r[0], r[1], r[2]): r for r in score.temporal_rows.rows}
+    columns = ["method", "category", *(f"f1@{label}" for label in labels), "miou"]
+    if temporal:
+        columns += [f"{name}@{label}" for label in labels for name in ("rs", "rj", "rm")]
+    acc = {} if score.acc_rows is None else {(r[0], r[1], r[2]): r for r in score.acc_rows.rows}
+    versions = [version for version in ACC_VERSIONS if any(key[2] == version for key in acc)]
+    columns += [f"{name}_{version}" for version in versions for name in ("acc", "fp", "fn")]
+    categories = list(dict.fromkeys(r[1] for r in score.rows.rows if r[1] == "all" or r[1].startswith("scenario ")))
+    categories = categories[-1:] + categories[:-1]  # all first
+    rows = []
+    for method in score.methods:
+        for category in categories:
+            row = [method, category, *(official[(method, category, label)][8] for label in labels),
+                   official[(method, category, labels[0])][9]]
+            if temporal:
+                row += [value for label in labels for value in temporal[(method, category, label)][7:10]]
+            for version in versions:
+                found = acc.get((method, category, version))
+                row += [math.nan] * 3 if found is None else list(found[4:7])
+            rows.append(tuple(row))
+    return PlainTable(tuple(columns), tuple(rows))
+
+
+def summary_markdown(score: Vil100Score, width: int) -> str:
+    return (f"# VIL-100, official protocol\n\n{score.n_frames:,} frames of {score.n_sequences} sequences, each at its "
+            f"own size; lanes {width} px wide; a match counts when IoU > the threshold (MMA-Net's evaluate_iou.py "
+            "and CULane evaluator, 8f95908). F1 from TP, FP and FN summed over the sequences; mIoU: the mean "
+            "over sequences of each sequence's mIoU as its evaluator prints it (6 significant digits), a frame's "
+            "mIoU being the IoU summed over the matched pairs divided by its predicted lanes. official.csv "
+            "gives every sequence and scenario."
+            + (" Rs, Rj, Rm: RVLD's evaluate_temporal.py (4d90de1) with each threshold as tau, over the pairs of "
+               "ground-truth lanes linked across consecutive frames (IoU > 0.5), with that script's own IoU; a frame "
+               "without a prediction file counts as no lanes, where that script stops. temporal.csv gives every "
+               "sequence." if score.temporal_overall else "")
+            + (" Acc, FP, FN: TuSimple's rule over at most 8 lanes a frame, means over frames, in two versions: "
+               "MMA-Net's evaluate_acc.py (8f95908: each instance mask's lane fitted by a degree-2 polynomial; only "
+               "with --pred-format png) and RVLD's evaluate_acc.py (4d90de1: each lane's points through a cubic "
+               f"interp1d); a frame without ground truth scores accuracy 0 in both. {RVLD_ACC_NOTE} Lanes where a "
+               "script would stop (acc.csv's stopping_lanes): RVLD's, as given, at two points at one y or 3 points "
+               "or fewer, MMA-Net's where its polyfit fails (that mask lane matches no point). "
+               "acc.csv gives every sequence and scenario." if score.acc_overall else "")
+            + "\n\n" + summary_table(score) + "\n")
+
+
+__all__ = ["score_vil100", "Vil100Score", "SequenceScore", "printed"]
