@@ -254,7 +254,7 @@ def test_a_prediction_root_or_file_removed_while_scoring_is_an_error_naming_it(t
     import importlib
 
     args, root = _scoring_command(tmp_path, benchmark)
-    scorer = importlib.import_module(f"roneld_eval.benchmarks.{benchmark}_score")
+    scorer = importlib.import_module(f"roneld_eval.benchmarks.{benchmark}.score")
     looked = scorer.find_prediction_trees
     suffix = {"openlane": ".json", "curvelanes": ".lines.json"}.get(benchmark, ".lines.txt")
     victim = root if removed == "root" else sorted(root.rglob(f"*{suffix}"))[-1]
