@@ -10,7 +10,6 @@ the locale, a byte-order mark dropped, and every OSError an InputError naming th
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -22,7 +21,7 @@ import numpy as np
 
 from .errors import InputError
 from .json_fields import RepeatedKey, is_finite_number, loads
-from .limits import JSON_LINES, LANES, TEXT, SizeLimit
+from .limits import LANES, TEXT, SizeLimit
 from .model import Lane
 
 # A decimal number as C++'s `istream >> double` reads it (no Python-only spellings such
@@ -262,71 +261,6 @@ def format_lines_txt(lanes: Iterable[Lane]) -> str:
     return "".join(line + "\n" for line in out)
 
 
-# ---- TuSimple --------------------------------------------------------------------------
-
-
-def parse_tusimple_record(line: str, path, number: int, predictions: bool = False) -> dict[str, Any]:
-    """One TuSimple JSON line, checked: raw_file, lanes, h_samples (optional in predictions).
-
-    Predictions may leave out run_time (taken as 0 ms, never penalised).
-    """
-    try:
-        record = loads(line)
-    except RepeatedKey as error:
-        raise InputError(path, str(error), line=number) from None
-    except json.JSONDecodeError as error:
-        raise InputError(path, f"not valid JSON: {error.msg}", line=number) from None
-    except (ValueError, RecursionError) as error:  # a 5,000-digit number; arrays nested 100,000 deep
-        raise InputError(path, f"not JSON this tool can read: {str(error).splitlines()[0]}", line=number) from None
-    if not isinstance(record, dict):
-        raise InputError(path, "each line must be a JSON object", line=number)
-    required = ("raw_file", "lanes") if predictions else ("raw_file", "lanes", "h_samples")
-    for key in required:
-        if key not in record:
-            raise InputError(path, f"missing key {key!r}", line=number)
-    if not isinstance(record["raw_file"], str) or not record["raw_file"].strip():
-        raise InputError(path, "raw_file must be a non-empty string", line=number)
-    lanes = record["lanes"]
-    if not isinstance(lanes, list) or not all(isinstance(lane, list) for lane in lanes):
-        raise InputError(path, "lanes must be a list of lists of x values", line=number)
-    if len(lanes) > LANES.count:
-        raise InputError(path, LANES.problem(len(lanes)), line=number)
-    for index, lane in enumerate(lanes):
-        if not _all_numbers(lane):
-            raise InputError(path, f"lane {index} holds a value that is not a finite number", line=number)
-        if lane and max(map(abs, lane)) > MAX_PREDICTED_COORDINATE:  # as check_coordinates, for every reader
-            far = max(lane, key=abs)
-            raise InputError(path, f"lane {index}: x = {far:.10g} {FAR_FROM_ORIGIN}: not a lane coordinate",
-                             line=number)
-    if "h_samples" in record:
-        rows = record["h_samples"]
-        if not isinstance(rows, list) or not _all_numbers(rows):
-            raise InputError(path, "h_samples must be a list of numbers", line=number)
-        for index, lane in enumerate(lanes):
-            if len(lane) != len(rows):
-                raise InputError(
-                    path, f"lane {index} has {len(lane)} values but h_samples has {len(rows)}", line=number
-                )
-    if "run_time" in record:
-        if not is_finite_number(record["run_time"]):
-            raise InputError(path, "run_time must be a number (milliseconds)", line=number)
-    elif predictions:
-        record["run_time"] = 0
-    return record
-
-
-def check_h_samples(rows, path, line: int, image_height: int) -> None:
-    """A label's rows: at least one, each inside the image, none twice (lanes are read row by row)."""
-    if not rows:
-        raise InputError(path, "h_samples is empty: a label needs at least one row", line=line)
-    for y in rows:
-        if not 0 <= y < image_height:
-            raise InputError(path, f"h_samples row {y:g} lies outside the {image_height}-row image", line=line)
-    if len(set(rows)) != len(rows):
-        repeated = next(y for y in rows if rows.count(y) > 1)
-        raise InputError(path, f"h_samples lists row {repeated:g} twice", line=line)
-
-
 def _all_numbers(values: list) -> bool:
     """Whether every value is a finite number (json_fields.is_finite_number). Checked a value at a time, the
     2,782 lines of TuSimple's test labels took 0.12 s on top of their 0.06 s of JSON. A finite
@@ -339,37 +273,6 @@ def _all_numbers(values: list) -> bool:
         except OverflowError:  # an integer beyond a float's range: the loop below says which
             pass
     return all(is_finite_number(value) for value in values)
-
-
-def read_tusimple_records(path: Path, predictions: bool = False,
-                          errors: list[InputError] | None = None) -> list[tuple[int, dict[str, Any]]]:
-    """(line number, record) of every non-blank line of a TuSimple JSON-lines file.
-
-    With an `errors` list, bad lines are left out and their errors appended.
-    """
-    text = read_text(path, JSON_LINES)
-    records = []
-    for number, line in enumerate(split_lines(text), start=1):
-        if line.strip():
-            try:
-                records.append((number, parse_tusimple_record(line, path, number, predictions=predictions)))
-            except InputError as error:
-                if errors is None:
-                    raise
-                errors.append(error)
-    return records
-
-
-def lane_from_tusimple(xs: list[float], h_samples: list[float]) -> Lane:
-    """A TuSimple lane (x per row, negative = no point) as the points it has."""
-    points = [(float(x), float(y)) for x, y in zip(xs, h_samples) if x >= 0]
-    return Lane(np.array(points, np.float64).reshape(-1, 2))
-
-
-def tusimple_xs(lane: Lane, h_samples: Iterable[float]) -> list[float]:
-    """x of a lane at each row, -2 where it has no point (exact for lanes read from labels)."""
-    lookup = {float(y): float(x) for x, y in lane.points}
-    return [lookup.get(float(y), -2.0) for y in h_samples]
 
 
 def sample_lane_at_rows(lane: Lane, rows: Iterable[float]) -> list[float]:
@@ -387,20 +290,6 @@ def sample_lane_at_rows(lane: Lane, rows: Iterable[float]) -> list[float]:
     values = np.interp(rows, ys, xs)
     inside = (rows >= ys[0]) & (rows <= ys[-1]) & (values >= 0)
     return [round(float(v), 3) if ok else -2.0 for v, ok in zip(values, inside)]
-
-
-def format_tusimple_record(raw_file: str, lanes_xs: list[list[float]], h_samples, run_time: float = 0) -> str:
-    """One TuSimple prediction line (JSON, no trailing newline)."""
-    def number(v: float):
-        return int(v) if float(v).is_integer() else v
-
-    record = {
-        "raw_file": raw_file,
-        "lanes": [[number(v) for v in xs] for xs in lanes_xs],
-        "h_samples": [number(v) for v in h_samples],
-        "run_time": run_time,
-    }
-    return json.dumps(record, separators=(", ", ": "))
 
 
 def check_inside_image(lanes, path, width: int, height: int) -> None:

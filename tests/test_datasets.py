@@ -16,7 +16,8 @@ from roneld_eval.benchmarks.culane.reader import read_culane
 from roneld_eval.benchmarks.tusimple.reader import read_tusimple
 from roneld_eval.errors import InputError
 from roneld_eval.json_fields import is_finite_number
-from roneld_eval.lanes_io import _all_numbers, parse_lines_txt, tusimple_xs
+from roneld_eval.benchmarks.tusimple.lane_format import tusimple_xs
+from roneld_eval.lanes_io import _all_numbers, parse_lines_txt
 
 
 def test_culane_clips_frames_and_lanes(tmp_path):

@@ -9,11 +9,8 @@ from hypothesis import strategies as st
 from roneld_eval.config import MapsConfig
 from roneld_eval.benchmarks.culane.reader import read_list_file
 from roneld_eval.errors import InputError
-from roneld_eval.lanes_io import (
-    parse_lines_txt,
-    read_lines_txt,
-    read_tusimple_records,
-)
+from roneld_eval.benchmarks.tusimple.lane_format import read_tusimple_records
+from roneld_eval.lanes_io import parse_lines_txt, read_lines_txt
 from roneld_eval.maps import load_maps
 
 FUZZ = settings(max_examples=150, deadline=None, derandomize=True,

@@ -32,11 +32,10 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..config import MapsConfig
-from ..datasets._paths import normalise_relpath, under_root
+from ..datasets._paths import under_root
 from ..errors import InputError
 from ..geometry import MapGeometry
-from ..lanes_io import (check_coordinates, decode_text, lane_from_tusimple, parse_lines_txt, read_bytes,
-                        read_tusimple_records)
+from ..lanes_io import check_coordinates, decode_text, parse_lines_txt, read_bytes
 from ..model import EGO_CHANNELS, FrameMaps, Lane, image_stem
 
 SCORES_SUFFIX = ".scores.txt"
@@ -75,15 +74,18 @@ class LinesPerFrame:
 
 @dataclass(frozen=True)
 class JsonLinesFile:
-    """One file under the root holding a JSON line per frame, its image path in `raw_file`."""
+    """One file under the root holding a JSON line per frame, its image path in `raw_file`:
+    `frames(path)` reads it into relpath -> (lanes, scores) (the benchmark's format), once per
+    process and file (the same size and modification time)."""
 
     name: str
+    frames: Callable[[Path], dict[str, LanesAndScores]]
 
     def files(self, root: Path, relpath: str) -> list[Path]:
         return [root / self.name]
 
     def read(self, root: Path, relpath: str) -> LanesAndScores:
-        return _json_frames(root / self.name).get(relpath, ((), ()))
+        return _json_frames(root / self.name, self.frames).get(relpath, ((), ()))
 
     def check_coverage(self, root: Path, labelled: Sequence[str], say: Callable[[str], None]) -> None:
         """The file must hold lanes for the frames that are scored: none found is a wrong file or
@@ -91,7 +93,7 @@ class JsonLinesFile:
         path = root / self.name
         if not path.is_file() or not labelled:
             return
-        frames = _json_frames(path)
+        frames = _json_frames(path, self.frames)
         missing = [relpath for relpath in labelled if relpath not in frames]
         if len(missing) == len(labelled):
             example = next(iter(frames), None)
@@ -179,13 +181,14 @@ def _read_scores(path: Path, n_lanes: int) -> tuple[float, ...]:
     values = []
     for number, line in enumerate(decode_text(data, path).splitlines(), start=1):
         if line.strip():
-            values.append(_score(line.strip(), path, number))
+            values.append(check_score(line.strip(), path, number))
     if len(values) != n_lanes:
         raise InputError(path, f"{len(values)} scores for {n_lanes} lanes: one score per lane line")
     return tuple(values)
 
 
-def _score(value, path, line: int | None) -> float:
+def check_score(value, path, line: int | None) -> float:
+    """A lane's score: a number in [0, 1], or an InputError naming the file and line."""
     try:
         number = float(value)
     except (TypeError, ValueError):
@@ -205,27 +208,14 @@ class _FileKey:
 _JSON_CACHE: dict[_FileKey, dict[str, LanesAndScores]] = {}
 
 
-def _json_frames(path: Path) -> dict[str, LanesAndScores]:
+def _json_frames(path: Path, read: Callable[[Path], dict[str, LanesAndScores]]) -> dict[str, LanesAndScores]:
     """relpath -> (lanes, scores) of a JSON-lines prediction file, read once per process."""
     info = os.stat(path)
     key = _FileKey(str(path), info.st_size, info.st_mtime_ns)
     frames = _JSON_CACHE.get(key)
     if frames is not None:
         return frames
-    frames = {}
-    for number, record in read_tusimple_records(path, predictions=True):
-        relpath = normalise_relpath(record["raw_file"], path, number)
-        if relpath in frames:
-            raise InputError(path, f"{relpath} has lanes twice", line=number)
-        rows = record.get("h_samples")
-        if rows is None:
-            raise InputError(path, "missing key 'h_samples' (needed to place the lanes)", line=number)
-        lanes = tuple(lane_from_tusimple(xs, rows) for xs in record["lanes"])
-        check_coordinates(lanes, path, number)
-        scores = record.get("scores", [1.0] * len(lanes))
-        if not isinstance(scores, list) or len(scores) != len(lanes):
-            raise InputError(path, "scores must be a list with one number in [0, 1] per lane", line=number)
-        frames[relpath] = (lanes, tuple(_score(value, path, number) for value in scores))
+    frames = read(path)
     _JSON_CACHE.clear()  # one file at a time: memory stays flat
     _JSON_CACHE[key] = frames
     return frames

@@ -13,7 +13,8 @@ from ...errors import InputError
 from .. import LaneFile
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, read_tusimple
 from ...json_fields import json_number, read_float, read_list
-from ...lanes_io import format_tusimple_record, sample_lane_at_rows, tusimple_xs
+from ...lanes_io import sample_lane_at_rows
+from .lane_format import format_tusimple_record, predicted_frames, tusimple_xs
 from ...maps.lanes import JsonLinesFile
 from ...metrics.point_accuracy import PIXEL_THRESHOLD, POINT_THRESHOLD
 from .official import bench_frame, mean_scores
@@ -54,7 +55,7 @@ class TusimpleBenchmark:
     fixture: str | None = "tusimple"
     kernel_groups: tuple[str, ...] = ()
     missing_maps_hint = " (each TuSimple clip needs maps for all its 20 frames)"
-    detector_lanes = JsonLinesFile(PREDICTIONS_FILE)  # what run --save-lanes writes
+    detector_lanes = JsonLinesFile(PREDICTIONS_FILE, predicted_frames)  # what run --save-lanes writes
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:

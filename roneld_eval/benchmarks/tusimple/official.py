@@ -24,7 +24,7 @@ import numpy as np
 from ...datasets._paths import normalise_relpath
 from .reader import IMAGE_HEIGHT
 from ...errors import InputError
-from ...lanes_io import check_h_samples, read_tusimple_records
+from .lane_format import check_h_samples, read_tusimple_records
 from ...metrics.point_accuracy import POINT_THRESHOLD, lane_threshold, row_hits
 
 MAX_RUN_TIME_MS = 200

@@ -11,7 +11,8 @@ import posixpath
 from pathlib import Path
 
 from ...errors import InputError
-from ...lanes_io import check_h_samples, check_regular_file, lane_from_tusimple, read_tusimple_records
+from ...lanes_io import check_regular_file
+from .lane_format import check_h_samples, lane_from_tusimple, read_tusimple_records
 from ...model import Clip, Dataset, Frame, image_stem
 from ...datasets._paths import check_folder, normalise_relpath
 
