@@ -15,8 +15,8 @@ from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, labels_path, read_culane, with_la
 from ...json_fields import json_number, read_count, read_float, read_list
 from ...lanes_io import format_lines_txt
 from ...maps.lanes import LinesPerFrame
-from ...metrics.lane_iou_f1 import (OFFICIAL_COLUMNS, FrameMatches, f_measure, matched_result,
-                                       official_masks)
+from ...metrics.lane_iou_f1 import (OFFICIAL_COLUMNS, FrameMatches, GroupCounts, ScoredFrames, matched_result,
+                                    official_masks)
 from ...metrics.paper import ego_lanes
 from ...metrics.raster import MaskSet
 from ...model import Clip, Dataset, Frame, Lane
@@ -193,63 +193,46 @@ def _official_grid(groups):
     return Grid((Column("Category", ("Category",)),), tuple(columns), tuple(rows))
 
 
-class _Counts:
-    """One method's official counts so far, per category (its lists, then `all`)."""
-
-    def __init__(self, categories: Mapping[str, frozenset[str]], threshold: float):
-        self.categories = list(categories.items())
-        self.threshold = threshold
-        # [ground-truth lanes, predicted lanes, true positives] of each category, then of every frame
-        # (a list, not keyed by name: a category list may itself be called "all")
-        self.sums = [[0, 0, 0] for _ in range(len(self.categories) + 1)]
-
-    def add(self, relpath: str, result: FrameMatches) -> None:
-        frame = (result.n_gt, result.n_pred, result.true_positives(self.threshold))
-        for sums, (_, members) in zip(self.sums, self.categories):
-            if relpath in members:
-                _add(sums, frame)
-        _add(self.sums[-1], frame)
-
-    def rows(self, method: str, every_frame: str = "all") -> list[tuple]:
-        """(method, category, tp, fp, fn, precision, recall, f1) per category, then `every_frame`,
-        as sweep_rows gives them (counts summed before any ratio)."""
-        names = [name for name, _ in self.categories] + [every_frame]
-        rows = []
-        for name, (n_gt, n_pred, tp) in zip(names, self.sums):
-            fp, fn = n_pred - tp, n_gt - tp
-            rows.append((method, name, tp, fp, fn, *f_measure(tp, fp, fn)))
-        return rows
-
-
-def _add(sums: list[int], frame: tuple[int, int, int]) -> None:
-    for index, value in enumerate(frame):
-        sums[index] += value
-
-
 class CulaneTally:
-    """The official table, counted frame by frame at the run's one threshold: a few integers
-    per method and category, so the main process stays the same size however many frames."""
+    """The official table counted clip by clip by `score culane`'s own per-category sum
+    (metrics.lane_iou_f1.GroupCounts) at the run's one threshold: a few integers per method and
+    category, and one clip's frame records, so the main process stays the same size however
+    many frames."""
 
     def __init__(self, methods: Sequence[str], categories: Mapping[str, frozenset[str]], threshold: float):
-        # all lanes per category, and the ego lanes alone (one "ego" row)
-        self.counts = {method: (_Counts(categories, threshold), _Counts({}, threshold)) for method in methods}
+        self.methods = tuple(methods)
+        self.categories = categories
+        # all lanes per category (its lists, then every frame), and the ego lanes alone (one "ego" row)
+        self.every = GroupCounts.zeros(len(self.methods), len(categories) + 1, [threshold])
+        self.ego = GroupCounts.zeros(len(self.methods), 1, [threshold])
+        self.clip: dict[str, dict[str, CulaneOfficial]] = {method: {} for method in self.methods}
 
     def add(self, method: str, relpath: str, record: CulaneOfficial) -> None:
-        every, ego = self.counts[method]
-        every.add(relpath, record.all_lanes)
-        ego.add(relpath, record.ego)
+        self.clip[method][relpath] = record
 
     def end_clip(self, clip_id: str) -> None:
-        pass  # frame metrics only
+        """The clip's frames added to the sums in one go (frame metrics only)."""
+        if self.methods and self.clip[self.methods[0]]:
+            records = [self.clip[method] for method in self.methods]
+            self.every.add(ScoredFrames.from_results([{f: r.all_lanes for f, r in by_frame.items()}
+                                                      for by_frame in records]), self.categories)
+            self.ego.add(ScoredFrames.from_results([{f: r.ego for f, r in by_frame.items()}
+                                                    for by_frame in records]), {})
+        self.clip = {method: {} for method in self.methods}
 
     def table(self) -> pd.DataFrame:
+        at = OFFICIAL_COLUMNS.index("threshold")
+        every = self.every.records(self.methods, list(self.categories))
+        ego = self.ego.records(self.methods, [])
+        per_method = len(self.categories) + 1
         rows = []
-        for method, (every, ego) in self.counts.items():
-            rows += every.rows(method) + ego.rows(method, every_frame="ego")
-        columns = [column for column in OFFICIAL_COLUMNS if column != "threshold"]
+        for m in range(len(self.methods)):
+            rows += every[m * per_method:(m + 1) * per_method]
+            rows.append(ego[m][:1] + ("ego",) + ego[m][2:])
         import pandas as pd
 
-        return pd.DataFrame(rows, columns=columns)
+        return pd.DataFrame([row[:at] + row[at + 1:] for row in rows],
+                            columns=[column for column in OFFICIAL_COLUMNS if column != "threshold"])
 
 
 BENCHMARK = CulaneBenchmark()
