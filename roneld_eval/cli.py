@@ -17,7 +17,7 @@ import click
 from .version import __version__
 from .wording import counted
 from .benchmarks import names as benchmark_names, origin as benchmark_origin
-from .config import FRAMES_PER_DEFAULT_WORKER, LANES_MODEL, MAP_FORMATS, METHODS, EvalConfig, parse_setting
+from .config import FRAMES_PER_DEFAULT_WORKER, LANES_MODEL, METHODS, EvalConfig, map_formats, parse_setting
 from .presets import is_preset, preset_names
 from .errors import ConfigError, RoneldEvalError
 from .limits import check_environment
@@ -137,6 +137,22 @@ class _Folder(click.Path):
 OUT_FOLDER = _Folder(path_type=Path)
 
 
+class MapFormatChoice(click.Choice):
+    """The registered maps formats, read when first asked for (a command's --help or value), not
+    when the command line is built: their names come from the installed packages' metadata."""
+
+    def __init__(self) -> None:
+        super().__init__(())
+
+    @property
+    def choices(self):
+        return map_formats()
+
+    @choices.setter
+    def choices(self, value) -> None:
+        pass
+
+
 def sharding_options(clips: str, verb: str = "Score"):
     """--shard, --executor and --scheduler; `clips` says what a command's whole units are."""
     def decorate(function):
@@ -239,7 +255,7 @@ def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
                    "fixture is evaluated.")
 @click.option("--maps-root", type=click.Path(path_type=Path),
               help="Folder of stored maps mirroring the dataset tree (<rel>/00000.npy for <rel>/00000.jpg).")
-@click.option("--maps-format", type=click.Choice(MAP_FORMATS),
+@click.option("--maps-format", type=MapFormatChoice(),
               help="How maps are stored: .npy, .npz, or SCNN's <frame>_<k>_avg.png + .exist.txt; or 'lanes': "
                    "another detector's lane files (CULane .lines.txt mirrored under --maps-root, or TuSimple "
                    "predictions.json in it), drawn into maps for RONELD; 'baseline' is then the detector's own lanes.")
@@ -470,7 +486,7 @@ def merge(parts, out, debug):
 @click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: the benchmark's (CULane 12, "
               "TuSimple 20: a labelled frame and the 19 before it).")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed; the same seed gives the same bytes.")
-@click.option("--maps-format", type=click.Choice(MAP_FORMATS),
+@click.option("--maps-format", type=MapFormatChoice(),
               help="How to store maps; lanes: a lane detector's output files instead of maps. Default: npy, or a "
                    "detector's lane files for the benchmarks scored from them.")
 @debug_option
@@ -605,7 +621,7 @@ class _ImageSize(click.ParamType):
                    "default preset (scnn-culane).")
 @click.option("--dataset", type=click.Choice(benchmark_names()),
               help="Benchmark whose default preset to use, and whose layout --data-root has.")
-@click.option("--maps-format", type=click.Choice(MAP_FORMATS),
+@click.option("--maps-format", type=MapFormatChoice(),
               help="How the maps are stored; lanes: a detector's lane files, drawn into maps. Default: the config's.")
 @click.option("--image-size", type=_ImageSize(),
               help="The camera frame's size for a folder of maps, WIDTHxHEIGHT (default: the config's).")

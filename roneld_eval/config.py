@@ -45,9 +45,15 @@ from .plugin_methods import (  # noqa: F401 (METHODS: where callers find it)
 )
 from . import plugin_methods
 
-# "scnn-png": <frame>_<k>_avg.png + <frame>.exist.txt; "llamas-png": <frame>.json_<c>.png (LLAMAS's
-# segmentation format); "lanes": another detector's lane files, rendered into maps (roneld_eval.maps.lanes).
-MAP_FORMATS = ("npy", "npz", "scnn-png", "llamas-png", "lanes")
+
+
+def map_formats() -> tuple[str, ...]:
+    """Every maps format a configuration may name: the registered ones (maps/formats.py, names
+    read from the metadata), and "lanes": another detector's lane files, drawn into maps."""
+    from .maps.formats import LANE_FILES, names
+
+    return names() + (LANE_FILES,)
+
 # Those that output the two ego lanes only (RONELD keeps the active lanes): their official F1
 # over all lanes counts the outer lanes as missed, which a reader must be told.
 EGO_LANES_ONLY = frozenset(name for name, facts in METHOD_TABLE.items() if facts.ego_lanes_only)
@@ -171,8 +177,8 @@ class MapsConfig:
 
     def __post_init__(self):
         _check_fields(self, "maps")
-        if self.format not in MAP_FORMATS:
-            raise ConfigError(f"maps format must be one of {', '.join(MAP_FORMATS)}, got {self.format!r}")
+        if self.format not in map_formats():
+            raise ConfigError(f"maps format must be one of {', '.join(map_formats())}, got {self.format!r}")
 
 
 @dataclass(frozen=True)

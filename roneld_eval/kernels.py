@@ -101,13 +101,13 @@ def _kernel_modules(groups: Iterable[str] | None = None) -> tuple[ModuleType, ..
 def groups_for(methods, benchmark, maps_format: str | None = None) -> tuple[str, ...]:
     """The kernel groups a run needs: its methods' (extract.registry.Method.kernel_groups), its
     benchmark's official scoring, the paper's protocol, which every run scores with, and for
-    PNG maps (maps.DECODED_FORMATS) their decoding."""
+    maps their format decodes with numba (maps.formats.MapFormat.kernel_groups)."""
     needed = [group for method in methods for group in method.kernel_groups]
     needed += list(benchmark.kernel_groups) + ["paper"]
-    from .maps import DECODED_FORMATS
+    from .maps.formats import LANE_FILES, map_format
 
-    if maps_format in DECODED_FORMATS:
-        needed.append("maps")
+    if maps_format is not None and maps_format != LANE_FILES:
+        needed += list(map_format(maps_format).kernel_groups)
     return tuple(dict.fromkeys(needed))
 
 

@@ -113,6 +113,6 @@ def methods_from_table(table: dict[str, Any]) -> tuple[tuple[str, ...], tuple[Pl
 
 def installed_extractors() -> dict[str, str]:
     """Extractors installed packages register under the entry-point group: name -> entry."""
-    from importlib.metadata import entry_points
+    from .entry_points import in_group
 
-    return {point.name: point.value for point in entry_points(group=ENTRY_POINT_GROUP)}
+    return {point.name: point.value for point in in_group(ENTRY_POINT_GROUP)}

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
 
 from ..config import EvalConfig
+from ..entry_points import in_group
 from ..errors import ConfigError
 from ..model import Clip, Dataset, Frame, Lane
 
@@ -167,7 +168,7 @@ def _entry_points() -> dict[str, importlib.metadata.EntryPoint]:
     sys.path registering one of them does not replace it (else the first found wins, as for
     console scripts)."""
     found: dict[str, importlib.metadata.EntryPoint] = {}
-    for point in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+    for point in in_group(ENTRY_POINT_GROUP):
         if point.name not in found or (point.value.startswith(_OWN) and not found[point.name].value.startswith(_OWN)):
             found[point.name] = point
     return dict(sorted(found.items()))

@@ -18,7 +18,7 @@ from ..extract.protocol import Extractor, Prediction, is_stateless, one_time_sec
 from ..extract.registry import Method, loaded_code
 from ..geometry import EffectiveGeometry, MapGeometry, check_map_shape
 from ..maps import map_stem, required_paths
-from ..maps.scnn_png import scnn_png_paths
+from ..maps.formats import LANE_FILES, map_format
 from ..metrics.paper import ego_masks, side_ious
 from ..model import Clip, Frame, FrameMaps
 from .plugin_call import in_plugin_call, plugin_prediction, raised_text
@@ -208,10 +208,12 @@ def _predictions(extractors: list[tuple[Method, Extractor, bool]], maps: FrameMa
 
 def frame_map_path(context: RunContext, frame: Frame) -> Path:
     """The file to name when a frame's maps are wrong: the first map image where there are several."""
-    path = required_paths(context.maps_root, frame.relpath, context.config.maps, context.lane_files)[0]
-    if context.config.maps.format == "scnn-png":  # path is the .exist.txt beside the PNGs
-        images, _ = scnn_png_paths(map_stem(context.maps_root, frame.relpath), context.config.maps.lane_channels)
-        path = next((image for image in images if image.is_file()), path)
+    maps = context.config.maps
+    path = required_paths(context.maps_root, frame.relpath, maps, context.lane_files)[0]
+    images = None if maps.format == LANE_FILES else map_format(maps.format).images
+    if images is not None:  # path may be a file beside the images (SCNN's .exist.txt)
+        path = next((image for image in images(map_stem(context.maps_root, frame.relpath), maps.lane_channels)
+                     if image.is_file()), path)
     return path
 
 

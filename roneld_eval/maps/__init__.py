@@ -18,13 +18,9 @@ from ..geometry import MapGeometry
 from ..datasets._paths import under_root
 from ..errors import InputError
 from ..model import FrameMaps, image_stem
-from .npy import load_npy, load_npz
-from ..benchmarks.llamas.maps_png import llamas_png_paths, load_llamas_png
-from .scnn_png import load_scnn_png, png_size, scnn_png_paths
-
-FORMATS = ("npy", "npz", "scnn-png", "llamas-png")
-# Formats whose maps this package's numba kernels decode (maps/_kernels.py): a run compiles them first.
-DECODED_FORMATS = frozenset({"scnn-png", "llamas-png"})
+from .formats import LANE_FILES, map_format
+from .formats import names as format_names
+from .scnn_png import png_size, scnn_png_paths
 
 
 def map_stem(root: Path, relpath: str) -> Path:
@@ -32,18 +28,9 @@ def map_stem(root: Path, relpath: str) -> Path:
     return under_root(root, image_stem(relpath))
 
 
-# The file that must exist for a frame's maps in each format: <stem> + suffix.
-_FORMAT_SUFFIXES = {"npy": ".npy", "npz": ".npz", "scnn-png": ".exist.txt", "llamas-png": ".json_1.png"}
-
-
-def format_files(stem: Path, fmt: str, lane_channels: int = 4) -> list[Path]:
-    """The files by which a format's maps of one frame are recognised (any one suffices)."""
-    if fmt == "scnn-png":
-        pngs, exist = scnn_png_paths(stem, lane_channels)
-        return [pngs[0], exist] + pngs[1:]
-    if fmt == "llamas-png":
-        return llamas_png_paths(stem, lane_channels)
-    return [stem.with_name(stem.name + _FORMAT_SUFFIXES[fmt])]
+def _suffixes() -> dict[str, str]:
+    """The file that must exist for a frame's maps in each format: <stem> + suffix."""
+    return {name: map_format(name).suffix for name in format_names()}
 
 
 def found_in_other_format(missing: Path, lane_channels: int = 4) -> str | None:
@@ -52,15 +39,15 @@ def found_in_other_format(missing: Path, lane_channels: int = 4) -> str | None:
     missing = Path(missing)
     # Lane files wanted (a preset's format) may be maps in fact; the reverse is not said: .lines.txt
     # beside a frame are its ground truth as often as a detector's lanes.
-    suffixes = {**_FORMAT_SUFFIXES, "lanes": ".lines.txt"}
+    suffixes = {**_suffixes(), LANE_FILES: ".lines.txt"}
     wanted = next((fmt for fmt, suffix in suffixes.items() if missing.name.endswith(suffix)), None)
     if wanted is None:
         return None
     stem = missing.with_name(missing.name[: -len(suffixes[wanted])])
-    for fmt in FORMATS:
+    for fmt in format_names():
         if fmt == wanted:
             continue
-        for path in format_files(stem, fmt, lane_channels):
+        for path in map_format(fmt).recognised_by(stem, lane_channels):
             try:
                 if stat.S_ISREG(os.stat(path).st_mode):
                     return f"found {path.name}: use --maps-format {fmt}"
@@ -103,10 +90,9 @@ def required_paths(root: Path, relpath: str, config: MapsConfig, lane_files=None
     """Files that must exist for a frame's maps to load (PNGs of absent lanes may be missing);
     for lane files (format "lanes"), those of the benchmark's format `lane_files`
     (maps.lanes.LaneFileFormat)."""
-    if config.format == "lanes":
+    if config.format == LANE_FILES:
         return _lane_format(lane_files).files(root, relpath)
-    stem = map_stem(root, relpath)
-    return [stem.with_name(stem.name + _FORMAT_SUFFIXES[config.format])]
+    return [map_format(config.format).required(map_stem(root, relpath))]
 
 
 def _lane_format(lane_files):
@@ -123,22 +109,17 @@ def load_maps(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometr
     the configured size: they need the map-to-image `geometry` and the ego position
     (`center_ratio`) that orders the channels.
     """
-    if config.format == "lanes":
+    if config.format == LANE_FILES:
         from .lanes import load_lane_maps
 
         if geometry is None:
             raise InputError(None, "lane files become maps only with the run's geometry")
         return load_lane_maps(root, relpath, _lane_format(lane_files), config, geometry, center_ratio)
-    stem = map_stem(root, relpath)
-    if config.format == "npy":
-        return load_npy(stem.with_name(stem.name + _FORMAT_SUFFIXES["npy"]), config)
-    if config.format == "npz":
-        return load_npz(stem.with_name(stem.name + _FORMAT_SUFFIXES["npz"]), config)
-    if config.format == "scnn-png":
-        return load_scnn_png(stem, config)
-    if config.format == "llamas-png":
-        return load_llamas_png(stem, config)
-    raise InputError(None, f"unknown maps format {config.format!r}")
+    try:
+        fmt = map_format(config.format)
+    except ValueError as error:
+        raise InputError(None, str(error)) from None
+    return fmt.load(map_stem(root, relpath), config)
 
 
 def frames_in_folder(folder: Path, config: MapsConfig, lane_files=None) -> list[str]:
@@ -161,17 +142,18 @@ def frames_in_folder(folder: Path, config: MapsConfig, lane_files=None) -> list[
     names = sorted(entry.name for entry in entries if entry.is_file())
     stems = [name[:-len(suffix)] for name in names if name.endswith(suffix) and len(name) > len(suffix)]
     if not stems:
-        others = {fmt: sum(name.endswith(end) for name in names) for fmt, end in _FORMAT_SUFFIXES.items()}
+        suffixes = _suffixes()
+        others = {fmt: sum(name.endswith(end) for name in names) for fmt, end in suffixes.items()}
         found = max(others, key=lambda fmt: others[fmt])
-        hint = (f": it holds {others[found]} {_FORMAT_SUFFIXES[found]} files, use --maps-format {found}"
+        hint = (f": it holds {others[found]} {suffixes[found]} files, use --maps-format {found}"
                 if others[found] else "")
         raise InputError(folder, f"holds no {config.format} maps (files named <frame>{suffix}){hint}")
     return [stem + ".jpg" for stem in sorted(stems, key=_natural)]
 
 
 def _folder_suffix(config: MapsConfig, lane_files) -> str:
-    if config.format != "lanes":
-        return _FORMAT_SUFFIXES[config.format]
+    if config.format != LANE_FILES:
+        return map_format(config.format).suffix
     from .lanes import LinesPerFrame
 
     files = _lane_format(lane_files)
@@ -190,11 +172,9 @@ def map_size(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry
     """(width, height) of a frame's maps, as `load_maps` would give them. For PNG maps, from the
     first PNG's header: nothing is decoded, so a process that only asks this (the run's main
     process) never loads the decoding kernel, nor numba with it (0.3 s and 50 MB)."""
-    if config.format in ("scnn-png", "llamas-png"):
-        stem = map_stem(root, relpath)
-        paths = (scnn_png_paths(stem, config.lane_channels)[0] if config.format == "scnn-png"
-                 else llamas_png_paths(stem, config.lane_channels))
-        for path in paths:
+    fmt = None if config.format == LANE_FILES else map_format(config.format)
+    if fmt is not None and fmt.images is not None:
+        for path in fmt.images(map_stem(root, relpath), config.lane_channels):
             size = png_size(path)
             if size is not None:
                 return size
@@ -203,5 +183,4 @@ def map_size(root: Path, relpath: str, config: MapsConfig, geometry: MapGeometry
 
 
 __all__ = ["load_maps", "map_size", "frames_in_folder", "required_paths", "map_stem", "found_in_other_format",
-           "missing_reason",
-           "FORMATS"]
+           "missing_reason"]

@@ -19,6 +19,7 @@ except ImportError:  # pragma: no cover - without it every .npz goes through np.
 
 from ..config import MapsConfig
 from ..errors import InputError
+from .formats import MapFormat
 from ..lanes_io import check_regular_file
 from ..limits import MAP
 from ..model import FrameMaps
@@ -247,3 +248,15 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
     if existence is not None:
         existence = canonical_existence(existence, path, config)
     return FrameMaps(probabilities=probabilities, existence=existence)
+
+
+def _npy_of_stem(stem: Path, config: MapsConfig) -> FrameMaps:
+    return load_npy(stem.with_name(stem.name + ".npy"), config)
+
+
+def _npz_of_stem(stem: Path, config: MapsConfig) -> FrameMaps:
+    return load_npz(stem.with_name(stem.name + ".npz"), config)
+
+
+NPY = MapFormat("npy", ".npy", _npy_of_stem)
+NPZ = MapFormat("npz", ".npz", _npz_of_stem)

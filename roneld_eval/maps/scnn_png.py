@@ -22,6 +22,7 @@ from ..lanes_io import decode_text, parse_number, read_bytes
 from ..limits import MAP
 from ..model import FrameMaps
 from ._checks import canonical_existence
+from .formats import MapFormat
 from .. import _numba_cache  # noqa: F401  (numba imported first, a signal deferred meanwhile)
 from ._kernels import unfilter_stream
 
@@ -284,3 +285,17 @@ def load_scnn_png(stem: Path, config: MapsConfig) -> FrameMaps:
         if image is not None:
             stack[channel] = image
     return FrameMaps(probabilities=stack, existence=existence)
+
+
+def _scnn_png_files(stem: Path, channels: int) -> list[Path]:
+    pngs, exist = scnn_png_paths(stem, channels)
+    return [pngs[0], exist] + pngs[1:]
+
+
+# The existence file must be there; the PNGs of absent lanes may be missing.
+def _scnn_pngs(stem: Path, channels: int) -> list[Path]:
+    return scnn_png_paths(stem, channels)[0]
+
+
+SCNN_PNG = MapFormat("scnn-png", ".exist.txt", load_scnn_png, images=_scnn_pngs, files=_scnn_png_files,
+                     kernel_groups=("maps",))

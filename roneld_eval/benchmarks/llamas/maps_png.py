@@ -11,6 +11,7 @@ import numpy as np
 from ...config import MapsConfig
 from ...errors import InputError
 from ...model import FrameMaps
+from ...maps.formats import MapFormat
 from ...maps.scnn_png import read_grey_png
 
 SUFFIX = ".json_1.png"  # the file by which a frame's maps are recognised
@@ -28,3 +29,8 @@ def load_llamas_png(stem: Path, config: MapsConfig) -> FrameMaps:
     if len(shapes) > 1:
         raise InputError(stem.with_name(stem.name + ".json_*.png"), f"class maps differ in size: {sorted(shapes)}")
     return FrameMaps(probabilities=np.stack(maps))
+
+
+# registered in pyproject.toml under roneld_eval.map_formats
+FORMAT = MapFormat("llamas-png", SUFFIX, load_llamas_png, images=llamas_png_paths, files=llamas_png_paths,
+                   kernel_groups=("maps",))
