@@ -4,7 +4,8 @@ any installed plug-in), with the RONELD paper's protocol and each benchmark's of
 
 The CLI is a thin layer over these functions: `run`, `score_culane`, `score_tusimple`,
 `show`, `synthesize`, `compare`, `replay_clip` do what `roneld-eval run`, `score culane`,
-`score tusimple`, `show`, `synth`, `compare` and `replay` do. `RoneldTracker` runs RONELD
+`score tusimple`, `show`, `synth`, `compare` and `replay` do; `metric(name, ...)` is a
+benchmark's official metric in memory, for training loops. `RoneldTracker` runs RONELD
 frame by frame on a vehicle (`warm_up()` pays its one-time costs first). Names are imported
 when first used, so `roneld-eval --help` stays quick.
 """
@@ -19,7 +20,7 @@ from .version import __version__
 # public name -> module that defines it
 _EXPORTS = {
     "run": "api", "show": "api", "score_culane": "api", "score_tusimple": "api", "synthesize": "api",
-    "compare": "comparison",
+    "compare": "comparison", "metric": "in_memory", "Metric": "in_memory", "MetricInputError": "in_memory",
     "evaluate": "evaluation",
     "EvalConfig": "config",
     "read_dataset": "datasets",
@@ -58,6 +59,7 @@ if TYPE_CHECKING:  # what static checkers and editors see
     from .extract.protocol import Extractor, Prediction  # noqa: F401
     from .extract.roneld import RoneldTracker  # noqa: F401
     from .geometry import MapGeometry  # noqa: F401
+    from .in_memory import Metric, MetricInputError, metric  # noqa: F401
     from .replay import replay_clip  # noqa: F401
     from .maps import load_maps  # noqa: F401
     from .model import Clip, Dataset, Frame, FrameMaps, Lane  # noqa: F401

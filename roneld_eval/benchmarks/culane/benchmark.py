@@ -122,6 +122,12 @@ class CulaneBenchmark:
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         return LaneFile(f"{method}/{frame.stem}.lines.txt", format_lines_txt(lanes))
 
+    def metric(self, **options: Any):
+        """The official metric in memory (roneld_eval.metric): `score culane`'s options as keywords."""
+        from .metric import CulaneMetric
+
+        return CulaneMetric(**options)
+
     def score_command(self):
         from .cli import score_culane_command
 

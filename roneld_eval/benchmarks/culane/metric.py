@@ -1,0 +1,94 @@
+"""CULane's official metric in memory (`roneld_eval.metric("culane", ...)`): the counts and sums of
+`score culane` (metrics.lane_iou_f1: FrameMatches per frame, GroupCounts per category and
+threshold), fed lanes held in memory instead of `.lines.txt` files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from ...lanes_io import MAX_PREDICTED_COORDINATE
+from ...metrics.lane_iou_f1 import (UNMATCHED, FrameMatches, GroupCounts, ScoredFrames, frame_result,
+                                    highlight_name, official_masks)
+from ...model import Lane
+from .reader import read_culane, read_frame_labels
+from .score import _thresholds
+
+
+def lanes_of(values: Any) -> tuple[Lane, ...]:
+    """Lanes as a detector holds them: a sequence of (N, 2) arrays of (x, y) image pixels, as a
+    `.lines.txt` lists them (the C++ evaluator's float32 applies as when written and read)."""
+    if isinstance(values, np.ndarray) and values.ndim != 3:
+        raise ValueError(f"lanes must be a sequence of (N, 2) point arrays, got an array of shape {values.shape}")
+    lanes = []
+    for index, lane in enumerate(values):
+        points = np.asarray(lane, dtype=np.float64)
+        if points.size == 0:
+            points = points.reshape(0, 2)
+        if points.ndim != 2 or points.shape[1] != 2:
+            raise ValueError(f"lane {index}: points must be an (N, 2) array of (x, y), got shape {points.shape}")
+        if not np.isfinite(points).all():
+            raise ValueError(f"lane {index}: a coordinate is NaN or infinite")
+        if points.size and np.abs(points).max() > MAX_PREDICTED_COORDINATE:
+            raise ValueError(f"lane {index}: a coordinate lies more than 2^24 px from the image origin")
+        lanes.append(Lane(points))
+    return tuple(lanes)
+
+
+class CulaneMetric:
+    """The official CULane F1 of every listed frame, per category and IoU threshold."""
+
+    name = "culane"
+
+    def __init__(self, data_root: str | Path, list_file: str | Path | None = None, iou: str | float | None = None,
+                 preset: str | None = None, width: int = 30):
+        from ...config import check_lane_width
+
+        check_lane_width(width)
+        self.thresholds, self.highlighted = _thresholds(iou, preset)
+        dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
+        self.root = dataset.root
+        self.frames = tuple(frame.relpath for clip in dataset.clips for frame in clip.frames)
+        self.categories = dataset.categories
+        self.size = (dataset.image_width, dataset.image_height, width)
+
+    def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> FrameMatches:
+        """The frame's matched IoUs (`scores` are not read: CULane's F1 counts every lane)."""
+        predicted = lanes_of(lanes)
+        truth = read_frame_labels(self.root, frame)
+        masks = official_masks(truth, *self.size) if truth and predicted else None
+        return frame_result(len(truth), masks, predicted, *self.size)
+
+    def _missing(self, frame: str) -> FrameMatches:
+        """A frame never updated: no lanes, as the C++ evaluator reads a missing file."""
+        n_gt = len(read_frame_labels(self.root, frame))
+        return FrameMatches(n_gt, 0, np.full(n_gt, UNMATCHED))
+
+    def compute(self, counts: Sequence[FrameMatches | None]) -> dict[str, float]:
+        results = {frame: result if result is not None else self._missing(frame)
+                   for frame, result in zip(self.frames, counts)}
+        sums = GroupCounts.zeros(1, len(self.categories) + 1, self.thresholds.values)
+        sums.add(ScoredFrames.from_results([results]), self.categories)
+        rows = sums.records(["-"], list(self.categories), self.thresholds.labels)
+        return scores_by_name(rows, len(self.thresholds.labels))
+
+
+def scores_by_name(rows: Sequence[tuple], n_thresholds: int) -> dict[str, float]:
+    """`F1@50`, `precision@50`, `recall@50` over every frame, and per category `normal/F1@50`, ...
+    (the category in front, as loggers group names), from GroupCounts.records' rows; `mF1` (and
+    `normal/mF1`) over a grid of two or more thresholds, as summary.csv's mF1."""
+    out: dict[str, float] = {}
+    f1s: dict[str, list[float]] = {}
+    for _, category, label, _, _, _, precision, recall, f1 in rows:
+        prefix = "" if category == "all" else f"{category}/"
+        percent = highlight_name(label)[len("F1@"):]
+        out[f"{prefix}F1@{percent}"] = float(f1)
+        out[f"{prefix}precision@{percent}"] = float(precision)
+        out[f"{prefix}recall@{percent}"] = float(recall)
+        f1s.setdefault(prefix, []).append(float(f1))
+    if n_thresholds > 1:
+        for prefix, values in f1s.items():
+            out[f"{prefix}mF1"] = float(np.mean(np.array(values, np.float64)))
+    return out

@@ -1,0 +1,129 @@
+"""A benchmark's official metric in memory, for training loops: `roneld_eval.metric(name, **options)`.
+
+The benchmark gives the metric's core (`MetricCore`, from `Benchmark.metric(**options)`): the
+frames of its list in order, one frame's counts from lanes held in memory, and the scores from
+every frame's counts. This module is the face a training loop calls, the same for every
+benchmark: frames may come in any order and in batches, a frame given twice, one not in the list
+or malformed lanes is one error that leaves the state as it was, and `compute()` combines the
+counts in the list's order (so any order of updates gives the same bits), frames never updated
+counting as the official tool counts a missing prediction file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping, Protocol, Sequence
+
+from .errors import RoneldEvalError
+
+
+class MetricInputError(RoneldEvalError, ValueError):
+    """What `update` refused (the frame named), the metric's state unchanged."""
+
+
+class MetricCore(Protocol):
+    """What a benchmark's official metric gives the in-memory face."""
+
+    name: str  # the benchmark's
+    frames: tuple[str, ...]  # every frame of the list, in its order (as the benchmark names a frame)
+
+    def frame_counts(self, frame: str, lanes: Any, scores: Any) -> Any:
+        """One frame's counts from its lanes as the benchmark's files hold them, in memory; a
+        ValueError saying what is wrong with them. Reads nothing the metric keeps."""
+
+    def compute(self, counts: Sequence[Any | None]) -> dict[str, float]:
+        """The scores (`<metric>@<threshold in percent>`, `/<category>` appended for a category)
+        from every frame's counts in the list's order, None where a frame was never updated."""
+
+
+@dataclass(frozen=True)
+class MetricState:
+    """What `Metric.state()` hands over (to another process, or `merge`): each updated frame's
+    counts, and the metric they belong to."""
+
+    benchmark: str
+    options: tuple[tuple[str, Any], ...]
+    counts: Mapping[str, Any]
+
+
+class Metric:
+    """The official metric of one benchmark, fed one frame (or a batch) at a time."""
+
+    def __init__(self, core: MetricCore, options: Mapping[str, Any]):
+        self.core = core
+        self.options = tuple(sorted((key, repr(value)) for key, value in options.items()))
+        self._listed = frozenset(core.frames)
+        self._counts: dict[str, Any] = {}
+
+    @property
+    def frames_updated(self) -> int:
+        return len(self._counts)
+
+    def update(self, frame: str, lanes: Any, scores: Any = None) -> None:
+        """One frame's lanes (and their scores, where the benchmark reads them)."""
+        self._counts[frame] = self._checked(frame, lanes, scores, set())
+
+    def update_many(self, frames: Sequence[str], lanes: Sequence[Any], scores: Sequence[Any] | None = None) -> None:
+        """A batch of frames: all of them taken, or (one refused) none."""
+        if len(frames) != len(lanes) or (scores is not None and len(scores) != len(frames)):
+            raise MetricInputError(f"update_many: {len(frames)} frames, {len(lanes)} lane lists"
+                                   + ("" if scores is None else f", {len(scores)} score lists")
+                                   + ": one of each per frame")
+        batch: dict[str, Any] = {}
+        for k, frame in enumerate(frames):
+            batch[frame] = self._checked(frame, lanes[k], None if scores is None else scores[k], batch)
+        self._counts.update(batch)
+
+    def _checked(self, frame: Any, lanes: Any, scores: Any, batch) -> Any:
+        if not isinstance(frame, str) or frame not in self._listed:
+            example = self.core.frames[0] if self.core.frames else "none"
+            raise MetricInputError(f"{frame!r} is not a frame of this {self.core.name} list (frames are named as "
+                                   f"the list names them, e.g. {example!r})")
+        if frame in self._counts or frame in batch:
+            raise MetricInputError(f"{frame}: given twice to this metric (reset() starts again)")
+        try:
+            return self.core.frame_counts(frame, lanes, scores)
+        except RoneldEvalError as error:
+            raise MetricInputError(f"{frame}: {error}") from None
+        except (TypeError, ValueError) as error:
+            raise MetricInputError(f"{frame}: {error}") from None
+
+    def compute(self) -> dict[str, float]:
+        """Every score, frames combined in the list's order; frames never updated have no lanes."""
+        return self.core.compute([self._counts.get(frame) for frame in self.core.frames])
+
+    def reset(self) -> None:
+        self._counts = {}
+
+    def state(self) -> MetricState:
+        return MetricState(self.core.name, self.options, dict(self._counts))
+
+    def merge(self, other: "Metric | MetricState") -> None:
+        """Take another metric's frames (another process's share of the list): the same
+        benchmark and options, no frame in both."""
+        state = other.state() if isinstance(other, Metric) else other
+        if (state.benchmark, state.options) != (self.core.name, self.options):
+            raise MetricInputError(f"cannot merge a {state.benchmark} metric of options {dict(state.options)} into a "
+                                   f"{self.core.name} metric of options {dict(self.options)}")
+        both = sorted(set(state.counts) & set(self._counts))
+        if both:
+            raise MetricInputError(f"{both[0]}: updated in both metrics ({len(both)} frames)")
+        unknown = sorted(set(state.counts) - self._listed)
+        if unknown:
+            raise MetricInputError(f"{unknown[0]} is not a frame of this {self.core.name} list")
+        self._counts.update(state.counts)
+
+
+def metric(name: str, **options: Any) -> Metric:
+    """The official metric of benchmark `name` in memory; `options` as `score NAME` takes them
+    (for CULane: data_root, list_file, iou or preset, width)."""
+    from .benchmarks import benchmark_for
+
+    benchmark = benchmark_for(name)
+    make = getattr(type(benchmark), "metric", None)
+    if make is None:
+        from .errors import ConfigError
+
+        raise ConfigError(f"{benchmark.display_name} offers no in-memory metric yet (score its files with "
+                          f"`roneld-eval score {name}`)")
+    return Metric(make(benchmark, **options), options)

@@ -1,0 +1,156 @@
+"""`roneld_eval.metric(name, ...)`: a benchmark's official metric fed lanes in memory gives the
+numbers `score NAME` gives for the same lanes in files, whatever the order of the updates."""
+
+from __future__ import annotations
+
+import random
+import shutil
+
+import numpy as np
+import pytest
+
+import roneld_eval
+from roneld_eval.benchmarks.culane.reader import labels_path
+from roneld_eval.benchmarks.culane.synth import synth_culane
+from roneld_eval.lanes_io import read_lines_txt
+
+
+@pytest.fixture(scope="module")
+def culane_set(tmp_path_factory):
+    root = tmp_path_factory.mktemp("culane-metric")
+    synth_culane(root / "set", clips=3, frames=5, seed=11, maps_format="lanes")
+    data, pred = root / "set" / "data", root / "set" / "maps"
+    metric = roneld_eval.metric("culane", data_root=data, iou="0.3:0.7:0.1")
+    lanes = {frame: [lane.points for lane in read_lines_txt(labels_path(pred, frame))] for frame in metric.core.frames}
+    return root, data, pred, lanes
+
+
+def same(a: dict[str, float], b: dict[str, float]) -> bool:
+    """The same names and the same bits (NaN, a ratio of no lanes, equal to NaN)."""
+    return list(a) == list(b) and np.array_equal(np.array(list(a.values())), np.array(list(b.values())),
+                                                 equal_nan=True)
+
+
+def _scores_of(score) -> dict[str, float]:
+    """`score culane`'s official rows as the metric names its numbers."""
+    out = {}
+    for method, category, label, tp, fp, fn, precision, recall, f1 in score.official_rows.rows:
+        prefix = "" if category == "all" else f"{category}/"
+        percent = f"{round(float(label) * 100)}"
+        out.update({f"{prefix}F1@{percent}": f1, f"{prefix}precision@{percent}": precision,
+                    f"{prefix}recall@{percent}": recall})
+    for row in score.summary_rows.rows:
+        if "mF1" in score.summary_rows.columns:
+            category = row[1]
+            out[("" if category == "all" else f"{category}/") + "mF1"] = row[score.summary_rows.columns.index("mF1")]
+    return out
+
+
+def test_lanes_in_memory_score_as_score_culane_scores_their_files(culane_set):
+    _, data, pred, lanes = culane_set
+    expected = _scores_of(roneld_eval.score_culane(data, pred, iou="0.3:0.7:0.1"))
+    metric = roneld_eval.metric("culane", data_root=data, iou="0.3:0.7:0.1")
+    frames = list(lanes)
+    random.Random(5).shuffle(frames)
+    for frame in frames:
+        metric.update(frame, lanes[frame])
+    got = metric.compute()
+    assert same(got, expected)
+    assert {"F1@50", "precision@50", "recall@50", "mF1", "normal/F1@50"} <= set(got)
+    assert 0 < got["F1@50"] < 1
+
+
+def test_any_order_and_batches_give_the_same_bits(culane_set):
+    _, data, _, lanes = culane_set
+    results = []
+    for seed in (1, 2):
+        metric = roneld_eval.metric("culane", data_root=data, preset="clrnet")
+        frames = list(lanes)
+        random.Random(seed).shuffle(frames)
+        metric.update_many(frames[:7], [lanes[f] for f in frames[:7]])
+        for frame in frames[7:]:
+            metric.update(frame, [np.asarray(points).tolist() for points in lanes[frame]])  # lists of pairs too
+        results.append(metric.compute())
+    assert same(results[0], results[1])
+    assert {"F1@50", "F1@75", "mF1"} <= set(results[0])
+
+
+def test_frames_never_updated_count_as_missing_prediction_files(culane_set, tmp_path):
+    _, data, pred, lanes = culane_set
+    kept = list(lanes)[::2]
+    partial = tmp_path / "partial"
+    for frame in kept:
+        source = labels_path(pred, frame)
+        target = labels_path(partial, frame)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(source, target)
+    expected = _scores_of(roneld_eval.score_culane(data, partial))
+    metric = roneld_eval.metric("culane", data_root=data)
+    for frame in kept:
+        metric.update(frame, lanes[frame])
+    assert same(metric.compute(), expected)
+
+
+@pytest.mark.parametrize("frame, lanes, problem", [
+    ("nowhere/00000.jpg", [], "is not a frame of this culane list"),
+    (None, [], "is not a frame of this culane list"),
+    ("FIRST", [[1.0, 2.0, 3.0]], "lane 0: points must be an (N, 2) array"),
+    ("FIRST", [[[1.0, float("nan")], [2.0, 3.0]]], "lane 0: a coordinate is NaN or infinite"),
+    ("FIRST", [[[1e30, 1.0], [2.0, 3.0]]], "lane 0: a coordinate lies more than 2^24 px"),
+    ("FIRST", np.zeros((4, 2)), "lanes must be a sequence of (N, 2) point arrays"),
+    ("FIRST", 5, "not iterable"),
+])
+def test_a_refused_update_is_one_error_and_changes_nothing(culane_set, frame, lanes, problem):
+    _, data, _, good = culane_set
+    metric = roneld_eval.metric("culane", data_root=data)
+    frames = list(good)
+    metric.update(frames[1], good[frames[1]])
+    before = metric.compute()
+    with pytest.raises(roneld_eval.MetricInputError, match=".*" + __import__("re").escape(problem)):
+        metric.update(frames[0] if frame == "FIRST" else frame, lanes)
+    assert metric.frames_updated == 1 and same(metric.compute(), before)
+    with pytest.raises(roneld_eval.MetricInputError, match="given twice"):
+        metric.update(frames[1], good[frames[1]])
+    with pytest.raises(roneld_eval.MetricInputError):  # one bad frame in a batch: none taken
+        metric.update_many([frames[2], frames[0] if frame == "FIRST" else frame], [good[frames[2]], lanes])
+    assert metric.frames_updated == 1 and same(metric.compute(), before)
+
+
+def test_metrics_of_two_shares_merge_into_the_whole(culane_set):
+    _, data, _, lanes = culane_set
+    whole, first, second = (roneld_eval.metric("culane", data_root=data, iou="0.5:0.7:0.1") for _ in range(3))
+    for k, frame in enumerate(lanes):
+        whole.update(frame, lanes[frame])
+        (first if k % 3 else second).update(frame, lanes[frame])
+    first.merge(second.state())
+    assert same(first.compute(), whole.compute())
+    with pytest.raises(roneld_eval.MetricInputError, match="updated in both"):
+        first.merge(second)
+    other = roneld_eval.metric("culane", data_root=data, iou="0.5")
+    with pytest.raises(roneld_eval.MetricInputError, match="cannot merge"):
+        other.merge(second)
+
+
+def test_a_benchmark_without_an_in_memory_metric_says_so():
+    with pytest.raises(roneld_eval.ConfigError, match="offers no in-memory metric yet"):
+        roneld_eval.metric("curvelanes")
+
+
+def test_float64_lanes_score_as_the_files_the_official_format_writes_of_them(culane_set, tmp_path):
+    """Lanes of full float64 precision: what the C++ evaluator would read of them written as
+    .lines.txt (float32, lanes_io.format_lines_txt) scores the same as the arrays."""
+    from roneld_eval.lanes_io import format_lines_txt
+    from roneld_eval.model import Lane
+
+    _, data, _, lanes = culane_set
+    rng = np.random.default_rng(3)
+    moved = {frame: [points + rng.normal(0, 3, points.shape) for points in frame_lanes]
+             for frame, frame_lanes in lanes.items()}
+    files = tmp_path / "moved"
+    metric = roneld_eval.metric("culane", data_root=data, iou="0.3:0.7:0.1")
+    for frame, frame_lanes in moved.items():
+        path = labels_path(files, frame)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(format_lines_txt([Lane(points) for points in frame_lanes]))
+        metric.update(frame, frame_lanes)
+    assert same(metric.compute(), _scores_of(roneld_eval.score_culane(data, files, iou="0.3:0.7:0.1")))
