@@ -27,9 +27,10 @@ class MetricCore(Protocol):
     name: str  # the benchmark's
     frames: tuple[str, ...]  # every frame of the list, in its order (as the benchmark names a frame)
 
-    def frame_counts(self, frame: str, lanes: Any, scores: Any) -> Any:
-        """One frame's counts from its lanes as the benchmark's files hold them, in memory; a
-        ValueError saying what is wrong with them. Reads nothing the metric keeps."""
+    def frame_counts(self, frame: str, lanes: Any, scores: Any, **fields: Any) -> Any:
+        """One frame's counts from its lanes as the benchmark's files hold them, in memory (and
+        the other fields of its line, as TuSimple's `h_samples` and `run_time`); a ValueError
+        saying what is wrong with them. Reads nothing the metric keeps."""
 
     def compute(self, counts: Sequence[Any | None]) -> dict[str, float]:
         """The scores (`<metric>@<threshold in percent>`, `/<category>` appended for a category)
@@ -59,9 +60,10 @@ class Metric:
     def frames_updated(self) -> int:
         return len(self._counts)
 
-    def update(self, frame: str, lanes: Any, scores: Any = None) -> None:
-        """One frame's lanes (and their scores, where the benchmark reads them)."""
-        self._counts[frame] = self._checked(frame, lanes, scores, set())
+    def update(self, frame: str, lanes: Any, scores: Any = None, **fields: Any) -> None:
+        """One frame's lanes (and their scores, where the benchmark reads them; other fields of
+        its prediction, as TuSimple's `h_samples` and `run_time`)."""
+        self._counts[frame] = self._checked(frame, lanes, scores, set(), fields)
 
     def update_many(self, frames: Sequence[str], lanes: Sequence[Any], scores: Sequence[Any] | None = None) -> None:
         """A batch of frames: all of them taken, or (one refused) none."""
@@ -71,10 +73,10 @@ class Metric:
                                    + ": one of each per frame")
         batch: dict[str, Any] = {}
         for k, frame in enumerate(frames):
-            batch[frame] = self._checked(frame, lanes[k], None if scores is None else scores[k], batch)
+            batch[frame] = self._checked(frame, lanes[k], None if scores is None else scores[k], batch, {})
         self._counts.update(batch)
 
-    def _checked(self, frame: Any, lanes: Any, scores: Any, batch) -> Any:
+    def _checked(self, frame: Any, lanes: Any, scores: Any, batch, fields: dict[str, Any]) -> Any:
         if not isinstance(frame, str) or frame not in self._listed:
             example = self.core.frames[0] if self.core.frames else "none"
             raise MetricInputError(f"{frame!r} is not a frame of this {self.core.name} list (frames are named as "
@@ -82,15 +84,19 @@ class Metric:
         if frame in self._counts or frame in batch:
             raise MetricInputError(f"{frame}: given twice to this metric (reset() starts again)")
         try:
-            return self.core.frame_counts(frame, lanes, scores)
+            return self.core.frame_counts(frame, lanes, scores, **fields)
         except RoneldEvalError as error:
             raise MetricInputError(f"{frame}: {error}") from None
         except (TypeError, ValueError) as error:
             raise MetricInputError(f"{frame}: {error}") from None
 
     def compute(self) -> dict[str, float]:
-        """Every score, frames combined in the list's order; frames never updated have no lanes."""
-        return self.core.compute([self._counts.get(frame) for frame in self.core.frames])
+        """Every score, frames combined in the list's order; frames never updated count as the
+        official tool counts a missing prediction (no lanes; TuSimple's refuses: an error)."""
+        try:
+            return self.core.compute([self._counts.get(frame) for frame in self.core.frames])
+        except ValueError as error:
+            raise MetricInputError(str(error)) from None
 
     def reset(self) -> None:
         self._counts = {}

@@ -154,3 +154,52 @@ def test_float64_lanes_score_as_the_files_the_official_format_writes_of_them(cul
         path.write_text(format_lines_txt([Lane(points) for points in frame_lanes]))
         metric.update(frame, frame_lanes)
     assert same(metric.compute(), _scores_of(roneld_eval.score_culane(data, files, iou="0.3:0.7:0.1")))
+
+
+# ---- TuSimple -------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def tusimple_set(tmp_path_factory):
+    from roneld_eval.benchmarks.tusimple.lane_format import read_tusimple_records
+    from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
+
+    root = tmp_path_factory.mktemp("tusimple-metric")
+    synth_tusimple(root / "set", clips=4, frames=3, seed=7, maps_format="lanes")
+    labels, predictions = root / "set" / "data" / "test_label.json", root / "set" / "maps" / "predictions.json"
+    records = {record["raw_file"]: record for _, record in read_tusimple_records(predictions, predictions=True)}
+    return labels, predictions, records
+
+
+def test_tusimple_lanes_in_memory_score_as_score_tusimple_scores_the_file(tusimple_set, tmp_path):
+    labels, predictions, records = tusimple_set
+    metric = roneld_eval.metric("tusimple", labels=labels)
+    assert set(metric.core.frames) <= set(records)  # the detector's file holds every frame of a clip
+    # the file in the label file's order: lane.py sums in the prediction file's order
+    ordered = tmp_path / "ordered.json"
+    lines = {__import__("json").loads(line)["raw_file"]: line for line in predictions.read_text().splitlines()}
+    ordered.write_text("".join(lines[frame] + "\n" for frame in metric.core.frames))
+    expected = roneld_eval.score_tusimple(labels, ordered)
+    frames = list(metric.core.frames)
+    random.Random(2).shuffle(frames)
+    for frame in frames:
+        record = records[frame]
+        metric.update(frame, record["lanes"], h_samples=record["h_samples"], run_time=record["run_time"])
+    got = metric.compute()
+    assert got == {"Accuracy": expected.accuracy, "FP": expected.fp, "FN": expected.fn, "F1_ufld": expected.f1_ufld,
+                   "F1_clrnet": expected.f1_clrnet}
+    assert 0 < got["Accuracy"] < 1
+
+
+def test_tusimple_refuses_what_lane_py_refuses(tusimple_set):
+    labels, _, records = tusimple_set
+    metric = roneld_eval.metric("tusimple", labels=labels)
+    frame = metric.core.frames[0]
+    rows = len(records[frame]["h_samples"])
+    with pytest.raises(roneld_eval.MetricInputError, match=f"lane 0: needs one x per h_samples row \\({rows}\\)"):
+        metric.update(frame, [[1.0, 2.0]])
+    with pytest.raises(roneld_eval.MetricInputError, match="an x that is not a finite lane coordinate"):
+        metric.update(frame, [[float("inf")] * rows])
+    metric.update(frame, records[frame]["lanes"])
+    with pytest.raises(roneld_eval.MetricInputError, match=f"no lanes given for {len(metric.core.frames) - 1} of"):
+        metric.compute()  # lane.py stops where a labelled frame has no prediction

@@ -97,6 +97,12 @@ class TusimpleBenchmark:
         text = format_tusimple_record(frame.relpath, lanes_xs, rows, 0) + "\n"
         return LaneFile(f"{method}/{PREDICTIONS_FILE}", text, append=True)
 
+    def metric(self, **options: Any):
+        """The official metric in memory (roneld_eval.metric): `labels`, the label file."""
+        from .metric import TusimpleMetric
+
+        return TusimpleMetric(**options)
+
     def score_command(self):
         from .cli import score_tusimple_command
 
