@@ -34,7 +34,7 @@ def same(a: dict[str, float], b: dict[str, float]) -> bool:
 def _scores_of(score) -> dict[str, float]:
     """`score culane`'s official rows as the metric names its numbers."""
     out = {}
-    for method, category, label, tp, fp, fn, precision, recall, f1 in score.official_rows.rows:
+    for _, category, label, _, _, _, precision, recall, f1 in score.official_rows.rows:
         prefix = "" if category == "all" else f"{category}/"
         percent = f"{round(float(label) * 100)}"
         out.update({f"{prefix}F1@{percent}": f1, f"{prefix}precision@{percent}": precision,
