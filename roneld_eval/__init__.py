@@ -2,9 +2,9 @@
 any plug-in) on the lane benchmarks (CULane, TuSimple, VIL-100, OpenLane, CurveLanes, LLAMAS and
 any installed plug-in), with the RONELD paper's protocol and each benchmark's official scores.
 
-The CLI is a thin layer over these functions: `run`, `score_culane`, `score_tusimple`,
-`show`, `synthesize`, `compare`, `replay_clip` do what `roneld-eval run`, `score culane`,
-`score tusimple`, `show`, `synth`, `compare` and `replay` do; `metric(name, ...)` is a
+The CLI is a thin layer over these functions: `run`, `score(NAME, ...)` (`score_culane`,
+`score_tusimple`: its older names), `show`, `synthesize`, `compare`, `replay_clip` do what
+`roneld-eval run`, `score NAME`, `show`, `synth`, `compare` and `replay` do; `metric(name, ...)` is a
 benchmark's official metric in memory, for training loops. `RoneldTracker` runs RONELD
 frame by frame on a vehicle (`warm_up()` pays its one-time costs first). Names are imported
 when first used, so `roneld-eval --help` stays quick.
@@ -19,7 +19,7 @@ from .version import __version__
 
 # public name -> module that defines it
 _EXPORTS = {
-    "run": "api", "show": "api", "score_culane": "api", "score_tusimple": "api", "synthesize": "api",
+    "run": "api", "show": "api", "score": "api", "score_culane": "api", "score_tusimple": "api", "synthesize": "api",
     "compare": "comparison", "metric": "in_memory", "Metric": "in_memory", "MetricInputError": "in_memory",
     "evaluate": "evaluation",
     "EvalConfig": "config",
@@ -49,7 +49,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what static checkers and editors see
-    from .api import run, score_culane, score_tusimple, show, synthesize  # noqa: F401
+    from .api import run, score, score_culane, score_tusimple, show, synthesize  # noqa: F401
     from .comparison import compare  # noqa: F401
     from .config import EvalConfig, RoneldParams  # noqa: F401
     from .datasets import read_dataset  # noqa: F401

@@ -261,7 +261,21 @@ def _unfinished(reason: str, cache: ResultCache) -> str:
     return f"{reason}: no result was written; {kept}"
 
 
-# ---- scoring lane files: benchmarks/*_score.py ----------------------------------------------
+# ---- scoring lane files: benchmarks/<name>/score.py -------------------------------------------
+
+
+def score(name: str, **options):
+    """`roneld-eval score NAME` as a function, for every registered benchmark: the options of its
+    command as keyword arguments (its library scorer's: `help(roneld_eval.benchmarks.benchmark_for(
+    NAME).scorer())` lists them), returning what that scorer returns (its tables)."""
+    from .benchmarks import benchmark_for
+
+    benchmark = benchmark_for(name)
+    scorer = getattr(benchmark, "scorer", None)
+    if scorer is None:
+        raise ConfigError(f"benchmark {name!r} offers no library scorer: run `roneld-eval score {name}`")
+    return scorer()(**options)
+
 
 # Re-exported, loaded on first use: `run` needs none of these modules (25 ms of its start-up).
 _LOADED_ON_USE = {"CulaneScore": "benchmarks.culane.score", "score_culane": "benchmarks.culane.score",
@@ -286,7 +300,7 @@ def __dir__() -> list[str]:  # help() and tab completion list them too
     return sorted(set(globals()) | set(_LOADED_ON_USE))
 
 
-__all__ = ["run", "show", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
+__all__ = ["run", "show", "score", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
            "CulaneScore", "SynthResult"]
 
 

@@ -341,15 +341,34 @@ def check_part_arrays(part: Part, n_methods: int, n_categories: int) -> dict[str
     return arrays
 
 
-# The commands whose parts merge, and where their merger lives (module:function): each takes the
-# checked parts in shard order and the output folder, and writes what one unsharded command writes.
-MERGERS = {"score culane": "roneld_eval.benchmarks.culane.score:merge_culane_parts", "run": "roneld_eval.api:merge_run"}
+SCORE_COMMAND = "score "  # a part's command: "run", or "score NAME" for the benchmark NAME's scorer
+
+
+def _merger(part: Part):
+    """The function merging the parts of this part's command: `run`'s, or the benchmark's own
+    part merger (`Benchmark.merge_parts`, taking the checked parts in shard order and the output
+    folder), or None where the benchmark's scorer runs again on the parts' arrays (merge_by_rerun)."""
+    command = part.manifest["command"]
+    if command == "run":
+        from .api import merge_run
+
+        return merge_run
+    benchmark = _scored_benchmark(part)
+    return getattr(benchmark, "merge_parts", None)
+
+
+def _scored_benchmark(part: Part):
+    command = part.manifest["command"]
+    name = command[len(SCORE_COMMAND):] if isinstance(command, str) and command.startswith(SCORE_COMMAND) else None
+    from .benchmarks import benchmark_for, names
+
+    if name not in names() or not hasattr(benchmark_for(name), "scorer"):
+        raise InputError(part.path / MANIFEST_NAME, f"parts of {command!r}, which this version cannot merge")
+    return benchmark_for(name)
 
 
 def merge(folders: Sequence[str | Path], out: str | Path):
     """Read every part, check they are the shards of one command, and write its results to `out`."""
-    import importlib
-
     parts = check_together([read_part(Path(folder)) for folder in folders])
     target = Path(out)
     for part in parts:
@@ -358,12 +377,10 @@ def merge(folders: Sequence[str | Path], out: str | Path):
     if (target / MANIFEST_NAME).exists():
         raise InputError(target, f"holds a part ({MANIFEST_NAME}): give another --out, the parts stay as they are")
     command = parts[0].manifest["command"]
-    if command in RERUN_COMMANDS:
+    merger = _merger(parts[0])
+    if merger is None:
         return command, merge_by_rerun(parts, out)
-    if command not in MERGERS:
-        raise InputError(parts[0].path / MANIFEST_NAME, f"parts of {command!r}, which this version cannot merge")
-    module, _, function = MERGERS[command].partition(":")
-    return command, getattr(importlib.import_module(module), function)(parts, out)
+    return command, merger(parts, out)
 
 
 # ---- score commands whose results are sums over frames (OpenLane, CurveLanes, LLAMAS) ----------
@@ -375,13 +392,6 @@ def merge(folders: Sequence[str | Path], out: str | Path):
 # setup runs again (the labels and prediction roots must be where the shards found them) and must
 # find the frames and prediction trees the shards had.
 
-RERUN_COMMANDS = {
-    "score tusimple": "roneld_eval.benchmarks.tusimple.score:score_tusimple",
-    "score vil100": "roneld_eval.benchmarks.vil100.score:score_vil100",
-    "score openlane": "roneld_eval.benchmarks.openlane.score:score_openlane",
-    "score curvelanes": "roneld_eval.benchmarks.curvelanes.score:score_curvelanes",
-    "score llamas": "roneld_eval.benchmarks.llamas.score:score_llamas",
-}
 _NOT_RECORDED = {"out", "workers", "progress", "announce", "shard", "merged"}
 
 
@@ -497,7 +507,7 @@ class Sharding:
 
 def _absolute_roots(value) -> list[list]:
     """Prediction roots as [name or None, absolute folder] pairs (what _root_specs reads back)."""
-    from .score import _root_specs
+    from .scoring import _root_specs
 
     return [[name, os.path.abspath(path)] for name, path in _root_specs(value)]
 
@@ -538,13 +548,11 @@ def _combined(parts: Sequence[Part]) -> dict[str, np.ndarray]:
 
 def merge_by_rerun(parts: Sequence[Part], out: str | Path):
     """The command the parts are shards of, run again with their arguments and arrays."""
-    import importlib
     import inspect
 
     first = parts[0]
     command = first.manifest["command"]
-    module, _, name = RERUN_COMMANDS[command].partition(":")
-    function = getattr(importlib.import_module(module), name)
+    function = _scored_benchmark(first).scorer()
     arguments = first.manifest["settings"]
     accepted = set(inspect.signature(function).parameters) - _NOT_RECORDED
     if (not isinstance(arguments, dict) or not set(arguments) <= accepted

@@ -113,7 +113,7 @@ def sweep_table(methods: Sequence[str], columns: Sequence[str], values: Mapping[
     """sweep.csv: (method, checkpoint, each headline score, best) in checkpoint order, where every
     name holds a number (else in the given order); the best is the highest last score (mF1 where
     a grid was scored), the first such checkpoint on ties. `values[method]` is in `columns` order."""
-    from .score import PlainTable
+    from .scoring import PlainTable
 
     numbers = {method: checkpoint_number(method) for method in methods}
     ordered = list(methods)

@@ -105,3 +105,16 @@ def test_run_on_openlane_says_to_score_lane_files():
 
 def test_modes_are_the_evaluators_two():
     assert MODES == ("same category", "any category")
+
+
+def test_roneld_eval_score_is_the_benchmarks_scorer_by_name():
+    """`roneld_eval.score(NAME, ...)` runs the scorer of `score NAME` with its arguments."""
+    import roneld_eval
+
+    name = next(iter(EXPECTED))
+    root = GOLDEN / name
+    by_name = roneld_eval.score("openlane", labels=root / "annotations", pred_root={"m": root / "results"},
+                                list_file=root / "test_list.txt", iou="0.3,0.5", workers=1)
+    assert by_name.rows.rows == scored(name).rows.rows
+    with pytest.raises(roneld_eval.ConfigError, match="unknown dataset 'nope'"):
+        roneld_eval.score("nope")

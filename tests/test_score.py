@@ -25,7 +25,7 @@ from roneld_eval.benchmarks.tusimple.official import TusimpleScore, f1_clrnet, f
 from roneld_eval.report.tables import Table
 from roneld_eval.benchmarks.culane.score import SCORE_PRESETS, first_threshold_table, score_culane
 from roneld_eval.benchmarks.tusimple.score import score_tusimple
-from roneld_eval.score import PlainTable
+from roneld_eval.scoring import PlainTable
 from roneld_eval.benchmarks.culane.synth import synth_lane_files
 
 GRID = "0.50:0.95:0.05"

@@ -206,7 +206,7 @@ def _table_csv(sweeps: Sequence[Sweep]) -> str:
 
 
 def _markdown(sweeps: Sequence[Sweep], notes: Sequence[str]) -> str:
-    from ..score import percent
+    from ..scoring import percent
 
     columns = list(sweeps[0].columns)
     lines = ["# Checkpoint sweeps", "",

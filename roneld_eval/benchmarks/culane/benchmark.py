@@ -128,6 +128,19 @@ class CulaneBenchmark:
 
         return CulaneMetric(**options)
 
+    def scorer(self):
+        """The library function behind `score culane` (`roneld_eval.score("culane", ...)`, and
+        what merging its parts runs again on their arrays)."""
+        from .score import score_culane
+
+        return score_culane
+
+    def merge_parts(self, parts, out):
+        """Its parts merged by concatenating their frames' matched IoUs (shards.merge)."""
+        from .score import merge_culane_parts
+
+        return merge_culane_parts(parts, out)
+
     def score_command(self):
         from .cli import score_culane_command
 

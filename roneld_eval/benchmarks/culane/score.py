@@ -49,7 +49,7 @@ if TYPE_CHECKING:
 
     from ...metrics.raster import MaskSet
 
-from ...score import (PlainTable, PredictionRoots, PredictionTree, _taking, check_still_there, find_prediction_trees,
+from ...scoring import (PlainTable, PredictionRoots, PredictionTree, _taking, check_still_there, find_prediction_trees,
                      percent)
 
 

@@ -18,6 +18,13 @@ class CurveLanesBenchmark(LaneFilesOnly):
     official_optional: dict[str, str] = {}
     official_key = ("method", "chosen")
 
+    def scorer(self):
+        """The library function behind `score curvelanes` (`roneld_eval.score("curvelanes", ...)`, and
+        what merging its parts runs again on their arrays)."""
+        from .score import score_curvelanes
+
+        return score_curvelanes
+
     def score_command(self):
         from .cli import score_curvelanes_command
 

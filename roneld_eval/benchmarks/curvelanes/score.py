@@ -19,7 +19,7 @@ from .reader import (IMAGE_SUFFIXES, SUFFIX, every_labelled_image, image_size, l
 
 from .official import f_measure, has_zero_step, hits, iou_matrix
 from ...output import Staging
-from ...score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 from ...shards import Merged, Sharding
 
 COLUMNS = ("method", "score_threshold", "chosen", "hits", "predicted", "truth", "precision", "recall", "f1")

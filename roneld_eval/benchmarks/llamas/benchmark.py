@@ -163,6 +163,13 @@ class LlamasBenchmark:
         # where `score llamas --pred-root lanes/METHOD` looks: <recording>/<frame>.lines.txt
         return LaneFile(f"{method}/{_prediction_name(frame.relpath)}.lines.txt", format_lines_txt(lanes))
 
+    def scorer(self):
+        """The library function behind `score llamas` (`roneld_eval.score("llamas", ...)`, and
+        what merging its parts runs again on their arrays)."""
+        from .score import score_llamas
+
+        return score_llamas
+
     def score_command(self):
         from .cli import score_llamas_command
 

@@ -29,7 +29,7 @@ from .segmentation import CLASSES, IMAGE_HEIGHT as MAP_HEIGHT, IMAGE_WIDTH as MA
 from .segmentation import class_masks, mean_curves, ClassCurve
 from ...output import Staging
 from ...report.tables import Table
-from ...score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
+from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
 from ...shards import Merged, Sharding
 from ...thresholds import Thresholds, parse_thresholds
 

@@ -19,6 +19,13 @@ class OpenLaneBenchmark(LaneFilesOnly):
     official_optional: dict[str, str] = {}
     official_key = ("method", "matching", "threshold")
 
+    def scorer(self):
+        """The library function behind `score openlane` (`roneld_eval.score("openlane", ...)`, and
+        what merging its parts runs again on their arrays)."""
+        from .score import score_openlane
+
+        return score_openlane
+
     def score_command(self):
         from .cli import score_openlane_command
 

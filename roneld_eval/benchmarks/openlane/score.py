@@ -22,7 +22,7 @@ from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, json_path, read_lanes, read_list,
 from ...errors import ConfigError
 from ...metrics.lane_iou_f1 import f_measure, matched_result, official_masks
 from ...output import Staging
-from ...score import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 from ...shards import Merged, Sharding
 
 DEFAULT_IOU = "0.3"  # evaluate.cpp:121 (its help() says 0.4)

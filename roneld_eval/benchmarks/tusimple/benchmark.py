@@ -103,6 +103,13 @@ class TusimpleBenchmark:
 
         return TusimpleMetric(**options)
 
+    def scorer(self):
+        """The library function behind `score tusimple` (`roneld_eval.score("tusimple", ...)`, and
+        what merging its parts runs again on their arrays)."""
+        from .score import score_tusimple
+
+        return score_tusimple
+
     def score_command(self):
         from .cli import score_tusimple_command
 

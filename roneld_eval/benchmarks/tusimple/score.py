@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 
 
     from .official import TusimpleScore
-from ...score import PlainTable, _root_specs, _taking, check_method_names
+from ...scoring import PlainTable, _root_specs, _taking, check_method_names
 
 COLUMNS = ("method", "accuracy", "fp", "fn", "f1_ufld", "f1_clrnet")
 

@@ -161,6 +161,13 @@ class Vil100Benchmark:
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         return LaneFile(f"{method}/{frame.stem}.lines.txt", format_lines_txt(lanes))
 
+    def scorer(self):
+        """The library function behind `score vil100` (`roneld_eval.score("vil100", ...)`, and
+        what merging its parts runs again on their arrays)."""
+        from .score import score_vil100
+
+        return score_vil100
+
     def score_command(self):
         from .cli import score_vil100_command
 

@@ -27,7 +27,7 @@ from .acc import means as acc_means
 from .official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
 from .temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
 from ...output import Staging
-from ...score import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
+from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
 from ...shards import Merged, Sharding
 
 DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers report both
