@@ -264,9 +264,9 @@ def _unfinished(reason: str, cache: ResultCache) -> str:
 # ---- scoring lane files: benchmarks/<name>/score.py -------------------------------------------
 
 
-def score(name: str, **options):
+def score(name: str, *args, **options):
     """`roneld-eval score NAME` as a function, for every registered benchmark: the options of its
-    command as keyword arguments (its library scorer's: `help(roneld_eval.benchmarks.benchmark_for(
+    command as arguments (its library scorer's: `help(roneld_eval.benchmarks.benchmark_for(
     NAME).scorer())` lists them), returning what that scorer returns (its tables)."""
     from .benchmarks import benchmark_for
 
@@ -274,17 +274,25 @@ def score(name: str, **options):
     scorer = getattr(benchmark, "scorer", None)
     if scorer is None:
         raise ConfigError(f"benchmark {name!r} offers no library scorer: run `roneld-eval score {name}`")
-    return scorer()(**options)
+    return scorer()(*args, **options)
+
+
+# The older names of two of them, kept (what they return is what they returned).
+def score_culane(*args, **options):
+    """score("culane", ...): the official CULane scores of .lines.txt trees (CulaneScore)."""
+    return score("culane", *args, **options)
+
+
+def score_tusimple(*args, **options):
+    """score("tusimple", ...): TuSimple lane.py's scores of predictions.json files (TusimpleScore)."""
+    return score("tusimple", *args, **options)
 
 
 # Re-exported, loaded on first use: `run` needs none of these modules (25 ms of its start-up).
-_LOADED_ON_USE = {"CulaneScore": "benchmarks.culane.score", "score_culane": "benchmarks.culane.score",
-                  "score_tusimple": "benchmarks.tusimple.score", "SynthResult": "synth", "synthesize": "synth"}
+_LOADED_ON_USE = {"SynthResult": "synth", "synthesize": "synth"}
 
 
 if TYPE_CHECKING:
-    from .benchmarks.culane.score import CulaneScore, score_culane
-    from .benchmarks.tusimple.score import score_tusimple
     from .synth import SynthResult, synthesize
 
 
@@ -301,7 +309,7 @@ def __dir__() -> list[str]:  # help() and tab completion list them too
 
 
 __all__ = ["run", "show", "score", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
-           "CulaneScore", "SynthResult"]
+           "SynthResult"]
 
 
 # ---- pictures: roneld_eval.report.pictures ----------------------------------------------------

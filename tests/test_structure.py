@@ -36,11 +36,13 @@ def test_the_orchestrators_are_at_most_complexity_10():
 
 # ---- a benchmark's name only in its own folder ------------------------------------------------
 
-# References to a benchmark's name outside benchmark folders, per module, as issue 48 found them
-# moving each benchmark into its folder: what is left to move behind the benchmark's object. A
-# count may only go down (lower it here when it does); a module not listed may have none.
+# References to a benchmark's name outside benchmark folders, per module: api.py's and
+# __init__.py's are the two older public names score_culane and score_tusimple, kept as aliases of
+# score("culane"/"tusimple", ...) as issue 48 allows; the others (cli's option help, a message
+# suggesting a preset, a size limit's label) are what is left to move behind the benchmark's object.
+# A count may only go down (lower it here when it does); a module not listed may have none.
 NAMED_OUTSIDE = {
-    "api.py": 14, "cli.py": 5, "__init__.py": 4, "geometry.py": 1, "limits.py": 1,
+    "api.py": 6, "__init__.py": 4, "cli.py": 5, "geometry.py": 1, "limits.py": 1,
 }
 
 
