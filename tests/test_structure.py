@@ -134,3 +134,13 @@ def test_a_benchmarks_folder_imports_no_other_benchmarks_folder(name):
             if isinstance(node, ast.ImportFrom) and any(part in others for part in (node.module or "").split(".")):
                 found.append(f"{path.name}:{node.lineno}: {node.module}")
     assert found == []
+
+
+def test_the_benchmark_registry_does_not_import_config_back():
+    """config asks the registry for a benchmark's facts; the registry needs nothing of config (the
+    import cycle config <-> benchmarks issue 48 found)."""
+    program = ("import sys, roneld_eval.benchmarks as b; b.names(); "
+               "print(sorted(m for m in sys.modules if m.startswith('roneld_eval.')))")
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=60, cwd=REPO,
+                          check=True)
+    assert "roneld_eval.config" not in done.stdout and "roneld_eval.benchmarks" in done.stdout

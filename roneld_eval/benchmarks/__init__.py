@@ -16,13 +16,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
 
-from ..config import EvalConfig
 from ..entry_points import in_group
 from ..errors import ConfigError
-from ..model import Clip, Dataset, Frame, Lane
 
-if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors' kernels
+if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors' kernels, and
+    # config, which asks this registry for a benchmark's facts, is not imported back (no import cycle)
     import pandas as pd
+
+    from ..config import EvalConfig
+    from ..model import Clip, Dataset, Frame, Lane
 
     from ..extract.protocol import Prediction
 
