@@ -234,7 +234,9 @@ def clip_style(index: int, rng: np.random.Generator, n_frames: int, quality: flo
     return style, category
 
 
-def _write_maps(path: Path, maps: np.ndarray, maps_format: str) -> None:
+def write_maps(path: Path, maps: np.ndarray, maps_format: str) -> None:
+    """One frame's (C, H, W) uint8 maps at `path` (its suffix replaced) in `maps_format` (npy,
+    npz, scnn-png), as a model's test script stores them."""
     path.parent.mkdir(parents=True, exist_ok=True)
     if maps_format == "npy":
         write_file(path.with_suffix(".npy"), npy_bytes(maps))

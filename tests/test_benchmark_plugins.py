@@ -305,3 +305,17 @@ def test_a_third_party_benchmark_runs_on_dask_as_here(toy_runs, tmp_path):
         str(toy_runs / "set" / "maps"), "--pft-ablation", "--set", "model=ToyNet", "--out", str(tmp_path / "dask"),
         "--quiet", "--workers", "2", "--executor", "dask")
     assert (tmp_path / "dask" / "official.csv").read_bytes() == (toy_runs / "run1" / "official.csv").read_bytes()
+
+
+def test_the_toy_builds_on_the_kit_alone_and_every_kit_name_resolves():
+    """A third party's benchmark imports roneld_eval.kit, nothing else of the package."""
+    import ast
+
+    import roneld_eval.kit as kit
+
+    tree = ast.parse((TOY / "toy_lanes.py").read_text(encoding="utf-8"))
+    imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+    imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
+    assert {name for name in imported if name and name.startswith("roneld_eval")} == {"roneld_eval.kit"}
+    for name in kit.__all__:
+        assert getattr(kit, name) is not None, name

@@ -18,12 +18,9 @@ from typing import Any
 import click
 import numpy as np
 
-from roneld_eval.benchmarks import LaneFile
-from roneld_eval.errors import InputError
-from roneld_eval.lanes_io import format_lines_txt, read_lines_txt
-from roneld_eval.maps.lanes import LinesPerFrame
-from roneld_eval.model import Clip, Dataset, Frame
-from roneld_eval.synth import Camera, SynthResult, _write_maps, channel_lanes, clip_style, render_maps, scene_sequence
+from roneld_eval.kit import (Camera, Clip, Dataset, Frame, InputError, LaneFile, LinesPerFrame, SynthResult,
+                             channel_lanes, clip_style, format_lines_txt, read_lines_txt, render_maps, scene_sequence,
+                             write_maps)
 
 WIDTH, HEIGHT = 1000, 500
 CAMERA = Camera(WIDTH, HEIGHT, vanish_y=(200, 230), lane_width_px=(500, 600), top_margin_px=(10, 30))
@@ -138,7 +135,7 @@ class ToyBenchmark:
                 path = _labels(data, relpath)
                 path.parent.mkdir(parents=True, exist_ok=True)
                 path.write_text(text)
-                _write_maps(maps_root / relpath[:-4], render_maps(scene, style, k, rng), maps_format)
+                write_maps(maps_root / relpath[:-4], render_maps(scene, style, k, rng), maps_format)
                 listing.append(relpath)
         (data / "frames.txt").write_text("\n".join(listing) + "\n")
         return SynthResult(data, maps_root, self.name, maps_format, clips, clips * frames)
@@ -157,8 +154,7 @@ class ToyBenchmark:
             raise InputError(path, "more exact clips than clips")
 
     def official_comparison(self, groups):
-        from roneld_eval.comparison.groups import all_found, method_name, ordered_methods
-        from roneld_eval.comparison.tables import EMPTY, Column, Grid, Stat, Text
+        from roneld_eval.kit import EMPTY, Column, Grid, Stat, Text, all_found, method_name, ordered_methods
 
         rows = []
         for group in groups:

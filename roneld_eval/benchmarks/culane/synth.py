@@ -11,7 +11,7 @@ import numpy as np
 
 from ...model import image_stem
 from ...output import write_file
-from ...synth import (Camera, SynthResult, _write_maps, clip_style, detector_lanes, render_maps, scene_lines_txt,
+from ...synth import (Camera, SynthResult, write_maps, clip_style, detector_lanes, render_maps, scene_lines_txt,
                      scene_sequence, write_lines_txt)
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH
 
@@ -50,7 +50,7 @@ def synth_culane(out: str | Path, clips: int = 3, frames: int = 12, seed: int = 
                 rows = np.arange(scene.height - 1, 0, -10)[::-1]
                 write_lines_txt(maps_root / stem, detector_lanes(scene, style, k, detector, rows))
             else:
-                _write_maps(maps_root / stem, render_maps(scene, style, k, rng), maps_format)
+                write_maps(maps_root / stem, render_maps(scene, style, k, rng), maps_format)
             listing.append("/" + relpath)
             categories[category].append(relpath)
             total += 1

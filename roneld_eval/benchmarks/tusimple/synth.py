@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ...output import write_file
-from ...synth import (Camera, Scene, SynthResult, _write_maps, channel_lanes, clip_style, detector_lanes,
+from ...synth import (Camera, Scene, SynthResult, write_maps, channel_lanes, clip_style, detector_lanes,
                      render_maps, scene_sequence)
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH
 
@@ -53,7 +53,7 @@ def synth_tusimple(out: str | Path, clips: int = 3, frames: int = 20, seed: int 
                 predictions.append(_tusimple_prediction(posixpath.join(clip_id, f"{k + 1}.jpg"),
                                                         detector_lanes(scene, style, k, detector, rows)))
             else:
-                _write_maps(maps_root / clip_id / str(k + 1), render_maps(scene, style, k, rng), maps_format)
+                write_maps(maps_root / clip_id / str(k + 1), render_maps(scene, style, k, rng), maps_format)
             total += 1
             if progress is not None:
                 progress(1)

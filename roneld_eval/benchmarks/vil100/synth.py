@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ...output import write_file
-from ...synth import (Camera, SynthResult, _write_maps, clip_style, detector_lanes, render_maps, scene_lines_txt,
+from ...synth import (Camera, SynthResult, write_maps, clip_style, detector_lanes, render_maps, scene_lines_txt,
                      scene_sequence, write_lines_txt)
 from .reader import LABELS_FOLDER, SIZES_FILE
 
@@ -52,7 +52,7 @@ def synth_vil100(out: str | Path, clips: int = 3, frames: int = 100, seed: int =
             if maps_format == "lanes":
                 write_lines_txt(maps_root / stem, detector_lanes(scene, style, k, detector, rows))
             else:
-                _write_maps(maps_root / stem, render_maps(scene, style, k, rng), maps_format)
+                write_maps(maps_root / stem, render_maps(scene, style, k, rng), maps_format)
             total += 1
             if progress is not None:
                 progress(1)
