@@ -214,40 +214,40 @@ def _official_grid(groups):
 
 class CulaneTally:
     """The official table counted clip by clip by `score culane`'s own per-category sum
-    (metrics.lane_iou_f1.GroupCounts) at the run's one threshold: a few integers per method and
-    category, and one clip's frame records, so the main process stays the same size however
-    many frames."""
+    (metrics.lane_iou_f1.GroupCounts) at the run's one threshold, one sum per method (each
+    method's records stand alone): a few integers per method and category, and one clip's frame
+    records, so the main process stays the same size however many frames."""
 
     def __init__(self, methods: Sequence[str], categories: Mapping[str, frozenset[str]], threshold: float):
-        self.methods = tuple(methods)
         self.categories = categories
         # all lanes per category (its lists, then every frame), and the ego lanes alone (one "ego" row)
-        self.every = GroupCounts.zeros(len(self.methods), len(categories) + 1, [threshold])
-        self.ego = GroupCounts.zeros(len(self.methods), 1, [threshold])
-        self.clip: dict[str, dict[str, CulaneOfficial]] = {method: {} for method in self.methods}
+        self.every = {method: GroupCounts.zeros(1, len(categories) + 1, [threshold]) for method in methods}
+        self.ego = {method: GroupCounts.zeros(1, 1, [threshold]) for method in methods}
+        self.held: dict[str, dict[str, CulaneOfficial]] = {method: {} for method in methods}
 
     def add(self, method: str, relpath: str, record: CulaneOfficial) -> None:
-        self.clip[method][relpath] = record
+        self.held[method][relpath] = record
 
     def end_clip(self, clip_id: str) -> None:
         """The clip's frames added to the sums in one go (frame metrics only)."""
-        if self.methods and self.clip[self.methods[0]]:
-            records = [self.clip[method] for method in self.methods]
-            self.every.add(ScoredFrames.from_results([{f: r.all_lanes for f, r in by_frame.items()}
-                                                      for by_frame in records]), self.categories)
-            self.ego.add(ScoredFrames.from_results([{f: r.ego for f, r in by_frame.items()}
-                                                    for by_frame in records]), {})
-        self.clip = {method: {} for method in self.methods}
+        self._add_frames_held()
+
+    def _add_frames_held(self) -> None:
+        for method, records in self.held.items():
+            if records:
+                self.every[method].add(ScoredFrames.from_results([{f: r.all_lanes for f, r in records.items()}]),
+                                       self.categories)
+                self.ego[method].add(ScoredFrames.from_results([{f: r.ego for f, r in records.items()}]), {})
+                self.held[method] = {}
 
     def table(self) -> pd.DataFrame:
+        self._add_frames_held()  # frames added since the last end_clip count too
         at = OFFICIAL_COLUMNS.index("threshold")
-        every = self.every.records(self.methods, list(self.categories))
-        ego = self.ego.records(self.methods, [])
-        per_method = len(self.categories) + 1
         rows = []
-        for m in range(len(self.methods)):
-            rows += every[m * per_method:(m + 1) * per_method]
-            rows.append(ego[m][:1] + ("ego",) + ego[m][2:])
+        for method in self.every:
+            rows += self.every[method].records([method], list(self.categories))
+            ego = self.ego[method].records([method], [])[0]
+            rows.append(ego[:1] + ("ego",) + ego[2:])
         import pandas as pd
 
         return pd.DataFrame([row[:at] + row[at + 1:] for row in rows],
