@@ -11,8 +11,10 @@ counting as the official tool counts a missing prediction file.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, is_dataclass
 from typing import Any, Mapping, Protocol, Sequence
+
+import numpy as np
 
 from .errors import RoneldEvalError
 
@@ -105,19 +107,35 @@ class Metric:
         return MetricState(self.core.name, self.options, dict(self._counts))
 
     def merge(self, other: "Metric | MetricState") -> None:
-        """Take another metric's frames (another process's share of the list): the same
-        benchmark and options, no frame in both."""
+        """Take another metric's frames (another process's share of the list): the same benchmark
+        and options. A frame in both is kept once where its counts are the same (distributed
+        samplers pad the last ranks with frames other ranks had), and refused where they differ."""
         state = other.state() if isinstance(other, Metric) else other
         if (state.benchmark, state.options) != (self.core.name, self.options):
             raise MetricInputError(f"cannot merge a {state.benchmark} metric of options {dict(state.options)} into a "
                                    f"{self.core.name} metric of options {dict(self.options)}")
-        both = sorted(set(state.counts) & set(self._counts))
-        if both:
-            raise MetricInputError(f"{both[0]}: updated in both metrics ({len(both)} frames)")
         unknown = sorted(set(state.counts) - self._listed)
         if unknown:
             raise MetricInputError(f"{unknown[0]} is not a frame of this {self.core.name} list")
+        differing = sorted(frame for frame in set(state.counts) & set(self._counts)
+                           if not same_counts(state.counts[frame], self._counts[frame]))
+        if differing:
+            raise MetricInputError(f"{differing[0]}: updated in both metrics with different lanes "
+                                   f"({len(differing)} frames)")
         self._counts.update(state.counts)
+
+
+def same_counts(a: Any, b: Any) -> bool:
+    """Whether two frames' counts are the same, bit for bit (numbers, arrays, or dataclasses and
+    tuples of them; NaN equal to NaN)."""
+    if is_dataclass(a) and is_dataclass(b) and type(a) is type(b):
+        return all(same_counts(getattr(a, f.name), getattr(b, f.name)) for f in fields(a))
+    if isinstance(a, (tuple, list)) and isinstance(b, (tuple, list)):
+        return len(a) == len(b) and all(same_counts(x, y) for x, y in zip(a, b))
+    x, y = np.asarray(a), np.asarray(b)
+    if x.dtype.kind in "fc" or y.dtype.kind in "fc":
+        return x.shape == y.shape and bool(np.array_equal(x, y, equal_nan=True))
+    return x.shape == y.shape and bool(np.array_equal(x, y))
 
 
 def metric(name: str, **options: Any) -> Metric:

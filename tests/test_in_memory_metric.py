@@ -124,8 +124,14 @@ def test_metrics_of_two_shares_merge_into_the_whole(culane_set):
         (first if k % 3 else second).update(frame, lanes[frame])
     first.merge(second.state())
     assert same(first.compute(), whole.compute())
-    with pytest.raises(roneld_eval.MetricInputError, match="updated in both"):
-        first.merge(second)
+    first.merge(second)  # a sampler's padding: the same frames with the same lanes, kept once
+    assert same(first.compute(), whole.compute())
+    frame = next(iter(lanes))
+    other_lanes = roneld_eval.metric("culane", data_root=data, iou="0.5:0.7:0.1")
+    other_lanes.update(frame, [points + 40.0 for points in lanes[frame]] + [np.array([[1.0, 580.0], [5.0, 300.0]])])
+    with pytest.raises(roneld_eval.MetricInputError, match="updated in both metrics with different lanes"):
+        first.merge(other_lanes)
+    assert same(first.compute(), whole.compute())
     other = roneld_eval.metric("culane", data_root=data, iou="0.5")
     with pytest.raises(roneld_eval.MetricInputError, match="cannot merge"):
         other.merge(second)
