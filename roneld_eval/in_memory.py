@@ -34,6 +34,9 @@ class MetricCore(Protocol):
         the other fields of its line, as TuSimple's `h_samples` and `run_time`); a ValueError
         saying what is wrong with them. Reads nothing the metric keeps."""
 
+    def tables(self, counts: Sequence[Any | None]) -> dict[str, Any]:
+        """The tables `score NAME` writes from the same counts (scoring.PlainTable by name)."""
+
     def compute(self, counts: Sequence[Any | None]) -> dict[str, float]:
         """The scores (`<metric>@<threshold in percent>`, `/<category>` appended for a category)
         from every frame's counts in the list's order, None where a frame was never updated."""
@@ -99,6 +102,11 @@ class Metric:
             return self.core.compute([self._counts.get(frame) for frame in self.core.frames])
         except ValueError as error:
             raise MetricInputError(str(error)) from None
+
+    def tables(self) -> dict[str, Any]:
+        """The tables `score NAME` writes (`official`: official.csv's rows, method '-', ...), as
+        plain tables (`.to_frame()` gives a DataFrame, `.to_csv()` the file's text)."""
+        return self.core.tables([self._counts.get(frame) for frame in self.core.frames])
 
     def reset(self) -> None:
         self._counts = {}

@@ -209,3 +209,72 @@ def test_tusimple_refuses_what_lane_py_refuses(tusimple_set):
     metric.update(frame, records[frame]["lanes"])
     with pytest.raises(roneld_eval.MetricInputError, match=f"no lanes given for {len(metric.core.frames) - 1} of"):
         metric.compute()  # lane.py stops where a labelled frame has no prediction
+
+
+# ---- every benchmark with an in-memory metric: its tables are score NAME's --------------------------
+
+
+def test_culane_tables_are_score_culanes_files(culane_set):
+    _, data, pred, lanes = culane_set
+    score = roneld_eval.score("culane", data, {"-": pred}, preset="clrnet")
+    metric = roneld_eval.metric("culane", data_root=data, preset="clrnet")
+    metric.update_many(list(lanes), list(lanes.values()))
+    tables = metric.tables()
+    assert tables["official"].to_csv() == score.official_rows.to_csv()
+    assert tables["summary"].to_csv() == score.summary_rows.to_csv()
+
+
+def test_tusimple_table_is_score_tusimples_file(tusimple_set, tmp_path):
+    labels, predictions, records = tusimple_set
+    metric = roneld_eval.metric("tusimple", labels=labels)
+    ordered = tmp_path / "-.json"
+    ordered.write_text("".join(__import__("json").dumps(records[frame]) + "\n" for frame in metric.core.frames))
+    roneld_eval.score("tusimple", labels, ordered, out=tmp_path / "out")
+    for frame in metric.core.frames:
+        metric.update(frame, records[frame]["lanes"], run_time=records[frame]["run_time"])
+    assert metric.tables()["official"].to_csv() == (tmp_path / "out" / "official.csv").read_text()
+
+
+@pytest.fixture(scope="module")
+def openlane_set(tmp_path_factory):
+    from roneld_eval.benchmarks.openlane.reader import json_path, read_lanes
+    from roneld_eval.benchmarks.openlane.synth import synth_openlane
+
+    root = tmp_path_factory.mktemp("openlane-metric")
+    synth_openlane(root / "set", clips=3, frames=3, seed=4)
+    labels, predictions = root / "set" / "labels", root / "set" / "predictions"
+    metric = roneld_eval.metric("openlane", labels=labels)
+    lanes = {frame: read_lanes(json_path(predictions, frame)) for frame in metric.core.frames}
+    return labels, predictions, lanes
+
+
+def test_openlane_lanes_in_memory_score_as_score_openlane_scores_their_files(openlane_set, tmp_path):
+    labels, predictions, lanes = openlane_set
+    score = roneld_eval.score("openlane", labels, {"-": predictions}, iou="0.3,0.5", out=tmp_path / "out")
+    metric = roneld_eval.metric("openlane", labels=labels, iou="0.3,0.5")
+    frames = list(lanes)
+    random.Random(4).shuffle(frames)
+    for frame in frames[1:]:  # the first never updated: no lanes, as a missing file
+        metric.update(frame, [lane.points for lane in lanes[frame].lanes], categories=lanes[frame].categories)
+    missing_first = tmp_path / "missing-first"
+    shutil.copytree(predictions, missing_first)
+    (missing_first / (frames[0].rsplit(".", 1)[0] + ".json")).unlink()
+    expected = roneld_eval.score("openlane", labels, {"-": missing_first}, iou="0.3,0.5")
+    assert metric.tables()["official"].to_csv() == expected.rows.to_csv()
+    metric.update(frames[0], [lane.points for lane in lanes[frames[0]].lanes], categories=lanes[frames[0]].categories)
+    assert metric.tables()["official"].to_csv() == score.rows.to_csv()
+    got = metric.compute()
+    assert {"F1@30", "F1@50", "F1@30/any-category", "precision@50/any-category"} <= set(got)
+    assert got["F1@30/any-category"] >= got["F1@30"] > 0
+
+
+def test_openlane_needs_categories_to_match_within_them(openlane_set):
+    labels, _, lanes = openlane_set
+    frame, frame_lanes = next(iter(lanes.items()))
+    metric = roneld_eval.metric("openlane", labels=labels)
+    with pytest.raises(roneld_eval.MetricInputError, match="has no `category`"):
+        metric.update(frame, [lane.points for lane in frame_lanes.lanes])
+    any_category = roneld_eval.metric("openlane", labels=labels, modes=("any category",))
+    any_category.update(frame, [lane.points for lane in frame_lanes.lanes])
+    assert set(any_category.compute()) == {"F1@30/any-category", "precision@30/any-category",
+                                           "recall@30/any-category"}

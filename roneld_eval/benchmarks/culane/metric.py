@@ -10,9 +10,10 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...lanes_io import MAX_PREDICTED_COORDINATE
-from ...metrics.lane_iou_f1 import (UNMATCHED, FrameMatches, GroupCounts, ScoredFrames, frame_result,
-                                    highlight_name, official_masks)
+from ...metrics.lane_iou_f1 import (OFFICIAL_COLUMNS, UNMATCHED, FrameMatches, GroupCounts, ScoredFrames,
+                                    frame_result, highlight_name, official_masks, summary_records)
 from ...model import Lane
+from ...scoring import PlainTable
 from .reader import read_culane, read_frame_labels
 from .score import _thresholds
 
@@ -66,13 +67,22 @@ class CulaneMetric:
         n_gt = len(read_frame_labels(self.root, frame))
         return FrameMatches(n_gt, 0, np.full(n_gt, UNMATCHED))
 
-    def compute(self, counts: Sequence[FrameMatches | None]) -> dict[str, float]:
+    def _rows(self, counts: Sequence[FrameMatches | None]) -> list[tuple]:
         results = {frame: result if result is not None else self._missing(frame)
                    for frame, result in zip(self.frames, counts)}
         sums = GroupCounts.zeros(1, len(self.categories) + 1, self.thresholds.values)
         sums.add(ScoredFrames.from_results([results]), self.categories)
-        rows = sums.records(["-"], list(self.categories), self.thresholds.labels)
-        return scores_by_name(rows, len(self.thresholds.labels))
+        return sums.records(["-"], list(self.categories), self.thresholds.labels)
+
+    def tables(self, counts: Sequence[FrameMatches | None]) -> dict[str, PlainTable]:
+        """official.csv's and summary.csv's rows as `score culane` writes them (method '-')."""
+        rows = self._rows(counts)
+        columns, summary = summary_records(rows, self.highlighted, self.thresholds.labels)
+        return {"official": PlainTable(OFFICIAL_COLUMNS, tuple(rows)), "summary": PlainTable(tuple(columns),
+                                                                                          tuple(summary))}
+
+    def compute(self, counts: Sequence[FrameMatches | None]) -> dict[str, float]:
+        return scores_by_name(self._rows(counts), len(self.thresholds.labels))
 
 
 def scores_by_name(rows: Sequence[tuple], n_thresholds: int) -> dict[str, float]:

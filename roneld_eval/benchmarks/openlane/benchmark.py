@@ -26,6 +26,12 @@ class OpenLaneBenchmark(LaneFilesOnly):
 
         return score_openlane
 
+    def metric(self, **options):
+        """The official metric in memory (roneld_eval.metric): `score openlane`'s options."""
+        from .metric import OpenLaneMetric
+
+        return OpenLaneMetric(**options)
+
     def score_command(self):
         from .cli import score_openlane_command
 

@@ -62,6 +62,12 @@ def read_lanes(path: Path, need_categories: bool = True) -> OpenLaneLanes:
     if data is None:
         return OpenLaneLanes((), ())
     record = parse_json(decode_text(data, path), path, "not JSON", "not an OpenLane file")
+    return lanes_of_record(record, path, need_categories)
+
+
+def lanes_of_record(record, path, need_categories: bool = True) -> OpenLaneLanes:
+    """The lanes of one frame's JSON object (`lane_lines`), as the evaluator keeps them; `path`
+    names it in errors."""
     lines = record.get("lane_lines", []) if isinstance(record, dict) else None
     if not isinstance(lines, list):
         raise InputError(path, "`lane_lines` must be a list of lanes")

@@ -18,7 +18,7 @@ import numpy as np
 from ...config import check_lane_width
 
 from ...thresholds import Thresholds, parse_thresholds
-from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, json_path, read_lanes, read_list, every_labelled_frame
+from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, OpenLaneLanes, every_labelled_frame, json_path, read_lanes, read_list
 from ...errors import ConfigError
 from ...metrics.lane_iou_f1 import f_measure, matched_result, official_masks
 from ...output import Staging
@@ -52,21 +52,30 @@ def _score_frames(args) -> np.ndarray:
         gt_masks = official_masks(truth.lanes, width, height, lane_width) if truth.lanes else None
         for m, root in enumerate(pred_roots):
             predicted = read_lanes(json_path(root, relpath), categories_needed)
-            n_gt, n_pred = len(truth.lanes), len(predicted.lanes)
-            if n_gt and n_pred:
-                assert gt_masks is not None
-                similarity = gt_masks.ious(official_masks(predicted.lanes, width, height, lane_width))
-            else:
-                similarity = np.zeros((n_gt, n_pred))
-            for k, mode in enumerate(modes):
-                matrix = similarity
-                if mode == MODES[0] and n_gt and n_pred:
-                    same = np.equal.outer(np.array(truth.categories), np.array(predicted.categories))
-                    matrix = np.where(same, similarity, 0.0)
-                matched = matched_result(matrix).matched_iou
-                for t, threshold in enumerate(thresholds):
-                    tp = int(np.count_nonzero(matched > threshold))
-                    counts[m, k, t] += (tp, n_pred - tp, n_gt - tp)
+            counts[m] += frame_counts(truth, gt_masks, predicted, (width, height, lane_width), modes, thresholds)
+    return counts
+
+
+def frame_counts(truth: OpenLaneLanes, gt_masks, predicted: OpenLaneLanes, size: tuple[int, int, int],
+                 modes: tuple[str, ...], thresholds) -> np.ndarray:
+    """(modes, thresholds, 3): TP, FP, FN of one frame (`gt_masks`: the truth's official_masks,
+    None without lanes)."""
+    counts = np.zeros((len(modes), len(thresholds), 3), np.int64)
+    n_gt, n_pred = len(truth.lanes), len(predicted.lanes)
+    if n_gt and n_pred:
+        assert gt_masks is not None
+        similarity = gt_masks.ious(official_masks(predicted.lanes, *size))
+    else:
+        similarity = np.zeros((n_gt, n_pred))
+    for k, mode in enumerate(modes):
+        matrix = similarity
+        if mode == MODES[0] and n_gt and n_pred:
+            same = np.equal.outer(np.array(truth.categories), np.array(predicted.categories))
+            matrix = np.where(same, similarity, 0.0)
+        matched = matched_result(matrix).matched_iou
+        for t, threshold in enumerate(thresholds):
+            tp = int(np.count_nonzero(matched > threshold))
+            counts[k, t] = (tp, n_pred - tp, n_gt - tp)
     return counts
 
 

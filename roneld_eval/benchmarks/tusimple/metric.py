@@ -10,7 +10,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...lanes_io import MAX_PREDICTED_COORDINATE
-from .official import bench_frame, mean_scores, read_labels
+from ...scoring import PlainTable
+from .official import TusimpleScore, bench_frame, mean_scores, read_labels
+from .score import official_table
 
 
 class TusimpleMetric:
@@ -45,11 +47,18 @@ class TusimpleMetric:
         gt = self.labels[frame]
         return bench_frame(checked, gt["lanes"], rows, time)
 
-    def compute(self, counts: Sequence[tuple[float, float, float] | None]) -> dict[str, float]:
+    def _score(self, counts: Sequence[tuple[float, float, float] | None]) -> TusimpleScore:
         missing = [frame for frame, value in zip(self.frames, counts) if value is None]
         if missing:  # lane.py: "We do not get the predictions of all the test tasks"
             raise ValueError(f"no lanes given for {len(missing)} of {len(self.frames)} labelled frames (first: "
                              f"{missing[0]}); TuSimple's lane.py refuses predictions that miss a frame")
-        score = mean_scores([value for value in counts if value is not None], len(self.frames))
+        return mean_scores([value for value in counts if value is not None], len(self.frames))
+
+    def tables(self, counts: Sequence[tuple[float, float, float] | None]) -> dict[str, PlainTable]:
+        """official.csv's row as `score tusimple` writes it (method '-')."""
+        return {"official": official_table({"-": self._score(counts)})}
+
+    def compute(self, counts: Sequence[tuple[float, float, float] | None]) -> dict[str, float]:
+        score = self._score(counts)
         return {"Accuracy": score.accuracy, "FP": score.fp, "FN": score.fn, "F1_ufld": score.f1_ufld,
                 "F1_clrnet": score.f1_clrnet}
