@@ -139,7 +139,7 @@ def test_metrics_of_two_shares_merge_into_the_whole(culane_set):
 
 def test_a_benchmark_without_an_in_memory_metric_says_so():
     with pytest.raises(roneld_eval.ConfigError, match="offers no in-memory metric yet"):
-        roneld_eval.metric("curvelanes")
+        roneld_eval.metric("vil100")
 
 
 def test_float64_lanes_score_as_the_files_the_official_format_writes_of_them(culane_set, tmp_path):
@@ -278,3 +278,25 @@ def test_openlane_needs_categories_to_match_within_them(openlane_set):
     any_category.update(frame, [lane.points for lane in frame_lanes.lanes])
     assert set(any_category.compute()) == {"F1@30/any-category", "precision@30/any-category",
                                            "recall@30/any-category"}
+
+
+def test_curvelanes_lanes_in_memory_score_as_score_curvelanes_scores_their_files(tmp_path):
+    from roneld_eval.benchmarks.curvelanes.reader import lanes_path, read_frame
+    from roneld_eval.benchmarks.curvelanes.synth import synth_curvelanes
+
+    synth_curvelanes(tmp_path / "set", clips=6, frames=1, seed=8)
+    labels, predictions, images = (tmp_path / "set" / part for part in ("labels", "predictions", "images"))
+    options = dict(labels=labels, image_root=images, score_threshold=0.5, best_of=(0.3, 0.6, 0.8))
+    score = roneld_eval.score("curvelanes", labels, {"-": predictions}, images, score_threshold=0.5,
+                              best_of=(0.3, 0.6, 0.8))
+    metric = roneld_eval.metric("curvelanes", **options)
+    frames = list(metric.core.frames)
+    random.Random(1).shuffle(frames)
+    for frame in frames:
+        read = read_frame(lanes_path(predictions, frame), True)
+        metric.update(frame, [np.array(lane) for lane in read.lanes],
+                      None if None in read.scores else list(read.scores))
+    assert metric.tables()["official"].to_csv() == score.rows.to_csv()
+    got = metric.compute()
+    assert {"F1", "precision", "recall", "best/F1", "best/score_threshold"} <= set(got)
+    assert got["best/F1"] >= got["F1"] > 0

@@ -25,6 +25,12 @@ class CurveLanesBenchmark(LaneFilesOnly):
 
         return score_curvelanes
 
+    def metric(self, **options):
+        """The official metric in memory (roneld_eval.metric): `score curvelanes`' options."""
+        from .metric import CurveLanesMetric
+
+        return CurveLanesMetric(**options)
+
     def score_command(self):
         from .cli import score_curvelanes_command
 

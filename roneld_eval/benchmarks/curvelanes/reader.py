@@ -60,6 +60,11 @@ def read_frame(path: Path, missing_ok: bool) -> CurveLanesFrame:
     if data is None:
         return CurveLanesFrame((), ())
     record = parse_json(decode_text(data, path), path, "not JSON", "not a CurveLanes file")
+    return frame_of_record(record, path)
+
+
+def frame_of_record(record, path) -> CurveLanesFrame:
+    """One image's lanes (and scores) from its `.lines.json` object; `path` names it in errors."""
     lines = record.get("Lines") if isinstance(record, dict) else None
     if not isinstance(lines, list):
         raise InputError(path, "`Lines` must be a list of lanes")

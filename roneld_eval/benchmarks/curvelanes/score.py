@@ -14,8 +14,8 @@ import numpy as np
 
 from ...errors import ConfigError, InputError
 from ...datasets._paths import under_root
-from .reader import (IMAGE_SUFFIXES, SUFFIX, every_labelled_image, image_size, lanes_path, read_frame,
-                                   read_list)
+from .reader import (IMAGE_SUFFIXES, SUFFIX, CurveLanesFrame, every_labelled_image, image_size, lanes_path,
+                     read_frame, read_list)
 
 from .official import f_measure, has_zero_step, hits, iou_matrix
 from ...output import Staging
@@ -40,35 +40,46 @@ def _zero_step(path: Path, index: int) -> InputError:
 
 
 def _score_frames(args) -> np.ndarray:
-    """(methods, thresholds, 3): hits, predicted and ground-truth lanes of a chunk of images.
-
-    Each file is read and each lane drawn once; a score threshold keeps a subset of the
-    predictions, whose columns of the one IoU matrix are matched (the same IoUs, in the same
-    order, as drawing the kept lanes alone)."""
+    """(methods, thresholds, 3): hits, predicted and ground-truth lanes of a chunk of images."""
     relpaths, labels, images, pred_roots, thresholds = args
     counts = np.zeros((len(pred_roots), len(thresholds), 3), np.int64)
     for relpath in relpaths:
         width, height = image_size(images, relpath)
         path = lanes_path(labels, relpath)
-        truth = read_frame(path, True).lanes
-        for index, lane in enumerate(truth):
-            if has_zero_step(lane, width, height):
-                raise _zero_step(path, index)
+        truth = checked_truth(read_frame(path, True), path, width, height)
         for m, root in enumerate(pred_roots):
             path = lanes_path(root, relpath)
-            frame = read_frame(path, True)
-            kept = [[k for k, score in enumerate(frame.scores) if score is None or score > threshold]
-                    for threshold in thresholds]
-            used = sorted({k for chosen in kept for k in chosen})
-            for chosen in kept:  # in threshold order, named by its place among the lanes kept
-                for index, k in enumerate(chosen):
-                    if has_zero_step(frame.lanes[k], width, height):
-                        raise _zero_step(path, index)
-            matrix = iou_matrix(truth, [frame.lanes[k] for k in used], width, height) if truth else None
-            column = {k: j for j, k in enumerate(used)}
-            for t, chosen in enumerate(kept):
-                found = 0 if matrix is None or not chosen else hits(matrix[:, [column[k] for k in chosen]])
-                counts[m, t] += (found, len(chosen), len(truth))
+            counts[m] += frame_counts(truth, read_frame(path, True), path, width, height, thresholds)
+    return counts
+
+
+def checked_truth(frame: CurveLanesFrame, path, width: int, height: int) -> tuple:
+    """The ground-truth lanes of an image, refused where CondLaneNet's spline would divide by zero."""
+    for index, lane in enumerate(frame.lanes):
+        if has_zero_step(lane, width, height):
+            raise _zero_step(path, index)
+    return frame.lanes
+
+
+def frame_counts(truth: tuple, frame: CurveLanesFrame, path, width: int, height: int, thresholds) -> np.ndarray:
+    """(thresholds, 3): hits, predicted and ground-truth lanes of one image.
+
+    Each lane is drawn once; a score threshold keeps a subset of the predictions, whose columns
+    of the one IoU matrix are matched (the same IoUs, in the same order, as drawing the kept
+    lanes alone)."""
+    counts = np.zeros((len(thresholds), 3), np.int64)
+    kept = [[k for k, score in enumerate(frame.scores) if score is None or score > threshold]
+            for threshold in thresholds]
+    used = sorted({k for chosen in kept for k in chosen})
+    for chosen in kept:  # in threshold order, named by its place among the lanes kept
+        for index, k in enumerate(chosen):
+            if has_zero_step(frame.lanes[k], width, height):
+                raise _zero_step(path, index)
+    matrix = iou_matrix(truth, [frame.lanes[k] for k in used], width, height) if truth else None
+    column = {k: j for j, k in enumerate(used)}
+    for t, chosen in enumerate(kept):
+        found = 0 if matrix is None or not chosen else hits(matrix[:, [column[k] for k in chosen]])
+        counts[t] = (found, len(chosen), len(truth))
     return counts
 
 
@@ -90,9 +101,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
                      merged: Merged | None = None) -> CurveLanesScore | None:
     """Score CurveLanes predictions mirroring `labels`; a lane with a score is kept above the threshold.
     With `shard` ('I/N'), only that share of the images, written as a part to `out` (None is returned)."""
-    thresholds = [float(score_threshold), *(float(t) for t in best_of if float(t) != float(score_threshold))]
-    if not all(np.isfinite(thresholds)):
-        raise ConfigError("score thresholds must be finite numbers")
+    thresholds = score_thresholds(score_threshold, best_of)
     sharding = Sharding("score curvelanes", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, image_root=image_root, list_file=list_file,
         score_threshold=float(score_threshold), best_of=[float(t) for t in best_of], strict=strict))
@@ -125,13 +134,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
                 sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
                                     files_of=files_of)
                 return None
-        rows = []
-        for m, tree in enumerate(trees):
-            rows.append(_row(tree.method, thresholds[0], "fixed", counts[m, 0]))
-            if best_of:
-                listed = [t for t, value in enumerate(thresholds) if value in [float(b) for b in best_of]]
-                best = max(listed, key=lambda t: (f_measure(*counts[m, t])[2], -t))
-                rows.append(_row(tree.method, thresholds[best], "best on the test set", counts[m, best]))
+        rows = [row for m, tree in enumerate(trees) for row in method_rows(tree.method, thresholds, best_of, counts[m])]
         score = CurveLanesScore(PlainTable(COLUMNS, tuple(rows)), tuple(t.method for t in trees), len(relpaths),
                                 tuple(warnings))
         if folder is not None:
@@ -139,6 +142,25 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             staging.write_text("official.csv", score.rows.to_csv())
             folder.commit()
     return score
+
+
+def score_thresholds(score_threshold: float, best_of: Sequence[float]) -> list[float]:
+    """The fixed threshold, then those of `best_of` that differ from it."""
+    thresholds = [float(score_threshold), *(float(t) for t in best_of if float(t) != float(score_threshold))]
+    if not all(np.isfinite(thresholds)):
+        raise ConfigError("score thresholds must be finite numbers")
+    return thresholds
+
+
+def method_rows(method: str, thresholds: Sequence[float], best_of: Sequence[float], counts) -> list[tuple]:
+    """official.csv's rows of one method from its (thresholds, 3) counts: the fixed threshold's,
+    and the best of `best_of` (labelled as chosen on the test set)."""
+    rows = [_row(method, thresholds[0], "fixed", counts[0])]
+    if best_of:
+        listed = [t for t, value in enumerate(thresholds) if value in [float(b) for b in best_of]]
+        best = max(listed, key=lambda t: (f_measure(*counts[t])[2], -t))
+        rows.append(_row(method, thresholds[best], "best on the test set", counts[best]))
+    return rows
 
 
 def _row(method: str, threshold: float, chosen: str, counts) -> tuple:
