@@ -300,3 +300,19 @@ def test_curvelanes_lanes_in_memory_score_as_score_curvelanes_scores_their_files
     got = metric.compute()
     assert {"F1", "precision", "recall", "best/F1", "best/score_threshold"} <= set(got)
     assert got["best/F1"] >= got["F1"] > 0
+
+
+def test_the_readmes_training_loop_runs_as_written(culane_set):
+    import re
+
+    from conftest import REPO
+
+    _, data, _, lanes = culane_set
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    block = next(b for b in re.findall(r"^```python\n(.*?)^```", readme, flags=re.S | re.M)
+                 if "roneld_eval.metric(" in b)
+    frames = list(lanes)
+    names = {"roneld_eval": roneld_eval,
+             "validation": [(frames[k:k + 4], [lanes[f] for f in frames[k:k + 4]]) for k in range(0, len(frames), 4)]}
+    exec(compile(block.replace("/data/CULane", str(data)), "README.md", "exec"), names)
+    assert {"F1@50", "F1@75", "mF1"} <= set(names["scores"]) and 0 < names["scores"]["F1@50"] <= 1

@@ -357,7 +357,8 @@ def test_the_readmes_vehicle_loop_runs_as_written():
     from conftest import REPO
 
     readme = (REPO / "README.md").read_text(encoding="utf-8")
-    block = next(b for b in re.findall(r"^```python\n(.*?)^```", readme, flags=re.S | re.M) if ".update(" in b)
+    block = next(b for b in re.findall(r"^```python\n(.*?)^```", readme, flags=re.S | re.M)
+                 if ".update(" in b and "RoneldTracker" in b)
     assert len(block.splitlines()) <= 15
     frames = curving_frames()
     published, logged = [], []
