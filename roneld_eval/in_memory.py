@@ -133,6 +133,22 @@ class Metric:
         self._counts.update(state.counts)
 
 
+def point_arrays(lanes: Any, axes: str = "x, y") -> list[np.ndarray]:
+    """A frame's lanes as a detector holds them, a sequence of (N, 2) point arrays, each as float64;
+    a ValueError naming the lane that is not one."""
+    if isinstance(lanes, np.ndarray) and lanes.ndim != 3:
+        raise ValueError(f"lanes must be a sequence of (N, 2) point arrays, got an array of shape {lanes.shape}")
+    arrays = []
+    for index, lane in enumerate(lanes):
+        points = np.asarray(lane, dtype=np.float64)
+        if points.size == 0:
+            points = points.reshape(0, 2)
+        if points.ndim != 2 or points.shape[1] != 2:
+            raise ValueError(f"lane {index}: points must be an (N, 2) array of ({axes}), got shape {points.shape}")
+        arrays.append(points)
+    return arrays
+
+
 def same_counts(a: Any, b: Any) -> bool:
     """Whether two frames' counts are the same, bit for bit (numbers, arrays, or dataclasses and
     tuples of them; NaN equal to NaN)."""

@@ -154,6 +154,22 @@ class Benchmark(Protocol):
 ENTRY_POINT_GROUP = "roneld_eval.benchmarks"
 
 
+def from_module(module: str, name: str, call: bool = False):
+    """A benchmark member taken from a module of the benchmark's own folder when first used (so
+    that naming a benchmark imports none of its scoring): `name` itself (`scorer`,
+    `score_command`), or with `call` the member's arguments passed to it (`metric(**options)`,
+    `merge_parts(parts, out)`). `module` is relative to the benchmark object's package."""
+
+    def member(self, *args: Any, **kwargs: Any) -> Any:
+        import importlib
+
+        value = getattr(importlib.import_module(module, type(self).__module__.rpartition(".")[0]), name)
+        return value(*args, **kwargs) if call else value
+
+    member.__doc__ = f"{name} of {module}" + (" called with these arguments" if call else "")
+    return member
+
+
 _OWN = __name__.split(".")[0] + "."
 # What every benchmark must have, and what `run` needs besides (a benchmark scored from lane
 # files only has default_preset None and need not have these).

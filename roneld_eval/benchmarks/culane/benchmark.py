@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 from ...config import EvalConfig
-from .. import CategoryPanel, LaneFile
+from .. import CategoryPanel, LaneFile, from_module
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, labels_path, read_culane, with_labels
 from ...json_fields import json_number, read_count, read_float, read_list
 from ...lanes_io import format_lines_txt
@@ -68,6 +68,13 @@ class CulaneBenchmark:
     missing_maps_hint = ""
     detector_lanes = LinesPerFrame()  # what run --save-lanes writes
 
+    # loaded from this folder when first used (benchmarks.from_module): the command, its library
+    # scorer (roneld_eval.score), its parts' merger, the in-memory metric's core
+    score_command = from_module(".cli", "score_culane_command")
+    scorer = from_module(".score", "score_culane")
+    metric = from_module(".metric", "CulaneMetric", call=True)
+    merge_parts = from_module(".score", "merge_culane_parts", call=True)
+
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:
         return read_culane(root, list_file, limit, errors, labels, require_labels=True)
@@ -121,30 +128,6 @@ class CulaneBenchmark:
 
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         return LaneFile(f"{method}/{frame.stem}.lines.txt", format_lines_txt(lanes))
-
-    def metric(self, **options: Any):
-        """The official metric in memory (roneld_eval.metric): `score culane`'s options as keywords."""
-        from .metric import CulaneMetric
-
-        return CulaneMetric(**options)
-
-    def scorer(self):
-        """The library function behind `score culane` (`roneld_eval.score("culane", ...)`, and
-        what merging its parts runs again on their arrays)."""
-        from .score import score_culane
-
-        return score_culane
-
-    def merge_parts(self, parts, out):
-        """Its parts merged by concatenating their frames' matched IoUs (shards.merge)."""
-        from .score import merge_culane_parts
-
-        return merge_culane_parts(parts, out)
-
-    def score_command(self):
-        from .cli import score_culane_command
-
-        return score_culane_command
 
     def official_protocol(self, protocol) -> str | None:
         return _official_settings(protocol)

@@ -9,6 +9,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ...in_memory import point_arrays
 from ...lanes_io import MAX_PREDICTED_COORDINATE
 from ...metrics.lane_iou_f1 import (OFFICIAL_COLUMNS, UNMATCHED, FrameMatches, GroupCounts, ScoredFrames,
                                     frame_result, highlight_name, official_masks, summary_records)
@@ -21,15 +22,8 @@ from .score import _thresholds
 def lanes_of(values: Any) -> tuple[Lane, ...]:
     """Lanes as a detector holds them: a sequence of (N, 2) arrays of (x, y) image pixels, as a
     `.lines.txt` lists them (the C++ evaluator's float32 applies as when written and read)."""
-    if isinstance(values, np.ndarray) and values.ndim != 3:
-        raise ValueError(f"lanes must be a sequence of (N, 2) point arrays, got an array of shape {values.shape}")
     lanes = []
-    for index, lane in enumerate(values):
-        points = np.asarray(lane, dtype=np.float64)
-        if points.size == 0:
-            points = points.reshape(0, 2)
-        if points.ndim != 2 or points.shape[1] != 2:
-            raise ValueError(f"lane {index}: points must be an (N, 2) array of (x, y), got shape {points.shape}")
+    for index, points in enumerate(point_arrays(values)):
         if not np.isfinite(points).all():
             raise ValueError(f"lane {index}: a coordinate is NaN or infinite")
         if points.size and np.abs(points).max() > MAX_PREDICTED_COORDINATE:

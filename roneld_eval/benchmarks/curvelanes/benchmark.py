@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from .. import from_module
 from ..lane_files_only import LaneFilesOnly
 
 
@@ -18,23 +19,11 @@ class CurveLanesBenchmark(LaneFilesOnly):
     official_optional: dict[str, str] = {}
     official_key = ("method", "chosen")
 
-    def scorer(self):
-        """The library function behind `score curvelanes` (`roneld_eval.score("curvelanes", ...)`, and
-        what merging its parts runs again on their arrays)."""
-        from .score import score_curvelanes
-
-        return score_curvelanes
-
-    def metric(self, **options):
-        """The official metric in memory (roneld_eval.metric): `score curvelanes`' options."""
-        from .metric import CurveLanesMetric
-
-        return CurveLanesMetric(**options)
-
-    def score_command(self):
-        from .cli import score_curvelanes_command
-
-        return score_curvelanes_command
+    # loaded from this folder when first used (benchmarks.from_module): the command, its library
+    # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
+    score_command = from_module(".cli", "score_curvelanes_command")
+    scorer = from_module(".score", "score_curvelanes")
+    metric = from_module(".metric", "CurveLanesMetric", call=True)
 
     def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
         from .synth import synth_curvelanes

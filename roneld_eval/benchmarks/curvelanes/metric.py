@@ -10,6 +10,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ...in_memory import point_arrays
 from ...scoring import PlainTable
 
 from .reader import (every_labelled_image, frame_of_record, image_size, lanes_path, read_frame, read_list)
@@ -32,16 +33,11 @@ class CurveLanesMetric:
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> np.ndarray:
         """(thresholds, 3) of the image: `lanes`, (N, 2) arrays of (x, y) pixels; `scores`, one
         per lane (a lane without one is always kept, as a file's plain list of points)."""
-        lanes = list(lanes)
-        if scores is not None and len(scores) != len(lanes):
-            raise ValueError(f"{len(scores)} scores for {len(lanes)} lanes")
+        arrays = point_arrays(lanes)
+        if scores is not None and len(scores) != len(arrays):
+            raise ValueError(f"{len(scores)} scores for {len(arrays)} lanes")
         lines = []
-        for index, points in enumerate(lanes):
-            array = np.asarray(points, dtype=np.float64)
-            if array.size == 0:
-                array = array.reshape(0, 2)
-            if array.ndim != 2 or array.shape[1] != 2:
-                raise ValueError(f"lane {index}: points must be an (N, 2) array of (x, y), got shape {array.shape}")
+        for index, array in enumerate(arrays):
             line: Any = [{"x": x, "y": y} for x, y in array.tolist()]
             if scores is not None:
                 line = {"points": line, "score": float(scores[index])}

@@ -71,16 +71,22 @@ def frame_counts(truth: tuple, frame: CurveLanesFrame, path, width: int, height:
     kept = [[k for k, score in enumerate(frame.scores) if score is None or score > threshold]
             for threshold in thresholds]
     used = sorted({k for chosen in kept for k in chosen})
-    for chosen in kept:  # in threshold order, named by its place among the lanes kept
-        for index, k in enumerate(chosen):
-            if has_zero_step(frame.lanes[k], width, height):
-                raise _zero_step(path, index)
+    _check_kept(frame, kept, path, width, height)
     matrix = iou_matrix(truth, [frame.lanes[k] for k in used], width, height) if truth else None
     column = {k: j for j, k in enumerate(used)}
     for t, chosen in enumerate(kept):
         found = 0 if matrix is None or not chosen else hits(matrix[:, [column[k] for k in chosen]])
         counts[t] = (found, len(chosen), len(truth))
     return counts
+
+
+def _check_kept(frame: CurveLanesFrame, kept: list[list[int]], path, width: int, height: int) -> None:
+    """Refuse a kept lane CondLaneNet's spline divides by zero on, in threshold order, named by
+    its place among the lanes kept."""
+    for chosen in kept:
+        for index, k in enumerate(chosen):
+            if has_zero_step(frame.lanes[k], width, height):
+                raise _zero_step(path, index)
 
 
 # The score thresholds vega's shipped lane configuration searches (huawei-noah/vega 0f1d0d0,

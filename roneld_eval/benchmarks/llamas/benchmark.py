@@ -19,7 +19,7 @@ from ...json_fields import json_number, read_count, read_float, read_list
 from ...lanes_io import format_lines_txt
 from ...maps.lanes import LinesPerFrame
 from ...model import Clip, Dataset, Frame, Lane
-from .. import LaneFile
+from .. import LaneFile, from_module
 
 if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors
     import pandas as pd
@@ -78,6 +78,11 @@ class LlamasBenchmark:
     kernel_groups: tuple[str, ...] = ()  # its official scoring is OpenCV's drawing and scipy's
     missing_maps_hint = ""
     detector_lanes = LinesPerFrame(name_of=_prediction_name)  # what run --save-lanes writes
+
+    # loaded from this folder when first used (benchmarks.from_module): the command, its library
+    # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
+    score_command = from_module(".cli", "score_llamas_command")
+    scorer = from_module(".score", "score_llamas")
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:
@@ -162,18 +167,6 @@ class LlamasBenchmark:
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         # where `score llamas --pred-root lanes/METHOD` looks: <recording>/<frame>.lines.txt
         return LaneFile(f"{method}/{_prediction_name(frame.relpath)}.lines.txt", format_lines_txt(lanes))
-
-    def scorer(self):
-        """The library function behind `score llamas` (`roneld_eval.score("llamas", ...)`, and
-        what merging its parts runs again on their arrays)."""
-        from .score import score_llamas
-
-        return score_llamas
-
-    def score_command(self):
-        from .cli import score_llamas_command
-
-        return score_llamas_command
 
     def official_protocol(self, protocol) -> str | None:
         if protocol is None:

@@ -3,6 +3,7 @@ evaluator scores them (`score openlane`: score.py)."""
 
 from __future__ import annotations
 
+from .. import from_module
 from ..lane_files_only import LaneFilesOnly
 
 
@@ -19,23 +20,11 @@ class OpenLaneBenchmark(LaneFilesOnly):
     official_optional: dict[str, str] = {}
     official_key = ("method", "matching", "threshold")
 
-    def scorer(self):
-        """The library function behind `score openlane` (`roneld_eval.score("openlane", ...)`, and
-        what merging its parts runs again on their arrays)."""
-        from .score import score_openlane
-
-        return score_openlane
-
-    def metric(self, **options):
-        """The official metric in memory (roneld_eval.metric): `score openlane`'s options."""
-        from .metric import OpenLaneMetric
-
-        return OpenLaneMetric(**options)
-
-    def score_command(self):
-        from .cli import score_openlane_command
-
-        return score_openlane_command
+    # loaded from this folder when first used (benchmarks.from_module): the command, its library
+    # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
+    score_command = from_module(".cli", "score_openlane_command")
+    scorer = from_module(".score", "score_openlane")
+    metric = from_module(".metric", "OpenLaneMetric", call=True)
 
     def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
         from .synth import synth_openlane

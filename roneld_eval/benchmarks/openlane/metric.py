@@ -9,6 +9,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ...in_memory import point_arrays
 from ...metrics.lane_iou_f1 import f_measure, highlight_name, official_masks
 from ...scoring import PlainTable
 from ...thresholds import parse_thresholds
@@ -39,16 +40,11 @@ class OpenLaneMetric:
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None, categories: Any = None) -> np.ndarray:
         """(modes, thresholds, 3) of the frame: `lanes`, (N, 2) arrays of (u, v) image pixels;
         `categories`, one per lane (OpenLane's numbers), needed to match within categories."""
-        lanes = list(lanes)
-        if categories is not None and len(categories) != len(lanes):
-            raise ValueError(f"{len(categories)} categories for {len(lanes)} lanes")
+        arrays = point_arrays(lanes, "u, v")
+        if categories is not None and len(categories) != len(arrays):
+            raise ValueError(f"{len(categories)} categories for {len(arrays)} lanes")
         lines = []
-        for index, points in enumerate(lanes):
-            array = np.asarray(points, dtype=np.float64)
-            if array.size == 0:
-                array = array.reshape(0, 2)
-            if array.ndim != 2 or array.shape[1] != 2:
-                raise ValueError(f"lane {index}: points must be an (N, 2) array of (u, v), got shape {array.shape}")
+        for index, array in enumerate(arrays):
             line: dict[str, Any] = {"uv": [array[:, 0].tolist(), array[:, 1].tolist()]}
             if categories is not None:
                 line["category"] = categories[index]

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 from ...config import EvalConfig
 from ...errors import InputError
-from .. import LaneFile
+from .. import LaneFile, from_module
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, read_tusimple
 from ...json_fields import json_number, read_float, read_list
 from ...lanes_io import sample_lane_at_rows
@@ -57,6 +57,12 @@ class TusimpleBenchmark:
     missing_maps_hint = " (each TuSimple clip needs maps for all its 20 frames)"
     detector_lanes = JsonLinesFile(PREDICTIONS_FILE, predicted_frames)  # what run --save-lanes writes
 
+    # loaded from this folder when first used (benchmarks.from_module): the command, its library
+    # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
+    score_command = from_module(".cli", "score_tusimple_command")
+    scorer = from_module(".score", "score_tusimple")
+    metric = from_module(".metric", "TusimpleMetric", call=True)
+
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:
         return read_tusimple(root, list_file, limit, errors)  # one label file: always read
@@ -96,24 +102,6 @@ class TusimpleBenchmark:
         lanes_xs = [sample_lane_at_rows(lane, rows) for lane in lanes]
         text = format_tusimple_record(frame.relpath, lanes_xs, rows, 0) + "\n"
         return LaneFile(f"{method}/{PREDICTIONS_FILE}", text, append=True)
-
-    def metric(self, **options: Any):
-        """The official metric in memory (roneld_eval.metric): `labels`, the label file."""
-        from .metric import TusimpleMetric
-
-        return TusimpleMetric(**options)
-
-    def scorer(self):
-        """The library function behind `score tusimple` (`roneld_eval.score("tusimple", ...)`, and
-        what merging its parts runs again on their arrays)."""
-        from .score import score_tusimple
-
-        return score_tusimple
-
-    def score_command(self):
-        from .cli import score_tusimple_command
-
-        return score_tusimple_command
 
     def official_protocol(self, protocol) -> str | None:
         return None  # lane.py's own: no settings of the run's

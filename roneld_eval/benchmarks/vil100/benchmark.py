@@ -19,7 +19,7 @@ from ...json_fields import json_number, read_count, read_float, read_list
 from ...lanes_io import format_lines_txt
 from ...maps.lanes import LinesPerFrame
 from ...model import Clip, Dataset, Frame, Lane
-from .. import LaneFile
+from .. import LaneFile, from_module
 
 if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors
     import pandas as pd
@@ -79,6 +79,11 @@ class Vil100Benchmark:
     kernel_groups = ("official",)
     missing_maps_hint = ""
     detector_lanes = LinesPerFrame()  # what run --save-lanes writes
+
+    # loaded from this folder when first used (benchmarks.from_module): the command, its library
+    # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
+    score_command = from_module(".cli", "score_vil100_command")
+    scorer = from_module(".score", "score_vil100")
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:
@@ -160,18 +165,6 @@ class Vil100Benchmark:
 
     def lane_file(self, method: str, frame: Frame, lanes: Sequence[Lane]) -> LaneFile:
         return LaneFile(f"{method}/{frame.stem}.lines.txt", format_lines_txt(lanes))
-
-    def scorer(self):
-        """The library function behind `score vil100` (`roneld_eval.score("vil100", ...)`, and
-        what merging its parts runs again on their arrays)."""
-        from .score import score_vil100
-
-        return score_vil100
-
-    def score_command(self):
-        from .cli import score_vil100_command
-
-        return score_vil100_command
 
     def official_protocol(self, protocol) -> str | None:
         if protocol is None:
