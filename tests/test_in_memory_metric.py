@@ -316,3 +316,21 @@ def test_the_readmes_training_loop_runs_as_written(culane_set):
              "validation": [(frames[k:k + 4], [lanes[f] for f in frames[k:k + 4]]) for k in range(0, len(frames), 4)]}
     exec(compile(block.replace("/data/CULane", str(data)), "README.md", "exec"), names)
     assert {"F1@50", "F1@75", "mF1"} <= set(names["scores"]) and 0 < names["scores"]["F1@50"] <= 1
+
+
+def test_llamas_lanes_in_memory_score_as_score_llamas_scores_their_files(tmp_path):
+    from roneld_eval.benchmarks.llamas.reader import prediction_path
+    from roneld_eval.benchmarks.llamas.synth import synth_llamas
+
+    result = synth_llamas(tmp_path / "set", clips=2, frames=4, seed=6)
+    labels, predictions = result.data_root, result.maps_root
+    score = roneld_eval.score("llamas", labels, {"-": predictions})
+    metric = roneld_eval.metric("llamas", labels=labels)
+    frames = list(metric.core.frames)
+    random.Random(7).shuffle(frames)
+    for frame in frames:
+        metric.update(frame, [lane.points for lane in read_lines_txt(prediction_path(predictions, frame))])
+    assert metric.tables()["official"].to_csv() == score.rows.to_csv()
+    got = metric.compute()
+    assert got["mF1"] == score.mf1("-") and got["F1@50"] == score.f1("-", "0.50") > 0
+    assert {"F1@50", "F1@75", "mF1", "precision@50", "recall@75"} <= set(got)

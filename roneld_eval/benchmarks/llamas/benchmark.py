@@ -83,6 +83,7 @@ class LlamasBenchmark:
     # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
     score_command = from_module(".cli", "score_llamas_command")
     scorer = from_module(".score", "score_llamas")
+    metric = from_module(".metric", "LlamasMetric", call=True)
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:

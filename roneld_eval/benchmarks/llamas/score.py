@@ -77,9 +77,14 @@ def _ap_values(curves) -> tuple[float, ...]:
 def _predicted(path: Path, width: int) -> tuple[list, int]:
     """load_prediction then interpolate_lane: masks of the lanes of two points or more, and how
     many of them splprep refuses (where the script stops; here they are left out)."""
-    masks, refused = [], 0
     lanes = read_lines_txt(path)  # a missing file: no lanes (the script stops: FileNotFoundError)
     check_coordinates(lanes, path)  # as every reader of predicted lanes: 1e308 overflowed the drawing
+    return predicted_masks(lanes, width)
+
+
+def predicted_masks(lanes, width: int) -> tuple[list, int]:
+    """interpolate_lane and the drawing of each lane of two points or more, and how many splprep refuses."""
+    masks, refused = [], 0
     for lane in lanes:
         if len(lane.points) < 2:
             continue
@@ -113,6 +118,11 @@ def _segmentation_label(record, path: Path) -> np.ndarray:
                                "(l0..l7, r0..r8), where evaluate_segmentation.py stops") from None
 
 
+def truth_masks(label, width: int) -> list:
+    """The label's lanes drawn as evaluate.py draws them."""
+    return [lane_mask(lane.points, IMAGE_WIDTH, IMAGE_HEIGHT, width) for lane in label.lanes]
+
+
 def _score_frames(args):
     keys, labels, pred_roots, thresholds, width, map_roots = args
     counts = np.zeros((len(pred_roots), len(thresholds), 3), np.int64)
@@ -123,7 +133,7 @@ def _score_frames(args):
         if pred_roots:
             label = label_of(record, labels[key])
             dropped += label.dropped_above
-            truth = [lane_mask(lane.points, IMAGE_WIDTH, IMAGE_HEIGHT, width) for lane in label.lanes]
+            truth = truth_masks(label, width)
             for m, root in enumerate(pred_roots):
                 predicted, stopped = _predicted(prediction_path(root, key), width)
                 refused[m] += stopped
@@ -204,10 +214,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             for t, label in enumerate(thresholds.labels):
                 tp, fp, fn = (int(v) for v in counts[m, t])
                 rows.append((tree.method, label, tp, fp, fn, *f1_of(tp, fp, fn), *ap))
-            mean = 0.0
-            for t in range(len(thresholds.values), len(scored_at)):  # llamas_metric.py: mean_f1 += f1 / 10
-                mean += f1_of(*(int(v) for v in counts[m, t]))[2] / len(MF1_THRESHOLDS)
-            mf1s[tree.method] = mean
+            mf1s[tree.method] = clrnet_mf1(counts[m, len(thresholds.values):])
         methods = tuple(dict.fromkeys([tree.method for tree in trees] + [tree.method for tree in map_trees]))
         for method in methods:
             if method not in mf1s:  # maps only: one row, of AP
@@ -230,6 +237,14 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             staging.write_text("summary.md", summary_markdown(score, width))
             folder.commit()
     return score
+
+
+def clrnet_mf1(counts) -> float:
+    """CLRNet's mF1 from the (MF1_THRESHOLDS, 3) counts: llamas_metric.py's mean_f1 += f1 / 10."""
+    mean = 0.0
+    for tp, fp, fn in counts:
+        mean += f1_of(int(tp), int(fp), int(fn))[2] / len(MF1_THRESHOLDS)
+    return mean
 
 
 def _given(roots: PredictionRoots) -> bool:
