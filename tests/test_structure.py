@@ -38,7 +38,7 @@ COMPLEX_LEFT = {
     "benchmarks/curvelanes/score.py:score_curvelanes": 18,
     "benchmarks/llamas/reader.py:_lanes_of": 20,
     "benchmarks/llamas/reader.py:marker_lanes": 18,
-    "benchmarks/llamas/score.py:score_llamas": 41,
+    "benchmarks/llamas/score.py:score_llamas": 39,
     "benchmarks/llamas/synth.py:synth_llamas": 18,
     "benchmarks/openlane/score.py:score_openlane": 22,
     "benchmarks/tusimple/lane_format.py:parse_tusimple_record": 26,
