@@ -12,11 +12,13 @@ counting as the official tool counts a missing prediction file.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, is_dataclass
-from typing import Any, Mapping, Protocol, Sequence
+from typing import Any, Callable, Generic, Mapping, Protocol, Sequence, TypeVar
 
 import numpy as np
 
 from .errors import RoneldEvalError
+from .lanes_io import MAX_PREDICTED_COORDINATE
+from .model import Lane
 
 
 class MetricInputError(RoneldEvalError, ValueError):
@@ -133,6 +135,29 @@ class Metric:
         self._counts.update(state.counts)
 
 
+Truth = TypeVar("Truth")
+
+
+class TruthMemo(Generic[Truth]):
+    """Each frame's ground truth as a metric's core reads and draws it, kept from its first use on:
+    a training loop updates the same frames every epoch, and from the second on only its
+    predictions are read and drawn. A frame whose truth cannot be read is not kept (its error is
+    raised again next time). Held by the core, so by the metric object: a new `metric(...)` reads
+    the labels afresh (an edited label is seen), `reset()` keeps them."""
+
+    def __init__(self, read: Callable[[str], Truth]):
+        self._read = read
+        self._kept: dict[str, Truth] = {}
+
+    def __call__(self, frame: str) -> Truth:
+        if frame not in self._kept:
+            self._kept[frame] = self._read(frame)
+        return self._kept[frame]
+
+    def __len__(self) -> int:
+        return len(self._kept)
+
+
 def point_arrays(lanes: Any, axes: str = "x, y") -> list[np.ndarray]:
     """A frame's lanes as a detector holds them, a sequence of (N, 2) point arrays, each as float64;
     a ValueError naming the lane that is not one."""
@@ -147,6 +172,19 @@ def point_arrays(lanes: Any, axes: str = "x, y") -> list[np.ndarray]:
             raise ValueError(f"lane {index}: points must be an (N, 2) array of ({axes}), got shape {points.shape}")
         arrays.append(points)
     return arrays
+
+
+def pixel_lanes(values: Any) -> tuple[Lane, ...]:
+    """Lanes as a detector holds them: a sequence of (N, 2) arrays of (x, y) image pixels, as a
+    `.lines.txt` lists them (the C++ evaluator's float32 applies as when written and read)."""
+    lanes = []
+    for index, points in enumerate(point_arrays(values)):
+        if not np.isfinite(points).all():
+            raise ValueError(f"lane {index}: a coordinate is NaN or infinite")
+        if points.size and np.abs(points).max() > MAX_PREDICTED_COORDINATE:
+            raise ValueError(f"lane {index}: a coordinate lies more than 2^24 px from the image origin")
+        lanes.append(Lane(points))
+    return tuple(lanes)
 
 
 def same_counts(a: Any, b: Any) -> bool:

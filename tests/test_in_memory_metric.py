@@ -137,7 +137,10 @@ def test_metrics_of_two_shares_merge_into_the_whole(culane_set):
         other.merge(second)
 
 
-def test_a_benchmark_without_an_in_memory_metric_says_so():
+def test_a_benchmark_without_an_in_memory_metric_says_so(monkeypatch):
+    from roneld_eval.benchmarks import benchmark_for
+
+    monkeypatch.delattr(type(benchmark_for("vil100")), "metric")
     with pytest.raises(roneld_eval.ConfigError, match="offers no in-memory metric yet"):
         roneld_eval.metric("vil100")
 
@@ -334,3 +337,90 @@ def test_llamas_lanes_in_memory_score_as_score_llamas_scores_their_files(tmp_pat
     got = metric.compute()
     assert got["mF1"] == score.mf1("-") and got["F1@50"] == score.f1("-", "0.50") > 0
     assert {"F1@50", "F1@75", "mF1", "precision@50", "recall@75"} <= set(got)
+
+
+@pytest.fixture(scope="module")
+def vil100_set(tmp_path_factory):
+    from roneld_eval.benchmarks.vil100.synth import synth_vil100
+
+    root = tmp_path_factory.mktemp("vil100-metric")
+    synth_vil100(root / "set", clips=3, frames=6, seed=3, maps_format="lanes")
+    labels, sizes, predictions = root / "set" / "data" / "anno_txt", root / "set" / "data" / "sizes.json", \
+        root / "set" / "maps"
+    return labels, sizes, predictions
+
+
+def test_vil100_lanes_in_memory_score_as_score_vil100_scores_their_files(vil100_set, tmp_path):
+    from roneld_eval.benchmarks.vil100.reader import labels_path
+
+    labels, sizes, predictions = vil100_set
+    score = roneld_eval.score("vil100", labels, {"-": predictions}, sizes_file=sizes, iou="0.5,0.8",
+                              out=tmp_path / "out")
+    metric = roneld_eval.metric("vil100", labels=labels, sizes_file=sizes, iou="0.5,0.8")
+    frames = list(metric.core.frames)
+    random.Random(3).shuffle(frames)  # video order is the metric's business, not the caller's
+    for frame in frames:
+        metric.update(frame, [lane.points for lane in read_lines_txt(labels_path(predictions, frame))])
+    tables = metric.tables()
+    for name, file in (("official", "official.csv"), ("temporal", "temporal.csv"), ("acc", "acc.csv"),
+                       ("summary", "summary.csv")):
+        assert tables[name].to_csv() == (tmp_path / "out" / file).read_text(encoding="utf-8"), name
+    got = metric.compute()
+    every = next(row for row in score.rows.rows if row[1] == "all" and row[2] == "0.50")
+    assert got["F1@50"] == every[8] and got["mIoU"] == every[9]
+    assert {"F1@50", "F1@80", "mIoU", "Rs@50", "Rj@50", "Rm@80", "Acc", "FP", "FN"} <= set(got)
+    assert any(key.startswith("curved-road/") or key.startswith("crowded/") for key in got)
+    assert 0 < got["F1@50"] < 1 and abs(got["Rs@50"] + got["Rj@50"] + got["Rm@50"] - 1) < 1e-9
+
+
+def test_vil100_frames_never_updated_count_as_missing_files(vil100_set, tmp_path):
+    from roneld_eval.benchmarks.vil100.reader import labels_path
+
+    labels, sizes, predictions = vil100_set
+    metric = roneld_eval.metric("vil100", labels=labels, sizes_file=sizes, iou="0.5")
+    kept = shutil.copytree(predictions, tmp_path / "kept")
+    for k, frame in enumerate(metric.core.frames):
+        if k % 3 == 1:
+            labels_path(kept, frame).unlink()
+        else:
+            metric.update(frame, [lane.points for lane in read_lines_txt(labels_path(predictions, frame))])
+    roneld_eval.score("vil100", labels, {"-": kept}, sizes_file=sizes, iou="0.5", out=tmp_path / "out")
+    assert metric.tables()["temporal"].to_csv() == (tmp_path / "out" / "temporal.csv").read_text(encoding="utf-8")
+    assert metric.tables()["official"].to_csv() == (tmp_path / "out" / "official.csv").read_text(encoding="utf-8")
+
+
+def _epochs_without_labels(metric, update, labels, tmp_path) -> tuple[dict, dict]:
+    """A first epoch, then the labels taken away and a second: the truth kept from the first."""
+    update(metric)
+    first = metric.compute()
+    labels.rename(tmp_path / "labels-away")
+    try:
+        metric.reset()
+        update(metric)
+        return first, metric.compute()
+    finally:
+        (tmp_path / "labels-away").rename(labels)
+
+
+def test_the_second_epoch_reads_no_label(culane_set, vil100_set, openlane_set, tmp_path):
+    from roneld_eval.benchmarks.vil100.reader import labels_path as vil100_path
+
+    _, data, _, lanes = culane_set
+    culane = roneld_eval.metric("culane", data_root=data, iou="0.5")
+    first, second = _epochs_without_labels(
+        culane, lambda m: m.update_many(list(lanes), list(lanes.values())), data, tmp_path)
+    assert same(first, second) and len(culane.core.truth) == len(lanes)
+
+    labels, sizes, predictions = vil100_set
+    vil100 = roneld_eval.metric("vil100", labels=labels, sizes_file=sizes)
+    found = {f: [lane.points for lane in read_lines_txt(vil100_path(predictions, f))] for f in vil100.core.frames}
+    first, second = _epochs_without_labels(
+        vil100, lambda m: m.update_many(list(found), list(found.values())), labels, tmp_path)
+    assert same(first, second) and first["F1@50"] > 0
+
+    labels, _, read = openlane_set
+    openlane = roneld_eval.metric("openlane", labels=labels)
+    first, second = _epochs_without_labels(openlane, lambda m: [
+        m.update(f, [lane.points for lane in read[f].lanes], categories=read[f].categories) for f in read],
+        labels, tmp_path)
+    assert same(first, second) and first["F1@30"] > 0

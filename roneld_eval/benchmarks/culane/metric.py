@@ -9,27 +9,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ...in_memory import point_arrays
-from ...lanes_io import MAX_PREDICTED_COORDINATE
+from ...in_memory import TruthMemo, pixel_lanes
 from ...metrics.lane_iou_f1 import (OFFICIAL_COLUMNS, UNMATCHED, FrameMatches, GroupCounts, ScoredFrames,
                                     frame_result, highlight_name, official_masks, summary_records)
-from ...model import Lane
 from ...scoring import PlainTable
 from .reader import read_culane, read_frame_labels
 from .score import _thresholds
-
-
-def lanes_of(values: Any) -> tuple[Lane, ...]:
-    """Lanes as a detector holds them: a sequence of (N, 2) arrays of (x, y) image pixels, as a
-    `.lines.txt` lists them (the C++ evaluator's float32 applies as when written and read)."""
-    lanes = []
-    for index, points in enumerate(point_arrays(values)):
-        if not np.isfinite(points).all():
-            raise ValueError(f"lane {index}: a coordinate is NaN or infinite")
-        if points.size and np.abs(points).max() > MAX_PREDICTED_COORDINATE:
-            raise ValueError(f"lane {index}: a coordinate lies more than 2^24 px from the image origin")
-        lanes.append(Lane(points))
-    return tuple(lanes)
 
 
 class CulaneMetric:
@@ -48,17 +33,21 @@ class CulaneMetric:
         self.frames = tuple(frame.relpath for clip in dataset.clips for frame in clip.frames)
         self.categories = dataset.categories
         self.size = (dataset.image_width, dataset.image_height, width)
+        self.truth = TruthMemo(self._drawn_truth)
+
+    def _drawn_truth(self, frame: str) -> tuple[int, Any]:
+        truth = read_frame_labels(self.root, frame)
+        return len(truth), official_masks(truth, *self.size) if truth else None
 
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> FrameMatches:
         """The frame's matched IoUs (`scores` are not read: CULane's F1 counts every lane)."""
-        predicted = lanes_of(lanes)
-        truth = read_frame_labels(self.root, frame)
-        masks = official_masks(truth, *self.size) if truth and predicted else None
-        return frame_result(len(truth), masks, predicted, *self.size)
+        predicted = pixel_lanes(lanes)
+        n_gt, masks = self.truth(frame)
+        return frame_result(n_gt, masks, predicted, *self.size)
 
     def _missing(self, frame: str) -> FrameMatches:
         """A frame never updated: no lanes, as the C++ evaluator reads a missing file."""
-        n_gt = len(read_frame_labels(self.root, frame))
+        n_gt, _ = self.truth(frame)
         return FrameMatches(n_gt, 0, np.full(n_gt, UNMATCHED))
 
     def _rows(self, counts: Sequence[FrameMatches | None]) -> list[tuple]:

@@ -10,7 +10,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ...in_memory import point_arrays
+from ...in_memory import TruthMemo, point_arrays
 from ...scoring import PlainTable
 
 from .reader import (every_labelled_image, frame_of_record, image_size, lanes_path, read_frame, read_list)
@@ -29,6 +29,12 @@ class CurveLanesMetric:
         self.best_of = tuple(float(t) for t in best_of)
         self.labels, self.images = Path(labels), Path(image_root)
         self.frames = tuple(read_list(Path(list_file)) if list_file is not None else every_labelled_image(self.labels))
+        self.truth = TruthMemo(self._sized_truth)
+
+    def _sized_truth(self, frame: str):
+        width, height = image_size(self.images, frame)
+        path = lanes_path(self.labels, frame)
+        return width, height, checked_truth(read_frame(path, True), path, width, height)
 
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> np.ndarray:
         """(thresholds, 3) of the image: `lanes`, (N, 2) arrays of (x, y) pixels; `scores`, one
@@ -43,9 +49,7 @@ class CurveLanesMetric:
                 line = {"points": line, "score": float(scores[index])}
             lines.append(line)
         predicted = frame_of_record({"Lines": lines}, frame)
-        width, height = image_size(self.images, frame)
-        path = lanes_path(self.labels, frame)
-        truth = checked_truth(read_frame(path, True), path, width, height)
+        width, height, truth = self.truth(frame)
         return frame_counts(truth, predicted, frame, width, height, self.thresholds)
 
     def tables(self, counts: Sequence[np.ndarray | None]) -> dict[str, PlainTable]:

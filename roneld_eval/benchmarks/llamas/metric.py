@@ -11,7 +11,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ...in_memory import point_arrays
+from ...in_memory import TruthMemo, point_arrays
 from ...lanes_io import MAX_PREDICTED_COORDINATE
 from ...metrics.lane_iou_f1 import highlight_name
 from ...model import Lane
@@ -37,6 +37,11 @@ class LlamasMetric:
         self.width = width
         self.labels = every_label(Path(labels))
         self.frames = tuple(self.labels)
+        self.truth = TruthMemo(self._drawn_truth)
+
+    def _drawn_truth(self, frame: str):
+        path = self.labels[frame]
+        return truth_masks(label_of(read_record(path), path), self.width)
 
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> tuple[np.ndarray, int]:
         """((thresholds, 3) counts, lanes splprep refuses) of the frame: `lanes`, (N, 2) arrays
@@ -47,9 +52,7 @@ class LlamasMetric:
                 raise ValueError(f"lane {index}: a coordinate that is not a finite lane coordinate")
             checked.append(Lane(points))
         predicted, refused = predicted_masks(checked, self.width)
-        path = self.labels[frame]
-        truth = truth_masks(label_of(read_record(path), path), self.width)
-        return frame_counts(truth, predicted, self.scored_at), refused
+        return frame_counts(self.truth(frame), predicted, self.scored_at), refused
 
     def _sums(self, counts: Sequence[tuple[np.ndarray, int] | None]) -> np.ndarray:
         """Frames never updated have no lanes, as a missing prediction file."""

@@ -9,7 +9,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ...in_memory import point_arrays
+from ...in_memory import TruthMemo, point_arrays
 from ...metrics.lane_iou_f1 import f_measure, highlight_name, official_masks
 from ...scoring import PlainTable
 from ...thresholds import parse_thresholds
@@ -36,6 +36,11 @@ class OpenLaneMetric:
         self.frames = tuple(read_list(Path(list_file)) if list_file is not None else every_labelled_frame(self.labels))
         self.size = (IMAGE_WIDTH, IMAGE_HEIGHT, width)
         self.need_categories = MODES[0] in self.modes
+        self.truth = TruthMemo(self._drawn_truth)
+
+    def _drawn_truth(self, frame: str):
+        truth = read_lanes(json_path(self.labels, frame), self.need_categories)
+        return truth, official_masks(truth.lanes, *self.size) if truth.lanes else None
 
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None, categories: Any = None) -> np.ndarray:
         """(modes, thresholds, 3) of the frame: `lanes`, (N, 2) arrays of (u, v) image pixels;
@@ -50,8 +55,7 @@ class OpenLaneMetric:
                 line["category"] = categories[index]
             lines.append(line)
         predicted = lanes_of_record({"lane_lines": lines}, frame, self.need_categories)
-        truth = read_lanes(json_path(self.labels, frame), self.need_categories)
-        masks = official_masks(truth.lanes, *self.size) if truth.lanes else None
+        truth, masks = self.truth(frame)
         return frame_counts(truth, masks, predicted, self.size, self.modes, self.thresholds.values)
 
     def _sums(self, counts: Sequence[np.ndarray | None]) -> np.ndarray:

@@ -84,6 +84,7 @@ class Vil100Benchmark:
     # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
     score_command = from_module(".cli", "score_vil100_command")
     scorer = from_module(".score", "score_vil100")
+    metric = from_module(".metric", "Vil100Metric", call=True)
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:
