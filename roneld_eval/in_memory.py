@@ -12,7 +12,7 @@ counting as the official tool counts a missing prediction file.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, is_dataclass
-from typing import Any, Callable, Generic, Mapping, Protocol, Sequence, TypeVar
+from typing import Any, Callable, Generic, Iterable, Mapping, Protocol, Sequence, TypeVar
 
 import numpy as np
 
@@ -83,12 +83,31 @@ class Metric:
             batch[frame] = self._checked(frame, lanes[k], None if scores is None else scores[k], batch, {})
         self._counts.update(batch)
 
-    def _checked(self, frame: Any, lanes: Any, scores: Any, batch, fields: dict[str, Any]) -> Any:
+    def record(self, frame: str, lanes: Any, scores: Any = None, **fields: Any) -> tuple[str, Any]:
+        """One frame's (name, counts), checked as `update` checks them but not kept: what a
+        framework's metric hands between processes (`add_records` takes them back)."""
+        return frame, self._checked(frame, lanes, scores, set(), fields, kept=False)
+
+    def add_records(self, records: Iterable[tuple[str, Any]]) -> None:
+        """Frames' (name, counts) from `record`, in any order, from any process: a frame given
+        twice with the same counts is kept once (a distributed sampler's padding), with other
+        counts refused; all of them taken, or (one refused) none."""
+        taken: dict[str, Any] = {}
+        for frame, counts in records:
+            if not isinstance(frame, str) or frame not in self._listed:
+                raise MetricInputError(f"{frame!r} is not a frame of this {self.core.name} list")
+            for earlier in (taken, self._counts):
+                if frame in earlier and not same_counts(earlier[frame], counts):
+                    raise MetricInputError(f"{frame}: recorded twice with different lanes")
+            taken[frame] = counts
+        self._counts.update(taken)
+
+    def _checked(self, frame: Any, lanes: Any, scores: Any, batch, fields: dict[str, Any], kept: bool = True) -> Any:
         if not isinstance(frame, str) or frame not in self._listed:
             example = self.core.frames[0] if self.core.frames else "none"
             raise MetricInputError(f"{frame!r} is not a frame of this {self.core.name} list (frames are named as "
                                    f"the list names them, e.g. {example!r})")
-        if frame in self._counts or frame in batch:
+        if kept and (frame in self._counts or frame in batch):
             raise MetricInputError(f"{frame}: given twice to this metric (reset() starts again)")
         try:
             return self.core.frame_counts(frame, lanes, scores, **fields)
@@ -97,11 +116,18 @@ class Metric:
         except (TypeError, ValueError) as error:
             raise MetricInputError(f"{frame}: {error}") from None
 
-    def compute(self) -> dict[str, float]:
+    def compute(self, names: str | None = None) -> dict[str, float]:
         """Every score, frames combined in the list's order; frames never updated count as the
-        official tool counts a missing prediction (no lanes; TuSimple's refuses: an error)."""
+        official tool counts a missing prediction (no lanes; TuSimple's refuses: an error).
+        `names`: another framework's key names, where the benchmark offers them (CULane's
+        "clrernet": the keys CLRerNet's mmengine metric logs)."""
+        compute: Callable[[Sequence[Any]], dict[str, float]] | None = self.core.compute
+        if names is not None:
+            compute = getattr(self.core, f"compute_as_{names}", None)
+        if compute is None:
+            raise MetricInputError(f"{self.core.name} offers no key names {names!r}")
         try:
-            return self.core.compute([self._counts.get(frame) for frame in self.core.frames])
+            return compute([self._counts.get(frame) for frame in self.core.frames])
         except ValueError as error:
             raise MetricInputError(str(error)) from None
 

@@ -4,6 +4,7 @@ threshold), fed lanes held in memory instead of `.lines.txt` files."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -13,7 +14,7 @@ from ...in_memory import TruthMemo, pixel_lanes
 from ...metrics.lane_iou_f1 import (OFFICIAL_COLUMNS, UNMATCHED, FrameMatches, GroupCounts, ScoredFrames,
                                     frame_result, highlight_name, official_masks, summary_records)
 from ...scoring import PlainTable
-from .reader import read_culane, read_frame_labels
+from .reader import _CATEGORY_FILE, read_culane, read_frame_labels
 from .score import _thresholds
 
 
@@ -66,6 +67,33 @@ class CulaneMetric:
 
     def compute(self, counts: Sequence[FrameMatches | None]) -> dict[str, float]:
         return scores_by_name(self._rows(counts), len(self.thresholds.labels))
+
+    def compute_as_clrernet(self, counts: Sequence[FrameMatches | None]) -> dict[str, float]:
+        """The names CLRerNet's mmengine CULaneMetric logs (hirotomusiker/CLRerNet 4bd8e7d,
+        libs/datasets/metrics/culane_metric.py, eval_predictions): `TP0.5`, `FP0.5`, `FN0.5`,
+        `Precision0.5`, `Recall0.5`, `F1_0.5` over every frame and `F1_test0_normal_0.5` per
+        category list, at each threshold of `iou` (CLRerNet's are 0.1, 0.5 and 0.75). The values
+        are the official evaluator's: CLRerNet's own divide by a sum + 1e-8 and draw lanes as
+        LaneATT does, so its printed F1 differs from these in the last digits or more."""
+        stems = {match.group(2): name[:-len(".txt")] for name in _names(self.root / "list" / "test_split")
+                 if (match := _CATEGORY_FILE.match(name))}
+        out: dict[str, float] = {}
+        for _, category, label, tp, fp, fn, precision, recall, f1 in self._rows(counts):
+            threshold = str(float(label))
+            if category == "all":
+                out.update({f"TP{threshold}": float(tp), f"FP{threshold}": float(fp), f"FN{threshold}": float(fn),
+                            f"Precision{threshold}": float(precision), f"Recall{threshold}": float(recall),
+                            f"F1_{threshold}": float(f1)})
+            elif category in stems:
+                out[f"F1_{stems[category]}_{threshold}"] = float(f1)
+        return out
+
+
+def _names(folder: Path) -> list[str]:
+    try:
+        return sorted(entry.name for entry in os.scandir(folder))
+    except OSError:
+        return []
 
 
 def scores_by_name(rows: Sequence[tuple], n_thresholds: int) -> dict[str, float]:
