@@ -131,6 +131,38 @@ def _mmengine_rank(rank: int, init: str, data: str, lanes: dict, out: str) -> No
     dist.destroy_process_group()
 
 
+def _mmengine_refusing_rank(rank: int, init: str, data: str, lanes: dict, out: str) -> None:
+    import torch.distributed as dist
+
+    from roneld_eval.frameworks.mmengine_metric import RoneldLaneMetric
+
+    dist.init_process_group("gloo", init_method=init, rank=rank, world_size=2)
+    frames = list(lanes)
+    # rank 1 gives frame 0 (rank 0's) with frame 1's lanes in place of frame 1: within the
+    # dataset's size, so mmengine's truncation of a sampler's padding does not drop it
+    mine = frames[0::2] if rank == 0 else [frames[0], *frames[3::2]]
+    metric = RoneldLaneMetric("culane", data_root=data, iou="0.5")
+    metric.process({}, [{"frame": f, "lanes": lanes[f] if (rank, f) != (1, frames[0]) else lanes[frames[1]]}
+                        for f in mine])
+    try:
+        metric.evaluate(len(frames))
+        said = "no error"
+    except roneld_eval.MetricInputError as error:
+        said = str(error)
+    Path(out, f"rank{rank}.txt").write_text(said)
+    dist.destroy_process_group()
+
+
+def test_a_refused_frame_is_one_error_on_every_rank_not_a_hang(culane_set, tmp_path, monkeypatch):
+    _need("mmengine")
+    data, lanes = culane_set
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "out").mkdir()
+    _two_ranks(_mmengine_refusing_rank, f"file://{tmp_path}/init", str(data), lanes, str(tmp_path / "out"))
+    said = [(tmp_path / "out" / f"rank{rank}.txt").read_text() for rank in (0, 1)]
+    assert said[0] == said[1] and "recorded twice with different lanes" in said[0] and list(lanes)[0] in said[0]
+
+
 def test_mmengine_metric_over_two_ranks_equals_one_process(culane_set, tmp_path, monkeypatch):
     _need("mmengine")
     data, lanes = culane_set

@@ -18,7 +18,7 @@ from typing import Any, Sequence
 from mmengine.evaluator import BaseMetric
 from mmengine.registry import METRICS
 
-from ..in_memory import metric
+from ..in_memory import MetricInputError, metric
 from .samples import sample_reader
 
 
@@ -44,10 +44,24 @@ class RoneldLaneMetric(BaseMetric):
             frame, lanes, scores, fields = self.read_sample(sample)
             self.results.append(self.lane_metric.record(frame, lanes, scores, **fields))
 
-    def compute_metrics(self, results: list) -> dict[str, float]:
+    def compute_metrics(self, results: list) -> dict[str, Any]:
         self.lane_metric.reset()
-        self.lane_metric.add_records(results)
         try:
+            self.lane_metric.add_records(results)
             return self.lane_metric.compute(self.names)
+        except MetricInputError as error:
+            # computed on rank 0 only: raised here, the other ranks would wait for its broadcast
+            # for ever; sent as the result instead, it is raised on every rank by evaluate
+            return {_REFUSED: str(error)}
         finally:
             self.lane_metric.reset()  # the counts go; the drawn ground truth stays for the next epoch
+
+    def evaluate(self, size: int) -> dict:
+        found = super().evaluate(size)
+        refused = [message for key, message in found.items() if key.endswith(_REFUSED)]
+        if refused:
+            raise MetricInputError(refused[0])
+        return found
+
+
+_REFUSED = "roneld-eval refused"
