@@ -34,7 +34,7 @@ from .model import Frame
 from .presets import nearest, preset_path, resolve_config_path
 from .thresholds import TALLEST_IMAGE, parse_rows, parse_thresholds
 from .toml_text import toml_key, toml_value
-from .methods import METHOD_TABLE
+from .methods import METHOD_TABLE, PAPER, PAPER_PAIR
 from .config_values import Range, typed
 from .plugin_methods import (  # noqa: F401 (METHODS: where callers find it)
     METHODS,
@@ -308,7 +308,7 @@ class EvalConfig:
     paper: PaperMetricParams = field(default_factory=PaperMetricParams)
     official: OfficialParams = field(default_factory=OfficialParams)
     # "roneld" runs RONELD with preceding-frame tracking, "roneld-nopft" without: the only PFT switch.
-    methods: tuple[str, ...] = ("baseline", "roneld")
+    methods: tuple[str, ...] = PAPER_PAIR
     pft_ablation: bool = False  # only adds "roneld-nopft" to the methods
     workers: int | None = None  # None: all cores, at most one per FRAMES_PER_DEFAULT_WORKER frames
     save_lanes: bool = False
@@ -321,11 +321,11 @@ class EvalConfig:
         if not self.model.strip():
             raise ConfigError("model is empty: it labels every table and figure (e.g. --set model=CLRNet)")
         methods = self.methods
-        if self.pft_ablation and "roneld" not in methods:
-            raise ConfigError("the PFT ablation compares roneld with roneld-nopft: add roneld to the methods "
-                              "(or drop --pft-ablation)")
-        if self.pft_ablation and "roneld-nopft" not in methods:
-            methods = methods + ("roneld-nopft",)
+        if self.pft_ablation and PAPER.ours not in methods:
+            raise ConfigError(f"the PFT ablation compares {PAPER.ours} with {PAPER.without_tracking}: add "
+                              f"{PAPER.ours} to the methods (or drop --pft-ablation)")
+        if self.pft_ablation and PAPER.without_tracking not in methods:
+            methods = methods + (PAPER.without_tracking,)
         object.__setattr__(self, "methods", methods)
         if not methods:
             raise ConfigError("at least one method is needed")
@@ -481,14 +481,14 @@ class EvalConfig:
     def without_pft(self) -> "EvalConfig":
         """The same run with RONELD's preceding-frame tracking off: 'roneld' becomes 'roneld-nopft'."""
         methods = self.methods
-        if "roneld" in methods and "roneld-nopft" in methods:
+        if PAPER.ours in methods and PAPER.without_tracking in methods:
             raise ConfigError(
                 "cannot turn PFT off: the configuration runs RONELD both with and without PFT "
                 "(pft_ablation or methods); drop one of them"
             )
-        if "roneld" not in methods and "roneld-nopft" not in methods:
+        if PAPER.ours not in methods and PAPER.without_tracking not in methods:
             raise ConfigError(f"cannot turn PFT off: RONELD is not among the methods ({', '.join(methods)})")
-        return replace(self, methods=tuple("roneld-nopft" if m == "roneld" else m for m in methods))
+        return replace(self, methods=tuple(PAPER.without_tracking if m == PAPER.ours else m for m in methods))
 
     # ---- writing --------------------------------------------------------------------
 

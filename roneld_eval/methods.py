@@ -58,10 +58,23 @@ RONELD_NOPFT = MethodFacts(
 
 METHOD_TABLE: dict[str, MethodFacts] = {facts.name: facts for facts in (BASELINE, RONELD, RONELD_NOPFT)}
 
-# Roles in the paper's tables: the model's own extraction against RONELD (Tables II/III), and
-# RONELD without preceding-frame tracking (Table IV); the method is the only PFT switch.
-PAPER_PAIR = (BASELINE.name, RONELD.name)
-ABLATION_PAIR = (RONELD_NOPFT.name, RONELD.name)
+
+
+@dataclass(frozen=True)
+class PaperRoles:
+    """Which method plays which part in the paper's tables: the model's own extraction against
+    the method (Tables II/III, the accuracy increase, the overlays' pair), and the method without
+    preceding-frame tracking (Table IV: the method is the only PFT switch). Report, compare and
+    config read the roles here, never a method's name."""
+
+    reference: str
+    ours: str
+    without_tracking: str
+
+
+PAPER = PaperRoles(reference=BASELINE.name, ours=RONELD.name, without_tracking=RONELD_NOPFT.name)
+PAPER_PAIR = (PAPER.reference, PAPER.ours)
+ABLATION_PAIR = (PAPER.without_tracking, PAPER.ours)
 # The methods every other one is compared with (gains.csv), when the run has them.
 GAIN_REFERENCES = (BASELINE.name, RONELD.name)
 

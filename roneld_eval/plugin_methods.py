@@ -100,7 +100,7 @@ def methods_from_table(table: dict[str, Any]) -> tuple[tuple[str, ...], tuple[Pl
         if name in METHODS:
             if settings:
                 raise ConfigError(f"[methods.{name}] is built in and takes no settings here (its parameters are "
-                                  f"in [{'baseline' if name == 'baseline' else 'roneld'}])")
+                                  f"in [{METHOD_TABLE[name].section}])")
             continue
         if "entry" not in settings:
             raise ConfigError(f"[methods.{name}] needs entry = \"module:callable\"")

@@ -25,6 +25,7 @@ from .errors import ConfigError, InputError
 from .evaluation.one_clip import frame_map_path
 from .evaluation.records import RunContext
 from .extract.online import FrameRefused, Latency, warm_up
+from .methods import PAPER
 from .extract.protocol import Prediction
 from .extract.roneld import RoneldTracker
 from .geometry import MapGeometry, check_map_shape
@@ -73,7 +74,7 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
         raise ConfigError("replay needs the clip's maps (--maps-root)")
     clip = _clip(config, clip_id, image_size)
     context = RunContext(config, Path(config.maps.root))
-    method = "roneld" if pft else "roneld-nopft"
+    method = PAPER.ours if pft else PAPER.without_tracking
     tracker = RoneldTracker(config.roneld, config.geometry_of(clip.frames[0]), pft=pft,
                             lane_channels=config.maps.lane_channels, latency_frames=len(clip.frames))
     warm_up()

@@ -231,3 +231,25 @@ def test_the_benchmark_registry_does_not_import_config_back():
     done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=60, cwd=REPO,
                           check=True)
     assert "roneld_eval.config" not in done.stdout and "roneld_eval.benchmarks" in done.stdout
+
+
+# A built-in method's own places: its row in the method table, its extractor and kernels, its
+# parameter section in config. Everything else (report, compare, replay, the run) reads the
+# paper's roles from methods.PAPER, so a third method touches only these.
+METHOD_HOMES = ("methods.py", "extract/", "kernels.py", "config.py")
+
+
+def test_no_built_in_method_is_named_by_a_string_outside_its_own_places():
+    from roneld_eval.methods import METHOD_TABLE
+
+    package = REPO / "roneld_eval"
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        relative = path.relative_to(package).as_posix()
+        if relative.startswith(METHOD_HOMES):
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        docstrings = _docstrings(tree)
+        found += [f"{relative}:{node.lineno} {node.value!r}" for node in ast.walk(tree)
+                  if isinstance(node, ast.Constant) and node.value in METHOD_TABLE and id(node) not in docstrings]
+    assert found == [], "read the method's role from methods.PAPER (or its row of METHOD_TABLE)"

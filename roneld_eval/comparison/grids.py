@@ -14,7 +14,7 @@ from ..thresholds import Thresholds, parse_thresholds
 from ..errors import ConfigError
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, paired_bootstrap
 from ..benchmarks import benchmark_for
-from ..methods import METHOD_TABLE
+from ..methods import METHOD_TABLE, PAPER
 from ..report.tables import dataset_name, display_name
 from .groups import (ABLATION_METHOD, KNOWN_METHODS, PAPER_METHODS, Group, _accuracy_of, _column_of, all_found,
                      method_header, method_name, ordered_methods)
@@ -124,10 +124,10 @@ def _accuracy_columns(group: Group) -> list[tuple[str, str]]:
     methods = group.methods
     columns = []
     if all(m in methods for m in PAPER_METHODS):
-        columns += [("value", "baseline"), ("value", "roneld"), ("gain", "baseline")]
+        columns += [("value", PAPER.reference), ("value", PAPER.ours), ("gain", PAPER.reference)]
     else:
         columns += [("value", m) for m in PAPER_METHODS if m in methods]
-    if ABLATION_METHOD in methods and "roneld" not in methods:
+    if ABLATION_METHOD in methods and PAPER.ours not in methods:
         columns.append(("value", ABLATION_METHOD))  # else Table IV shows it
     columns += [("value", m) for m in ordered_methods(methods) if m not in KNOWN_METHODS]
     return columns
@@ -139,7 +139,7 @@ def _gain(group: Group, method: str, threshold: Decimal, interval: pd.DataFrame 
     for run in group.runs:
         stated = _column_of(run, method, "roneld_gain").get(threshold, math.nan)
         if math.isnan(stated):
-            stated = _accuracy_of(run, "roneld")[threshold] - _accuracy_of(run, method)[threshold]
+            stated = _accuracy_of(run, PAPER.ours)[threshold] - _accuracy_of(run, method)[threshold]
         increases.append(stated)
     base = group.accuracy(method, threshold).mean
     clips = group.runs[0].clips
@@ -161,7 +161,7 @@ def _group_interval(group: Group, method: str) -> pd.DataFrame | None:
         return None
     pick = lambda m: pd.concat([r.per_frame[r.per_frame["method"] == m] for r in group.runs],  # noqa: E731
                                ignore_index=True)
-    return _bootstrap(pick(method), pick("roneld"), group.runs[0].thresholds)
+    return _bootstrap(pick(method), pick(PAPER.ours), group.runs[0].thresholds)
 
 
 def accuracy_grid(groups: Sequence[Group], rows: Sequence[Decimal]) -> Grid:
@@ -206,21 +206,21 @@ def accuracy_files(groups: Sequence[Group], rows, notes) -> dict[str, str]:
 
 def ablation_files(groups: Sequence[Group], rows, protocol: str, notes) -> dict[str, str]:
     """Table IV: RONELD without and with PFT, per dataset and model; nothing when no run has both."""
-    holding = [g for g in groups if "roneld" in g.methods and ABLATION_METHOD in g.methods]
+    holding = [g for g in groups if PAPER.ours in g.methods and ABLATION_METHOD in g.methods]
     if not holding:
         return {}
     columns, makers = [], []
     for group in holding:
-        name = f"{dataset_name(group.dataset)}, {display_name('roneld', group.label)}"
+        name = f"{dataset_name(group.dataset)}, {display_name(PAPER.ours, group.label)}"
         title = name if group.n == 1 else f"{name}, n = {group.n}"
-        for method, short in ((ABLATION_METHOD, "w/o PFT"), ("roneld", "w/ PFT")):
+        for method, short in ((ABLATION_METHOD, "w/o PFT"), (PAPER.ours, "w/ PFT")):
             columns.append(Column(f"{name} {short}" + ("" if group.n == 1 else f" (n = {group.n})"), (short,), title))
             makers.append(lambda t, g=group, m=method: g.accuracy(m, t))
     table_rows = tuple((Text(short_threshold(t)),) + tuple(make(t) for make in makers) for t in rows)
     grid = Grid((Column("IoU threshold", ("IoU", "threshold")),), tuple(columns), table_rows)
     text = " ".join(filter(None, [
-        "Accuracy of RONELD without (w/o) and with (w/) preceding frame tracking (PFT): the methods 'roneld-nopft' "
-        "and 'roneld'.", protocol, _seeds_note(holding)]))
+        f"Accuracy of RONELD without (w/o) and with (w/) preceding frame tracking (PFT): the methods "
+        f"'{PAPER.without_tracking}' and '{PAPER.ours}'.", protocol, _seeds_note(holding)]))
     markdown = "# RONELD with and without PFT: Table IV\n\n" + text + "\n\n" + grid.to_markdown() + "".join(
         f"\n{note}\n" for note in notes)
     return {"table_ablation.md": markdown, "table_ablation.tex": grid.to_latex(text, "tab:compare-pft", list(notes))}
@@ -234,7 +234,7 @@ def _runtime_of(run: Run) -> dict[str, float]:
 def runtime_grid(groups: Sequence[Group]) -> Grid:
     """Table V: mean ms per frame of extraction per dataset and model (RONELD first), and a mean row."""
     methods = ordered_methods(m for g in groups for r in g.runs for m in r.runtime["method"] if m != "map loading")
-    first = ("roneld", ABLATION_METHOD)  # Table V is RONELD's runtime; the others beside it
+    first = (PAPER.ours, ABLATION_METHOD)  # Table V is RONELD's runtime; the others beside it
     methods = [m for m in first if m in methods] + [m for m in methods if m not in first]
     columns = tuple(Column((METHOD_TABLE[m].words if m in METHOD_TABLE else m) + " (ms)",
                            METHOD_TABLE[m].word_parts if m in METHOD_TABLE else wrap_words(m)) for m in methods)

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..methods import PAPER
 from ..thresholds import Thresholds
 
 if TYPE_CHECKING:  # imported where used: report.tables needs this module's constants, not pandas
@@ -72,7 +73,7 @@ def _clip_counts(per_frame: pd.DataFrame, positions: np.ndarray, method: str, th
     return tp, n_gt
 
 
-def paired_bootstrap(per_frame: pd.DataFrame, thresholds: Thresholds, method: str, reference: str = "roneld",
+def paired_bootstrap(per_frame: pd.DataFrame, thresholds: Thresholds, method: str, reference: str = PAPER.ours,
                      resamples: int = RESAMPLES, seed: int = SEED, level: float = LEVEL) -> pd.DataFrame:
     """threshold, difference (reference - method), ci_low, ci_high from a paired clip bootstrap.
 

@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from ..methods import METHOD_TABLE
+from ..methods import METHOD_TABLE, PAPER
 from ..model import Lane
 from .tables import display_name
 
@@ -52,7 +52,8 @@ class Overlays:
     legend: list[LegendEntry]
 
 
-def worst_frames(per_frame: pd.DataFrame, count: int, first: str = "baseline", second: str | None = None) -> list[str]:
+def worst_frames(per_frame: pd.DataFrame, count: int, first: str = PAPER.reference,
+                 second: str | None = None) -> list[str]:
     """The `count` frames where two methods' IoUs differ most (summed over sides), largest first.
 
     `second` defaults to the RONELD the run has (with PFT, else without); with one method
@@ -60,7 +61,7 @@ def worst_frames(per_frame: pd.DataFrame, count: int, first: str = "baseline", s
     """
     present = set(per_frame["method"])
     if second is None:
-        second = next((m for m in ("roneld", "roneld-nopft") if m in present), None)
+        second = next((m for m in (PAPER.ours, PAPER.without_tracking) if m in present), None)
     if first not in present or second not in present:
         alone = next(iter(sorted(present & {first, second or ""}) or sorted(present)), None)
         if alone is None:

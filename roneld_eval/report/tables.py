@@ -19,7 +19,7 @@ from ..config import EvalConfig
 from ..errors import RoneldEvalError
 from ..geometry import EffectiveGeometry
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, count_clips
-from ..methods import ABLATION_PAIR, facts_of
+from ..methods import ABLATION_PAIR, PAPER, facts_of
 from ..wording import counted
 
 if TYPE_CHECKING:  # only annotations use it: `score culane` renders its tables without pandas
@@ -326,22 +326,22 @@ def comparison_table(accuracy: pd.DataFrame, model: str, clips: int | None = Non
         bounds = zip(accuracy["method"], accuracy["threshold"],
                      accuracy["roneld_gain_ci_low"], accuracy["roneld_gain_ci_high"])
         interval = {(method, label): (float(low), float(high)) for method, label, low, high in bounds}
-    others = [m for m in methods if m != "roneld"]
-    paired = "roneld" in methods and bool(others)
-    shown = [m for other in others for m in (other, "roneld")] if paired else methods
+    others = [m for m in methods if m != PAPER.ours]
+    paired = PAPER.ours in methods and bool(others)
+    shown = [m for other in others for m in (other, PAPER.ours)] if paired else methods
     headers = ["IoU threshold"]
     header_lines: list[tuple[str, ...]] = [("IoU", "threshold")]
     for method in shown:
         headers.append(display_name(method, model))
         header_lines.append(name_parts(method, model))
-        if paired and method == "roneld":
+        if paired and method == PAPER.ours:
             headers.append("Acc. Inc.")
             header_lines.append(("Acc. Inc.",))
     rows = []
     for label in table_thresholds(labels):
         row: list = [short_threshold(label)]
         if paired:
-            ours = value[("roneld", label)]
+            ours = value[(PAPER.ours, label)]
             for method in others:
                 base = value[(method, label)]
                 relative = (ours - base) / base if base else math.nan
@@ -368,7 +368,7 @@ def ablation_table(accuracy: pd.DataFrame, dataset: str, model: str | None = Non
         (short_threshold(label), *(value[(m, label)] for m in methods))
         for label in table_thresholds(labels, ABLATION_THRESHOLDS)
     )
-    group_name = name if model is None else f"{name}, {display_name('roneld', model)}"
+    group_name = name if model is None else f"{name}, {display_name(PAPER.ours, model)}"
     labels = [_pft_label(m) for m in methods]
     return Table(("IoU threshold", *(f"{name} {label}" for label in labels)), rows,
                  (("IoU", "threshold"), *((label,) for label in labels)), ((group_name, 1, 3),))

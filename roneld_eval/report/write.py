@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, TextIO
 from ..benchmarks import Benchmark, benchmark_for
 from ..errors import InputError
 from ..evaluation import FrameOutcome, RunResult
+from ..methods import PAPER
 from ..model import Frame, image_stem
 from ..output import OutputFolder, Staging  # noqa: F401 (Staging: its old home)
 from . import tables
@@ -192,12 +193,12 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         f"tab:accuracy-{result.dataset.name}", wide=True))
     ablation = tables.ablation_table(result.accuracy, result.dataset.name, model)
     if ablation is not None:
-        pft_note = ("w/ PFT: the method 'roneld' (RONELD with preceding-frame tracking); w/o PFT: the method "
-                    f"'roneld-nopft'. {paper_note}")
-        staging.write_text("ablation.md", f"# {tables.display_name('roneld', model)} with and without PFT on "
+        pft_note = (f"w/ PFT: the method '{PAPER.ours}' (RONELD with preceding-frame tracking); w/o PFT: the method "
+                    f"'{PAPER.without_tracking}'. {paper_note}")
+        staging.write_text("ablation.md", f"# {tables.display_name(PAPER.ours, model)} with and without PFT on "
                            f"{source}\n\n{pft_note}\n\n" + ablation.to_markdown())
         staging.write_text("ablation.tex", ablation.to_latex(
-            f"Accuracy of {tables.display_name('roneld', model)} with and without preceding frame tracking (PFT) "
+            f"Accuracy of {tables.display_name(PAPER.ours, model)} with and without preceding frame tracking (PFT) "
             f"on {source}. {paper_note}", f"tab:pft-{result.dataset.name}"))
     _stage_runtime(result, staging, source, protocol, model)
     staging.write_csv("per_frame.csv", result.per_frame)
