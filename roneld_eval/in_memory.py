@@ -11,6 +11,7 @@ counting as the official tool counts a missing prediction file.
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any, Callable, Generic, Iterable, Mapping, Protocol, Sequence, TypeVar
 
@@ -70,22 +71,41 @@ class Metric:
     def update(self, frame: str, lanes: Any, scores: Any = None, **fields: Any) -> None:
         """One frame's lanes (and their scores, where the benchmark reads them; other fields of
         its prediction, as TuSimple's `h_samples` and `run_time`)."""
+        frame = self.frame_name(frame)
         self._counts[frame] = self._checked(frame, lanes, scores, set(), fields)
+
+    def frame_name(self, frame: Any) -> Any:
+        """The frame as the list names it: a leading '/' dropped (CULane's list writes one, and
+        the frames are named without it)."""
+        if isinstance(frame, str) and frame not in self._listed and frame.startswith("/"):
+            return frame.lstrip("/")
+        return frame
+
+    def check_names(self, names: str | None) -> None:
+        """Refuse, before any frame, key names the benchmark does not offer (`compute(names)`)."""
+        if names is not None and not callable(getattr(self.core, f"compute_as_{names}", None)):
+            offered = [n[len("compute_as_"):] for n in dir(self.core) if n.startswith("compute_as_")]
+            raise MetricInputError(f"{self.core.name} offers no key names {names!r} (offered: "
+                                   f"{', '.join(offered) or 'none'})")
 
     def update_many(self, frames: Sequence[str], lanes: Sequence[Any], scores: Sequence[Any] | None = None) -> None:
         """A batch of frames: all of them taken, or (one refused) none."""
+        frames, lanes = list(frames), list(lanes)
+        scores = None if scores is None else list(scores)
         if len(frames) != len(lanes) or (scores is not None and len(scores) != len(frames)):
             raise MetricInputError(f"update_many: {len(frames)} frames, {len(lanes)} lane lists"
                                    + ("" if scores is None else f", {len(scores)} score lists")
                                    + ": one of each per frame")
         batch: dict[str, Any] = {}
         for k, frame in enumerate(frames):
+            frame = self.frame_name(frame)
             batch[frame] = self._checked(frame, lanes[k], None if scores is None else scores[k], batch, {})
         self._counts.update(batch)
 
     def record(self, frame: str, lanes: Any, scores: Any = None, **fields: Any) -> tuple[str, Any]:
         """One frame's (name, counts), checked as `update` checks them but not kept: what a
         framework's metric hands between processes (`add_records` takes them back)."""
+        frame = self.frame_name(frame)
         return frame, self._checked(frame, lanes, scores, set(), fields, kept=False)
 
     def add_records(self, records: Iterable[tuple[str, Any]]) -> None:
@@ -121,11 +141,8 @@ class Metric:
         official tool counts a missing prediction (no lanes; TuSimple's refuses: an error).
         `names`: another framework's key names, where the benchmark offers them (CULane's
         "clrernet": the keys CLRerNet's mmengine metric logs)."""
-        compute: Callable[[Sequence[Any]], dict[str, float]] | None = self.core.compute
-        if names is not None:
-            compute = getattr(self.core, f"compute_as_{names}", None)
-        if compute is None:
-            raise MetricInputError(f"{self.core.name} offers no key names {names!r}")
+        self.check_names(names)
+        compute = self.core.compute if names is None else getattr(self.core, f"compute_as_{names}")
         try:
             return compute([self._counts.get(frame) for frame in self.core.frames])
         except ValueError as error:
@@ -187,17 +204,40 @@ class TruthMemo(Generic[Truth]):
 def point_arrays(lanes: Any, axes: str = "x, y") -> list[np.ndarray]:
     """A frame's lanes as a detector holds them, a sequence of (N, 2) point arrays, each as float64;
     a ValueError naming the lane that is not one."""
+    if isinstance(lanes, (str, bytes, Mapping)) or not hasattr(lanes, "__iter__"):
+        raise ValueError(f"lanes must be a sequence of (N, 2) point arrays, got a {type(lanes).__name__}")
     if isinstance(lanes, np.ndarray) and lanes.ndim != 3:
         raise ValueError(f"lanes must be a sequence of (N, 2) point arrays, got an array of shape {lanes.shape}")
     arrays = []
     for index, lane in enumerate(lanes):
-        points = np.asarray(lane, dtype=np.float64)
+        points = numbers_of(lane, f"lane {index}")
         if points.size == 0:
             points = points.reshape(0, 2)
         if points.ndim != 2 or points.shape[1] != 2:
             raise ValueError(f"lane {index}: points must be an (N, 2) array of ({axes}), got shape {points.shape}")
         arrays.append(points)
     return arrays
+
+
+def numbers_of(value: Any, what: str) -> np.ndarray:
+    """A lane's points as float64, from an array, nested lists or a tensor (detached, on the CPU);
+    a ValueError saying what they are instead."""
+    if hasattr(value, "detach") and hasattr(value, "cpu"):  # a torch tensor, grad or not, on any device
+        value = value.detach().cpu()
+        if hasattr(value, "float"):
+            value = value.float().numpy()  # bfloat16 has no NumPy type
+    if isinstance(value, np.ma.MaskedArray) and np.ma.getmaskarray(value).any():
+        raise ValueError(f"{what}: a masked array with masked points (give only the points that are there)")
+    if isinstance(value, (str, bytes, dict)) or (hasattr(value, "__next__") and not hasattr(value, "__len__")):
+        raise ValueError(f"{what}: points must be an (N, 2) array of numbers, got a {type(value).__name__}")
+    try:
+        found = np.asarray(value)
+    except (ValueError, TypeError) as error:
+        raise ValueError(f"{what}: points must be an (N, 2) array of numbers (rows of unequal length?): "
+                         f"{error}") from None
+    if found.size and found.dtype.kind not in "iuf":
+        raise ValueError(f"{what}: points must be numbers, got {found.dtype} values")
+    return found.astype(np.float64)
 
 
 def pixel_lanes(values: Any) -> tuple[Lane, ...]:
@@ -231,11 +271,32 @@ def metric(name: str, **options: Any) -> Metric:
     (for CULane: data_root, list_file, iou or preset, width)."""
     from .benchmarks import benchmark_for
 
+    from .errors import ConfigError
+
     benchmark = benchmark_for(name)
     make = getattr(type(benchmark), "metric", None)
     if make is None:
-        from .errors import ConfigError
-
         raise ConfigError(f"{benchmark.display_name} offers no in-memory metric yet (score its files with "
                           f"`roneld-eval score {name}`)")
-    return Metric(make(benchmark, **options), options)
+    target = getattr(make, "target", None)
+    if target is not None:
+        _check_options(name, inspect.signature(target(benchmark)), options)
+    try:
+        return Metric(make(benchmark, **options), options)
+    except (TypeError, ValueError) as error:  # a value of the wrong kind (an InputError names its file)
+        raise ConfigError(f"metric({name!r}): {error}") from None
+
+
+def _check_options(name: str, signature: inspect.Signature, options: Mapping[str, Any]) -> None:
+    """Unknown and missing options, in one line listing the ones the metric takes."""
+    from .errors import ConfigError
+
+    taken = [p for p in signature.parameters.values() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    names = [p.name for p in taken]
+    unknown = [key for key in options if key not in names]
+    missing = [p.name for p in taken if p.default is p.empty and p.name not in options]
+    if unknown or missing:
+        said = (f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}" if unknown
+                else f"missing {', '.join(missing)}")
+        raise ConfigError(f"metric({name!r}): {said}; it takes {', '.join(names)} (required: "
+                          f"{', '.join(p.name for p in taken if p.default is p.empty) or 'none'})")

@@ -98,7 +98,13 @@ def test_frames_never_updated_count_as_missing_prediction_files(culane_set, tmp_
     ("FIRST", [[[1.0, float("nan")], [2.0, 3.0]]], "lane 0: a coordinate is NaN or infinite"),
     ("FIRST", [[[1e30, 1.0], [2.0, 3.0]]], "lane 0: a coordinate lies more than 2^24 px"),
     ("FIRST", np.zeros((4, 2)), "lanes must be a sequence of (N, 2) point arrays"),
-    ("FIRST", 5, "not iterable"),
+    ("FIRST", 5, "lanes must be a sequence of (N, 2) point arrays, got a int"),
+    ("FIRST", {"a": [[1.0, 2.0]]}, "lanes must be a sequence of (N, 2) point arrays, got a dict"),
+    ("FIRST", [[[1.0, 2.0], [3.0]]], "lane 0: points must be an (N, 2) array of numbers (rows of unequal length?)"),
+    ("FIRST", [[["1", "2"], ["3", "4"]]], "lane 0: points must be numbers, got <U1 values"),
+    ("FIRST", [np.array([[1 + 1j, 2.0], [3.0, 4.0]])], "lane 0: points must be numbers, got complex128"),
+    ("FIRST", [np.ma.masked_array([[1.0, 2.0], [3.0, 4.0]], mask=[[1, 0], [0, 0]])], "masked points"),
+    ("FIRST", [(x for x in [[1.0, 2.0]])], "got a generator"),
 ])
 def test_a_refused_update_is_one_error_and_changes_nothing(culane_set, frame, lanes, problem):
     _, data, _, good = culane_set
@@ -424,3 +430,46 @@ def test_the_second_epoch_reads_no_label(culane_set, vil100_set, openlane_set, t
         m.update(f, [lane.points for lane in read[f].lanes], categories=read[f].categories) for f in read],
         labels, tmp_path)
     assert same(first, second) and first["F1@30"] > 0
+
+
+def test_options_it_does_not_take_are_one_line_listing_those_it_does(culane_set):
+    _, data, _, _ = culane_set
+    with pytest.raises(roneld_eval.ConfigError, match=r"unknown option iou_threshold; it takes data_root, list_file, "
+                                                      r"iou, preset, width \(required: data_root\)"):
+        roneld_eval.metric("culane", data_root=data, iou_threshold=0.5)
+    with pytest.raises(roneld_eval.ConfigError, match="missing data_root"):
+        roneld_eval.metric("culane")
+    with pytest.raises(roneld_eval.ConfigError, match="matching must be among"):
+        roneld_eval.metric("openlane", labels=data, modes="any category")
+    with pytest.raises(roneld_eval.MetricInputError, match="offers no key names 'clrnet' \\(offered: clrernet\\)"):
+        roneld_eval.metric("culane", data_root=data).compute("clrnet")
+
+
+def test_a_frame_named_with_the_lists_leading_slash_is_that_frame(culane_set):
+    _, data, _, lanes = culane_set
+    metric = roneld_eval.metric("culane", data_root=data)
+    frame = list(lanes)[0]
+    metric.update("/" + frame, lanes[frame])
+    with pytest.raises(roneld_eval.MetricInputError, match="given twice"):
+        metric.update(frame, lanes[frame])
+
+
+def test_curvelanes_best_of_must_be_a_sequence(tmp_path):
+    from roneld_eval.benchmarks.curvelanes.synth import synth_curvelanes
+
+    synth_curvelanes(tmp_path / "set", clips=2, frames=1, seed=8)
+    labels, images = tmp_path / "set" / "labels", tmp_path / "set" / "images"
+    with pytest.raises(roneld_eval.ConfigError, match="best_of must be a sequence of score thresholds, got a generator"):
+        roneld_eval.metric("curvelanes", labels=labels, image_root=images, best_of=(t for t in (0.1, 0.5)))
+    assert roneld_eval.metric("curvelanes", labels=labels, image_root=images, best_of=[0.1, 0.5]).core.best_of == (
+        0.1, 0.5)
+
+
+def test_tusimple_run_time_must_be_a_number_as_score_tusimple_says(tusimple_set):
+    labels = tusimple_set[0]
+    metric = roneld_eval.metric("tusimple", labels=labels)
+    frame = metric.core.frames[0]
+    rows = len(metric.core.labels[frame]["h_samples"])
+    with pytest.raises(roneld_eval.MetricInputError, match="run_time must be a number of milliseconds, got '50'"):
+        metric.update(frame, [[-2.0] * rows], run_time="50")
+    metric.update(frame, [[-2.0] * rows], run_time=50)

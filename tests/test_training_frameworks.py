@@ -284,3 +284,56 @@ def test_the_readmes_lightning_example_runs_in_a_trainer(culane_set, tmp_path):
     logged = {key: float(value) for key, value in trainer.callback_metrics.items()}
     assert logged == pytest.approx(_expected(data, lanes, preset="clrnet"), abs=0, rel=1e-7)
     assert logged["mF1"] > 0
+
+
+def test_torchmetrics_refuses_a_clash_at_update_and_forward_only_updates(culane_set):
+    torch = _need("torch")
+    _need("torchmetrics")
+    from roneld_eval.frameworks.torchmetrics_metric import LaneMetric
+
+    data, lanes = culane_set
+    frames = list(lanes)
+    metric = LaneMetric("culane", data_root=str(data), iou="0.5")
+    assert metric(frames[:5], [lanes[f] for f in frames[:5]]) is None  # forward: an update, no batch score
+    metric.update(frames[:2], [lanes[f] for f in frames[:2]])  # the same lanes again: kept once
+    with pytest.raises(roneld_eval.MetricInputError, match="given twice with different lanes"):
+        metric.update([frames[5], frames[0]], [lanes[frames[5]], []])  # the batch refused whole
+    # tensors, with gradients, are lanes too
+    metric.update(frames[5:], [[torch.tensor(p, requires_grad=True) for p in lanes[f]] for f in frames[5:]])
+    assert metric.compute() == _expected(data, lanes, iou="0.5")
+    with pytest.raises(roneld_eval.MetricInputError, match="offers no key names 'nope'"):
+        LaneMetric("culane", data_root=str(data), names="nope")
+
+
+def test_torchmetrics_update_takes_a_benchmarks_fields_per_frame(tmp_path):
+    _need("torchmetrics")
+    from roneld_eval.benchmarks.openlane.reader import json_path, read_lanes
+    from roneld_eval.benchmarks.openlane.synth import synth_openlane
+    from roneld_eval.frameworks.torchmetrics_metric import LaneMetric
+
+    synth_openlane(tmp_path / "set", clips=2, frames=3, seed=4)
+    labels, predictions = tmp_path / "set" / "labels", tmp_path / "set" / "predictions"
+    metric = LaneMetric("openlane", labels=str(labels))
+    frames = list(metric.lane_metric.core.frames)
+    read = [read_lanes(json_path(predictions, f)) for f in frames]
+    metric.update(frames, [[lane.points for lane in r.lanes] for r in read], categories=[r.categories for r in read])
+    expected = roneld_eval.metric("openlane", labels=labels)
+    for f, r in zip(frames, read):
+        expected.update(f, [lane.points for lane in r.lanes], categories=r.categories)
+    assert metric.compute() == expected.compute() and expected.compute()["F1@30"] > 0
+
+
+def test_mmengine_metric_refuses_bad_settings_when_built(culane_set):
+    _need("mmengine")
+    from mmengine.registry import METRICS
+
+    import roneld_eval.frameworks.mmengine_metric  # noqa: F401
+
+    data, _ = culane_set
+    with pytest.raises(roneld_eval.MetricInputError, match="offers no key names 'clrnet'"):
+        METRICS.build(dict(type="RoneldLaneMetric", benchmark="culane", data_root=str(data), names="clrnet"))
+    with pytest.raises(roneld_eval.MetricInputError, match="sample's width must be a whole number of pixels"):
+        METRICS.build(dict(type="RoneldLaneMetric", benchmark="culane", data_root=str(data),
+                           sample=dict(style="clrernet", width="1640", height=590)))
+    with pytest.raises(roneld_eval.ConfigError, match="unknown option iou_thr"):
+        METRICS.build(dict(type="RoneldLaneMetric", benchmark="culane", data_root=str(data), iou_thr=0.5))

@@ -160,13 +160,17 @@ def from_module(module: str, name: str, call: bool = False):
     `score_command`), or with `call` the member's arguments passed to it (`metric(**options)`,
     `merge_parts(parts, out)`). `module` is relative to the benchmark object's package."""
 
-    def member(self, *args: Any, **kwargs: Any) -> Any:
+    def target(self) -> Any:
         import importlib
 
-        value = getattr(importlib.import_module(module, type(self).__module__.rpartition(".")[0]), name)
+        return getattr(importlib.import_module(module, type(self).__module__.rpartition(".")[0]), name)
+
+    def member(self, *args: Any, **kwargs: Any) -> Any:
+        value = target(self)
         return value(*args, **kwargs) if call else value
 
     member.__doc__ = f"{name} of {module}" + (" called with these arguments" if call else "")
+    member.target = target  # type: ignore[attr-defined]  # what is called, for its signature
     return member
 
 

@@ -36,6 +36,7 @@ class RoneldLaneMetric(BaseMetric):
         # its device collection is all_gather_object, which under gloo runs on the CPU: no file
         super().__init__(collect_device="gpu", prefix=prefix)
         self.lane_metric = metric(benchmark, **options)
+        self.lane_metric.check_names(names)  # now, not at the end of the first epoch
         self.read_sample = sample_reader(sample)
         self.names = names
 

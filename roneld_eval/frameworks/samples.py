@@ -35,6 +35,12 @@ class ClrernetSample:
     height: int
     y_step: int = 2
 
+    def __post_init__(self):
+        for name in ("width", "height", "y_step"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise MetricInputError(f"sample's {name} must be a whole number of pixels, got {value!r}")
+
     def __call__(self, sample: Mapping[str, Any]) -> Sample:
         try:
             frame, lanes = sample["metainfo"]["sub_img_name"], sample["lanes"]
@@ -43,7 +49,10 @@ class ClrernetSample:
                                    f"{_shape(sample)}") from None
         ys = np.arange(0, self.height, self.y_step) / self.height
         out = []
-        for lane in lanes:
+        for index, lane in enumerate(lanes):
+            if not callable(lane):
+                raise MetricInputError(f"{frame}: lane {index} is a {type(lane).__name__}, not a CLRerNet Lane "
+                                       "(called with y in [0, 1) to give x)")
             xs = np.asarray(lane(ys), dtype=np.float64)
             valid = (xs >= 0) & (xs < 1)
             points = np.stack([xs[valid] * self.width, ys[valid] * self.height], axis=1)[::-1]
@@ -63,7 +72,7 @@ def sample_reader(spec: str | Mapping[str, Any] | Callable[[Any], Sample]) -> Ca
         options = {key: value for key, value in spec.items() if key != "style"}
         try:
             return ClrernetSample(**options)
-        except TypeError as error:
+        except TypeError as error:  # an option it does not take
             raise MetricInputError(f"sample={dict(spec)!r}: {error}") from None
     raise MetricInputError(f"sample must be 'plain', {{'style': 'clrernet', 'width': ..., 'height': ...}} or a "
                            f"function, got {spec!r}")

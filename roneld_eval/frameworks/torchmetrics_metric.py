@@ -22,7 +22,7 @@ import numpy as np
 import torch
 from torchmetrics import Metric
 
-from ..in_memory import MetricInputError, metric
+from ..in_memory import MetricInputError, metric, same_counts
 
 _LENGTH = np.dtype("<u8")
 
@@ -60,15 +60,44 @@ class LaneMetric(Metric):
     def __init__(self, benchmark: str, names: str | None = None, **options: Any):
         super().__init__()
         self.lane_metric = metric(benchmark, **options)
+        self.lane_metric.check_names(names)
         self.names = names
         self.add_state("records", default=[], dist_reduce_fx="cat")
+        self._given: dict[str, Any] = {}  # this process's frames since reset: a clash refused at update
 
-    def update(self, frames: Sequence[str], lanes: Sequence[Any], scores: Sequence[Any] | None = None) -> None:
-        if len(frames) != len(lanes) or (scores is not None and len(scores) != len(frames)):
-            raise MetricInputError(f"update: {len(frames)} frames, {len(lanes)} lane lists: one of each per frame")
-        records = [self.lane_metric.record(frame, lanes[k], None if scores is None else scores[k])
+    def update(self, frames: Sequence[str], lanes: Sequence[Any], scores: Sequence[Any] | None = None,
+               **fields: Sequence[Any]) -> None:
+        """A batch: `lanes[k]` (and `scores[k]`, and each field's k-th value, as `categories=` for
+        OpenLane or `run_time=` for TuSimple) is frame k's. All taken, or (one refused) none."""
+        frames, lanes = list(frames), list(lanes)
+        given: dict[str, Sequence[Any] | None] = {"scores": scores, **fields}
+        columns = {key: list(value) for key, value in given.items() if value is not None}
+        if any(len(value) != len(frames) for value in (lanes, *columns.values())):
+            raise MetricInputError(f"update: {len(frames)} frames, {len(lanes)} lane lists"
+                                   + "".join(f", {len(v)} {key}" for key, v in columns.items())
+                                   + ": one of each per frame")
+        score_column = columns.pop("scores", None)
+        records = [self.lane_metric.record(frame, lanes[k], None if score_column is None else score_column[k],
+                                           **{key: value[k] for key, value in columns.items()})
                    for k, frame in enumerate(frames)]
-        self.records.extend(pack(record) for record in records)
+        fresh: dict[str, Any] = {}
+        for frame, counts in records:
+            earlier = fresh.get(frame, self._given.get(frame))
+            if earlier is not None and not same_counts(earlier, counts):
+                raise MetricInputError(f"{frame}: given twice with different lanes (reset() starts again)")
+            if earlier is None:
+                fresh[frame] = counts
+        self._given.update(fresh)
+        self.records.extend(pack(record) for record in fresh.items())
+
+    def forward(self, *args: Any, **kwargs: Any) -> None:
+        """An update: an official metric has no score of one batch (the frames not yet given
+        would count as missed), so `metric(frames, lanes)` returns nothing; `compute()` scores."""
+        self.update(*args, **kwargs)
+
+    def reset(self) -> None:
+        super().reset()
+        self._given = {}
 
     def compute(self) -> dict[str, float]:
         state = self.records

@@ -25,8 +25,10 @@ class CurveLanesMetric:
 
     def __init__(self, labels: str | Path, image_root: str | Path, list_file: str | Path | None = None,
                  score_threshold: float = 0.0, best_of: Sequence[float] = ()):
-        self.thresholds = score_thresholds(score_threshold, best_of)
+        if isinstance(best_of, (str, bytes)) or not isinstance(best_of, Sequence):
+            raise ValueError(f"best_of must be a sequence of score thresholds, got a {type(best_of).__name__}")
         self.best_of = tuple(float(t) for t in best_of)
+        self.thresholds = score_thresholds(float(score_threshold), self.best_of)
         self.labels, self.images = Path(labels), Path(image_root)
         self.frames = tuple(read_list(Path(list_file)) if list_file is not None else every_labelled_image(self.labels))
         self.truth = TruthMemo(self._sized_truth)

@@ -4,11 +4,14 @@ means over the labelled frames summed in the label file's order, and the two F1s
 
 from __future__ import annotations
 
+import numbers
+
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
+from ...in_memory import numbers_of
 from ...lanes_io import MAX_PREDICTED_COORDINATE
 from ...scoring import PlainTable
 from .official import TusimpleScore, bench_frame, mean_scores, read_labels
@@ -35,12 +38,14 @@ class TusimpleMetric:
             raise ValueError(f"h_samples has {len(h_samples)} rows, the label {len(rows)}")
         checked = []
         for index, lane in enumerate(lanes):
-            xs = np.asarray(lane, dtype=np.float64)
+            xs = numbers_of(lane, f"lane {index}")
             if xs.ndim != 1 or xs.size != len(rows):
                 raise ValueError(f"lane {index}: needs one x per h_samples row ({len(rows)}), got shape {xs.shape}")
             if not np.isfinite(xs).all() or (xs.size and np.abs(xs).max() > MAX_PREDICTED_COORDINATE):
                 raise ValueError(f"lane {index}: an x that is not a finite lane coordinate")
             checked.append(xs.tolist())
+        if isinstance(run_time, (bool, str, bytes)) or not isinstance(run_time, numbers.Real):
+            raise ValueError(f"run_time must be a number of milliseconds, got {run_time!r}")  # as score tusimple
         time = float(run_time)
         if not np.isfinite(time):
             raise ValueError("run_time must be a finite number of milliseconds")
