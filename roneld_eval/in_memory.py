@@ -293,10 +293,14 @@ def _check_options(name: str, signature: inspect.Signature, options: Mapping[str
 
     taken = [p for p in signature.parameters.values() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
     names = [p.name for p in taken]
+    required = [p.name for p in taken if p.default is p.empty]
     unknown = [key for key in options if key not in names]
-    missing = [p.name for p in taken if p.default is p.empty and p.name not in options]
-    if unknown or missing:
-        said = (f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}" if unknown
-                else f"missing {', '.join(missing)}")
-        raise ConfigError(f"metric({name!r}): {said}; it takes {', '.join(names)} (required: "
-                          f"{', '.join(p.name for p in taken if p.default is p.empty) or 'none'})")
+    missing = [key for key in required if key not in options]
+    if unknown:
+        said = f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}"
+    elif missing:
+        said = f"missing {', '.join(missing)}"
+    else:
+        return
+    raise ConfigError(f"metric({name!r}): {said}; it takes {', '.join(names)} (required: "
+                      f"{', '.join(required) or 'none'})")

@@ -459,7 +459,7 @@ def test_curvelanes_best_of_must_be_a_sequence(tmp_path):
 
     synth_curvelanes(tmp_path / "set", clips=2, frames=1, seed=8)
     labels, images = tmp_path / "set" / "labels", tmp_path / "set" / "images"
-    with pytest.raises(roneld_eval.ConfigError, match="best_of must be a sequence of score thresholds, got a generator"):
+    with pytest.raises(roneld_eval.ConfigError, match="best_of must be a sequence of score thresholds, got a gen"):
         roneld_eval.metric("curvelanes", labels=labels, image_root=images, best_of=(t for t in (0.1, 0.5)))
     assert roneld_eval.metric("curvelanes", labels=labels, image_root=images, best_of=[0.1, 0.5]).core.best_of == (
         0.1, 0.5)
