@@ -12,6 +12,7 @@ counting as the official tool counts a missing prediction file.
 from __future__ import annotations
 
 import inspect
+import os
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any, Callable, Generic, Iterable, Mapping, Protocol, Sequence, TypeVar
 
@@ -60,7 +61,7 @@ class Metric:
 
     def __init__(self, core: MetricCore, options: Mapping[str, Any]):
         self.core = core
-        self.options = tuple(sorted((key, repr(value)) for key, value in options.items()))
+        self.options = tuple(sorted((key, _option_text(value)) for key, value in options.items()))
         self._listed = frozenset(core.frames)
         self._counts: dict[str, Any] = {}
 
@@ -199,6 +200,14 @@ class TruthMemo(Generic[Truth]):
 
     def __len__(self) -> int:
         return len(self._kept)
+
+
+def _option_text(value: Any) -> str:
+    """An option as merge compares it: a path by the file it names (`Path(D)`, `str(D)` and `D/`
+    are one folder), anything else by its repr."""
+    if isinstance(value, (str, os.PathLike)) and os.path.exists(value):
+        return repr(os.path.realpath(value))
+    return repr(value)
 
 
 def point_arrays(lanes: Any, axes: str = "x, y") -> list[np.ndarray]:

@@ -473,3 +473,18 @@ def test_tusimple_run_time_must_be_a_number_as_score_tusimple_says(tusimple_set)
     with pytest.raises(roneld_eval.MetricInputError, match="run_time must be a number of milliseconds, got '50'"):
         metric.update(frame, [[-2.0] * rows], run_time="50")
     metric.update(frame, [[-2.0] * rows], run_time=50)
+
+
+def test_metrics_of_one_folder_named_differently_merge(culane_set):
+    from pathlib import Path
+
+    _, data, _, lanes = culane_set
+    frames = list(lanes)
+    one = roneld_eval.metric("culane", data_root=str(data))
+    other = roneld_eval.metric("culane", data_root=Path(str(data) + "/"))
+    one.update(frames[0], lanes[frames[0]])
+    other.update(frames[1], lanes[frames[1]])
+    one.merge(other.state())
+    assert one.frames_updated == 2
+    with pytest.raises(roneld_eval.MetricInputError, match="cannot merge"):
+        one.merge(roneld_eval.metric("culane", data_root=data, iou="0.3"))

@@ -35,6 +35,10 @@ class CulaneMetric:
         self.categories = dataset.categories
         self.size = (dataset.image_width, dataset.image_height, width)
         self.truth = TruthMemo(self._drawn_truth)
+        # CLRerNet's key names use the category files' names (test0_normal), read with the lists
+        self.category_files = {match.group(2): name[:-len(".txt")]
+                               for name in _names(self.root / "list" / "test_split")
+                               if (match := _CATEGORY_FILE.match(name))}
 
     def _drawn_truth(self, frame: str) -> tuple[int, Any]:
         truth = read_frame_labels(self.root, frame)
@@ -75,8 +79,7 @@ class CulaneMetric:
         category list, at each threshold of `iou` (CLRerNet's are 0.1, 0.5 and 0.75). The values
         are the official evaluator's: CLRerNet's own divide by a sum + 1e-8 and draw lanes as
         LaneATT does, so its printed F1 differs from these in the last digits or more."""
-        stems = {match.group(2): name[:-len(".txt")] for name in _names(self.root / "list" / "test_split")
-                 if (match := _CATEGORY_FILE.match(name))}
+        stems = self.category_files
         out: dict[str, float] = {}
         for _, category, label, tp, fp, fn, precision, recall, f1 in self._rows(counts):
             threshold = str(float(label))
