@@ -174,6 +174,7 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
     """End every worker: SIGTERM (or, when `finished`, a polite request to exit), then SIGKILL
     for any still there after `grace_s`, so a stopped or stuck worker cannot hold us up."""
     processes = list((getattr(executor, "_processes", None) or {}).values())
+    manager = getattr(executor, "_executor_manager_thread", None)  # shutdown forgets it
     if finished:
         executor.shutdown(wait=False)
     else:
@@ -203,7 +204,6 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
     # writes to that pipe unlocked, and one racing the close printed "Exception ignored ... Bad
     # file descriptor" after our one-line error (1 run in 50). Once the thread has ended, the
     # handler sees the pipe closed and writes nothing.
-    manager = getattr(executor, "_executor_manager_thread", None)
     if manager is not None:
         with contextlib.suppress(Exception):
             manager.join(MANAGER_JOIN_S)
