@@ -167,7 +167,7 @@ def _wait_for_end(process, deadline: float) -> None:
         process.join(min(0.05, max(0.0, deadline - time.monotonic())))
 
 
-MANAGER_JOIN_S = 2.0
+MANAGER_JOIN_S = 0.5  # a worker's forked process holding the pool's pipes keeps the thread alive: not waited out
 
 
 def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished: bool = False) -> None:
