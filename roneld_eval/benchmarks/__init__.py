@@ -174,6 +174,22 @@ def from_module(module: str, name: str, call: bool = False):
     return member
 
 
+def declared_command(module: str):
+    """`score_command` of a benchmark that declares its command (a `ScoreCommand` named COMMAND in
+    `module` of its folder): the click command roneld_eval.score_commands builds from it."""
+
+    def score_command(self) -> Any:
+        import importlib
+
+        from ..score_commands import built
+
+        spec = importlib.import_module(module, type(self).__module__.rpartition(".")[0]).COMMAND
+        return built(spec, self.scorer)
+
+    score_command.__doc__ = f"the command declared in {module}"
+    return score_command
+
+
 _OWN = __name__.split(".")[0] + "."
 # What every benchmark must have, and what `run` needs besides (a benchmark scored from lane
 # files only has default_preset None and need not have these).

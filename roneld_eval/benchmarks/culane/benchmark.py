@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 from ...config import EvalConfig
-from .. import CategoryPanel, LaneFile, from_module
+from .. import CategoryPanel, LaneFile, declared_command, from_module
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, labels_path, read_culane, with_labels
 from ...json_fields import json_number, read_count, read_float, read_list
 from ...lanes_io import format_lines_txt
@@ -70,7 +70,7 @@ class CulaneBenchmark:
 
     # loaded from this folder when first used (benchmarks.from_module): the command, its library
     # scorer (roneld_eval.score), its parts' merger, the in-memory metric's core
-    score_command = from_module(".cli", "score_culane_command")
+    score_command = declared_command(".command")
     scorer = from_module(".score", "score_culane")
     metric = from_module(".metric", "CulaneMetric", call=True)
     merge_parts = from_module(".score", "merge_culane_parts", call=True)

@@ -19,7 +19,7 @@ from ...json_fields import json_number, read_count, read_float, read_list
 from ...lanes_io import format_lines_txt
 from ...maps.lanes import LinesPerFrame
 from ...model import Clip, Dataset, Frame, Lane
-from .. import LaneFile, from_module
+from .. import LaneFile, declared_command, from_module
 
 if TYPE_CHECKING:  # annotations only: `score` starts without pandas or the extractors
     import pandas as pd
@@ -81,7 +81,7 @@ class LlamasBenchmark:
 
     # loaded from this folder when first used (benchmarks.from_module): the command, its library
     # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
-    score_command = from_module(".cli", "score_llamas_command")
+    score_command = declared_command(".command")
     scorer = from_module(".score", "score_llamas")
     metric = from_module(".metric", "LlamasMetric", call=True)
 

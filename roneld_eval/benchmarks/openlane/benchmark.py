@@ -3,7 +3,7 @@ evaluator scores them (`score openlane`: score.py)."""
 
 from __future__ import annotations
 
-from .. import from_module
+from .. import declared_command, from_module
 from ..lane_files_only import LaneFilesOnly
 
 
@@ -22,7 +22,7 @@ class OpenLaneBenchmark(LaneFilesOnly):
 
     # loaded from this folder when first used (benchmarks.from_module): the command, its library
     # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
-    score_command = from_module(".cli", "score_openlane_command")
+    score_command = declared_command(".command")
     scorer = from_module(".score", "score_openlane")
     metric = from_module(".metric", "OpenLaneMetric", call=True)
 

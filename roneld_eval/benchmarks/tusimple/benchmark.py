@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 from ...config import EvalConfig
 from ...errors import InputError
-from .. import LaneFile, from_module
+from .. import LaneFile, declared_command, from_module
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, read_tusimple
 from ...json_fields import json_number, read_float, read_list
 from ...lanes_io import sample_lane_at_rows
@@ -59,7 +59,7 @@ class TusimpleBenchmark:
 
     # loaded from this folder when first used (benchmarks.from_module): the command, its library
     # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
-    score_command = from_module(".cli", "score_tusimple_command")
+    score_command = declared_command(".command")
     scorer = from_module(".score", "score_tusimple")
     metric = from_module(".metric", "TusimpleMetric", call=True)
 

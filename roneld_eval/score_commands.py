@@ -1,0 +1,184 @@
+"""`roneld-eval score NAME`, one driver for every benchmark: a benchmark declares its command as
+data (`ScoreCommand`: its options in order, which of them its scorer takes and how, what it prints),
+and `built` makes the click command from it. The options every scorer shares (its prediction
+roots, --strict, --workers, --out, the shard options, --quiet, --debug) are made here, so their
+flags and wording are one thing across benchmarks.
+
+    from roneld_eval.score_commands import Option, ScoreCommand, out, pred_roots, quiet, ...
+    COMMAND = ScoreCommand("mine", "Official Mine F1 ...", options=(Option("--labels", ...), ...),
+                           positional=("labels", "pred_roots"), report=print_mine)
+
+and in the benchmark object: `score_command = declared_command(".command")`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import click
+
+Echo = Callable[..., None]
+
+
+@dataclass(frozen=True)
+class Option:
+    """One option as click shows and parses it. `flags`: "--list" (or "--temporal/--no-temporal");
+    `name`: the value's name where it is not the flag's; `kind`: "text", "path", "float", "int",
+    "flag", "choice" or "out" (an output folder); `parse`: turns the text given (None when not
+    given) into the value, a ValueError saying what is wrong."""
+
+    flags: str
+    help: str
+    name: str | None = None
+    kind: str = "text"
+    required: bool = False
+    multiple: bool = False
+    metavar: str | None = None
+    default: Any = None
+    show_default: bool = False
+    choices: tuple[str, ...] = ()
+    int_range: tuple[int | None, int | None] | None = None
+    parse: Callable[[str | None], Any] | None = None
+
+
+@dataclass(frozen=True)
+class Sharding:
+    """--shard, --executor and --scheduler; `units` says what a command's whole units are."""
+
+    units: str
+
+
+@dataclass(frozen=True)
+class ScoreCommand:
+    """A benchmark's `score NAME`. `positional`: the values its scorer takes in order; every other
+    option's value is passed by its name, but for `driver_only` ones (and --quiet, --debug, the
+    shard options, which the driver passes itself as progress/announce/shard). `prepare` adjusts the
+    values first (one option becoming the scorer's argument of another name); `report` prints the
+    score (warnings are printed before it, --quiet or not). `quiet_says_nothing`: --quiet also
+    silences the warnings; `keeps_collections`: the process's last garbage collections run (the
+    others skip them at exit: a fifth of a second)."""
+
+    name: str
+    help: str
+    options: tuple[Option | Sharding, ...]
+    positional: tuple[str, ...]
+    report: Callable[[Any, Mapping[str, Any], Echo], None]
+    prepare: Callable[[dict[str, Any]], dict[str, Any]] | None = None
+    driver_only: tuple[str, ...] = ()
+    progress: bool = True
+    quiet_says_nothing: bool = False
+    keeps_collections: bool = False
+    scorer_keywords: Mapping[str, str] = field(default_factory=dict)  # option name -> the scorer's name
+
+
+# ---- the options every scorer shares -------------------------------------------------------
+
+def strict(help: str) -> Option:
+    return Option("--strict", help, kind="flag")
+
+
+WORKERS = Option("--workers", "Worker processes. Default: all cores.", kind="int", int_range=(1, None))
+
+
+def out(help: str) -> Option:
+    return Option("--out", help, kind="out")
+
+
+def quiet(help: str = "No progress bar or table (warnings are still shown).") -> Option:
+    return Option("--quiet", help, kind="flag")
+
+
+def pred_roots(help: str, required: bool = True, metavar: str = "DIR|NAME=DIR") -> Option:
+    return Option("--pred-root", help, name="pred_roots", required=required, multiple=True, metavar=metavar)
+
+
+def width(help: str) -> Option:
+    from .config import MAX_LINE_THICKNESS
+
+    return Option("--width", help, kind="int", default=30, show_default=True, int_range=(2, MAX_LINE_THICKNESS))
+
+
+# ---- the click command ----------------------------------------------------------------------
+
+def _parameters(option: Option | Sharding) -> list[click.Parameter]:
+    from .cli import OUT_FOLDER, sharding_options
+
+    if isinstance(option, Sharding):
+        collected = sharding_options(option.units)(lambda **_: None)
+        return list(reversed(collected.__click_params__))
+    kind: Any = {"path": click.Path(path_type=Path), "float": float, "out": OUT_FOLDER, "text": None}.get(option.kind)
+    if option.kind == "int":
+        low, high = option.int_range or (None, None)
+        kind = click.IntRange(min=low, max=high)
+    elif option.kind == "choice":
+        kind = click.Choice(option.choices)
+    declarations = [option.flags] + ([option.name] if option.name else [])
+    settings: dict[str, Any] = dict(help=option.help)
+    if option.kind == "flag":
+        settings["is_flag"] = True
+    elif kind is not None:
+        settings["type"] = kind
+    for key in ("required", "multiple", "metavar", "show_default"):
+        if getattr(option, key):
+            settings[key] = getattr(option, key)
+    if option.default is not None:
+        settings["default"] = option.default
+    if option.parse is not None:
+        settings["callback"] = _callback(option.parse)
+    return [click.Option(declarations, **settings)]
+
+
+def _callback(parse: Callable[[str | None], Any]):
+    def callback(context, parameter, value):
+        try:
+            return parse(value)
+        except ValueError as error:
+            raise click.BadParameter(str(error)) from None
+    return callback
+
+
+def built(spec: ScoreCommand, scorer: Callable[[], Callable[..., Any]]) -> click.Command:
+    """The click command of `spec`; `scorer()` gives the function it calls (imported when run)."""
+    from .cli import debug_option
+
+    parameters = [parameter for option in spec.options for parameter in _parameters(option)]
+    parameters += debug_option(lambda **_: None).__click_params__
+
+    def run(**values: Any) -> None:
+        _score(spec, scorer(), values)
+
+    return click.Command(spec.name, params=parameters, callback=run, help=spec.help)
+
+
+def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any]) -> None:
+    from .cli import _announcer, _guard, _no_collections_at_exit, shard_written
+    from .cluster import executed
+
+    if not spec.keeps_collections:
+        _no_collections_at_exit()
+    several = {option.name or option.flags.lstrip("-").replace("-", "_") for option in spec.options
+               if isinstance(option, Option) and option.multiple}
+    values = {name: list(value) if name in several else value for name, value in values.items()}
+    debug, quiet = values.pop("debug"), values.pop("quiet", False)
+    shard, executor, scheduler = values.pop("shard"), values.pop("executor"), values.pop("scheduler")
+    given = dict(values)
+    if spec.prepare is not None:
+        values = _guard(spec.prepare, debug, values)
+    args = [values.pop(name) for name in spec.positional]
+    keywords = {spec.scorer_keywords.get(name, name): value for name, value in values.items()
+                if name not in spec.driver_only}
+    if spec.progress:
+        keywords.update(progress=not quiet, announce=_announcer(quiet))
+    score = _guard(executed, debug, executor, scheduler, f"score {spec.name}", scorer, *args, **keywords,
+                   shard=shard)
+    if score is None:  # a shard: its part is written
+        shard_written(shard, given.get("out"), quiet)
+        return
+    if quiet and spec.quiet_says_nothing:
+        return
+    for warning in getattr(score, "warnings", ()):  # never silently, --quiet or not
+        click.echo(warning, err=True)
+    if not quiet:
+        spec.report(score, given, click.echo)
