@@ -107,7 +107,7 @@ def _parameters(option: Option | Sharding) -> list[click.Parameter]:
 
     if isinstance(option, Sharding):
         collected = sharding_options(option.units)(lambda **_: None)
-        return list(reversed(collected.__click_params__))
+        return list(reversed(_params_of(collected)))
     kind: Any = {"path": click.Path(path_type=Path), "float": float, "out": OUT_FOLDER, "text": None}.get(option.kind)
     if option.kind == "int":
         low, high = option.int_range or (None, None)
@@ -130,6 +130,11 @@ def _parameters(option: Option | Sharding) -> list[click.Parameter]:
     return [click.Option(declarations, **settings)]
 
 
+def _params_of(decorated: Callable[..., Any]) -> list[click.Parameter]:
+    """The options click's decorators attached to a function, last first."""
+    return decorated.__click_params__  # type: ignore[attr-defined]
+
+
 def _callback(parse: Callable[[str | None], Any]):
     def callback(context, parameter, value):
         try:
@@ -144,7 +149,7 @@ def built(spec: ScoreCommand, scorer: Callable[[], Callable[..., Any]]) -> click
     from .cli import debug_option
 
     parameters = [parameter for option in spec.options for parameter in _parameters(option)]
-    parameters += debug_option(lambda **_: None).__click_params__
+    parameters += _params_of(debug_option(lambda **_: None))
 
     def run(**values: Any) -> None:
         _score(spec, scorer(), values)
@@ -153,24 +158,15 @@ def built(spec: ScoreCommand, scorer: Callable[[], Callable[..., Any]]) -> click
 
 
 def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any]) -> None:
-    from .cli import _announcer, _guard, _no_collections_at_exit, shard_written
+    from .cli import _guard, _no_collections_at_exit, shard_written
     from .cluster import executed
 
     if not spec.keeps_collections:
         _no_collections_at_exit()
-    several = {option.name or option.flags.lstrip("-").replace("-", "_") for option in spec.options
-               if isinstance(option, Option) and option.multiple}
-    values = {name: list(value) if name in several else value for name, value in values.items()}
     debug, quiet = values.pop("debug"), values.pop("quiet", False)
     shard, executor, scheduler = values.pop("shard"), values.pop("executor"), values.pop("scheduler")
     given = dict(values)
-    if spec.prepare is not None:
-        values = _guard(spec.prepare, debug, values)
-    args = [values.pop(name) for name in spec.positional]
-    keywords = {spec.scorer_keywords.get(name, name): value for name, value in values.items()
-                if name not in spec.driver_only}
-    if spec.progress:
-        keywords.update(progress=not quiet, announce=_announcer(quiet))
+    args, keywords = _arguments(spec, _guard(spec.prepare, debug, values) if spec.prepare else values, quiet)
     score = _guard(executed, debug, executor, scheduler, f"score {spec.name}", scorer, *args, **keywords,
                    shard=shard)
     if score is None:  # a shard: its part is written
@@ -182,3 +178,18 @@ def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any
         click.echo(warning, err=True)
     if not quiet:
         spec.report(score, given, click.echo)
+
+
+def _arguments(spec: ScoreCommand, values: dict[str, Any], quiet: bool) -> tuple[list[Any], dict[str, Any]]:
+    """The scorer's arguments from the options' values: a repeatable option's as a list."""
+    from .cli import _announcer
+
+    several = {option.name or option.flags.lstrip("-").replace("-", "_") for option in spec.options
+               if isinstance(option, Option) and option.multiple}
+    values = {name: list(value) if name in several else value for name, value in values.items()}
+    args = [values.pop(name) for name in spec.positional]
+    keywords = {spec.scorer_keywords.get(name, name): value for name, value in values.items()
+                if name not in spec.driver_only}
+    if spec.progress:
+        keywords.update(progress=not quiet, announce=_announcer(quiet))
+    return args, keywords
