@@ -94,6 +94,12 @@ def pred_roots(help: str, required: bool = True, metavar: str = "DIR|NAME=DIR") 
     return Option("--pred-root", help, name="pred_roots", required=required, multiple=True, metavar=metavar)
 
 
+def closing_options(strict_help: str, out_help: str, units: str) -> tuple[Option | Sharding, ...]:
+    """What a parallel scorer's command ends with, in this order: --strict, --workers, --out, the
+    shard options, --quiet."""
+    return strict(strict_help), WORKERS, out(out_help), Sharding(units), quiet()
+
+
 def width(help: str) -> Option:
     from .config import MAX_LINE_THICKNESS
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import WORKERS, Echo, Option, ScoreCommand, Sharding, out, pred_roots, quiet, strict, width
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots, width
 
 
 def _with_listed_roots(values: dict[str, Any]) -> dict[str, Any]:
@@ -70,11 +70,9 @@ COMMAND = ScoreCommand(
         Option("--preset", "A paper family's grid: clrnet is --iou 0.50:0.95:0.05 with F1@50, F1@75 and mF1.",
                kind="choice", choices=("clrnet",)),  # culane_score.SCORE_PRESETS (a test keeps them equal)
         width("Lane width in pixels at 1640x590."),
-        strict("Stop when any listed frame has no prediction file (default: no lanes)."),
-        WORKERS,
-        out("Folder for official.csv (every method, category and threshold), summary.csv and summary.md."),
-        Sharding("clips"),
-        quiet(),
+        *closing_options("Stop when any listed frame has no prediction file (default: no lanes).",
+                         "Folder for official.csv (every method, category and threshold), summary.csv and "
+                         "summary.md.", "clips"),
     ),
     positional=("data_root", "pred_roots"),
     prepare=_with_listed_roots,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import WORKERS, Echo, Option, ScoreCommand, Sharding, out, pred_roots, quiet, strict
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots
 
 
 def _thresholds(value: str | None) -> tuple[float, ...]:
@@ -46,11 +46,8 @@ COMMAND = ScoreCommand(
         Option("--best-of", "Also give the best F1 over these score thresholds, labelled as chosen on the test set. "
                             "Default: vega's list (auto_lane.yml, 0f1d0d0: 0.56, 0.60, 0.63, ..., 0.93); none: only "
                             "the fixed --score-threshold.", metavar="T,T,...", parse=_thresholds),
-        strict("Stop when any listed image has no prediction file (default: no lanes)."),
-        WORKERS,
-        out("Folder for official.csv."),
-        Sharding("images"),
-        quiet(),
+        *closing_options("Stop when any listed image has no prediction file (default: no lanes).",
+                         "Folder for official.csv.", "images"),
     ),
     positional=("labels", "pred_roots", "image_root"),
     report=_report,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import WORKERS, Echo, Option, ScoreCommand, Sharding, out, pred_roots, quiet, strict, width
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots, width
 
 
 def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
@@ -33,11 +33,8 @@ COMMAND = ScoreCommand(
         Option("--iou", "IoU thresholds, scored in one pass. Default: 0.50:0.95:0.05 (F1@0.5, F1@0.75 and mF1).",
                metavar="T,T|START:STOP:STEP"),
         width("Lane width in pixels (evaluate.py's --width)."),
-        strict("Stop when any label has no prediction file (default: no lanes)."),
-        WORKERS,
-        out("Folder for official.csv, summary.csv and summary.md."),
-        Sharding("recordings"),
-        quiet(),
+        *closing_options("Stop when any label has no prediction file (default: no lanes).",
+                         "Folder for official.csv, summary.csv and summary.md.", "recordings"),
     ),
     positional=("labels", "pred_roots"),
     scorer_keywords={"map_roots": "maps"},

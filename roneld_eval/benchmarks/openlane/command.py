@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import WORKERS, Echo, Option, ScoreCommand, Sharding, out, pred_roots, quiet, strict, width
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots, width
 
 
 def _matchings(values: dict[str, Any]) -> dict[str, Any]:
@@ -38,11 +38,8 @@ COMMAND = ScoreCommand(
         width("Lane width in pixels."),
         Option("--any-category", "Only the matching that ignores categories (the evaluator's -k); default: both.",
                name="any_only", kind="flag"),
-        strict("Stop when any listed image has no prediction file (default: no lanes)."),
-        WORKERS,
-        out("Folder for official.csv and summary.md."),
-        Sharding("segments"),
-        quiet(),
+        *closing_options("Stop when any listed image has no prediction file (default: no lanes).",
+                         "Folder for official.csv and summary.md.", "segments"),
     ),
     positional=("labels", "pred_roots"),
     prepare=_matchings,

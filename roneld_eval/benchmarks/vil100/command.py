@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import WORKERS, Echo, Option, ScoreCommand, Sharding, out, pred_roots, quiet, strict, width
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots, width
 
 
 def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
@@ -43,12 +43,10 @@ COMMAND = ScoreCommand(
               "temporal metrics draw 30 px, as RVLD's script."),
         Option("--temporal/--no-temporal", "Also RVLD's temporal metrics Rs, Rj, Rm (evaluate_temporal.py), each "
                                            "threshold as tau.", default=True, show_default=True),
-        strict("Stop when any listed frame has no prediction or ground-truth file (default: no lanes, a warning)."),
-        WORKERS,
-        out("Folder for official.csv (every method, sequence, scenario and threshold), temporal.csv and "
-            "summary.md."),
-        Sharding("sequences"),
-        quiet(),
+        *closing_options("Stop when any listed frame has no prediction or ground-truth file (default: no lanes, "
+                         "a warning).",
+                         "Folder for official.csv (every method, sequence, scenario and threshold), temporal.csv and "
+                         "summary.md.", "sequences"),
     ),
     positional=("labels", "pred_roots"),
     report=_report,
