@@ -63,6 +63,26 @@ def test_a_third_party_benchmark_runs_and_scores_as_a_built_in_one(toy_runs):
     assert scored.stdout.strip().endswith(f"{predicted} predicted")
 
 
+def test_the_toy_installed_with_pip_runs_and_scores_as_from_its_folder(toy_runs, tmp_path):
+    # The toy as a third party ships it: its own pyproject.toml, installed by pip (no hand-made
+    # dist-info on the path), its benchmark found through the entry point pip writes.
+    import shutil
+
+    source = shutil.copytree(TOY, tmp_path / "toy-lanes", ignore=shutil.ignore_patterns(
+        "*.dist-info", "*.egg-info", "build", "__pycache__"))
+    site = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", "--no-index",
+                    "--target", str(site), str(source)], check=True, capture_output=True, timeout=300)
+    assert sorted(p.name for p in site.glob("*.dist-info")) == ["toy_lanes-0.dist-info"]
+    listed = cli("score", "--help", path=site)
+    assert "toy" in listed.stdout
+    out = tmp_path / "run"
+    cli("run", "--dataset", "toy", "--data-root", str(toy_runs / "set" / "data"), "--maps-root",
+        str(toy_runs / "set" / "maps"), "--pft-ablation", "--set", "model=ToyNet", "--out", str(out), "--quiet",
+        "--workers", "2", path=site)
+    assert (out / "official.csv").read_bytes() == (toy_runs / "run1" / "official.csv").read_bytes()
+
+
 def test_compare_shows_a_third_party_benchmarks_official_table(toy_runs, tmp_path):
     cli("compare", str(toy_runs / "run1"), str(toy_runs / "run2"), "--out", str(tmp_path / "cmp"), "--quiet")
     table = (tmp_path / "cmp" / "table_official.md").read_text()
@@ -165,7 +185,7 @@ def test_help_lists_the_benchmarks_from_their_metadata_and_imports_none(tmp_path
 def _variant(root: Path, name: str, body: str, at_import: str = "") -> Path:
     """A package registering benchmark `name`: the toy one with `body` in its class (and
     `at_import` run as its module is imported), with its own preset."""
-    preset = (TOY / "toy.toml").read_text().replace('name = "toy"', f'name = "{name}"')
+    preset = (TOY / "toy_lanes" / "toy.toml").read_text().replace('name = "toy"', f'name = "{name}"')
     (root / f"{name}.toml").parent.mkdir(parents=True, exist_ok=True)
     (root / f"{name}.toml").write_text(preset)
     source = (f"import math, os, signal, sys, time\nsys.path.insert(0, {str(TOY)!r})\nimport toy_lanes\n{at_import}\n"
@@ -313,7 +333,7 @@ def test_the_toy_builds_on_the_kit_alone_and_every_kit_name_resolves():
 
     import roneld_eval.kit as kit
 
-    tree = ast.parse((TOY / "toy_lanes.py").read_text(encoding="utf-8"))
+    tree = ast.parse((TOY / "toy_lanes" / "__init__.py").read_text(encoding="utf-8"))
     imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
     imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
     assert {name for name in imported if name and name.startswith("roneld_eval")} == {"roneld_eval.kit"}
