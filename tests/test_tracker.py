@@ -368,3 +368,10 @@ def test_the_readmes_vehicle_loop_runs_as_written():
     exec(compile(block, "README.md", "exec"), names)
     assert len(logged) == len(frames) and logged[-1].frames == len(frames)
     assert len(published) >= len(frames) and all(points.shape[1] == 2 for points in published)
+
+
+@pytest.mark.parametrize("size", [(float("nan"), 590), ("1640", 590), (640,), (0, 590), (True, 590), None.__class__])
+def test_an_image_size_that_is_not_two_whole_pixels_is_one_config_error(size):
+    # (nan, 590) raised int()'s bare "cannot convert float NaN to integer"
+    with pytest.raises(roneld_eval.ConfigError, match="image_size must be \\(width, height\\)"):
+        RoneldTracker.from_preset("scnn-culane", image_size=size, warm=False)

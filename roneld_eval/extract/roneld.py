@@ -11,6 +11,8 @@ jitter of vertical lanes (ours is deterministic).
 
 from __future__ import annotations
 
+import numbers
+
 import math
 import time
 from dataclasses import dataclass, field
@@ -255,7 +257,7 @@ class RoneldTracker:
         from ..config import EvalConfig
 
         config = EvalConfig.from_toml(name)
-        geometry = config.geometry if image_size is None else config.geometry.at_image_size(*image_size)
+        geometry = config.geometry if image_size is None else config.geometry.at_image_size(*_pixels(image_size))
         tracker = cls(config.roneld, geometry, pft=pft, channels=channels,
                       lane_channels=config.maps.lane_channels, latency_frames=latency_frames)
         if warm:
@@ -357,3 +359,20 @@ def with_pft(geometry: MapGeometry, params: Mapping[str, Any]) -> RoneldExtracto
 def without_pft(geometry: MapGeometry, params: Mapping[str, Any]) -> RoneldExtractor:
     """The method 'roneld-nopft': RONELD without preceding-frame tracking (the ablation)."""
     return RoneldExtractor(geometry, params, pft=False)
+
+
+def _pixels(image_size: Any) -> tuple[int, int]:
+    """(width, height) as whole pixels within the configuration's bounds; a ConfigError saying
+    what was given otherwise (a NaN or a string raised int()'s bare ValueError)."""
+    from ..thresholds import TALLEST_IMAGE
+    from ..errors import ConfigError
+
+    try:
+        width, height = image_size
+    except (TypeError, ValueError):
+        raise ConfigError(f"image_size must be (width, height) in pixels, got {image_size!r}") from None
+    if any(isinstance(value, bool) or not isinstance(value, numbers.Integral) or not 1 <= int(value) <= TALLEST_IMAGE
+           for value in (width, height)):
+        raise ConfigError(f"image_size must be (width, height) in whole pixels from 1 to {TALLEST_IMAGE:,}, "
+                          f"got {image_size!r}")
+    return int(width), int(height)
