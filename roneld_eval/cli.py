@@ -681,3 +681,7 @@ def _print_replay(result) -> None:
                                for row in shown.itertuples()))
     if result.video is not None:
         click.echo(f"video: {result.video}")
+    if result.without_image:
+        click.echo(f"warning: --images has no picture of {counted(len(result.without_image), 'frame')} of "
+                   f"{result.frames} (first: {result.without_image[0]}, looked for as itself and with "
+                   ".jpg, .png, .jpeg): drawn on a blank canvas", err=True)

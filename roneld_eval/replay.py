@@ -60,6 +60,7 @@ class ReplayResult:
     latency: Latency
     accuracy: pd.DataFrame | None
     video: Path | None
+    without_image: tuple[str, ...] = ()  # frames the --images folder had no picture of (a blank canvas)
 
 
 def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Path | None = None,
@@ -82,6 +83,7 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
     if images is not None and not Path(images).is_dir():
         raise InputError(images, "no such folder of camera frames (--images)")
     image_root = images if images is not None else config.dataset.data_root
+    without_image: list[str] = []
     with _video_file(video, fps) as write, progress_bar(len(clip.frames), "frame", "replaying",
                                                         wanted=progress) as bar:
         geometry: MapGeometry | None = None
@@ -95,12 +97,17 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
                 raise InputError(frame_map_path(context, frame), error.problem) from None
             ious = scoring.add(frame, prediction, geometry)
             if write is not None:
-                write(_picture(frame, prediction, ious, geometry, method, config, image_root,
+                background = _background(frame, geometry, image_root)
+                if background is None:
+                    without_image.append(frame.relpath)
+                    background = np.full((*geometry.image_size[::-1], 3), BLANK_BGR, np.uint8)
+                write(_picture(frame, prediction, ious, geometry, method, config, background,
                                tracker.latency(), f"{index}/{len(clip.frames)}"))
             bar.update(1)
     name = clip.clip_id or Path(config.dataset.data_root or config.maps.root).resolve().name
     return ReplayResult(name, method, len(clip.frames), scoring.frames, (maps.width, maps.height),
-                        tracker.latency(), scoring.accuracy(), None if video is None else Path(video))
+                        tracker.latency(), scoring.accuracy(), None if video is None else Path(video),
+                        tuple(without_image) if images is not None else ())
 
 
 def _clip(config: EvalConfig, clip_id: str | None, image_size: tuple[int, int] | None) -> Clip:
@@ -236,7 +243,7 @@ def _check_video(partial: Path, path: Path, written: int) -> None:
 
 
 def _picture(frame: Frame, prediction: Prediction, ious: dict[str, float], geometry: MapGeometry, method: str,
-             config: EvalConfig, image_root: str | Path | None, latency: Latency, position: str) -> np.ndarray:
+             config: EvalConfig, background: np.ndarray, latency: Latency, position: str) -> np.ndarray:
     """One frame of the video (`position`: 'k/n' in its clip): the camera image (a blank canvas
     without one) with the active lanes, the ground truth's ego lanes and other lanes where
     labelled, IoUs beside the lanes."""
@@ -253,10 +260,11 @@ def _picture(frame: Frame, prediction: Prediction, ious: dict[str, float], geome
         "no ground truth" if not frame.labelled else "no ego lane in the ground truth")
     caption = (f"{posixpath.basename(image_stem(frame.relpath))}  {position}  {scores}  "
                f"update p50 {latency.p50_ms:.2f} ms")
-    return draw_frame(picture, _background(frame, geometry, image_root), caption)
+    return draw_frame(picture, background, caption)
 
 
-def _background(frame: Frame, geometry: MapGeometry, image_root: str | Path | None) -> np.ndarray:
+def _background(frame: Frame, geometry: MapGeometry, image_root: str | Path | None) -> np.ndarray | None:
+    """The frame's camera image at the image size, or None where `image_root` has none."""
     import cv2
 
     width, height = geometry.image_size
@@ -268,4 +276,4 @@ def _background(frame: Frame, geometry: MapGeometry, image_root: str | Path | No
                 if image is None:
                     raise InputError(path, "not a readable image")
                 return image if image.shape[:2] == (height, width) else cv2.resize(image, (width, height))
-    return np.full((height, width, 3), BLANK_BGR, np.uint8)
+    return None

@@ -201,3 +201,18 @@ def test_a_dataset_clip_takes_a_list_and_is_named(real_clip, tmp_path):
     assert result.exit_code == 0, result.output
     assert f"replayed 90 frames of {real_clip.name} with roneld" in result.output
     assert "over 90 labelled frames" in result.output
+
+
+def test_an_images_folder_without_the_frames_pictures_is_said_not_silent(tmp_path):
+    clip = next(path for path in sorted(FIXTURE_MAPS.rglob("*.MP4")) if path.is_dir())
+    frames = sorted(path.stem for path in clip.glob("*.npz"))
+    images = tmp_path / "images"
+    images.mkdir()
+    cv2.imwrite(str(images / f"{frames[0]}.jpg"), np.full((590, 1640, 3), 200, np.uint8))
+    result = invoke("replay", "--maps-root", clip, "--maps-format", "npz", "--images", images,
+                    "--video", tmp_path / "clip.mp4", "--quiet")
+    assert result.exit_code == 0, result.output
+    assert (f"warning: --images has no picture of {len(frames) - 1} frames of {len(frames)} (first: "
+            f"{frames[1]}") in result.output
+    quiet = invoke("replay", "--maps-root", clip, "--maps-format", "npz", "--video", tmp_path / "again.mp4")
+    assert quiet.exit_code == 0 and "warning" not in quiet.output  # no --images: a blank canvas is expected
