@@ -113,15 +113,21 @@ class Metric:
         """Frames' (name, counts) from `record`, in any order, from any process: a frame given
         twice with the same counts is kept once (a distributed sampler's padding), with other
         counts refused; all of them taken, or (one refused) none."""
-        taken: dict[str, Any] = {}
-        for frame, counts in records:
+        records = list(records)
+        for frame, _ in records:
             if not isinstance(frame, str) or frame not in self._listed:
                 raise MetricInputError(f"{frame!r} is not a frame of this {self.core.name} list")
-            for earlier in (taken, self._counts):
-                if frame in earlier and not same_counts(earlier[frame], counts):
-                    raise MetricInputError(f"{frame}: recorded twice with different lanes")
-            taken[frame] = counts
-        self._counts.update(taken)
+        self._counts.update(kept_once(records, self._counts, "recorded twice with different lanes"))
+
+    def compute_records(self, records: Iterable[tuple[str, Any]], names: str | None = None) -> dict[str, float]:
+        """`compute(names)` of these records alone (a framework's gathered `record`s), the metric
+        left without counts: the drawn ground truth stays for the next epoch."""
+        self.reset()
+        try:
+            self.add_records(records)
+            return self.compute(names)
+        finally:
+            self.reset()
 
     def _checked(self, frame: Any, lanes: Any, scores: Any, batch, fields: dict[str, Any], kept: bool = True) -> Any:
         if not isinstance(frame, str) or frame not in self._listed:
@@ -260,6 +266,22 @@ def pixel_lanes(values: Any) -> tuple[Lane, ...]:
             raise ValueError(f"lane {index}: a coordinate lies more than 2^24 px from the image origin")
         lanes.append(Lane(points))
     return tuple(lanes)
+
+
+def kept_once(records: Iterable[tuple[str, Any]], earlier: Mapping[str, Any], clash: str) -> dict[str, Any]:
+    """The records' frames not in `earlier`, each once: a frame given again (among them or in
+    `earlier`) with the same counts is skipped, as a distributed sampler's padding is; with other
+    counts it is refused (`clash`: how it was given)."""
+    fresh: dict[str, Any] = {}
+    for frame, counts in records:
+        for before in (fresh, earlier):
+            if frame in before:
+                if not same_counts(before[frame], counts):
+                    raise MetricInputError(f"{frame}: {clash}")
+                break
+        else:
+            fresh[frame] = counts
+    return fresh
 
 
 def same_counts(a: Any, b: Any) -> bool:

@@ -46,16 +46,12 @@ class RoneldLaneMetric(BaseMetric):
             self.results.append(self.lane_metric.record(frame, lanes, scores, **fields))
 
     def compute_metrics(self, results: list) -> dict[str, Any]:
-        self.lane_metric.reset()
         try:
-            self.lane_metric.add_records(results)
-            return self.lane_metric.compute(self.names)
+            return self.lane_metric.compute_records(results, self.names)
         except MetricInputError as error:
             # computed on rank 0 only: raised here, the other ranks would wait for its broadcast
             # for ever; sent as the result instead, it is raised on every rank by evaluate
             return {_REFUSED: str(error)}
-        finally:
-            self.lane_metric.reset()  # the counts go; the drawn ground truth stays for the next epoch
 
     def evaluate(self, size: int) -> dict:
         found = super().evaluate(size)

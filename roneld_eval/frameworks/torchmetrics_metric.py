@@ -22,7 +22,7 @@ import numpy as np
 import torch
 from torchmetrics import Metric
 
-from ..in_memory import MetricInputError, metric, same_counts
+from ..in_memory import MetricInputError, kept_once, metric
 
 _LENGTH = np.dtype("<u8")
 
@@ -80,13 +80,7 @@ class LaneMetric(Metric):
         records = [self.lane_metric.record(frame, lanes[k], None if score_column is None else score_column[k],
                                            **{key: value[k] for key, value in columns.items()})
                    for k, frame in enumerate(frames)]
-        fresh: dict[str, Any] = {}
-        for frame, counts in records:
-            earlier = fresh.get(frame, self._given.get(frame))
-            if earlier is not None and not same_counts(earlier, counts):
-                raise MetricInputError(f"{frame}: given twice with different lanes (reset() starts again)")
-            if earlier is None:
-                fresh[frame] = counts
+        fresh = kept_once(records, self._given, "given twice with different lanes (reset() starts again)")
         self._given.update(fresh)
         self.records.extend(pack(record) for record in fresh.items())
 
@@ -103,10 +97,4 @@ class LaneMetric(Metric):
         state = self.records
         if isinstance(state, torch.Tensor):  # after a sync: one concatenated tensor
             state = [state]
-        records = [record for data in state for record in unpack(data)]
-        self.lane_metric.reset()
-        self.lane_metric.add_records(records)
-        try:
-            return self.lane_metric.compute(self.names)
-        finally:
-            self.lane_metric.reset()  # the counts go; the drawn ground truth stays for the next epoch
+        return self.lane_metric.compute_records((record for data in state for record in unpack(data)), self.names)
