@@ -4,7 +4,6 @@ threshold), fed lanes held in memory instead of `.lines.txt` files."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -14,7 +13,7 @@ from ...in_memory import TruthMemo, pixel_lanes
 from ...metrics.lane_iou_f1 import (OFFICIAL_COLUMNS, UNMATCHED, FrameMatches, GroupCounts, ScoredFrames,
                                     frame_result, highlight_name, official_masks, summary_records)
 from ...scoring import PlainTable
-from .reader import _CATEGORY_FILE, read_culane, read_frame_labels
+from .reader import category_files, read_culane, read_frame_labels
 from .score import _thresholds
 
 
@@ -36,9 +35,7 @@ class CulaneMetric:
         self.size = (dataset.image_width, dataset.image_height, width)
         self.truth = TruthMemo(self._drawn_truth)
         # CLRerNet's key names use the category files' names (test0_normal), read with the lists
-        self.category_files = {match.group(2): name[:-len(".txt")]
-                               for name in _names(self.root / "list" / "test_split")
-                               if (match := _CATEGORY_FILE.match(name))}
+        self.category_files = {name: path.stem for _, name, path in category_files(self.root)}
 
     def _drawn_truth(self, frame: str) -> tuple[int, Any]:
         truth = read_frame_labels(self.root, frame)
@@ -91,12 +88,6 @@ class CulaneMetric:
                 out[f"F1_{stems[category]}_{threshold}"] = float(f1)
         return out
 
-
-def _names(folder: Path) -> list[str]:
-    try:
-        return sorted(entry.name for entry in os.scandir(folder))
-    except OSError:
-        return []
 
 
 def scores_by_name(rows: Sequence[tuple], n_thresholds: int) -> dict[str, float]:

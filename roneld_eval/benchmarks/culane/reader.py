@@ -44,15 +44,14 @@ def labels_path(root: Path, relpath: str) -> Path:
     return under_root(root, f"{image_stem(relpath)}.lines.txt")
 
 
-def read_categories(root: Path, listed: Mapping[str, str] | None = None) -> dict[str, frozenset[str]]:
-    """Category name -> frame relpaths, from list/test_split/ when it exists. A relpath found
-    in `listed` is that string object: the test list's frames are kept once, not twice."""
-    listed = listed or {}
+def category_files(root: Path) -> list[tuple[int, str, Path]]:
+    """(number, name, path) of each category list in list/test_split/ (test<number>_<name>.txt),
+    in order of number; none without the folder. A file named almost so is refused."""
     folder = root / "list" / "test_split"
     try:
         names = sorted(entry.name for entry in os.scandir(folder))
     except (FileNotFoundError, NotADirectoryError):
-        return {}
+        return []
     except OSError as error:
         raise InputError(folder, f"cannot read: {error.strerror}") from None
     found = []
@@ -65,11 +64,18 @@ def read_categories(root: Path, listed: Mapping[str, str] | None = None) -> dict
         elif _LIKE_A_CATEGORY_FILE.match(name):  # as silently
             raise InputError(folder / name, "a category list is named test<number>_<name>.txt with letters, digits "
                                             "and _ only in <name> (it names the category's rows): rename it")
+    return sorted(found)
+
+
+def read_categories(root: Path, listed: Mapping[str, str] | None = None) -> dict[str, frozenset[str]]:
+    """Category name -> frame relpaths, from list/test_split/ when it exists. A relpath found
+    in `listed` is that string object: the test list's frames are kept once, not twice."""
+    listed = listed or {}
     # Matched by image stem, as every file of a frame is: a test list without extensions (or
     # with .png) and category lists with .jpg name the same frames.
     by_stem = {image_stem(relpath): relpath for relpath in listed.values()}
     categories = {}
-    for _, name, path in sorted(found):
+    for _, name, path in category_files(root):
         if name in RESERVED_CATEGORIES:
             raise InputError(path, f"a category list cannot be called {name!r}: the tables have a row of that name "
                                    f"({RESERVED_CATEGORIES[name]}); rename the file")
