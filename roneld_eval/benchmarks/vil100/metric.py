@@ -13,29 +13,17 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...in_memory import TruthMemo, pixel_lanes
-from ...metrics.lane_iou_f1 import FrameMatches, highlight_name, match_frame, official_masks
-from ...model import Lane
+from ...metrics.lane_iou_f1 import FrameMatches, highlight_name, match_frame
 from ...scoring import PlainTable
 from ...thresholds import parse_thresholds
 from .acc import AccFrame, rvld_frame
 from .official import frame_miou
-from .reader import labels_path, read_vil100
-from .score import (ACC_COLUMNS, COLUMNS, DEFAULT_IOU, LANE_WIDTH, TEMPORAL_COLUMNS, ScoredSequence, Vil100Score,
-                    acc_rows, official_rows, sequence_totals, summary_rows, temporal_rows)
+from .reader import read_vil100
+from .score import (ACC_COLUMNS, COLUMNS, DEFAULT_IOU, LANE_WIDTH, TEMPORAL_COLUMNS, FrameTruth, ScoredSequence,
+                    Vil100Score, acc_rows, frame_truth, official_rows, sequence_totals, summary_rows, temporal_rows)
 from .temporal import assigned_ious, lane_mask, links, usable
-from ...lanes_io import check_inside_image, read_lines_txt
 
 VERSIONS = ("rvld",)  # MMA-Net's Acc reads instance masks, which lanes in memory are not
-
-
-@dataclass(frozen=True)
-class FrameTruth:
-    """A frame's ground truth as every metric of `score vil100` draws it, drawn once."""
-
-    lanes: tuple[Lane, ...]
-    masks: Any  # the CULane evaluator's masks (None without lanes)
-    linked: tuple  # RVLD's masks of its usable lanes, linked across frames
-    outside: bool  # reaching past the sequence's size (score vil100's size warning)
 
 
 @dataclass(frozen=True)
@@ -71,13 +59,7 @@ class Vil100Metric:
 
     def _drawn_truth(self, frame: str) -> FrameTruth:
         width, height = self.dataset.sizes[self._sequence[frame]]
-        path = labels_path(self.dataset.labels, frame)
-        truth = read_lines_txt(path)  # a missing file: no lanes, as the C++ reader
-        check_inside_image(truth, path, width, height)
-        outside = any(((lane.xs > width + 1) | (lane.ys > height + 1)).any() for lane in truth)
-        masks = official_masks(truth, width, height, self.width) if truth else None
-        linked = tuple(lane_mask(lane, width, height) for lane in usable(truth)) if self.temporal else ()
-        return FrameTruth(tuple(truth), masks, linked, outside)
+        return frame_truth(self.dataset.labels, frame, width, height, self.width, self.temporal)
 
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> Vil100Frame:
         """The frame's outcome (`scores` are not read: VIL-100's metrics count every lane)."""

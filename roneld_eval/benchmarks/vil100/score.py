@@ -11,7 +11,7 @@ import math
 import numpy as np
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 from ...config import check_lane_width
 
@@ -19,7 +19,8 @@ from ...thresholds import Thresholds, parse_thresholds
 from .reader import SCENARIOS, labels_path, read_vil100, scenarios_of
 from ...datasets._paths import under_root
 from ...errors import ConfigError, InputError
-from ...model import image_stem
+from ...metrics.line_masks import LaneMask
+from ...model import Lane, image_stem
 from ...lanes_io import check_coordinates, check_inside_image, read_lines_txt
 from ...metrics.lane_iou_f1 import FrameMatches, match_frame, f_measure, official_masks
 from .acc import AccFrame, mmanet_frame, rvld_frame
@@ -151,20 +152,38 @@ def _read_predictions(root: Path, relpath: str, pred_format: str):
     return predictions, None
 
 
+@dataclass(frozen=True)
+class FrameTruth:
+    """A frame's ground truth as every metric of `score vil100` draws it."""
+
+    lanes: tuple[Lane, ...]
+    masks: Any  # the CULane evaluator's masks (None without lanes)
+    linked: tuple[LaneMask, ...]  # RVLD's masks of its usable lanes, linked across frames (empty without temporal)
+    outside: bool  # reaching past the sequence's size (a wrong size? the warnings say)
+
+
+def frame_truth(labels: Path, relpath: str, width: int, height: int, lane_width: int, temporal: bool) -> FrameTruth:
+    path = labels_path(labels, relpath)
+    truth = read_lines_txt(path)  # a missing file: no lanes, as the C++ reader ("fail")
+    check_inside_image(truth, path, width, height)
+    outside = any(((lane.xs > width + 1) | (lane.ys > height + 1)).any() for lane in truth)
+    masks = official_masks(truth, width, height, lane_width) if truth else None
+    linked = tuple(lane_mask(lane, width, height) for lane in usable(truth)) if temporal else ()
+    return FrameTruth(tuple(truth), masks, linked, outside)
+
+
 def _score_sequence(args) -> ScoredSequence:
     relpaths, labels, pred_roots, width, height, lane_width, temporal, pred_format = args
     out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots], [[] for _ in pred_roots], [],
                          [[] for _ in pred_roots])
     previous: list | None = None
     for relpath in relpaths:
-        path = labels_path(labels, relpath)
-        truth = read_lines_txt(path)  # a missing file: no lanes, as the C++ reader ("fail")
-        check_inside_image(truth, path, width, height)
-        if any(((lane.xs > width + 1) | (lane.ys > height + 1)).any() for lane in truth):
+        label = frame_truth(labels, relpath, width, height, lane_width, temporal)
+        truth, gt_masks = list(label.lanes), label.masks
+        if label.outside:
             out.truth_outside.append(relpath)
-        gt_masks = official_masks(truth, width, height, lane_width) if truth else None
         if temporal:
-            linked = [lane_mask(lane, width, height) for lane in usable(truth)]
+            linked = list(label.linked)
             out.links.append([] if previous is None else links(linked, previous))
             previous = linked
         for m, root in enumerate(pred_roots):
