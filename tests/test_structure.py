@@ -43,7 +43,7 @@ COMPLEX_LEFT = {
     "benchmarks/tusimple/lane_format.py:parse_tusimple_record": 26,
     "benchmarks/tusimple/reader.py:read_tusimple": 25,
     "benchmarks/vil100/reader.py:read_vil100": 23,
-    "benchmarks/vil100/score.py:_score_sequence": 17,
+    "benchmarks/vil100/score.py:_score_sequence": 16,
     "benchmarks/vil100/score.py:score_vil100": 26,
     "benchmarks/vil100/score.py:summary_rows": 26,
     "benchmarks/vil100/score.py:summary_table": 21,

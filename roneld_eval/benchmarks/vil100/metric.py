@@ -6,34 +6,20 @@ from files only (`score vil100 --pred-format png`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-import numpy as np
-
 from ...in_memory import TruthMemo, pixel_lanes
-from ...metrics.lane_iou_f1 import FrameMatches, highlight_name, match_frame
+from ...metrics.lane_iou_f1 import highlight_name
 from ...scoring import PlainTable
 from ...thresholds import parse_thresholds
-from .acc import AccFrame, rvld_frame
-from .official import frame_miou
 from .reader import read_vil100
-from .score import (ACC_COLUMNS, COLUMNS, DEFAULT_IOU, LANE_WIDTH, TEMPORAL_COLUMNS, FrameTruth, ScoredSequence,
-                    Vil100Score, acc_rows, frame_truth, official_rows, sequence_totals, summary_rows, temporal_rows)
-from .temporal import assigned_ious, lane_mask, links, usable
+from .score import (ACC_COLUMNS, COLUMNS, DEFAULT_IOU, LANE_WIDTH, TEMPORAL_COLUMNS, FrameOutcome, FrameTruth,
+                    ScoredSequence, Vil100Score, acc_rows, frame_outcome, frame_truth, official_rows, sequence_totals,
+                    summary_rows, temporal_rows)
+from .temporal import links
 
 VERSIONS = ("rvld",)  # MMA-Net's Acc reads instance masks, which lanes in memory are not
-
-
-@dataclass(frozen=True)
-class Vil100Frame:
-    """One frame's outcome: matched IoUs and mIoU, RVLD's Acc/FP/FN, each linked lane's assigned IoU."""
-
-    matches: FrameMatches
-    miou: float
-    acc: AccFrame
-    assigned: np.ndarray
 
 
 class Vil100Metric:
@@ -61,15 +47,10 @@ class Vil100Metric:
         width, height = self.dataset.sizes[self._sequence[frame]]
         return frame_truth(self.dataset.labels, frame, width, height, self.width, self.temporal)
 
-    def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> Vil100Frame:
+    def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> FrameOutcome:
         """The frame's outcome (`scores` are not read: VIL-100's metrics count every lane)."""
-        predicted = pixel_lanes(lanes)
         width, height = self.dataset.sizes[self._sequence[frame]]
-        truth = self.truth(frame)
-        matches = match_frame(list(truth.lanes), list(predicted), width, height, self.width, gt_masks=truth.masks)
-        assigned = (assigned_ious(truth.linked, [lane_mask(lane, width, height) for lane in usable(predicted)])
-                    if self.temporal else np.zeros(0))
-        return Vil100Frame(matches, frame_miou(matches), rvld_frame(predicted, truth.lanes), assigned)
+        return frame_outcome(self.truth(frame), pixel_lanes(lanes), width, height, self.width, self.temporal)
 
     def _sequence_links(self, name: str) -> list[list[tuple[int, int]]]:
         """The ground truth's lanes linked across the sequence's consecutive frames (truth only)."""
@@ -83,10 +64,10 @@ class Vil100Metric:
             self._links[name] = found
         return self._links[name]
 
-    def _outcome(self, frame: str, given: Vil100Frame | None) -> Vil100Frame:
+    def _outcome(self, frame: str, given: FrameOutcome | None) -> FrameOutcome:
         return self.frame_counts(frame, []) if given is None else given
 
-    def _score(self, counts: Sequence[Vil100Frame | None]) -> Vil100Score:
+    def _score(self, counts: Sequence[FrameOutcome | None]) -> Vil100Score:
         by_frame = dict(zip(self.frames, counts))
         totals = []
         for name, relpaths in self.dataset.sequences.items():
@@ -106,7 +87,7 @@ class Vil100Metric:
                            self.thresholds, methods, len(self.frames), len(names), overall, temporal_overall,
                            PlainTable(ACC_COLUMNS, tuple(acc)), acc_overall)
 
-    def tables(self, counts: Sequence[Vil100Frame | None]) -> dict[str, PlainTable]:
+    def tables(self, counts: Sequence[FrameOutcome | None]) -> dict[str, PlainTable]:
         """official.csv's, temporal.csv's, acc.csv's and summary.csv's rows as `score vil100`
         writes them (method '-'); frames never updated have no lanes, as a missing file."""
         score = self._score(counts)
@@ -117,7 +98,7 @@ class Vil100Metric:
         out.update(acc=score.acc_rows, summary=summary_rows(score))
         return out
 
-    def compute(self, counts: Sequence[Vil100Frame | None]) -> dict[str, float]:
+    def compute(self, counts: Sequence[FrameOutcome | None]) -> dict[str, float]:
         tables = self.tables(counts)
         out: dict[str, float] = {}
         first = self.thresholds.labels[0]

@@ -172,6 +172,25 @@ def frame_truth(labels: Path, relpath: str, width: int, height: int, lane_width:
     return FrameTruth(tuple(truth), masks, linked, outside)
 
 
+@dataclass(frozen=True)
+class FrameOutcome:
+    """One frame of one method: matched IoUs and mIoU, RVLD's Acc/FP/FN, and each linked
+    ground-truth lane's assigned IoU (empty without the temporal metrics)."""
+
+    matches: FrameMatches
+    miou: float
+    acc: AccFrame
+    assigned: np.ndarray
+
+
+def frame_outcome(truth: FrameTruth, predictions: Sequence[Lane], width: int, height: int, lane_width: int,
+                  temporal: bool) -> FrameOutcome:
+    matches = match_frame(list(truth.lanes), list(predictions), width, height, lane_width, gt_masks=truth.masks)
+    assigned = (assigned_ious(truth.linked, [lane_mask(lane, width, height) for lane in usable(predictions)])
+                if temporal else np.zeros(0))
+    return FrameOutcome(matches, frame_miou(matches), rvld_frame(predictions, truth.lanes), assigned)
+
+
 def _score_sequence(args) -> ScoredSequence:
     relpaths, labels, pred_roots, width, height, lane_width, temporal, pred_format = args
     out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots], [[] for _ in pred_roots], [],
@@ -179,7 +198,7 @@ def _score_sequence(args) -> ScoredSequence:
     previous: list | None = None
     for relpath in relpaths:
         label = frame_truth(labels, relpath, width, height, lane_width, temporal)
-        truth, gt_masks = list(label.lanes), label.masks
+        truth = list(label.lanes)
         if label.outside:
             out.truth_outside.append(relpath)
         if temporal:
@@ -190,13 +209,12 @@ def _score_sequence(args) -> ScoredSequence:
             predictions, mask = _read_predictions(root, relpath, pred_format)
             if mask is not None and mask.height is not None and (mask.width, mask.height) != (width, height):
                 out.odd_masks[m].append(relpath)
-            result = match_frame(truth, predictions, width, height, lane_width, gt_masks=gt_masks)
-            out.frames[m].append((result, frame_miou(result)))
+            outcome = frame_outcome(label, predictions, width, height, lane_width, temporal)
+            out.frames[m].append((outcome.matches, outcome.miou))
             mmanet = None if mask is None else mmanet_frame(mask.fits, truth, mask.height or height)
-            out.acc[m].append((rvld_frame(predictions, truth), mmanet))
+            out.acc[m].append((outcome.acc, mmanet))
             if temporal:
-                drawn = [lane_mask(lane, width, height) for lane in usable(predictions)]
-                out.assigned[m].append(assigned_ious(linked, drawn))
+                out.assigned[m].append(outcome.assigned)
     return out
 
 
