@@ -14,8 +14,8 @@ that happens inside every worker process at once, in the middle of the first cli
   (~0.4 s, the workers in parallel) and runs every extractor's code path once, RONELD's curve
   mode included, so that no compile or first-call import lands in a timed region.
 
-Kernel groups: "roneld" and "baseline" (extract/_kernels.ENTRY_SIGNATURES), "official" and
-"paper" (metrics/_kernels/__init__.py ENTRY_SIGNATURES; both bring "tables"), and "maps" (decoding PNG
+Kernel groups: "roneld" and "baseline" (extract/_kernels.ENTRY_SIGNATURES), "official",
+"paper" and "diagnosis" (metrics/_kernels/__init__.py ENTRY_SIGNATURES; each brings "tables"), and "maps" (decoding PNG
 maps, maps/_kernels.ENTRY_SIGNATURES). `groups_for` says which a run needs. Nothing here
 changes a result: it only decides when compiling happens.
 The extractors' and the maps' kernels (and their modules) are imported only when one of their
@@ -38,9 +38,9 @@ from .metrics import _kernels as metric_kernels
 from .metrics.raster import warm_up as warm_up_scoring
 from .signals import deferred_signals
 
-GROUPS = ("roneld", "baseline", "official", "paper", "maps")
+GROUPS = ("roneld", "baseline", "official", "paper", "diagnosis", "maps")
 EXTRACTION = ("roneld", "baseline")
-SCORING = ("official", "paper")
+SCORING = ("official", "paper", "diagnosis")
 LOADING = ("maps",)
 
 @dataclass(frozen=True)
@@ -74,6 +74,7 @@ STEPS = (
          after=("lane runs", "lane pixels"), seconds=2.4),
     Step("overlaps", _TABLES, ("overlap", "run_overlap"), seconds=0.6),
     Step("matching", frozenset({"official"}), ("matched_ious",), seconds=1.2),
+    Step("lane errors", frozenset({"diagnosis"}), ("matched_columns", "lane_error_counts"), seconds=1.2),
     Step("roneld", frozenset({"roneld"}), ("frame_lanes", "track_lanes", "choose_active"), seconds=4.6),
     Step("baseline", frozenset({"baseline"}), ("row_argmax",), seconds=0.2),
     Step("maps", frozenset({"maps"}), ("unfilter_grey",), seconds=0.7),

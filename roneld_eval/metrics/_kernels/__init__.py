@@ -15,7 +15,7 @@ from typing import Any
 
 from numba import types
 
-from . import canvas, cxx, lanes, matching, run_tables, runs, spline
+from . import canvas, cxx, lane_errors, lanes, matching, run_tables, runs, spline
 from .cxx import (  # noqa: F401
     XY_SHIFT,
     XY_ONE,
@@ -72,10 +72,12 @@ from .lanes import (  # noqa: F401
 )
 from .matching import (  # noqa: F401
     matched_ious,
+    matched_columns,
 )
+from .lane_errors import lane_error_counts  # noqa: F401
 
 # Every module of kernels, for kernels.dispatchers() and the warm-up tests.
-MODULES = (cxx, spline, canvas, run_tables, runs, lanes, matching)
+MODULES = (cxx, spline, canvas, run_tables, runs, lanes, matching, lane_errors)
 
 # ---- the argument types raster.py calls the kernels above with ------------------------------
 # Compiled ahead of a run by roneld_eval.kernels (numba compiles one specialisation per tuple
@@ -111,6 +113,11 @@ ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     ],
     # paper.ego_masks and side_ious (raster.map_mask_set): the same kernels
     "paper": [(lane_set_runs, _LANE_SET), (lane_set_ious, _SET_IOUS)],
+    # --diagnose (metrics.lane_errors): who matched whom, and the error types at every threshold
+    "diagnosis": [
+        (matched_columns, (types.Array(types.float64, 2, "C"), _COUNTS, _COUNTS, _F)),
+        (lane_error_counts, (types.Array(types.float64, 2, "C"), _COUNTS, types.Array(types.float64, 1, "C"), _F)),
+    ],
 }
 # Kernels that the entries above call, listed with the argument types their callers pass, so that
 # a first run can compile them in another process beforehand (roneld_eval.kernels.STEPS): a

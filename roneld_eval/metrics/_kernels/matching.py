@@ -30,9 +30,21 @@ def _augment(u, matrix, left_weight, right_weight, left_used, right_used, left_m
 def matched_ious(similarity, rows, columns, tolerance):
     """Each row's matched IoU (-inf where unmatched) under the official Kuhn-Munkres matching of
     similarity[rows][:, columns] (ground truth x predictions): iou.match_lanes step for step."""
+    match = matched_columns(similarity, rows, columns, tolerance)
+    out = np.full(rows.size, -np.inf)
+    for i in range(rows.size):
+        if match[i] >= 0:
+            out[i] = similarity[rows[i], match[i]]
+    return out
+
+
+@cached_njit(nogil=True)
+def matched_columns(similarity, rows, columns, tolerance):
+    """The column of `similarity` (a member of `columns`) each of `rows` is matched to, -1 where
+    none, under the official Kuhn-Munkres matching of similarity[rows][:, columns]."""
     n_rows = rows.size
     n_columns = columns.size
-    out = np.full(n_rows, -np.inf)
+    out = np.full(n_rows, -1, np.int64)
     if n_rows == 0 or n_columns == 0:
         return out
     swapped = n_rows > n_columns
@@ -87,5 +99,5 @@ def matched_ious(similarity, rows, columns, tolerance):
     match = right_match if swapped else left_match
     for i in range(n_rows):
         if match[i] >= 0:
-            out[i] = similarity[rows[i], columns[match[i]]]
+            out[i] = columns[match[i]]
     return out

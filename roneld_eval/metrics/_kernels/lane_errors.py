@@ -1,0 +1,63 @@
+"""Lane error types of one frame at every IoU threshold in one call (metrics.lane_errors says the
+rules and holds their pure-Python twin, `classify`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..._numba_cache import cached_njit
+
+# Columns of lane_error_counts' rows, in this order (lane_errors.ERROR_TYPES names them).
+FP_LOC, FP_DUPE, FP_BKG, FN_LOC, FN_MISS = 0, 1, 2, 3, 4
+N_TYPES = 5
+
+
+@cached_njit(nogil=True)
+def lane_error_counts(similarity, match, limits, loc_iou):
+    """(thresholds, 5) counts: false positives as Loc, Dupe, Bkg and false negatives as Loc, Miss.
+    `similarity`: (ground truth, predictions) IoUs; `match`: each ground-truth lane's matched
+    prediction (-1 if none); a matched pair is a true positive when its IoU > the threshold."""
+    n_gt, n_pred = similarity.shape
+    out = np.zeros((limits.size, N_TYPES), np.int64)
+    # each prediction's highest-IoU ground-truth lane (the first of equal ones; a NaN IoU is none)
+    best = np.full(n_pred, -1, np.int64)
+    best_iou = np.full(n_pred, -np.inf)
+    for p in range(n_pred):
+        for g in range(n_gt):
+            if similarity[g, p] > best_iou[p]:
+                best_iou[p] = similarity[g, p]
+                best[p] = g
+    gt_hit = np.zeros(n_gt, np.bool_)
+    pred_hit = np.zeros(n_pred, np.bool_)
+    loc_pred = np.empty(n_gt, np.int64)
+    for t in range(limits.size):
+        gt_hit[:] = False
+        pred_hit[:] = False
+        loc_pred[:] = -1
+        for g in range(n_gt):
+            if match[g] >= 0 and similarity[g, match[g]] > limits[t]:
+                gt_hit[g] = True
+                pred_hit[match[g]] = True
+        for p in range(n_pred):
+            if pred_hit[p]:
+                continue
+            g = best[p]
+            if g < 0 or not best_iou[p] >= loc_iou:
+                out[t, FP_BKG] += 1
+            elif gt_hit[g]:
+                out[t, FP_DUPE] += 1
+            elif loc_pred[g] < 0:
+                loc_pred[g] = p
+            else:  # a second prediction on an unmatched lane: the higher IoU is Loc, the other a Dupe
+                out[t, FP_DUPE] += 1
+                if best_iou[p] > best_iou[loc_pred[g]]:
+                    loc_pred[g] = p
+        n_fn = 0
+        for g in range(n_gt):
+            if not gt_hit[g]:
+                n_fn += 1
+                if loc_pred[g] >= 0:
+                    out[t, FP_LOC] += 1
+                    out[t, FN_LOC] += 1
+        out[t, FN_MISS] = n_fn - out[t, FN_LOC]
+    return out
