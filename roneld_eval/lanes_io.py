@@ -248,6 +248,35 @@ def read_lines_txt(path: Path, missing_ok: bool = True) -> tuple[Lane, ...]:
     return parse_lines_txt(decode_text(data, path), path)
 
 
+SCORES_SUFFIX = ".scores.txt"  # beside a frame's .lines.txt: one score a lane line
+
+
+def read_lane_scores(path: Path, n_lanes: int) -> tuple[float, ...]:
+    """The `.scores.txt` beside a `.lines.txt` of `n_lanes` lanes: one score in [0, 1] a lane line
+    (1.0 for every lane when the file is missing)."""
+    data = read_bytes(path, missing_ok=True)
+    if data is None:
+        return (1.0,) * n_lanes
+    values = []
+    for number, line in enumerate(decode_text(data, path).splitlines(), start=1):
+        if line.strip():
+            values.append(check_score(line.strip(), path, number))
+    if len(values) != n_lanes:
+        raise InputError(path, f"{len(values)} scores for {n_lanes} lanes: one score per lane line")
+    return tuple(values)
+
+
+def check_score(value, path, line: int | None) -> float:
+    """A lane's score: a number in [0, 1], or an InputError naming the file and line."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = float("nan")
+    if isinstance(value, bool) or not 0.0 <= number <= 1.0:
+        raise InputError(path, f"lane score {value!r} is not a number in [0, 1]", line=line)
+    return number
+
+
 def format_coordinate(value: float) -> str:
     """Shortest text that reads back to the same float32 (what the C++ evaluator stores)."""
     return np.format_float_positional(np.float32(value), trim="-")

@@ -41,6 +41,7 @@ class Option:
     choices: tuple[str, ...] = ()
     int_range: tuple[int | None, int | None] | None = None
     parse: Callable[[str | None], Any] | None = None
+    flag_value: str | None = None  # the value of the option given without one (its value is optional)
 
 
 @dataclass(frozen=True)
@@ -100,6 +101,28 @@ def closing_options(strict_help: str, out_help: str, units: str) -> tuple[Option
     return strict(strict_help), WORKERS, out(out_help), Sharding(units), quiet()
 
 
+def diagnosis(score_sweep: str | None = None) -> tuple[Option, ...]:
+    """--diagnose and --loc-iou, and --score-sweep where predictions carry scores (`score_sweep`
+    says which lanes a threshold keeps and where their scores are)."""
+    from .metrics.lane_errors import DEFAULT_LOC_IOU, DEFAULT_SCORE_SWEEP
+
+    options = [
+        Option("--diagnose", "Also say why F1 is not higher: each false positive and false negative as an error "
+               "type (Loc, Dupe, Bkg; Loc, Miss) with the F1 gained by fixing every error of that type "
+               "(errors.csv, errors.md, errors.png), and every frame's counts (frames.csv.gz). The official "
+               "tables stay as they are.", kind="flag"),
+        Option("--loc-iou", f"With --diagnose: a false positive whose IoU with its ground-truth lane is at least "
+               f"this is a localisation error (Loc), below it background (Bkg). Default: {DEFAULT_LOC_IOU}.",
+               kind="float", metavar="IOU"),
+    ]
+    if score_sweep is not None:
+        options.append(Option(
+            "--score-sweep", f"Precision, recall and F1 at each score threshold in one pass ({score_sweep}): "
+            f"sweep_scores.csv and the PR curve sweep_scores.png, the best F1 marked as chosen on the test set. "
+            f"Without a value: {DEFAULT_SCORE_SWEEP}.", metavar="START:STOP:STEP", flag_value=DEFAULT_SCORE_SWEEP))
+    return tuple(options)
+
+
 def width(help: str) -> Option:
     from .config import MAX_LINE_THICKNESS
 
@@ -131,6 +154,8 @@ def _parameters(option: Option | Sharding) -> list[click.Parameter]:
             settings[key] = getattr(option, key)
     if option.default is not None:
         settings["default"] = option.default
+    if option.flag_value is not None:
+        settings.update(is_flag=False, flag_value=option.flag_value)
     if option.parse is not None:
         settings["callback"] = _callback(option.parse)
     return [click.Option(declarations, **settings)]

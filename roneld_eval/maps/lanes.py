@@ -35,10 +35,9 @@ from ..config import MapsConfig
 from ..datasets._paths import under_root
 from ..errors import InputError
 from ..geometry import MapGeometry
-from ..lanes_io import check_coordinates, decode_text, parse_lines_txt, read_bytes
+from ..lanes_io import SCORES_SUFFIX, check_coordinates, decode_text, parse_lines_txt, read_bytes, read_lane_scores
 from ..model import EGO_CHANNELS, FrameMaps, Lane, image_stem
 
-SCORES_SUFFIX = ".scores.txt"
 # Half the width of a drawn lane, beyond its centre pixel, on an 800-px-wide map.
 RIDGE_HALF_WIDTH_PX = 4
 
@@ -66,7 +65,7 @@ class LinesPerFrame:
         path = stem.with_name(stem.name + self.suffix)
         lanes = parse_lines_txt(decode_text(read_bytes(path), path), path)
         check_coordinates(lanes, path)
-        return lanes, _read_scores(stem.with_name(stem.name + SCORES_SUFFIX), len(lanes))
+        return lanes, read_lane_scores(stem.with_name(stem.name + SCORES_SUFFIX), len(lanes))
 
     def check_coverage(self, root: Path, labelled: Sequence[str], say: Callable[[str], None]) -> None:
         """Nothing to check ahead: a missing file is refused as missing maps are."""
@@ -172,30 +171,6 @@ def _draw_ridge(channel: np.ndarray, points: np.ndarray, score: float, half: int
     inside = (columns >= 0) & (columns < width)
     row_index = np.broadcast_to(rows[:, None], columns.shape)
     np.maximum.at(channel, (row_index[inside], columns[inside]), values[inside])
-
-
-def _read_scores(path: Path, n_lanes: int) -> tuple[float, ...]:
-    data = read_bytes(path, missing_ok=True)
-    if data is None:
-        return (1.0,) * n_lanes
-    values = []
-    for number, line in enumerate(decode_text(data, path).splitlines(), start=1):
-        if line.strip():
-            values.append(check_score(line.strip(), path, number))
-    if len(values) != n_lanes:
-        raise InputError(path, f"{len(values)} scores for {n_lanes} lanes: one score per lane line")
-    return tuple(values)
-
-
-def check_score(value, path, line: int | None) -> float:
-    """A lane's score: a number in [0, 1], or an InputError naming the file and line."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = float("nan")
-    if isinstance(value, bool) or not 0.0 <= number <= 1.0:
-        raise InputError(path, f"lane score {value!r} is not a number in [0, 1]", line=line)
-    return number
 
 
 @dataclass(frozen=True)

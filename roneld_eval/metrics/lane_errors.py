@@ -49,6 +49,58 @@ class FrameErrors:
     counts: np.ndarray
 
 
+@dataclass(frozen=True)
+class ScoreSweep:
+    """Score thresholds a sweep keeps predictions at: `labels` as given, `limits` their values;
+    a lane is kept when its score >= the threshold (> when `strict`, as a benchmark's own rule may be)."""
+
+    labels: tuple[str, ...]
+    limits: np.ndarray
+    strict: bool = False
+
+    @property
+    def rule(self) -> str:
+        return "score > threshold" if self.strict else "score >= threshold"
+
+
+@dataclass(frozen=True, eq=False)
+class DiagnosisSettings:
+    """What a score diagnoses: the IoU thresholds' values, --loc-iou, the score sweep (None
+    without --score-sweep) and whether the error types are written (--diagnose)."""
+
+    limits: np.ndarray
+    loc_iou: float
+    sweep: ScoreSweep | None
+    errors: bool
+
+
+DEFAULT_SCORE_SWEEP = "0.00:0.95:0.05"
+
+
+def diagnosis_settings(diagnose: bool, loc_iou: float | None, score_sweep: str | None, limits: Sequence[float],
+                       strict: bool = False, sharded: bool = False) -> DiagnosisSettings | None:
+    """The settings of --diagnose/--loc-iou/--score-sweep (None when neither is asked for); a
+    ConfigError line for a --loc-iou outside (0, 1] or given alone, or for a shard (whose part
+    does not keep them)."""
+    from ..errors import ConfigError
+    from ..thresholds import parse_thresholds
+
+    if loc_iou is not None and not diagnose:
+        raise ConfigError("--loc-iou sets what --diagnose calls a localisation error: give --diagnose too")
+    loc = DEFAULT_LOC_IOU if loc_iou is None else float(loc_iou)
+    if not 0.0 < loc <= 1.0:
+        raise ConfigError(f"--loc-iou {loc_iou} must be in (0, 1]")
+    if not diagnose and score_sweep is None:
+        return None
+    if sharded:
+        raise ConfigError("--diagnose and --score-sweep are not kept in a shard's part yet: score without --shard")
+    sweep = None
+    if score_sweep is not None:
+        grid = parse_thresholds(score_sweep)
+        sweep = ScoreSweep(grid.labels, np.array(grid.values, np.float64), strict)
+    return DiagnosisSettings(np.array(limits, np.float64), loc, sweep, diagnose)
+
+
 def frame_errors(similarity: np.ndarray, limits: np.ndarray, loc_iou: float) -> FrameErrors:
     """The official matching of a (ground truth, predictions) IoU matrix and its error types at
     each threshold of `limits`."""
@@ -63,33 +115,63 @@ def frame_errors(similarity: np.ndarray, limits: np.ndarray, loc_iou: float) -> 
     return FrameErrors(n_gt, n_pred, matched, counts)
 
 
+def swept_frame(similarity: np.ndarray, scores: np.ndarray, sweep: ScoreSweep,
+                limits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(true positives (score thresholds, IoU thresholds), predictions kept (score thresholds,)) of
+    a frame whose predictions have these scores: at each score threshold the lanes kept are
+    matched again, as the official evaluator would match a file holding only them."""
+    return _kernels.swept_true_positives(np.ascontiguousarray(similarity, np.float64),
+                                         np.ascontiguousarray(scores, np.float64), sweep.limits,
+                                         np.ascontiguousarray(limits, np.float64), sweep.strict, KM_TOLERANCE)
+
+
 def classify(similarity: np.ndarray, threshold: float, loc_iou: float) -> tuple[list[str], list[str]]:
     """Each prediction's and each ground-truth lane's outcome at one threshold: "TP", or its
     error type ("Loc", "Dupe", "Bkg"; "Loc", "Miss"). The rule of the module's docstring, plainly."""
     n_gt, n_pred = similarity.shape
     match = match_lanes(similarity) if n_gt and n_pred else np.full(n_gt, -1)
     gt_hit = [bool(match[g] >= 0 and similarity[g, match[g]] > threshold) for g in range(n_gt)]
-    pred_hit = [any(gt_hit[g] and match[g] == p for g in range(n_gt)) for p in range(n_pred)]
-    preds = ["TP" if hit else "" for hit in pred_hit]
+    matched = {int(match[g]) for g in range(n_gt) if gt_hit[g]}
+    preds = ["TP" if p in matched else "" for p in range(n_pred)]
+    candidates = _false_positives(similarity, gt_hit, preds, loc_iou)
+    _one_loc_a_lane(candidates, preds)
+    truth = ["TP" if gt_hit[g] else ("Loc" if g in candidates else "Miss") for g in range(n_gt)]
+    return preds, truth
+
+
+def _false_positives(similarity: np.ndarray, gt_hit: list[bool], preds: list[str],
+                     loc_iou: float) -> dict[int, list[tuple[float, int]]]:
+    """Bkg and Dupe given to the unmatched predictions of `preds` by their highest-IoU lane; the
+    others, found off an unmatched lane, returned by lane as (IoU, prediction)."""
     candidates: dict[int, list[tuple[float, int]]] = {}
-    for p in range(n_pred):
-        if pred_hit[p]:
-            continue
-        ious = [(-np.inf if np.isnan(v) else float(v)) for v in similarity[:, p]]
-        g = int(np.argmax(ious)) if n_gt and max(ious) > -np.inf else -1
-        if g < 0 or not ious[g] >= loc_iou:
+    for p in (p for p in range(len(preds)) if not preds[p]):
+        g, iou = _highest_iou_lane(similarity[:, p])
+        if g < 0 or not iou >= loc_iou:
             preds[p] = "Bkg"
         elif gt_hit[g]:
             preds[p] = "Dupe"
         else:
-            candidates.setdefault(g, []).append((ious[g], p))
+            candidates.setdefault(g, []).append((iou, p))
+    return candidates
+
+
+def _one_loc_a_lane(candidates: dict[int, list[tuple[float, int]]], preds: list[str]) -> None:
+    """Of the predictions found off one lane, the highest IoU (the first of equal ones) is Loc."""
     for found in candidates.values():
         top = max(iou for iou, _ in found)
         chosen = min(p for iou, p in found if iou == top)
         for _, p in found:
             preds[p] = "Loc" if p == chosen else "Dupe"
-    truth = ["TP" if gt_hit[g] else ("Loc" if g in candidates else "Miss") for g in range(n_gt)]
-    return preds, truth
+
+
+def _highest_iou_lane(ious: np.ndarray) -> tuple[int, float]:
+    """(the first ground-truth lane of highest IoU, that IoU), a NaN counting as none; (-1, -inf)
+    without any."""
+    values = [-np.inf if np.isnan(v) else float(v) for v in ious]
+    if not values or max(values) == -np.inf:
+        return -1, -np.inf
+    g = int(np.argmax(values))
+    return g, values[g]
 
 
 def delta_f1(tp: int, fp: int, fn: int, counts: Sequence[int]) -> list[float]:
@@ -100,3 +182,98 @@ def delta_f1(tp: int, fp: int, fn: int, counts: Sequence[int]) -> list[float]:
     fixed = [(tp + loc, fp - loc, fn - loc), (tp, fp - dupe, fn), (tp, fp - bkg, fn), (tp + loc, fp - loc, fn - loc),
              (tp, fp, fn - miss)]
     return [f_measure(*after)[2] - f1 for after in fixed]
+
+
+@dataclass(frozen=True, eq=False)
+class FrameDiagnoses:
+    """Per-frame counts of one or more methods on the same frames, in scoring order: what
+    errors.csv, frames.csv.gz and sweep_scores.csv are summed from."""
+
+    frames: tuple[str, ...]
+    n_gt: np.ndarray  # (frames,)
+    n_pred: np.ndarray  # (methods, frames)
+    tp: np.ndarray  # (methods, frames, thresholds)
+    errors: np.ndarray  # (methods, frames, thresholds, 5), ERROR_TYPES order
+    sweep_tp: np.ndarray | None = None  # (methods, frames, score thresholds, thresholds)
+    sweep_kept: np.ndarray | None = None  # (methods, frames, score thresholds)
+
+    @classmethod
+    def of_frames(cls, frames: Sequence[str], per_method: Sequence[Sequence[FrameErrors]], limits: np.ndarray,
+                  swept: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None = None) -> "FrameDiagnoses":
+        """From each method's FrameErrors of these frames (and their swept_frame results)."""
+        n_methods, n_frames, n_limits = len(per_method), len(frames), len(limits)
+        n_gt = np.array([errors.n_gt for errors in per_method[0]], np.int64) if n_methods else np.zeros(n_frames,
+                                                                                                        np.int64)
+        n_pred = np.array([[e.n_pred for e in errors] for errors in per_method], np.int64).reshape(n_methods, n_frames)
+        tp = np.array([[np.count_nonzero(e.matched_iou[None, :] > limits[:, None], axis=1) for e in errors]
+                       for errors in per_method], np.int64).reshape(n_methods, n_frames, n_limits)
+        counts = np.array([[e.counts for e in errors] for errors in per_method], np.int64)
+        counts = counts.reshape(n_methods, n_frames, n_limits, len(ERROR_TYPES))
+        if swept is None:
+            return cls(tuple(frames), n_gt, n_pred, tp, counts)
+        sweep_tp = np.array([[one[0] for one in method] for method in swept], np.int64)
+        sweep_kept = np.array([[one[1] for one in method] for method in swept], np.int64)
+        n_scores = sweep_kept.shape[-1] if sweep_kept.size else 0
+        return cls(tuple(frames), n_gt, n_pred, tp, counts, sweep_tp.reshape(n_methods, n_frames, n_scores, n_limits),
+                   sweep_kept.reshape(n_methods, n_frames, n_scores))
+
+    @classmethod
+    def joined(cls, pieces: Sequence["FrameDiagnoses"]) -> "FrameDiagnoses":
+        """The pieces as one, frames in order."""
+        swept = all(piece.sweep_tp is not None for piece in pieces)
+        return cls(tuple(frame for piece in pieces for frame in piece.frames),
+                   np.concatenate([p.n_gt for p in pieces]), np.concatenate([p.n_pred for p in pieces], axis=1),
+                   np.concatenate([p.tp for p in pieces], axis=1), np.concatenate([p.errors for p in pieces], axis=1),
+                   np.concatenate([p.sweep_tp for p in pieces], axis=1) if swept else None,  # type: ignore[misc]
+                   np.concatenate([p.sweep_kept for p in pieces], axis=1) if swept else None)  # type: ignore[misc]
+
+
+def error_records(diagnoses: FrameDiagnoses, methods: Sequence[str], groups: Sequence[tuple[str, np.ndarray]],
+                  labels: Sequence[str]) -> list[tuple]:
+    """errors.csv's rows (ERROR_COLUMNS_CSV): per method, category group (name, frame mask) and
+    threshold, each error type's count and dF1, false positives' types then false negatives'."""
+    rows = []
+    for m, method in enumerate(methods):
+        for name, inside in groups:
+            n_gt = int(diagnoses.n_gt[inside].sum())
+            n_pred = int(diagnoses.n_pred[m, inside].sum())
+            tps = diagnoses.tp[m, inside].sum(axis=0)
+            counts = diagnoses.errors[m, inside].sum(axis=0)
+            for t, label in enumerate(labels):
+                tp = int(tps[t])
+                deltas = delta_f1(tp, n_pred - tp, n_gt - tp, counts[t].tolist())
+                for (side, kind), count, delta in zip(ERROR_TYPES, counts[t].tolist(), deltas):
+                    rows.append((method, name, label, side, kind, int(count), float(delta)))
+    return rows
+
+
+ERROR_CSV_COLUMNS = ("method", "category", "threshold", "side", "type", "count", "dF1")
+SWEEP_CSV_COLUMNS = ("method", "category", "threshold", "score_threshold", "tp", "fp", "fn", "precision", "recall",
+                     "f1", "best")
+FRAME_CSV_COLUMNS = ("frame", "sequence", "category", "method", "matching", "threshold", "tp", "fp", "fn",
+                     *ERROR_COLUMNS)
+
+
+def sweep_records(diagnoses: FrameDiagnoses, methods: Sequence[str], groups: Sequence[tuple[str, np.ndarray]],
+                  labels: Sequence[str], sweep: ScoreSweep) -> list[tuple]:
+    """sweep_scores.csv's rows: per method, category group and IoU threshold, precision, recall and
+    F1 at each score threshold; `best` marks the highest F1 (the lowest score threshold of equal
+    ones), chosen on the frames scored."""
+    assert diagnoses.sweep_tp is not None and diagnoses.sweep_kept is not None
+    rows = []
+    for m, method in enumerate(methods):
+        for name, inside in groups:
+            n_gt = int(diagnoses.n_gt[inside].sum())
+            kept = diagnoses.sweep_kept[m, inside].sum(axis=0)
+            tps = diagnoses.sweep_tp[m, inside].sum(axis=0)
+            for t, label in enumerate(labels):
+                block = []
+                for c, score in enumerate(sweep.labels):
+                    tp, n_pred = int(tps[c, t]), int(kept[c])
+                    precision, recall, f1 = f_measure(tp, n_pred - tp, n_gt - tp)
+                    block.append([method, name, label, score, tp, n_pred - tp, n_gt - tp, precision, recall, f1, False])
+                finite = [row for row in block if not np.isnan(row[9])]
+                if finite:
+                    max(finite, key=lambda row: row[9])[10] = True  # max keeps the first of equal ones
+                rows += [tuple(row) for row in block]
+    return rows

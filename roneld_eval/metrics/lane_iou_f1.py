@@ -96,6 +96,16 @@ def frame_result(n_gt: int, gt_masks: MaskSet | None, pred_lanes: Sequence[Lane]
     return matched_result(gt_masks.ious(official_masks(pred_lanes, width, height, lane_width)))
 
 
+def frame_similarity(n_gt: int, gt_masks: MaskSet | None, pred_lanes: Sequence[Lane], width: int, height: int,
+                     lane_width: int) -> np.ndarray:
+    """The (ground truth, predictions) IoU matrix frame_result matches, ground truth already drawn
+    (an empty matrix when either side has no lanes)."""
+    if n_gt == 0 or not pred_lanes:
+        return np.zeros((n_gt, len(pred_lanes)))
+    assert gt_masks is not None
+    return gt_masks.ious(official_masks(pred_lanes, width, height, lane_width))
+
+
 def _mask_set(masks: MaskSet | Sequence[LaneMask | None]) -> MaskSet:
     if isinstance(masks, (LaneRuns, MaskList)):
         return masks

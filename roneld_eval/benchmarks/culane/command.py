@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots, width
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
 
 
 def _with_listed_roots(values: dict[str, Any]) -> dict[str, Any]:
@@ -32,6 +32,11 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
         echo(summary_table(score).to_markdown())
     else:
         echo(first_threshold_table(score).to_markdown())
+    if score.diagnosed is not None:
+        from ...report.diagnosis import console_lines
+
+        for line in console_lines(score.diagnosed, score.highlighted[0]):
+            echo(line)
     if score.sweep and len(score.trees) > 1:
         _, best = culane_sweep(score)
         column = score.summary_rows.columns[-1]
@@ -70,6 +75,8 @@ COMMAND = ScoreCommand(
         Option("--preset", "A paper family's grid: clrnet is --iou 0.50:0.95:0.05 with F1@50, F1@75 and mF1.",
                kind="choice", choices=("clrnet",)),  # culane_score.SCORE_PRESETS (a test keeps them equal)
         width("Lane width in pixels at 1640x590."),
+        *diagnosis("a lane is kept when its score in <stem>.scores.txt is at least the threshold; 1.0 without "
+                   "the file"),
         *closing_options("Stop when any listed frame has no prediction file (default: no lanes).",
                          "Folder for official.csv (every method, category and threshold), summary.csv and "
                          "summary.md.", "clips"),

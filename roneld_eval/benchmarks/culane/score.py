@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterator
@@ -28,16 +28,20 @@ from ...thresholds import Thresholds, parse_thresholds
 from .reader import read_culane
 from .reader import labels_path, read_frame_labels
 from ...errors import ConfigError, InputError
-from ...lanes_io import check_coordinates, read_lines_txt
+from ...lanes_io import SCORES_SUFFIX, check_coordinates, read_lane_scores, read_lines_txt
 from ...metrics.lane_iou_f1 import (
     OFFICIAL_COLUMNS,
     GroupCounts,
     ScoredFrames,
     frame_result,
+    frame_similarity,
     highlight_name,
     official_masks,
     summary_records,
 )
+from ...metrics.lane_errors import (DiagnosisSettings, FrameDiagnoses, FrameErrors, diagnosis_settings, frame_errors,
+                                    swept_frame)
+from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...output import OutputFolder
 from ...report.tables import Table
 from ...output import Staging
@@ -92,6 +96,7 @@ class CulaneScore:
     warnings: tuple[str, ...] = ()  # e.g. a root where fewer than half the listed frames have a file
     ground_truth: str = ""  # digest of the frames scored and their categories (sweep.json: what compare checks)
     sweep: bool = False  # checkpoints (a glob, a list file), not methods: sweep.csv names the best
+    diagnosed: Diagnosed | None = None  # --diagnose, --score-sweep: error types, frames, score sweep
 
     @property
     def methods(self) -> tuple[str, ...]:
@@ -122,16 +127,19 @@ class CulaneScore:
         return first.drop(columns="threshold").reset_index(drop=True)
 
 
-def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns | None]:
+def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns | None, FrameDiagnoses | None]:
     """One chunk of frames against every method: (n_gt, n_pred per method, matched IoUs per
-    method, and the ground truth as drawn when `keep_truth`). `truth`: (a checked entry of the
-    ground-truth cache, the chunk's first frame in it) to take the frames' drawn lanes from."""
-    relpaths, data_root, pred_roots, width, height, lane_width, truth, keep_truth = args
+    method, the ground truth as drawn when `keep_truth`, and with `diagnosis` each frame's error
+    types and score sweep). `truth`: (a checked entry of the ground-truth cache, the chunk's first
+    frame in it) to take the frames' drawn lanes from."""
+    relpaths, data_root, pred_roots, width, height, lane_width, truth, keep_truth, diagnosis = args
     cached = None if truth is None else truth_cache.open_entry(truth[0])
     n_gt = np.zeros(len(relpaths), np.int64)
     n_pred = np.zeros((len(pred_roots), len(relpaths)), np.int64)
     ious: list[list[np.ndarray]] = [[] for _ in pred_roots]
     drawn: list[tuple[int, MaskSet | None]] = []
+    diagnosed: list[list] = [[] for _ in pred_roots]
+    swept: list[list] = [[] for _ in pred_roots]
     for k, relpath in enumerate(relpaths):
         gt_masks: MaskSet | None
         if cached is not None:
@@ -146,12 +154,42 @@ def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns |
             path = labels_path(pred_root, relpath)
             predictions = read_lines_txt(path)
             check_coordinates(predictions, path)
-            result = frame_result(int(n_gt[k]), gt_masks, predictions, width, height, lane_width)
+            if diagnosis is None:
+                result = frame_result(int(n_gt[k]), gt_masks, predictions, width, height, lane_width)
+            else:
+                result = _diagnosed_frame(int(n_gt[k]), gt_masks, predictions, path, (width, height, lane_width),
+                                          diagnosis, diagnosed[m], swept[m])
             n_pred[m, k] = result.n_pred
             ious[m].append(result.matched_iou)
     matched = np.array([np.concatenate(parts) if parts else np.zeros(0) for parts in ious], np.float64)
     kept = truth_cache.from_frames(drawn) if keep_truth and cached is None else None
-    return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum())), kept
+    return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum())), kept, _chunk_diagnoses(
+        relpaths, diagnosis, diagnosed, swept)
+
+
+def _chunk_diagnoses(relpaths: list[str], diagnosis: DiagnosisSettings | None, diagnosed: list[list],
+                     swept: list[list]) -> FrameDiagnoses | None:
+    if diagnosis is None:
+        return None
+    return FrameDiagnoses.of_frames(relpaths, diagnosed, diagnosis.limits, swept if diagnosis.sweep else None)
+
+
+def _diagnosed_frame(n_gt: int, gt_masks: MaskSet | None, predictions, path: Path, size: tuple[int, int, int],
+                     diagnosis: DiagnosisSettings, diagnosed: list, swept: list) -> FrameErrors:
+    """A method's frame scored with its error types (appended to `diagnosed`) and, with a score
+    sweep, its true positives at each score threshold (appended to `swept`)."""
+    similarity = frame_similarity(n_gt, gt_masks, predictions, *size)
+    errors = frame_errors(similarity, diagnosis.limits, diagnosis.loc_iou)
+    diagnosed.append(errors)
+    if diagnosis.sweep is not None:
+        scores = read_lane_scores(score_path(path), len(predictions))
+        swept.append(swept_frame(similarity, np.array(scores, np.float64), diagnosis.sweep, diagnosis.limits))
+    return errors
+
+
+def score_path(lines_path: Path) -> Path:
+    """The `.scores.txt` beside a `.lines.txt`."""
+    return lines_path.with_name(lines_path.name[:-len(".lines.txt")] + SCORES_SUFFIX)
 
 
 def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds, tuple[str, ...]]:
@@ -172,7 +210,8 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
                  iou: str | float | None = None, width: int = 30, out: str | Path | None = None,
                  workers: int | None = None, progress: bool = False,
                  announce: Callable[[str], None] | None = None, preset: str | None = None,
-                 strict: bool = False, shard: str | None = None) -> CulaneScore | None:
+                 strict: bool = False, shard: str | None = None, diagnose: bool = False,
+                 loc_iou: float | None = None, score_sweep: str | None = None) -> CulaneScore | None:
     """Score `.lines.txt` predictions with the official CULane protocol, every method in one pass.
 
     `pred_root`: a folder mirroring the list, a folder of such folders (one per method), or
@@ -183,6 +222,10 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     A missing prediction file means no lanes (`strict`: an error). `out` gets official.csv,
     summary.csv and summary.md; with `shard` ('I/N', see roneld_eval.shards) only that share
     of the clips is scored and `out` gets its part for `merge` (None is returned).
+    `diagnose`: also each error type's count and dF1 (errors.csv, errors.md, errors.png; a Loc when
+    a false positive's IoU with its lane is at least `loc_iou`, default 0.1) and every frame's
+    counts (frames.csv.gz); `score_sweep` ('0.00:0.95:0.05'): precision, recall and F1 with only
+    the lanes whose `.scores.txt` score is at least each threshold (sweep_scores.csv, .png).
     """
     from ...shards import parse_shard, shard_range
 
@@ -191,6 +234,7 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     thresholds, highlighted = _thresholds(iou, preset)
     check_lane_width(width)
     share = parse_shard(shard) if shard is not None else None
+    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, thresholds.values, sharded=share is not None)
     if not isinstance(pred_root, Mapping):  # glob patterns: one checkpoint per folder matched
         pred_root = expand_roots([pred_root] if isinstance(pred_root, (str, Path)) else list(pred_root))
     sweep = not isinstance(pred_root, Mapping) and is_sweep(pred_root)
@@ -213,7 +257,9 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         truth = None if key is None else truth_cache.load(key, len(scored_relpaths), dataset.image_width,
                                                            dataset.image_height, say)
         kept: list[TruthRuns] | None = [] if key is not None and truth is None else None
-        pieces = _culane_pieces(scored_relpaths, dataset, trees, width, workers, progress, announce, truth, kept)
+        diagnosed: list[FrameDiagnoses] = []
+        pieces = _culane_pieces(scored_relpaths, dataset, trees, width, workers, progress, announce, truth, kept,
+                                diagnosis, diagnosed)
         if share is not None:
             assert folder is not None
             joined = _joined(pieces, len(trees))
@@ -223,6 +269,7 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
             return None
         score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings,
                               _culane_ground_truth(relpaths, dataset.categories), sweep)
+        score = _with_diagnosis(score, diagnosed, dataset, width, diagnosis)
         _keep_truth(key, kept, say)
         if folder is not None:
             write_culane_score(folder, score, width)
@@ -230,15 +277,18 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
 
 
 def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int | None, progress: bool,
-                   announce, truth: Path | None = None, kept: list[TruthRuns] | None = None) -> Iterator[ScoredFrames]:
+                   announce, truth: Path | None = None, kept: list[TruthRuns] | None = None,
+                   diagnosis: DiagnosisSettings | None = None,
+                   diagnosed: list[FrameDiagnoses] | None = None) -> Iterator[ScoredFrames]:
     """Every method's frame results on these frames, chunk after chunk, in their order. `truth`:
     a checked entry of the ground-truth cache holding these frames; else, with `kept` given, the
-    ground truth as drawn is appended to it chunk by chunk."""
+    ground truth as drawn is appended to it chunk by chunk. With `diagnosis`, each chunk's error
+    types are appended to `diagnosed`."""
     image_width, image_height = dataset.image_width, dataset.image_height
     roots = tuple(tree.root for tree in trees)
     chunks = [relpaths[i:i + CHUNK_FRAMES] for i in range(0, len(relpaths), CHUNK_FRAMES)]
     tasks = [(chunk, dataset.root, roots, image_width, image_height, width,
-              None if truth is None else (str(truth), i * CHUNK_FRAMES), kept is not None)
+              None if truth is None else (str(truth), i * CHUNK_FRAMES), kept is not None, diagnosis)
              for i, chunk in enumerate(chunks)]
     if len(chunks) > 1:  # a pool only for more than one chunk: a small set starts without multiprocessing
         from ...workers import worker_count
@@ -248,9 +298,10 @@ def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int
         workers = 1
     from ... import kernels
 
-    kernels.prepare(announce=announce, needed=("official",))  # once here, not in every worker
+    needed = ("official",) if diagnosis is None else ("official", "diagnosis")
+    kernels.prepare(announce=announce, needed=needed)  # once here, not in every worker
     if workers == 1:
-        kernels.warm_up(("official",))  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
+        kernels.warm_up(needed)  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
     from ...progress import progress_bar
 
     with progress_bar(len(relpaths), "frame", "scoring", wanted=progress) as bar:
@@ -261,20 +312,44 @@ def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int
             with stopping(process_pool(workers), lambda: died) as pool:
                 for chunk, piece in zip(chunks, pool.map(_score_frames, tasks)):
                     bar.update(len(chunk))
-                    yield _piece(chunk, piece, kept)
+                    yield _piece(chunk, piece, kept, diagnosed)
         else:
             for chunk, task in zip(chunks, tasks):
                 piece = _score_frames(task)
                 bar.update(len(chunk))
-                yield _piece(chunk, piece, kept)
+                yield _piece(chunk, piece, kept, diagnosed)
     check_still_there(trees)  # before the last piece is taken in: nothing is written yet
 
 
-def _piece(chunk: list[str], piece: tuple, kept: list[TruthRuns] | None) -> ScoredFrames:
-    n_gt, n_pred, matched, truth = piece
+def _piece(chunk: list[str], piece: tuple, kept: list[TruthRuns] | None,
+           diagnosed: list[FrameDiagnoses] | None) -> ScoredFrames:
+    n_gt, n_pred, matched, truth, diagnoses = piece
     if kept is not None and truth is not None:
         kept.append(truth)
+    if diagnosed is not None and diagnoses is not None:
+        diagnosed.append(diagnoses)
     return ScoredFrames(tuple(chunk), n_gt, n_pred, matched)
+
+
+def _with_diagnosis(score: CulaneScore, diagnosed: list[FrameDiagnoses], dataset, width: int,
+                    diagnosis: DiagnosisSettings | None) -> CulaneScore:
+    """The score with what --diagnose and --score-sweep write of it: frames grouped as
+    official.csv groups them (category lists, then all), each frame's clip folder as its sequence."""
+    from ...metrics.lane_iou_f1 import category_groups
+
+    if diagnosis is None:
+        return score
+    diagnoses = FrameDiagnoses.joined(diagnosed)
+
+    member_of = {frame: name for name, members in reversed(list(dataset.categories.items())) for frame in members}
+
+    def facts(frame: str) -> tuple[str, str]:
+        return frame.lstrip("/").rpartition("/")[0], member_of.get(frame, "")
+
+    groups = tuple(category_groups(diagnoses.frames, dataset.categories))
+    return replace(score, diagnosed=Diagnosed(
+        diagnoses, score.methods, groups, score.thresholds.labels, diagnosis.loc_iou, facts,
+        f"CULane, SCNN's lane IoU F1 ({width} px at 1640x590)", diagnosis.sweep, diagnosis.errors))
 
 
 def _keep_truth(key: str | None, kept: list[TruthRuns] | None, say: Callable[[str], None]) -> None:
@@ -325,6 +400,8 @@ def write_culane_score(folder: OutputFolder, score: CulaneScore, width: int) -> 
                                                       score.thresholds.labels, table.columns[2:-1], best))
         plot_sweep(table, staging.file("sweep.png"), f"CULane, all frames: {len(score.trees)} methods, "
                                                       f"IoU {grid_text(score.thresholds)}")
+    if score.diagnosed is not None:
+        write_diagnosis(staging, score.diagnosed, score.highlighted)
     folder.commit()
 
 

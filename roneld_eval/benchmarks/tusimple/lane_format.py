@@ -16,7 +16,8 @@ from ...json_fields import RepeatedKey, is_finite_number, loads
 from ...lanes_io import (FAR_FROM_ORIGIN, MAX_PREDICTED_COORDINATE, _all_numbers, check_coordinates, read_text,
                          split_lines)
 from ...limits import JSON_LINES, LANES
-from ...maps.lanes import LanesAndScores, check_score
+from ...lanes_io import check_score
+from ...maps.lanes import LanesAndScores
 from ...model import Lane
 
 

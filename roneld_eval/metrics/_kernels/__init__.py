@@ -74,7 +74,7 @@ from .matching import (  # noqa: F401
     matched_ious,
     matched_columns,
 )
-from .lane_errors import lane_error_counts  # noqa: F401
+from .lane_errors import lane_error_counts, swept_true_positives  # noqa: F401
 
 # Every module of kernels, for kernels.dispatchers() and the warm-up tests.
 MODULES = (cxx, spline, canvas, run_tables, runs, lanes, matching, lane_errors)
@@ -117,6 +117,8 @@ ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     "diagnosis": [
         (matched_columns, (types.Array(types.float64, 2, "C"), _COUNTS, _COUNTS, _F)),
         (lane_error_counts, (types.Array(types.float64, 2, "C"), _COUNTS, types.Array(types.float64, 1, "C"), _F)),
+        (swept_true_positives, (types.Array(types.float64, 2, "C"), types.Array(types.float64, 1, "C"),
+                                types.Array(types.float64, 1, "C"), types.Array(types.float64, 1, "C"), _B, _F)),
     ],
 }
 # Kernels that the entries above call, listed with the argument types their callers pass, so that

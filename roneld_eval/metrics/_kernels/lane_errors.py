@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._numba_cache import cached_njit
+from .matching import matched_ious
 
 # Columns of lane_error_counts' rows, in this order (lane_errors.ERROR_TYPES names them).
 FP_LOC, FP_DUPE, FP_BKG, FN_LOC, FN_MISS = 0, 1, 2, 3, 4
@@ -61,3 +62,28 @@ def lane_error_counts(similarity, match, limits, loc_iou):
                     out[t, FN_LOC] += 1
         out[t, FN_MISS] = n_fn - out[t, FN_LOC]
     return out
+
+
+@cached_njit(nogil=True)
+def swept_true_positives(similarity, scores, score_limits, limits, strict, tolerance):
+    """A frame at each score threshold: the predictions kept (score >= it, or > it when `strict`)
+    matched again as the official evaluator matches them; (true positives (score thresholds, IoU
+    thresholds), predictions kept (score thresholds,))."""
+    n_gt, n_pred = similarity.shape
+    tp = np.zeros((score_limits.size, limits.size), np.int64)
+    kept = np.zeros(score_limits.size, np.int64)
+    rows = np.arange(n_gt)
+    for c in range(score_limits.size):
+        columns = np.empty(n_pred, np.int64)
+        n = 0
+        for p in range(n_pred):
+            if scores[p] > score_limits[c] or (not strict and scores[p] == score_limits[c]):
+                columns[n] = p
+                n += 1
+        kept[c] = n
+        matched = matched_ious(similarity, rows, columns[:n], tolerance)
+        for t in range(limits.size):
+            for g in range(n_gt):
+                if matched[g] > limits[t]:
+                    tp[c, t] += 1
+    return tp, kept

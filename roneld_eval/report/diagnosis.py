@@ -1,0 +1,217 @@
+"""What `--diagnose` and `--score-sweep` write beside a score's tables: errors.csv/.md/.png (lane
+error types and their dF1, metrics.lane_errors), frames.csv.gz (every frame's counts, for pandas
+slices), and sweep_scores.csv/.png (precision, recall and F1 at each score threshold)."""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable, Sequence
+
+import numpy as np
+
+from ..metrics.lane_errors import (ERROR_COLUMNS, ERROR_CSV_COLUMNS, ERROR_TYPES, FRAME_CSV_COLUMNS,
+                                   SWEEP_CSV_COLUMNS, FrameDiagnoses, ScoreSweep, error_records, sweep_records)
+from ..metrics.lane_iou_f1 import f_measure
+from ..scoring import PlainTable
+
+if TYPE_CHECKING:
+    from ..output import Staging
+
+# error types by what fixing them does (one dF1 each; a Loc pair counts on both sides)
+_FIXES = (("fp", "Loc"), ("fp", "Dupe"), ("fp", "Bkg"), ("fn", "Miss"))
+
+
+@dataclass(frozen=True)
+class Diagnosed:
+    """A score's per-frame counts and what they are of: methods, category groups (name, frame
+    mask; 'all' last), the IoU threshold labels, and each frame's (sequence, category)."""
+
+    diagnoses: FrameDiagnoses
+    methods: tuple[str, ...]
+    groups: tuple[tuple[str, np.ndarray], ...]
+    labels: tuple[str, ...]
+    loc_iou: float
+    frame_facts: Callable[[str], tuple[str, str]]
+    title: str  # "CULane, SCNN's lane IoU F1 (30 px at 1640x590)"
+    sweep: ScoreSweep | None = None
+    errors: bool = True  # --diagnose (else only the sweep was asked for)
+
+    def error_rows(self) -> list[tuple]:
+        return error_records(self.diagnoses, self.methods, self.groups, self.labels)
+
+    def sweep_rows(self) -> list[tuple]:
+        assert self.sweep is not None
+        return sweep_records(self.diagnoses, self.methods, self.groups, self.labels, self.sweep)
+
+
+def write_diagnosis(staging: Staging, diagnosed: Diagnosed, shown: Sequence[str]) -> None:
+    """The files of `diagnosed`, their tables at the thresholds `shown` in errors.md."""
+    if diagnosed.errors:
+        rows = diagnosed.error_rows()
+        staging.write_text("errors.csv", PlainTable(ERROR_CSV_COLUMNS, tuple(rows)).to_csv())
+        staging.write_text("errors.md", errors_markdown(diagnosed, rows, shown))
+        errors_figure(diagnosed, rows, shown[0], staging.file("errors.png"))
+        staging.write_bytes("frames.csv.gz", frames_csv_gz(diagnosed))
+    if diagnosed.sweep is not None:
+        swept = diagnosed.sweep_rows()
+        staging.write_text("sweep_scores.csv", PlainTable(SWEEP_CSV_COLUMNS, tuple(swept)).to_csv())
+        sweep_figure(diagnosed, swept, shown[0], staging.file("sweep_scores.png"))
+
+
+def console_lines(diagnosed: Diagnosed, label: str) -> list[str]:
+    """What the console says of a diagnosis at one threshold over all frames, a line a method:
+    its error counts and the type whose fix gains most; the best F1 of the score sweep."""
+    lines = []
+    if diagnosed.errors:
+        summed = _summed(diagnosed.error_rows())
+        lines += [_error_line(method, summed[(method, "all", label)], label) for method in diagnosed.methods]
+    if diagnosed.sweep is not None:
+        lines += [f"{row[0]}: best F1 {100 * row[9]:.2f} at score threshold {row[3]} ({diagnosed.sweep.rule}; "
+                  "chosen on the test set; sweep_scores.csv)"
+                  for row in diagnosed.sweep_rows() if row[1] == "all" and row[2] == label and row[10]]
+    return lines
+
+
+def _error_line(method: str, types: dict[tuple[str, str], tuple[int, float]], label: str) -> str:
+    counts = ", ".join(f"{kind} {types[(side, kind)][0]}" for side, kind in ERROR_TYPES if side == "fp")
+    missed = ", ".join(f"{kind} {types[(side, kind)][0]}" for side, kind in ERROR_TYPES if side == "fn")
+    gains = [(types[key][1], key[1]) for key in _FIXES if not math.isnan(types[key][1])]
+    top = max(gains) if gains else None
+    best = f"; fixing {top[1]} gains most ({_points(top[0])} F1)" if top and top[0] > 0 else ""
+    return f"{method} at IoU > {label}, all frames: FP {counts}; FN {missed}{best} (errors.md)"
+
+
+def _points(value: float) -> str:
+    return "" if math.isnan(value) else f"{100 * value:+.2f}"
+
+
+def _summed(rows: Sequence[tuple]) -> dict[tuple[str, str, str], dict[tuple[str, str], tuple[int, float]]]:
+    out: dict[tuple[str, str, str], dict[tuple[str, str], tuple[int, float]]] = {}
+    for method, category, label, side, kind, count, delta in rows:
+        out.setdefault((method, category, label), {})[(side, kind)] = (count, delta)
+    return out
+
+
+def error_lines(diagnosed: Diagnosed, rows: Sequence[tuple], label: str) -> list[str]:
+    """The markdown table of every method and category at one threshold: counts, F1, each error
+    type's count and its dF1 (F1 points gained by fixing every error of that type)."""
+    header = ["method", "category", "TP", "FP", "FN", "F1 (%)"]
+    header += [f"{side.upper()} {kind}" for side, kind in ERROR_TYPES]
+    header += [f"dF1 {kind}" for _, kind in _FIXES]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for (method, category, at), types in _summed(rows).items():
+        if at != label:
+            continue
+        fp = sum(types[key][0] for key in ERROR_TYPES[:3])
+        fn = sum(types[key][0] for key in ERROR_TYPES[3:])
+        tp = _true_positives(diagnosed, method, category, label)
+        f1 = f_measure(tp, fp, fn)[2]
+        cells = [method, category, str(tp), str(fp), str(fn), "" if math.isnan(f1) else f"{100 * f1:.2f}"]
+        cells += [str(types[key][0]) for key in ERROR_TYPES]
+        cells += [_points(types[key][1]) for key in _FIXES]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def _true_positives(diagnosed: Diagnosed, method: str, category: str, label: str) -> int:
+    m = diagnosed.methods.index(method)
+    inside = dict(diagnosed.groups)[category]
+    return int(diagnosed.diagnoses.tp[m, inside, diagnosed.labels.index(label)].sum())
+
+
+def errors_markdown(diagnosed: Diagnosed, rows: Sequence[tuple], shown: Sequence[str]) -> str:
+    lines = [f"# Why F1 is not higher: {diagnosed.title}", "",
+             "Each false positive takes its highest-IoU ground-truth lane: **Loc** when that IoU is at least "
+             f"{diagnosed.loc_iou:g} (--loc-iou) and the lane is not a true positive (of several on one lane, the "
+             "highest IoU; the others **Dupe**), **Dupe** when the lane is already a true positive, **Bkg** when no "
+             "IoU reaches it. A missed lane is **Loc** when a Loc prediction is on it, else **Miss**. Each side adds "
+             "up to the official FP and FN. dF1 is F1 with every error of that type fixed, minus F1 as it is, in "
+             "points (TIDE's dAP for lanes): a Loc pair made a true positive, a Dupe or Bkg prediction removed, a "
+             "Miss removed. Every threshold is in errors.csv, every frame in frames.csv.gz.", ""]
+    for label in shown:
+        lines += [f"## IoU > {label}", "", *error_lines(diagnosed, rows, label), ""]
+    return "\n".join(lines)
+
+
+def frames_csv_gz(diagnosed: Diagnosed) -> bytes:
+    """frames.csv.gz: a row per frame, method and threshold (FRAME_CSV_COLUMNS), gzip without a
+    time stamp so that the same score writes the same bytes."""
+    d = diagnosed.diagnoses
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(FRAME_CSV_COLUMNS)
+    for k, frame in enumerate(d.frames):
+        sequence, category = diagnosed.frame_facts(frame)
+        n_gt = int(d.n_gt[k])
+        for m, method in enumerate(diagnosed.methods):
+            n_pred = int(d.n_pred[m, k])
+            for t, label in enumerate(diagnosed.labels):
+                tp = int(d.tp[m, k, t])
+                writer.writerow((frame, sequence, category, method, "", label, tp, n_pred - tp, n_gt - tp,
+                                 *d.errors[m, k, t].tolist()))
+    return gzip.compress(text.getvalue().encode("utf-8"), compresslevel=6, mtime=0)
+
+
+def errors_figure(diagnosed: Diagnosed, rows: Sequence[tuple], label: str, path) -> None:
+    """errors.png: each method's dF1 per error type over all frames at one threshold."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .figure_files import write_png
+
+    summed = _summed(rows)
+    figure, axes = plt.subplots(figsize=(7, 3.2), dpi=100)
+    width = 0.8 / max(1, len(diagnosed.methods))
+    for m, method in enumerate(diagnosed.methods):
+        types = summed[(method, "all", label)]
+        values = [0.0 if math.isnan(types[key][1]) else 100 * types[key][1] for key in _FIXES]
+        axes.barh([k + m * width for k in range(len(_FIXES))], values, height=width, label=method)
+    axes.set_yticks([k + 0.4 - width / 2 for k in range(len(_FIXES))],
+                    [f"{kind} ({side.upper()})" for side, kind in _FIXES])
+    axes.invert_yaxis()
+    axes.set_xlabel("F1 gained by fixing every error of the type (points)")
+    axes.set_title(f"{diagnosed.title}: all frames, IoU > {label}", fontsize=9)
+    axes.grid(alpha=0.3, axis="x")
+    axes.legend(fontsize=8, loc="lower right")
+    figure.tight_layout()
+    write_png(figure, path)
+    plt.close(figure)
+
+
+def sweep_figure(diagnosed: Diagnosed, rows: Sequence[tuple], label: str, path) -> None:
+    """sweep_scores.png: precision against recall over the score thresholds (all frames, one IoU
+    threshold), the best F1 marked as chosen on these frames."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .figure_files import write_png
+
+    assert diagnosed.sweep is not None
+    figure, axes = plt.subplots(figsize=(5.5, 4.5), dpi=100)
+    for method in diagnosed.methods:
+        curve = [row for row in rows if row[0] == method and row[1] == "all" and row[2] == label]
+        axes.plot([100 * row[8] for row in curve], [100 * row[7] for row in curve], marker="o", markersize=3,
+                  label=method)
+        for row in curve:
+            if row[10]:
+                axes.plot([100 * row[8]], [100 * row[7]], marker="*", markersize=13, color="black", linestyle="none",
+                          label=f"{method}: best F1 {100 * row[9]:.2f} at {row[3]} (chosen on the test set)")
+    axes.set_xlabel("recall (%)")
+    axes.set_ylabel("precision (%)")
+    axes.set_title(f"{diagnosed.title}: all frames, IoU > {label}\nkept when {diagnosed.sweep.rule}", fontsize=9)
+    axes.grid(alpha=0.3)
+    axes.legend(fontsize=8, loc="lower left")
+    figure.tight_layout()
+    write_png(figure, path)
+    plt.close(figure)
+
+
+__all__ = ["Diagnosed", "write_diagnosis", "ERROR_COLUMNS"]

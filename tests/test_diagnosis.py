@@ -1,0 +1,137 @@
+"""`score ... --diagnose` and `--score-sweep`: the error types add up to the official FP and FN,
+frames.csv.gz adds up to official.csv, the sweep equals scoring files that hold only the lanes
+kept, and the official tables stay byte for byte what they are without the options."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from roneld_eval.benchmarks.culane.score import score_culane
+from roneld_eval.benchmarks.culane.synth import synth_lane_files
+from roneld_eval.cli import main
+from roneld_eval.errors import ConfigError
+
+HEADLINE_FILES = ("official.csv", "summary.csv", "summary.md")
+
+
+@pytest.fixture(scope="module")
+def lanes(tmp_path_factory):
+    """120 frames of ground truth and noisy predictions (two category lists), and a second method."""
+    root = tmp_path_factory.mktemp("diagnose")
+    gt, pred = synth_lane_files(root, frames=120, seed=7)
+    listed = [line.lstrip("/") for line in (gt / "list" / "test.txt").read_text().split()]
+    (gt / "list" / "test_split").mkdir()
+    (gt / "list" / "test_split" / "test0_normal.txt").write_text("".join(f"{r} \n" for r in listed[:70]))
+    (gt / "list" / "test_split" / "test1_curve.txt").write_text("".join(f"{r} \n" for r in listed[70:]))
+    other = synth_lane_files(root / "other", frames=120, seed=8)[1]
+    return gt, {"noisy": pred, "other": other}
+
+
+def invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def test_diagnosis_leaves_the_official_tables_as_they_are_and_adds_up_to_them(lanes, tmp_path):
+    gt, roots = lanes
+    plain = score_culane(gt, roots, iou="0.1,0.5,0.75", workers=1, out=tmp_path / "plain")
+    diagnosed = score_culane(gt, roots, iou="0.1,0.5,0.75", workers=2, out=tmp_path / "diag", diagnose=True,
+                             loc_iou=0.2)
+    for name in HEADLINE_FILES:
+        assert (tmp_path / "plain" / name).read_bytes() == (tmp_path / "diag" / name).read_bytes()
+    assert plain.official_rows == diagnosed.official_rows
+    official = pd.read_csv(tmp_path / "diag" / "official.csv", dtype={"threshold": str})
+    errors = pd.read_csv(tmp_path / "diag" / "errors.csv", dtype={"threshold": str})
+    sides = errors.pivot_table(index=["method", "category", "threshold"], columns="side", values="count",
+                               aggfunc="sum")
+    counted = official.set_index(["method", "category", "threshold"])
+    assert len(counted) == 2 * 3 * 3
+    np.testing.assert_array_equal(counted["fp"].to_numpy(), sides.loc[counted.index, "fp"].to_numpy())
+    np.testing.assert_array_equal(counted["fn"].to_numpy(), sides.loc[counted.index, "fn"].to_numpy())
+    loc = errors[errors["type"] == "Loc"].pivot_table(index=["method", "category", "threshold"], columns="side",
+                                                      values="count")
+    assert (loc["fp"] == loc["fn"]).all()
+    assert errors["count"].sum() > 0 and (errors.loc[errors["type"] == "Loc", "count"] > 0).any()
+    # every frame's counts add up to the official rows of every category
+    frames = pd.read_csv(tmp_path / "diag" / "frames.csv.gz", dtype={"threshold": str}, keep_default_na=False)
+    assert len(frames) == 120 * 2 * 3
+    assert set(frames["category"]) == {"normal", "curve"}
+    for category in ("normal", "curve"):
+        mine = frames[frames["category"] == category].groupby(["method", "threshold"])[["tp", "fp", "fn"]].sum()
+        theirs = official[official["category"] == category].set_index(["method", "threshold"])[["tp", "fp", "fn"]]
+        pd.testing.assert_frame_equal(mine.sort_index(), theirs.sort_index(), check_names=False)
+    by_type = frames.groupby(["method", "threshold"])[["fp_loc", "fp_dupe", "fp_bkg", "fn_loc", "fn_miss"]].sum()
+    all_rows = errors[errors["category"] == "all"]
+    for (method, threshold), row in by_type.iterrows():
+        mine = all_rows[(all_rows["method"] == method) & (all_rows["threshold"] == threshold)]
+        assert mine["count"].tolist() == row.tolist()
+
+
+def test_the_files_are_the_same_bytes_every_time(lanes, tmp_path):
+    gt, roots = lanes
+    for out in ("one", "two"):
+        score_culane(gt, roots["noisy"], workers=1, out=tmp_path / out, diagnose=True)
+    for name in ("errors.csv", "errors.md", "frames.csv.gz", "errors.png"):
+        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes()
+
+
+def test_a_score_sweep_equals_scoring_only_the_lanes_kept(culane_set, tmp_path):
+    data, detector = culane_set / "data", culane_set / "maps"
+    score = score_culane(data, detector, iou="0.3,0.5", workers=1, out=tmp_path / "swept",
+                         score_sweep="0.0,0.4,0.5,0.9")
+    swept = pd.read_csv(tmp_path / "swept" / "sweep_scores.csv", dtype={"threshold": str, "score_threshold": str})
+    assert not (tmp_path / "swept" / "errors.csv").exists()  # only what was asked for
+    official = pd.read_csv(tmp_path / "swept" / "official.csv", dtype={"threshold": str})
+    at_zero = swept[swept["score_threshold"] == "0.00"].set_index(["category", "threshold"])
+    pd.testing.assert_frame_equal(at_zero[["tp", "fp", "fn"]].sort_index(),
+                                  official.set_index(["category", "threshold"])[["tp", "fp", "fn"]].sort_index())
+    for keep in ("0.40", "0.90"):
+        kept = tmp_path / f"kept{keep}"
+        shutil.copytree(detector, kept)
+        for lines in kept.rglob("*.lines.txt"):
+            scores = [float(v) for v in lines.with_name(lines.name[:-10] + ".scores.txt").read_text().split()]
+            rows = lines.read_text().splitlines()
+            lines.write_text("".join(f"{row}\n" for row, s in zip(rows, scores) if s >= float(keep)))
+        alone = score_culane(data, kept, iou="0.3,0.5", workers=1)
+        theirs = alone.official.set_index(["category", "threshold"])[["tp", "fp", "fn"]].sort_index()
+        mine = swept[swept["score_threshold"] == keep].set_index(["category", "threshold"])[["tp", "fp", "fn"]]
+        pd.testing.assert_frame_equal(mine.sort_index(), theirs)
+    assert swept.groupby(["category", "threshold"])["best"].sum().eq(1).all()
+    assert score.diagnosed is not None and score.diagnosed.sweep.rule == "score >= threshold"
+
+
+def test_the_command_reports_the_errors_and_refuses_what_it_cannot_keep(lanes, tmp_path):
+    gt, roots = lanes
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", roots["noisy"], "--diagnose", "--workers", 1,
+                    "--out", tmp_path / "out")
+    assert result.exit_code == 0, result.output
+    assert "all frames: FP Loc" in result.output and "(errors.md)" in result.output
+    for extra, says in ((["--loc-iou", "0.2"], "give --diagnose too"),
+                        (["--diagnose", "--loc-iou", "0"], "must be in (0, 1]"),
+                        (["--diagnose", "--shard", "1/2"], "score without --shard"),
+                        (["--score-sweep", "--executor", "dask"], "without it")):
+        result = invoke("score", "culane", "--data-root", gt, "--pred-root", roots["noisy"], *extra,
+                        "--out", tmp_path / "refused")
+        assert result.exit_code == 2, result.output
+        assert says in result.output and "Traceback" not in result.output
+        assert not (tmp_path / "refused").exists()
+    with pytest.raises(ConfigError, match="give --diagnose too"):
+        score_culane(gt, roots["noisy"], loc_iou=0.3)
+
+
+def test_the_sweep_of_a_malformed_scores_file_names_it(lanes, tmp_path):
+    gt, roots = lanes
+    copy = tmp_path / "pred"
+    shutil.copytree(roots["noisy"], copy)
+    target = sorted(copy.rglob("*.lines.txt"))[3]
+    n_lanes = len(target.read_text().splitlines())
+    bad = target.with_name(target.name[:-10] + ".scores.txt")
+    bad.write_text("0.5\n" * (n_lanes + 1))
+    result = invoke("score", "culane", "--data-root", gt, "--pred-root", copy, "--score-sweep", "--workers", 1)
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert Path(bad).name in result.output and "one score per lane line" in result.output
