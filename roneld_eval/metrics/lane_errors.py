@@ -224,8 +224,12 @@ class FrameDiagnoses:
         return cls(tuple(frame for piece in pieces for frame in piece.frames),
                    np.concatenate([p.n_gt for p in pieces]), np.concatenate([p.n_pred for p in pieces], axis=1),
                    np.concatenate([p.tp for p in pieces], axis=1), np.concatenate([p.errors for p in pieces], axis=1),
-                   np.concatenate([p.sweep_tp for p in pieces], axis=1) if swept else None,  # type: ignore[misc]
-                   np.concatenate([p.sweep_kept for p in pieces], axis=1) if swept else None)  # type: ignore[misc]
+                   _joined([p.sweep_tp for p in pieces]) if swept else None,
+                   _joined([p.sweep_kept for p in pieces]) if swept else None)
+
+
+def _joined(arrays: Sequence[np.ndarray | None]) -> np.ndarray:
+    return np.concatenate([array for array in arrays if array is not None], axis=1)
 
 
 def error_records(diagnoses: FrameDiagnoses, methods: Sequence[str], groups: Sequence[tuple[str, np.ndarray]],
@@ -270,10 +274,9 @@ def sweep_records(diagnoses: FrameDiagnoses, methods: Sequence[str], groups: Seq
                 block = []
                 for c, score in enumerate(sweep.labels):
                     tp, n_pred = int(tps[c, t]), int(kept[c])
-                    precision, recall, f1 = f_measure(tp, n_pred - tp, n_gt - tp)
-                    block.append([method, name, label, score, tp, n_pred - tp, n_gt - tp, precision, recall, f1, False])
-                finite = [row for row in block if not np.isnan(row[9])]
-                if finite:
-                    max(finite, key=lambda row: row[9])[10] = True  # max keeps the first of equal ones
-                rows += [tuple(row) for row in block]
+                    block.append((method, name, label, score, tp, n_pred - tp, n_gt - tp,
+                                  *f_measure(tp, n_pred - tp, n_gt - tp)))
+                f1s = [-np.inf if np.isnan(row[-1]) else row[-1] for row in block]
+                best = int(np.argmax(f1s)) if max(f1s, default=-np.inf) > -np.inf else -1  # the first of equal ones
+                rows += [(*row, c == best) for c, row in enumerate(block)]
     return rows

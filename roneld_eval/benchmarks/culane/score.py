@@ -31,6 +31,7 @@ from ...errors import ConfigError, InputError
 from ...lanes_io import SCORES_SUFFIX, check_coordinates, read_lane_scores, read_lines_txt
 from ...metrics.lane_iou_f1 import (
     OFFICIAL_COLUMNS,
+    FrameMatches,
     GroupCounts,
     ScoredFrames,
     frame_result,
@@ -154,6 +155,7 @@ def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns |
             path = labels_path(pred_root, relpath)
             predictions = read_lines_txt(path)
             check_coordinates(predictions, path)
+            result: FrameMatches | FrameErrors
             if diagnosis is None:
                 result = frame_result(int(n_gt[k]), gt_masks, predictions, width, height, lane_width)
             else:
