@@ -11,11 +11,15 @@ prediction takes its highest-IoU ground-truth lane (the first of equal ones):
 - **Dupe** if that lane is already a true positive;
 - **Bkg** if no IoU reaches `loc_iou` (or the frame has no ground truth).
 
+Where lanes match only lanes of their own category (OpenLane's default), a false positive that would
+match a lane of another category (IoU > t with it) is **Cat**, before the rules above (TIDE's
+order: its classification error comes first), and only lanes of its own category count for them.
+
 A false-negative lane is **Loc** when it is some Loc prediction's lane, else **Miss**. So the false
 positives' types add up to FP and the false negatives' to FN exactly, and each Loc prediction has
 one Loc lane. The change in F1 when every error of one type is fixed (`delta_f1`) is how TIDE
-gives its dAP: a Loc pair becomes a true positive (FP and FN one less each, TP one more), a Dupe
-or Bkg prediction is removed (FP one less), a Miss is removed (FN one less).
+gives its dAP: a Loc pair becomes a true positive (FP and FN one less each, TP one more), a Dupe,
+Cat or Bkg prediction is removed (FP one less), a Miss is removed (FN one less).
 
 `frame_errors` counts a frame at every threshold in one kernel call (_kernels.lane_error_counts);
 `classify` is the same rule written plainly, one threshold, naming each lane's type (its twin).
@@ -33,15 +37,16 @@ from .iou import KM_TOLERANCE, match_lanes
 from .lane_iou_f1 import f_measure
 
 # (side, type) of each column of frame_errors' counts, in order
-ERROR_TYPES = (("fp", "Loc"), ("fp", "Dupe"), ("fp", "Bkg"), ("fn", "Loc"), ("fn", "Miss"))
-ERROR_COLUMNS = ("fp_loc", "fp_dupe", "fp_bkg", "fn_loc", "fn_miss")
+ERROR_TYPES = (("fp", "Loc"), ("fp", "Dupe"), ("fp", "Cat"), ("fp", "Bkg"), ("fn", "Loc"), ("fn", "Miss"))
+ERROR_COLUMNS = ("fp_loc", "fp_dupe", "fp_cat", "fp_bkg", "fn_loc", "fn_miss")
+CAT = ERROR_TYPES.index(("fp", "Cat"))
 DEFAULT_LOC_IOU = 0.1
 
 
 @dataclass(frozen=True)
 class FrameErrors:
     """One frame's matching and its error types: each ground-truth lane's matched IoU (-inf
-    where unmatched, as FrameMatches holds it), and (thresholds, 5) counts in ERROR_TYPES order."""
+    where unmatched, as FrameMatches holds it), and (thresholds, 6) counts in ERROR_TYPES order."""
 
     n_gt: int
     n_pred: int
@@ -101,18 +106,33 @@ def diagnosis_settings(diagnose: bool, loc_iou: float | None, score_sweep: str |
     return DiagnosisSettings(np.array(limits, np.float64), loc, sweep, diagnose)
 
 
-def frame_errors(similarity: np.ndarray, limits: np.ndarray, loc_iou: float) -> FrameErrors:
-    """The official matching of a (ground truth, predictions) IoU matrix and its error types at
-    each threshold of `limits`."""
+def frame_errors(similarity: np.ndarray, limits: np.ndarray, loc_iou: float, match: np.ndarray | None = None,
+                 other_iou: np.ndarray | None = None) -> FrameErrors:
+    """A (ground truth, predictions) IoU matrix's matching (SCNN's evaluator's unless `match`
+    gives a benchmark's own: each ground-truth lane's prediction, -1 for none) and its error types
+    at each threshold of `limits`; `other_iou` where lanes match only lanes of their own category
+    (category_iou)."""
     matrix = np.ascontiguousarray(similarity, np.float64)
     n_gt, n_pred = matrix.shape
-    rows, columns = np.arange(n_gt, dtype=np.int64), np.arange(n_pred, dtype=np.int64)
-    match = _kernels.matched_columns(matrix, rows, columns, KM_TOLERANCE)
+    if match is None:
+        rows, columns = np.arange(n_gt, dtype=np.int64), np.arange(n_pred, dtype=np.int64)
+        match = _kernels.matched_columns(matrix, rows, columns, KM_TOLERANCE)
+    match = np.ascontiguousarray(match, np.int64)
     matched = np.full(n_gt, -np.inf)
     found = np.flatnonzero(match >= 0)
     matched[found] = matrix[found, match[found]]
-    counts = _kernels.lane_error_counts(matrix, match, np.ascontiguousarray(limits, np.float64), float(loc_iou))
+    other = np.full(n_pred, -np.inf) if other_iou is None else np.ascontiguousarray(other_iou, np.float64)
+    counts = _kernels.lane_error_counts(matrix, match, other, np.ascontiguousarray(limits, np.float64), float(loc_iou))
     return FrameErrors(n_gt, n_pred, matched, counts)
+
+
+def category_iou(similarity: np.ndarray, same: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(the IoUs as lanes of one category match them: 0 across categories, each prediction's
+    highest IoU with a lane of another category (-inf without one)) from every pair's IoU and
+    whether the pair's categories agree."""
+    across = np.where(same, -np.inf, np.nan_to_num(similarity, nan=-np.inf))
+    other = across.max(axis=0) if similarity.shape[0] else np.full(similarity.shape[1], -np.inf)
+    return np.where(same, similarity, 0.0), other
 
 
 def swept_frame(similarity: np.ndarray, scores: np.ndarray, sweep: ScoreSweep,
@@ -125,14 +145,19 @@ def swept_frame(similarity: np.ndarray, scores: np.ndarray, sweep: ScoreSweep,
                                          np.ascontiguousarray(limits, np.float64), sweep.strict, KM_TOLERANCE)
 
 
-def classify(similarity: np.ndarray, threshold: float, loc_iou: float) -> tuple[list[str], list[str]]:
+def classify(similarity: np.ndarray, threshold: float, loc_iou: float, match: np.ndarray | None = None,
+             other_iou: np.ndarray | None = None) -> tuple[list[str], list[str]]:
     """Each prediction's and each ground-truth lane's outcome at one threshold: "TP", or its
-    error type ("Loc", "Dupe", "Bkg"; "Loc", "Miss"). The rule of the module's docstring, plainly."""
+    error type ("Loc", "Dupe", "Cat", "Bkg"; "Loc", "Miss"). The rule of the module's docstring,
+    plainly; `match` and `other_iou` as frame_errors takes them."""
     n_gt, n_pred = similarity.shape
-    match = match_lanes(similarity) if n_gt and n_pred else np.full(n_gt, -1)
+    if match is None:
+        match = match_lanes(similarity) if n_gt and n_pred else np.full(n_gt, -1)
     gt_hit = [bool(match[g] >= 0 and similarity[g, match[g]] > threshold) for g in range(n_gt)]
     matched = {int(match[g]) for g in range(n_gt) if gt_hit[g]}
     preds = ["TP" if p in matched else "" for p in range(n_pred)]
+    if other_iou is not None:
+        preds = [kind or ("Cat" if other_iou[p] > threshold else "") for p, kind in enumerate(preds)]
     candidates = _false_positives(similarity, gt_hit, preds, loc_iou)
     _one_loc_a_lane(candidates, preds)
     truth = ["TP" if gt_hit[g] else ("Loc" if g in candidates else "Miss") for g in range(n_gt)]
@@ -178,9 +203,9 @@ def delta_f1(tp: int, fp: int, fn: int, counts: Sequence[int]) -> list[float]:
     """dF1 of each error type (ERROR_TYPES order) from summed counts: F1 with every error of that
     type fixed, minus F1 as it is (NaN where F1 is undefined either way)."""
     f1 = f_measure(tp, fp, fn)[2]
-    loc, dupe, bkg, _, miss = (int(c) for c in counts)
-    fixed = [(tp + loc, fp - loc, fn - loc), (tp, fp - dupe, fn), (tp, fp - bkg, fn), (tp + loc, fp - loc, fn - loc),
-             (tp, fp, fn - miss)]
+    loc, dupe, cat, bkg, _, miss = (int(c) for c in counts)
+    fixed = [(tp + loc, fp - loc, fn - loc), (tp, fp - dupe, fn), (tp, fp - cat, fn), (tp, fp - bkg, fn),
+             (tp + loc, fp - loc, fn - loc), (tp, fp, fn - miss)]
     return [f_measure(*after)[2] - f1 for after in fixed]
 
 
@@ -232,12 +257,13 @@ def _joined(arrays: Sequence[np.ndarray | None]) -> np.ndarray:
     return np.concatenate([array for array in arrays if array is not None], axis=1)
 
 
-def error_records(diagnoses: FrameDiagnoses, methods: Sequence[str], groups: Sequence[tuple[str, np.ndarray]],
-                  labels: Sequence[str]) -> list[tuple]:
-    """errors.csv's rows (ERROR_COLUMNS_CSV): per method, category group (name, frame mask) and
-    threshold, each error type's count and dF1, false positives' types then false negatives'."""
+def error_records(diagnoses: FrameDiagnoses, entries: Sequence[tuple[str, str]],
+                  groups: Sequence[tuple[str, np.ndarray]], labels: Sequence[str], types: Sequence[int]) -> list[tuple]:
+    """errors.csv's rows (method, matching, category, threshold, side, type, count, dF1): per entry
+    of the method axis (its method and matching), category group (name, frame mask) and
+    threshold, the count and dF1 of each error type of `types` (indices into ERROR_TYPES)."""
     rows = []
-    for m, method in enumerate(methods):
+    for m, (method, matching) in enumerate(entries):
         for name, inside in groups:
             n_gt = int(diagnoses.n_gt[inside].sum())
             n_pred = int(diagnoses.n_pred[m, inside].sum())
@@ -246,26 +272,21 @@ def error_records(diagnoses: FrameDiagnoses, methods: Sequence[str], groups: Seq
             for t, label in enumerate(labels):
                 tp = int(tps[t])
                 deltas = delta_f1(tp, n_pred - tp, n_gt - tp, counts[t].tolist())
-                for (side, kind), count, delta in zip(ERROR_TYPES, counts[t].tolist(), deltas):
-                    rows.append((method, name, label, side, kind, int(count), float(delta)))
+                for k in types:
+                    side, kind = ERROR_TYPES[k]
+                    rows.append((method, matching, name, label, side, kind, int(counts[t, k]), float(deltas[k])))
     return rows
 
 
-ERROR_CSV_COLUMNS = ("method", "category", "threshold", "side", "type", "count", "dF1")
-SWEEP_CSV_COLUMNS = ("method", "category", "threshold", "score_threshold", "tp", "fp", "fn", "precision", "recall",
-                     "f1", "best")
-FRAME_CSV_COLUMNS = ("frame", "sequence", "category", "method", "matching", "threshold", "tp", "fp", "fn",
-                     *ERROR_COLUMNS)
-
-
-def sweep_records(diagnoses: FrameDiagnoses, methods: Sequence[str], groups: Sequence[tuple[str, np.ndarray]],
-                  labels: Sequence[str], sweep: ScoreSweep) -> list[tuple]:
-    """sweep_scores.csv's rows: per method, category group and IoU threshold, precision, recall and
-    F1 at each score threshold; `best` marks the highest F1 (the lowest score threshold of equal
-    ones), chosen on the frames scored."""
+def sweep_records(diagnoses: FrameDiagnoses, entries: Sequence[tuple[str, str]],
+                  groups: Sequence[tuple[str, np.ndarray]], labels: Sequence[str], sweep: ScoreSweep) -> list[tuple]:
+    """sweep_scores.csv's rows (method, matching, category, threshold, score_threshold, tp, fp, fn,
+    precision, recall, f1, best): per entry, category group and IoU threshold, at each score
+    threshold; `best` marks the highest F1 (the lowest score threshold of equal ones), chosen on
+    the frames scored."""
     assert diagnoses.sweep_tp is not None and diagnoses.sweep_kept is not None
     rows = []
-    for m, method in enumerate(methods):
+    for m, (method, matching) in enumerate(entries):
         for name, inside in groups:
             n_gt = int(diagnoses.n_gt[inside].sum())
             kept = diagnoses.sweep_kept[m, inside].sum(axis=0)
@@ -274,7 +295,7 @@ def sweep_records(diagnoses: FrameDiagnoses, methods: Sequence[str], groups: Seq
                 block = []
                 for c, score in enumerate(sweep.labels):
                     tp, n_pred = int(tps[c, t]), int(kept[c])
-                    block.append((method, name, label, score, tp, n_pred - tp, n_gt - tp,
+                    block.append((method, matching, name, label, score, tp, n_pred - tp, n_gt - tp,
                                   *f_measure(tp, n_pred - tp, n_gt - tp)))
                 f1s = [-np.inf if np.isnan(row[-1]) else row[-1] for row in block]
                 best = int(np.argmax(f1s)) if max(f1s, default=-np.inf) > -np.inf else -1  # the first of equal ones

@@ -1,6 +1,9 @@
 """What `--diagnose` and `--score-sweep` write beside a score's tables: errors.csv/.md/.png (lane
 error types and their dF1, metrics.lane_errors), frames.csv.gz (every frame's counts, for pandas
-slices), and sweep_scores.csv/.png (precision, recall and F1 at each score threshold)."""
+slices), and sweep_scores.csv/.png (precision, recall and F1 at each score threshold).
+
+A `matching` column is written where a benchmark scores two ways (OpenLane: lanes matched within
+their category, or whatever it is); the Cat type only where lanes match within their category."""
 
 from __future__ import annotations
 
@@ -13,25 +16,28 @@ from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
-from ..metrics.lane_errors import (ERROR_COLUMNS, ERROR_CSV_COLUMNS, ERROR_TYPES, FRAME_CSV_COLUMNS,
-                                   SWEEP_CSV_COLUMNS, FrameDiagnoses, ScoreSweep, error_records, sweep_records)
+from ..metrics.lane_errors import (CAT, ERROR_COLUMNS, ERROR_TYPES, FrameDiagnoses, ScoreSweep, error_records,
+                                   sweep_records)
 from ..metrics.lane_iou_f1 import f_measure
 from ..scoring import PlainTable
 
 if TYPE_CHECKING:
     from ..output import Staging
 
-# error types by what fixing them does (one dF1 each; a Loc pair counts on both sides)
-_FIXES = (("fp", "Loc"), ("fp", "Dupe"), ("fp", "Bkg"), ("fn", "Miss"))
+ERROR_CSV_COLUMNS = ("method", "matching", "category", "threshold", "side", "type", "count", "dF1")
+SWEEP_CSV_COLUMNS = ("method", "matching", "category", "threshold", "score_threshold", "tp", "fp", "fn", "precision",
+                     "recall", "f1", "best")
+FRAME_CSV_COLUMNS = ("frame", "sequence", "category", "method", "matching", "threshold", "tp", "fp", "fn")
 
 
 @dataclass(frozen=True)
 class Diagnosed:
-    """A score's per-frame counts and what they are of: methods, category groups (name, frame
-    mask; 'all' last), the IoU threshold labels, and each frame's (sequence, category)."""
+    """A score's per-frame counts and what they are of: each entry of their method axis as
+    (method, matching; "" where a benchmark matches one way), category groups (name, frame mask;
+    'all' last), the IoU threshold labels, and each frame's (sequence, category)."""
 
     diagnoses: FrameDiagnoses
-    methods: tuple[str, ...]
+    entries: tuple[tuple[str, str], ...]
     groups: tuple[tuple[str, np.ndarray], ...]
     labels: tuple[str, ...]
     loc_iou: float
@@ -39,125 +45,163 @@ class Diagnosed:
     title: str  # "CULane, SCNN's lane IoU F1 (30 px at 1640x590)"
     sweep: ScoreSweep | None = None
     errors: bool = True  # --diagnose (else only the sweep was asked for)
+    with_categories: bool = False  # lanes match within their category: the Cat type is shown
+
+    @property
+    def types(self) -> tuple[int, ...]:
+        """The error types shown (indices into ERROR_TYPES)."""
+        return tuple(k for k in range(len(ERROR_TYPES)) if k != CAT or self.with_categories)
+
+    @property
+    def fixes(self) -> tuple[tuple[str, str], ...]:
+        """The types with a dF1 of their own (a Loc pair counts on both sides: its fp row)."""
+        return tuple(ERROR_TYPES[k] for k in self.types if ERROR_TYPES[k] != ("fn", "Loc"))
+
+    @property
+    def matched_two_ways(self) -> bool:
+        return any(matching for _, matching in self.entries)
 
     def error_rows(self) -> list[tuple]:
-        return error_records(self.diagnoses, self.methods, self.groups, self.labels)
+        return error_records(self.diagnoses, self.entries, self.groups, self.labels, self.types)
 
     def sweep_rows(self) -> list[tuple]:
         assert self.sweep is not None
-        return sweep_records(self.diagnoses, self.methods, self.groups, self.labels, self.sweep)
+        return sweep_records(self.diagnoses, self.entries, self.groups, self.labels, self.sweep)
+
+    def name(self, method: str, matching: str) -> str:
+        return f"{method} ({matching})" if matching else method
+
+
+def _table(columns: Sequence[str], rows: Sequence[tuple], keep_matching: bool) -> PlainTable:
+    """A table without its matching column (the second) where a benchmark matches one way."""
+    if keep_matching:
+        return PlainTable(tuple(columns), tuple(rows))
+    return PlainTable(tuple(columns[:1]) + tuple(columns[2:]), tuple(row[:1] + row[2:] for row in rows))
 
 
 def write_diagnosis(staging: Staging, diagnosed: Diagnosed, shown: Sequence[str]) -> None:
     """The files of `diagnosed`, their tables at the thresholds `shown` in errors.md."""
     if diagnosed.errors:
         rows = diagnosed.error_rows()
-        staging.write_text("errors.csv", PlainTable(ERROR_CSV_COLUMNS, tuple(rows)).to_csv())
+        staging.write_text("errors.csv", _table(ERROR_CSV_COLUMNS, rows, diagnosed.matched_two_ways).to_csv())
         staging.write_text("errors.md", errors_markdown(diagnosed, rows, shown))
         errors_figure(diagnosed, rows, shown[0], staging.file("errors.png"))
         staging.write_bytes("frames.csv.gz", frames_csv_gz(diagnosed))
     if diagnosed.sweep is not None:
         swept = diagnosed.sweep_rows()
-        staging.write_text("sweep_scores.csv", PlainTable(SWEEP_CSV_COLUMNS, tuple(swept)).to_csv())
+        staging.write_text("sweep_scores.csv", _table(SWEEP_CSV_COLUMNS, swept, diagnosed.matched_two_ways).to_csv())
         sweep_figure(diagnosed, swept, shown[0], staging.file("sweep_scores.png"))
 
 
+Summed = dict[tuple[str, str, str, str], dict[tuple[str, str], tuple[int, float]]]
+
+
+def _summed(rows: Sequence[tuple]) -> Summed:
+    """{(method, matching, category, threshold): {(side, type): (count, dF1)}} of error_records' rows."""
+    out: Summed = {}
+    for method, matching, category, label, side, kind, count, delta in rows:
+        out.setdefault((method, matching, category, label), {})[(side, kind)] = (count, delta)
+    return out
+
+
 def console_lines(diagnosed: Diagnosed, label: str) -> list[str]:
-    """What the console says of a diagnosis at one threshold over all frames, a line a method:
+    """What the console says of a diagnosis at one threshold over all frames, a line an entry:
     its error counts and the type whose fix gains most; the best F1 of the score sweep."""
     lines = []
     if diagnosed.errors:
         summed = _summed(diagnosed.error_rows())
-        lines += [_error_line(method, summed[(method, "all", label)], label) for method in diagnosed.methods]
+        lines += [_error_line(diagnosed, method, matching, summed[(method, matching, "all", label)], label)
+                  for method, matching in diagnosed.entries]
     if diagnosed.sweep is not None:
-        lines += [f"{row[0]}: best F1 {100 * row[9]:.2f} at score threshold {row[3]} ({diagnosed.sweep.rule}; "
-                  "chosen on the test set; sweep_scores.csv)"
-                  for row in diagnosed.sweep_rows() if row[1] == "all" and row[2] == label and row[10]]
+        lines += [f"{diagnosed.name(row[0], row[1])}: best F1 {100 * row[10]:.2f} at score threshold {row[4]} "
+                  f"({diagnosed.sweep.rule}; chosen on the test set; sweep_scores.csv)"
+                  for row in diagnosed.sweep_rows() if row[2] == "all" and row[3] == label and row[11]]
     return lines
 
 
-def _error_line(method: str, types: dict[tuple[str, str], tuple[int, float]], label: str) -> str:
-    counts = ", ".join(f"{kind} {types[(side, kind)][0]}" for side, kind in ERROR_TYPES if side == "fp")
-    missed = ", ".join(f"{kind} {types[(side, kind)][0]}" for side, kind in ERROR_TYPES if side == "fn")
-    gains = [(types[key][1], key[1]) for key in _FIXES if not math.isnan(types[key][1])]
+def _error_line(diagnosed: Diagnosed, method: str, matching: str, types: dict[tuple[str, str], tuple[int, float]],
+                label: str) -> str:
+    shown = [ERROR_TYPES[k] for k in diagnosed.types]
+    counts = ", ".join(f"{kind} {types[(side, kind)][0]}" for side, kind in shown if side == "fp")
+    missed = ", ".join(f"{kind} {types[(side, kind)][0]}" for side, kind in shown if side == "fn")
+    gains = [(types[key][1], key[1]) for key in diagnosed.fixes if not math.isnan(types[key][1])]
     top = max(gains) if gains else None
     best = f"; fixing {top[1]} gains most ({_points(top[0])} F1)" if top and top[0] > 0 else ""
-    return f"{method} at IoU > {label}, all frames: FP {counts}; FN {missed}{best} (errors.md)"
+    return (f"{diagnosed.name(method, matching)} at IoU > {label}, all frames: FP {counts}; FN {missed}{best} "
+            "(errors.md)")
 
 
 def _points(value: float) -> str:
     return "" if math.isnan(value) else f"{100 * value:+.2f}"
 
 
-def _summed(rows: Sequence[tuple]) -> dict[tuple[str, str, str], dict[tuple[str, str], tuple[int, float]]]:
-    out: dict[tuple[str, str, str], dict[tuple[str, str], tuple[int, float]]] = {}
-    for method, category, label, side, kind, count, delta in rows:
-        out.setdefault((method, category, label), {})[(side, kind)] = (count, delta)
-    return out
-
-
 def error_lines(diagnosed: Diagnosed, rows: Sequence[tuple], label: str) -> list[str]:
-    """The markdown table of every method and category at one threshold: counts, F1, each error
+    """The markdown table of every entry and category at one threshold: counts, F1, each error
     type's count and its dF1 (F1 points gained by fixing every error of that type)."""
+    shown = [ERROR_TYPES[k] for k in diagnosed.types]
     header = ["method", "category", "TP", "FP", "FN", "F1 (%)"]
-    header += [f"{side.upper()} {kind}" for side, kind in ERROR_TYPES]
-    header += [f"dF1 {kind}" for _, kind in _FIXES]
+    header += [f"{side.upper()} {kind}" for side, kind in shown]
+    header += [f"dF1 {kind}" for _, kind in diagnosed.fixes]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for (method, category, at), types in _summed(rows).items():
+    for (method, matching, category, at), types in _summed(rows).items():
         if at != label:
             continue
-        fp = sum(types[key][0] for key in ERROR_TYPES[:3])
-        fn = sum(types[key][0] for key in ERROR_TYPES[3:])
-        tp = _true_positives(diagnosed, method, category, label)
+        fp = sum(types[key][0] for key in shown if key[0] == "fp")
+        fn = sum(types[key][0] for key in shown if key[0] == "fn")
+        tp = _true_positives(diagnosed, (method, matching), category, label)
         f1 = f_measure(tp, fp, fn)[2]
-        cells = [method, category, str(tp), str(fp), str(fn), "" if math.isnan(f1) else f"{100 * f1:.2f}"]
-        cells += [str(types[key][0]) for key in ERROR_TYPES]
-        cells += [_points(types[key][1]) for key in _FIXES]
+        cells = [diagnosed.name(method, matching), category, str(tp), str(fp), str(fn),
+                 "" if math.isnan(f1) else f"{100 * f1:.2f}"]
+        cells += [str(types[key][0]) for key in shown]
+        cells += [_points(types[key][1]) for key in diagnosed.fixes]
         lines.append("| " + " | ".join(cells) + " |")
     return lines
 
 
-def _true_positives(diagnosed: Diagnosed, method: str, category: str, label: str) -> int:
-    m = diagnosed.methods.index(method)
+def _true_positives(diagnosed: Diagnosed, entry: tuple[str, str], category: str, label: str) -> int:
+    m = diagnosed.entries.index(entry)
     inside = dict(diagnosed.groups)[category]
     return int(diagnosed.diagnoses.tp[m, inside, diagnosed.labels.index(label)].sum())
 
 
 def errors_markdown(diagnosed: Diagnosed, rows: Sequence[tuple], shown: Sequence[str]) -> str:
+    cat = ("**Cat** when it would match a lane of another category (IoU above the threshold; lanes match only "
+           "lanes of their category here), checked first; else " if diagnosed.with_categories else "")
     lines = [f"# Why F1 is not higher: {diagnosed.title}", "",
-             "Each false positive takes its highest-IoU ground-truth lane: **Loc** when that IoU is at least "
+             f"Each false positive takes its highest-IoU ground-truth lane: {cat}**Loc** when that IoU is at least "
              f"{diagnosed.loc_iou:g} (--loc-iou) and the lane is not a true positive (of several on one lane, the "
              "highest IoU; the others **Dupe**), **Dupe** when the lane is already a true positive, **Bkg** when no "
              "IoU reaches it. A missed lane is **Loc** when a Loc prediction is on it, else **Miss**. Each side adds "
              "up to the official FP and FN. dF1 is F1 with every error of that type fixed, minus F1 as it is, in "
-             "points (TIDE's dAP for lanes): a Loc pair made a true positive, a Dupe or Bkg prediction removed, a "
-             "Miss removed. Every threshold is in errors.csv, every frame in frames.csv.gz.", ""]
+             "points (TIDE's dAP for lanes): a Loc pair made a true positive, a Dupe, Cat or Bkg prediction "
+             "removed, a Miss removed. Every threshold is in errors.csv, every frame in frames.csv.gz.", ""]
     for label in shown:
         lines += [f"## IoU > {label}", "", *error_lines(diagnosed, rows, label), ""]
     return "\n".join(lines)
 
 
 def frames_csv_gz(diagnosed: Diagnosed) -> bytes:
-    """frames.csv.gz: a row per frame, method and threshold (FRAME_CSV_COLUMNS), gzip without a
-    time stamp so that the same score writes the same bytes."""
+    """frames.csv.gz: a row per frame, entry and threshold (FRAME_CSV_COLUMNS, then the error
+    types shown), gzip without a time stamp so that the same score writes the same bytes."""
     d = diagnosed.diagnoses
+    types = list(diagnosed.types)
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
-    writer.writerow(FRAME_CSV_COLUMNS)
+    writer.writerow(FRAME_CSV_COLUMNS + tuple(ERROR_COLUMNS[k] for k in types))
     for k, frame in enumerate(d.frames):
         sequence, category = diagnosed.frame_facts(frame)
         n_gt = int(d.n_gt[k])
-        for m, method in enumerate(diagnosed.methods):
+        for m, (method, matching) in enumerate(diagnosed.entries):
             n_pred = int(d.n_pred[m, k])
             for t, label in enumerate(diagnosed.labels):
                 tp = int(d.tp[m, k, t])
-                writer.writerow((frame, sequence, category, method, "", label, tp, n_pred - tp, n_gt - tp,
-                                 *d.errors[m, k, t].tolist()))
+                writer.writerow((frame, sequence, category, method, matching, label, tp, n_pred - tp, n_gt - tp,
+                                 *d.errors[m, k, t, types].tolist()))
     return gzip.compress(text.getvalue().encode("utf-8"), compresslevel=6, mtime=0)
 
 
 def errors_figure(diagnosed: Diagnosed, rows: Sequence[tuple], label: str, path) -> None:
-    """errors.png: each method's dF1 per error type over all frames at one threshold."""
+    """errors.png: each entry's dF1 per error type over all frames at one threshold."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -166,14 +210,16 @@ def errors_figure(diagnosed: Diagnosed, rows: Sequence[tuple], label: str, path)
     from .figure_files import write_png
 
     summed = _summed(rows)
-    figure, axes = plt.subplots(figsize=(7, 3.2), dpi=100)
-    width = 0.8 / max(1, len(diagnosed.methods))
-    for m, method in enumerate(diagnosed.methods):
-        types = summed[(method, "all", label)]
-        values = [0.0 if math.isnan(types[key][1]) else 100 * types[key][1] for key in _FIXES]
-        axes.barh([k + m * width for k in range(len(_FIXES))], values, height=width, label=method)
-    axes.set_yticks([k + 0.4 - width / 2 for k in range(len(_FIXES))],
-                    [f"{kind} ({side.upper()})" for side, kind in _FIXES])
+    fixes = diagnosed.fixes
+    figure, axes = plt.subplots(figsize=(7, 1.4 + 0.45 * len(fixes) * max(1, len(diagnosed.entries)) ** 0.5), dpi=100)
+    width = 0.8 / max(1, len(diagnosed.entries))
+    for m, (method, matching) in enumerate(diagnosed.entries):
+        types = summed[(method, matching, "all", label)]
+        values = [0.0 if math.isnan(types[key][1]) else 100 * types[key][1] for key in fixes]
+        axes.barh([k + m * width for k in range(len(fixes))], values, height=width,
+                  label=diagnosed.name(method, matching))
+    axes.set_yticks([k + 0.4 - width / 2 for k in range(len(fixes))],
+                    [f"{kind} ({side.upper()})" for side, kind in fixes])
     axes.invert_yaxis()
     axes.set_xlabel("F1 gained by fixing every error of the type (points)")
     axes.set_title(f"{diagnosed.title}: all frames, IoU > {label}", fontsize=9)
@@ -196,14 +242,15 @@ def sweep_figure(diagnosed: Diagnosed, rows: Sequence[tuple], label: str, path) 
 
     assert diagnosed.sweep is not None
     figure, axes = plt.subplots(figsize=(5.5, 4.5), dpi=100)
-    for method in diagnosed.methods:
-        curve = [row for row in rows if row[0] == method and row[1] == "all" and row[2] == label]
-        axes.plot([100 * row[8] for row in curve], [100 * row[7] for row in curve], marker="o", markersize=3,
-                  label=method)
+    for method, matching in diagnosed.entries:
+        curve = [row for row in rows if row[:2] == (method, matching) and row[2] == "all" and row[3] == label]
+        name = diagnosed.name(method, matching)
+        axes.plot([100 * row[9] for row in curve], [100 * row[8] for row in curve], marker="o", markersize=3,
+                  label=name)
         for row in curve:
-            if row[10]:
-                axes.plot([100 * row[8]], [100 * row[7]], marker="*", markersize=13, color="black", linestyle="none",
-                          label=f"{method}: best F1 {100 * row[9]:.2f} at {row[3]} (chosen on the test set)")
+            if row[11]:
+                axes.plot([100 * row[9]], [100 * row[8]], marker="*", markersize=13, color="black", linestyle="none",
+                          label=f"{name}: best F1 {100 * row[10]:.2f} at {row[4]} (chosen on the test set)")
     axes.set_xlabel("recall (%)")
     axes.set_ylabel("precision (%)")
     axes.set_title(f"{diagnosed.title}: all frames, IoU > {label}\nkept when {diagnosed.sweep.rule}", fontsize=9)
@@ -212,6 +259,3 @@ def sweep_figure(diagnosed: Diagnosed, rows: Sequence[tuple], label: str, path) 
     figure.tight_layout()
     write_png(figure, path)
     plt.close(figure)
-
-
-__all__ = ["Diagnosed", "write_diagnosis", "ERROR_COLUMNS"]

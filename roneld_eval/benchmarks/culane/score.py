@@ -350,7 +350,8 @@ def _with_diagnosis(score: CulaneScore, diagnosed: list[FrameDiagnoses], dataset
 
     groups = tuple(category_groups(diagnoses.frames, dataset.categories))
     return replace(score, diagnosed=Diagnosed(
-        diagnoses, score.methods, groups, score.thresholds.labels, diagnosis.loc_iou, facts,
+        diagnoses, tuple((method, "") for method in score.methods), groups, score.thresholds.labels,
+        diagnosis.loc_iou, facts,
         f"CULane, SCNN's lane IoU F1 ({width} px at 1640x590)", diagnosis.sweep, diagnosis.errors))
 
 

@@ -116,7 +116,8 @@ ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     # --diagnose (metrics.lane_errors): who matched whom, and the error types at every threshold
     "diagnosis": [
         (matched_columns, (types.Array(types.float64, 2, "C"), _COUNTS, _COUNTS, _F)),
-        (lane_error_counts, (types.Array(types.float64, 2, "C"), _COUNTS, types.Array(types.float64, 1, "C"), _F)),
+        (lane_error_counts, (types.Array(types.float64, 2, "C"), _COUNTS, types.Array(types.float64, 1, "C"),
+                             types.Array(types.float64, 1, "C"), _F)),
         (swept_true_positives, (types.Array(types.float64, 2, "C"), types.Array(types.float64, 1, "C"),
                                 types.Array(types.float64, 1, "C"), types.Array(types.float64, 1, "C"), _B, _F)),
     ],

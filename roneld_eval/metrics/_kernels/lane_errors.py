@@ -9,15 +9,17 @@ from ..._numba_cache import cached_njit
 from .matching import matched_ious
 
 # Columns of lane_error_counts' rows, in this order (lane_errors.ERROR_TYPES names them).
-FP_LOC, FP_DUPE, FP_BKG, FN_LOC, FN_MISS = 0, 1, 2, 3, 4
-N_TYPES = 5
+FP_LOC, FP_DUPE, FP_CAT, FP_BKG, FN_LOC, FN_MISS = 0, 1, 2, 3, 4, 5
+N_TYPES = 6
 
 
 @cached_njit(nogil=True)
-def lane_error_counts(similarity, match, limits, loc_iou):
-    """(thresholds, 5) counts: false positives as Loc, Dupe, Bkg and false negatives as Loc, Miss.
-    `similarity`: (ground truth, predictions) IoUs; `match`: each ground-truth lane's matched
-    prediction (-1 if none); a matched pair is a true positive when its IoU > the threshold."""
+def lane_error_counts(similarity, match, other_iou, limits, loc_iou):
+    """(thresholds, 6) counts: false positives as Loc, Dupe, Cat, Bkg and false negatives as Loc,
+    Miss. `similarity`: (ground truth, predictions) IoUs as matched (0 between lanes of two
+    categories where categories must agree); `match`: each ground-truth lane's matched prediction
+    (-1 if none); `other_iou`: each prediction's highest IoU with a lane of another category (-inf
+    where categories are not matched); a matched pair is a true positive when its IoU > the threshold."""
     n_gt, n_pred = similarity.shape
     out = np.zeros((limits.size, N_TYPES), np.int64)
     # each prediction's highest-IoU ground-truth lane (the first of equal ones; a NaN IoU is none)
@@ -43,7 +45,9 @@ def lane_error_counts(similarity, match, limits, loc_iou):
             if pred_hit[p]:
                 continue
             g = best[p]
-            if g < 0 or not best_iou[p] >= loc_iou:
+            if other_iou[p] > limits[t]:  # it would match a lane of another category (TIDE's Cls first)
+                out[t, FP_CAT] += 1
+            elif g < 0 or not best_iou[p] >= loc_iou:
                 out[t, FP_BKG] += 1
             elif gt_hit[g]:
                 out[t, FP_DUPE] += 1
