@@ -251,6 +251,11 @@ def read_lines_txt(path: Path, missing_ok: bool = True) -> tuple[Lane, ...]:
 SCORES_SUFFIX = ".scores.txt"  # beside a frame's .lines.txt: one score a lane line
 
 
+def scores_path(lines_path: Path) -> Path:
+    """The `.scores.txt` beside a `<stem>.lines.txt`."""
+    return lines_path.with_name(lines_path.name.removesuffix(".lines.txt") + SCORES_SUFFIX)
+
+
 def read_lane_scores(path: Path, n_lanes: int) -> tuple[float, ...]:
     """The `.scores.txt` beside a `.lines.txt` of `n_lanes` lanes: one score in [0, 1] a lane line
     (1.0 for every lane when the file is missing)."""

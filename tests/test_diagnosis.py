@@ -135,3 +135,52 @@ def test_the_sweep_of_a_malformed_scores_file_names_it(lanes, tmp_path):
     result = invoke("score", "culane", "--data-root", gt, "--pred-root", copy, "--score-sweep", "--workers", 1)
     assert result.exit_code == 2 and "Traceback" not in result.output
     assert Path(bad).name in result.output and "one score per lane line" in result.output
+
+
+# ---- every benchmark that matches lanes by IoU ---------------------------------------------------
+
+SCORED = {  # synth's folder -> the score command's inputs, and whether predictions carry scores
+    "culane": (lambda s: ["--data-root", s / "data", "--pred-root", f"det={s / 'maps'}"], ["--maps-format", "lanes"],
+               True),
+    "vil100": (lambda s: ["--labels", s / "data" / "anno_txt", "--sizes", s / "data" / "sizes.json", "--pred-root",
+                          f"det={s / 'maps'}"], ["--maps-format", "lanes"], True),
+    "openlane": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}", "--iou", "0.3,0.5"],
+                 [], False),
+}
+
+
+@pytest.mark.parametrize("benchmark", sorted(SCORED))
+def test_every_iou_benchmark_diagnoses_what_its_official_table_counts(benchmark, tmp_path):
+    inputs, synth_options, with_scores = SCORED[benchmark]
+    result = invoke("synth", "--dataset", benchmark, "--out", tmp_path / "set", "--clips", 2, *synth_options)
+    assert result.exit_code == 0, result.output
+    plain = invoke("score", benchmark, *inputs(tmp_path / "set"), "--workers", 1, "--out", tmp_path / "plain")
+    assert plain.exit_code == 0, plain.output
+    extra = ["--diagnose", "--loc-iou", "0.15"] + (["--score-sweep"] if with_scores else [])
+    diagnosed = invoke("score", benchmark, *inputs(tmp_path / "set"), "--workers", 2, *extra, "--out",
+                       tmp_path / "diag")
+    assert diagnosed.exit_code == 0, diagnosed.output
+    assert "all frames: FP Loc" in diagnosed.output
+    kept = sorted(p.name for p in (tmp_path / "plain").iterdir() if not p.name.startswith("."))  # not the marker
+    for name in kept:  # the official files as they were, byte for byte
+        assert (tmp_path / "plain" / name).read_bytes() == (tmp_path / "diag" / name).read_bytes(), name
+    added = {"errors.csv", "errors.md", "errors.png", "frames.csv.gz"} | (
+        {"sweep_scores.csv", "sweep_scores.png"} if with_scores else set())
+    assert set(p.name for p in (tmp_path / "diag").iterdir() if not p.name.startswith(".")) == set(kept) | added
+    official = pd.read_csv(tmp_path / "diag" / "official.csv", dtype=str, keep_default_na=False)
+    if "category" in official:
+        official = official[official["category"] == "all"]
+    keys = ["method", "matching", "threshold"] if "matching" in official else ["method", "threshold"]
+    official = official.set_index(keys)[["tp", "fp", "fn"]].astype(int).sort_index()
+    frames = pd.read_csv(tmp_path / "diag" / "frames.csv.gz", dtype={"threshold": str, "matching": str},
+                         keep_default_na=False)
+    pd.testing.assert_frame_equal(frames.groupby(keys)[["tp", "fp", "fn"]].sum().sort_index(), official)
+    errors = pd.read_csv(tmp_path / "diag" / "errors.csv", dtype={"threshold": str}, keep_default_na=False)
+    errors = errors[errors["category"] == "all"]
+    sides = errors.pivot_table(index=keys, columns="side", values="count", aggfunc="sum").sort_index()
+    assert sides["fp"].tolist() == official["fp"].tolist() and sides["fn"].tolist() == official["fn"].tolist()
+    if with_scores:
+        swept = pd.read_csv(tmp_path / "diag" / "sweep_scores.csv", dtype={"threshold": str, "score_threshold": str},
+                            keep_default_na=False)
+        at_zero = swept[(swept["score_threshold"] == "0.00") & (swept["category"] == "all")]
+        assert at_zero.set_index(keys)[["tp", "fp", "fn"]].sort_index().equals(official)

@@ -12,6 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from roneld_eval.benchmarks.openlane.score import MODES, _score_frames, score_openlane
+from roneld_eval.metrics.lane_errors import diagnosis_settings
 from roneld_eval.cli import main
 from roneld_eval.benchmarks.openlane.reader import read_list
 
@@ -41,10 +42,17 @@ def test_every_frame_equals_the_official_evaluator(name, mode, threshold):
     frames = EXPECTED[name][mode][threshold]["frames"]
     relpaths = read_list(root / "test_list.txt")
     assert sorted(relpaths) == sorted(frames)
+    diagnosis = diagnosis_settings(True, None, None, (float(threshold),))
     for relpath in relpaths:
         counts = _score_frames(([relpath], root / "annotations", (root / "results",), 1920, 1280, 30, (mode,),
-                                (float(threshold),)))
+                                (float(threshold),), None))
         assert [int(v) for v in counts[0, 0, 0]] == frames[relpath], relpath
+        # diagnosed, the frame's counts are the same, and its error types add up to them
+        counts, diagnosed = _score_frames(([relpath], root / "annotations", (root / "results",), 1920, 1280, 30,
+                                           (mode,), (float(threshold),), diagnosis))
+        assert [int(v) for v in counts[0, 0, 0]] == frames[relpath], relpath
+        tp, fp, fn = frames[relpath]
+        assert sum(diagnosed.errors[0, 0, 0, :4]) == fp and sum(diagnosed.errors[0, 0, 0, 4:]) == fn
 
 
 def test_the_command_writes_both_matchings(tmp_path):

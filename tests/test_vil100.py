@@ -55,7 +55,7 @@ def test_every_frame_equals_the_official_evaluator(threshold):
     dataset = read_vil100(GOLDEN / "anno_txt", GOLDEN / "test.txt", sizes_file=GOLDEN / "test_sizes.json")
     for sequence, frames in dataset.sequences.items():
         scored = _score_sequence((frames, dataset.labels, (GOLDEN / "pred_txt",), *dataset.sizes[sequence], 30,
-                                  False, "lines")).frames[0]
+                                  False, "lines", None)).frames[0]
         expected = EXPECTED["thresholds"][str(threshold)]["frames"][sequence]
         assert [f"/{relpath}.jpg" for relpath in frames] == [frame["frame"] for frame in expected]
         for (result, miou), frame in zip(scored, expected):
@@ -74,7 +74,7 @@ def test_temporal_counts_equal_rvlds_script(tau, label):
     transitions = []  # the script's results_t: one (Ns, Nj, Nm) per frame after a sequence's first
     for sequence, frames in dataset.sequences.items():
         piece = _score_sequence((frames, dataset.labels, (GOLDEN / "pred_txt",), *dataset.sizes[sequence], 30, True,
-                                 "lines"))
+                                 "lines", None))
         for k in range(1, len(frames)):
             step = sequence_counts([[], piece.links[k]], [piece.assigned[0][k - 1], piece.assigned[0][k]], float(tau))
             transitions.append([step.stable, step.jump, step.missing])

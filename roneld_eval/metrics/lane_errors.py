@@ -28,7 +28,7 @@ Cat or Bkg prediction is removed (FP one less), a Miss is removed (FN one less).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -156,22 +156,24 @@ def classify(similarity: np.ndarray, threshold: float, loc_iou: float, match: np
     gt_hit = [bool(match[g] >= 0 and similarity[g, match[g]] > threshold) for g in range(n_gt)]
     matched = {int(match[g]) for g in range(n_gt) if gt_hit[g]}
     preds = ["TP" if p in matched else "" for p in range(n_pred)]
-    if other_iou is not None:
-        preds = [kind or ("Cat" if other_iou[p] > threshold else "") for p, kind in enumerate(preds)]
-    candidates = _false_positives(similarity, gt_hit, preds, loc_iou)
+    other = np.full(n_pred, -np.inf) if other_iou is None else other_iou
+    candidates = _false_positives(similarity, gt_hit, preds, loc_iou, other > threshold)
     _one_loc_a_lane(candidates, preds)
     truth = ["TP" if gt_hit[g] else ("Loc" if g in candidates else "Miss") for g in range(n_gt)]
     return preds, truth
 
 
-def _false_positives(similarity: np.ndarray, gt_hit: list[bool], preds: list[str],
-                     loc_iou: float) -> dict[int, list[tuple[float, int]]]:
-    """Bkg and Dupe given to the unmatched predictions of `preds` by their highest-IoU lane; the
-    others, found off an unmatched lane, returned by lane as (IoU, prediction)."""
+def _false_positives(similarity: np.ndarray, gt_hit: list[bool], preds: list[str], loc_iou: float,
+                     other_category: np.ndarray) -> dict[int, list[tuple[float, int]]]:
+    """Cat (where `other_category` says a lane of another category would match), Bkg and Dupe
+    given to the unmatched predictions of `preds`, by their highest-IoU lane; the others, found
+    off an unmatched lane, returned by lane as (IoU, prediction)."""
     candidates: dict[int, list[tuple[float, int]]] = {}
     for p in (p for p in range(len(preds)) if not preds[p]):
         g, iou = _highest_iou_lane(similarity[:, p])
-        if g < 0 or not iou >= loc_iou:
+        if other_category[p]:
+            preds[p] = "Cat"
+        elif g < 0 or not iou >= loc_iou:
             preds[p] = "Bkg"
         elif gt_hit[g]:
             preds[p] = "Dupe"
@@ -251,6 +253,41 @@ class FrameDiagnoses:
                    np.concatenate([p.tp for p in pieces], axis=1), np.concatenate([p.errors for p in pieces], axis=1),
                    _joined([p.sweep_tp for p in pieces]) if swept else None,
                    _joined([p.sweep_kept for p in pieces]) if swept else None)
+
+
+class DiagnosisCollector:
+    """A chunk's per-frame error types (and score sweeps) as a scorer meets its frames, method by
+    method: nothing is computed without settings (no --diagnose, no --score-sweep)."""
+
+    def __init__(self, settings: DiagnosisSettings | None, n_methods: int):
+        self.settings = settings
+        self.errors: list[list[FrameErrors]] = [[] for _ in range(n_methods)]
+        self.swept: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in range(n_methods)]
+
+    def add(self, m: int, similarity: Callable[[], np.ndarray], scores: Callable[[], Sequence[float]] | None = None,
+            match: np.ndarray | None = None, other_iou: np.ndarray | None = None) -> FrameErrors | None:
+        """Method m's next frame from its (ground truth, predictions) IoUs, asked for only here, and
+        its lanes' scores where a sweep needs them; the frame's FrameErrors (None without settings)."""
+        settings = self.settings
+        if settings is None:
+            return None
+        matrix = similarity()
+        errors = frame_errors(matrix, settings.limits, settings.loc_iou, match, other_iou)
+        self.errors[m].append(errors)
+        if settings.sweep is not None and scores is not None:
+            self.swept[m].append(swept_frame(matrix, np.array(scores(), np.float64), settings.sweep, settings.limits))
+        return errors
+
+    def result(self, frames: Sequence[str]) -> FrameDiagnoses | None:
+        if self.settings is None:
+            return None
+        swept = self.swept if self.settings.sweep is not None and all(self.swept) else None
+        return FrameDiagnoses.of_frames(frames, self.errors, self.settings.limits, swept)
+
+
+def kernel_groups(groups: tuple[str, ...], settings: DiagnosisSettings | None) -> tuple[str, ...]:
+    """A scorer's kernel groups, and the diagnosis' when it diagnoses."""
+    return groups if settings is None else groups + ("diagnosis",)
 
 
 def _joined(arrays: Sequence[np.ndarray | None]) -> np.ndarray:

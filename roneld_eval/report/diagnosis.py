@@ -79,8 +79,10 @@ def _table(columns: Sequence[str], rows: Sequence[tuple], keep_matching: bool) -
     return PlainTable(tuple(columns[:1]) + tuple(columns[2:]), tuple(row[:1] + row[2:] for row in rows))
 
 
-def write_diagnosis(staging: Staging, diagnosed: Diagnosed, shown: Sequence[str]) -> None:
-    """The files of `diagnosed`, their tables at the thresholds `shown` in errors.md."""
+def write_diagnosis(staging: Staging, diagnosed: Diagnosed | None, shown: Sequence[str]) -> None:
+    """The files of `diagnosed` (none without it), their tables at the thresholds `shown` in errors.md."""
+    if diagnosed is None:
+        return
     if diagnosed.errors:
         rows = diagnosed.error_rows()
         staging.write_text("errors.csv", _table(ERROR_CSV_COLUMNS, rows, diagnosed.matched_two_ways).to_csv())

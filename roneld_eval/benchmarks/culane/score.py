@@ -16,7 +16,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from functools import cached_property
+from functools import cached_property, partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterator
 
@@ -28,7 +28,7 @@ from ...thresholds import Thresholds, parse_thresholds
 from .reader import read_culane
 from .reader import labels_path, read_frame_labels
 from ...errors import ConfigError, InputError
-from ...lanes_io import SCORES_SUFFIX, check_coordinates, read_lane_scores, read_lines_txt
+from ...lanes_io import check_coordinates, read_lane_scores, read_lines_txt, scores_path
 from ...metrics.lane_iou_f1 import (
     OFFICIAL_COLUMNS,
     FrameMatches,
@@ -40,8 +40,8 @@ from ...metrics.lane_iou_f1 import (
     official_masks,
     summary_records,
 )
-from ...metrics.lane_errors import (DiagnosisSettings, FrameDiagnoses, FrameErrors, diagnosis_settings, frame_errors,
-                                    swept_frame)
+from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, FrameErrors,
+                                    diagnosis_settings, kernel_groups)
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...output import OutputFolder
 from ...report.tables import Table
@@ -139,8 +139,7 @@ def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns |
     n_pred = np.zeros((len(pred_roots), len(relpaths)), np.int64)
     ious: list[list[np.ndarray]] = [[] for _ in pred_roots]
     drawn: list[tuple[int, MaskSet | None]] = []
-    diagnosed: list[list] = [[] for _ in pred_roots]
-    swept: list[list] = [[] for _ in pred_roots]
+    diagnosed = DiagnosisCollector(diagnosis, len(pred_roots))
     for k, relpath in enumerate(relpaths):
         gt_masks: MaskSet | None
         if cached is not None:
@@ -155,43 +154,16 @@ def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns |
             path = labels_path(pred_root, relpath)
             predictions = read_lines_txt(path)
             check_coordinates(predictions, path)
-            result: FrameMatches | FrameErrors
-            if diagnosis is None:
+            result: FrameMatches | FrameErrors | None = diagnosed.add(
+                m, partial(frame_similarity, int(n_gt[k]), gt_masks, predictions, width, height, lane_width),
+                partial(read_lane_scores, scores_path(path), len(predictions)))
+            if result is None:
                 result = frame_result(int(n_gt[k]), gt_masks, predictions, width, height, lane_width)
-            else:
-                result = _diagnosed_frame(int(n_gt[k]), gt_masks, predictions, path, (width, height, lane_width),
-                                          diagnosis, diagnosed[m], swept[m])
             n_pred[m, k] = result.n_pred
             ious[m].append(result.matched_iou)
     matched = np.array([np.concatenate(parts) if parts else np.zeros(0) for parts in ious], np.float64)
     kept = truth_cache.from_frames(drawn) if keep_truth and cached is None else None
-    return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum())), kept, _chunk_diagnoses(
-        relpaths, diagnosis, diagnosed, swept)
-
-
-def _chunk_diagnoses(relpaths: list[str], diagnosis: DiagnosisSettings | None, diagnosed: list[list],
-                     swept: list[list]) -> FrameDiagnoses | None:
-    if diagnosis is None:
-        return None
-    return FrameDiagnoses.of_frames(relpaths, diagnosed, diagnosis.limits, swept if diagnosis.sweep else None)
-
-
-def _diagnosed_frame(n_gt: int, gt_masks: MaskSet | None, predictions, path: Path, size: tuple[int, int, int],
-                     diagnosis: DiagnosisSettings, diagnosed: list, swept: list) -> FrameErrors:
-    """A method's frame scored with its error types (appended to `diagnosed`) and, with a score
-    sweep, its true positives at each score threshold (appended to `swept`)."""
-    similarity = frame_similarity(n_gt, gt_masks, predictions, *size)
-    errors = frame_errors(similarity, diagnosis.limits, diagnosis.loc_iou)
-    diagnosed.append(errors)
-    if diagnosis.sweep is not None:
-        scores = read_lane_scores(score_path(path), len(predictions))
-        swept.append(swept_frame(similarity, np.array(scores, np.float64), diagnosis.sweep, diagnosis.limits))
-    return errors
-
-
-def score_path(lines_path: Path) -> Path:
-    """The `.scores.txt` beside a `.lines.txt`."""
-    return lines_path.with_name(lines_path.name[:-len(".lines.txt")] + SCORES_SUFFIX)
+    return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum())), kept, diagnosed.result(relpaths)
 
 
 def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds, tuple[str, ...]]:
@@ -300,7 +272,7 @@ def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int
         workers = 1
     from ... import kernels
 
-    needed = ("official",) if diagnosis is None else ("official", "diagnosis")
+    needed = kernel_groups(("official",), diagnosis)
     kernels.prepare(announce=announce, needed=needed)  # once here, not in every worker
     if workers == 1:
         kernels.warm_up(needed)  # loaded here in one go (start-up: see kernels.warm_up), not frame by frame
@@ -403,8 +375,7 @@ def write_culane_score(folder: OutputFolder, score: CulaneScore, width: int) -> 
                                                       score.thresholds.labels, table.columns[2:-1], best))
         plot_sweep(table, staging.file("sweep.png"), f"CULane, all frames: {len(score.trees)} methods, "
                                                       f"IoU {grid_text(score.thresholds)}")
-    if score.diagnosed is not None:
-        write_diagnosis(staging, score.diagnosed, score.highlighted)
+    write_diagnosis(staging, score.diagnosed, score.highlighted)
     folder.commit()
 
 

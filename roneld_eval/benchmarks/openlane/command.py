@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots, width
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
 
 
 def _matchings(values: dict[str, Any]) -> dict[str, Any]:
@@ -21,6 +21,11 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     echo(f"{score.n_frames:,} images, {len(score.methods)} method{'s' if len(score.methods) > 1 else ''}, "
          f"width {values['width']}")
     echo(summary_table(score))
+    if score.diagnosed is not None:
+        from ...report.diagnosis import console_lines
+
+        for line in console_lines(score.diagnosed, score.thresholds.labels[0]):
+            echo(line)
 
 
 COMMAND = ScoreCommand(
@@ -38,6 +43,7 @@ COMMAND = ScoreCommand(
         width("Lane width in pixels."),
         Option("--any-category", "Only the matching that ignores categories (the evaluator's -k); default: both.",
                name="any_only", kind="flag"),
+        *diagnosis(),
         *closing_options("Stop when any listed image has no prediction file (default: no lanes).",
                          "Folder for official.csv and summary.md.", "segments"),
     ),

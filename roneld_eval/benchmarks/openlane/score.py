@@ -9,7 +9,8 @@ matching: metrics.lane_iou_f1), on a 1920x1280 canvas, lanes 30 px wide.
 from __future__ import annotations
 
 import posixpath
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
@@ -20,7 +21,10 @@ from ...config import check_lane_width
 from ...thresholds import Thresholds, parse_thresholds
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, OpenLaneLanes, every_labelled_frame, json_path, read_lanes, read_list
 from ...errors import ConfigError
+from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, category_iou,
+                                    diagnosis_settings, kernel_groups)
 from ...metrics.lane_iou_f1 import f_measure, matched_result, official_masks
+from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...output import Staging
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 from ...shards import Merged, Sharding
@@ -40,19 +44,46 @@ class OpenLaneScore:
     modes: tuple[str, ...]
     n_frames: int
     warnings: tuple[str, ...] = ()
+    diagnosed: Diagnosed | None = None  # --diagnose: error types and every frame's counts
 
 
-def _score_frames(args) -> np.ndarray:
-    """(methods, modes, thresholds, 3): TP, FP, FN of one chunk of frames."""
-    relpaths, labels, pred_roots, width, height, lane_width, modes, thresholds = args
+def _score_frames(args) -> np.ndarray | tuple[np.ndarray, FrameDiagnoses | None]:
+    """(methods, modes, thresholds, 3): TP, FP, FN of one chunk of frames; with `diagnosis`, and
+    the frames' error types (their method axis: each method's modes in turn)."""
+    relpaths, labels, pred_roots, width, height, lane_width, modes, thresholds, diagnosis = args
     counts = np.zeros((len(pred_roots), len(modes), len(thresholds), 3), np.int64)
     categories_needed = MODES[0] in modes
+    diagnosed = DiagnosisCollector(diagnosis, len(pred_roots) * len(modes))  # each method's modes in turn
     for relpath in relpaths:
         truth = read_lanes(json_path(labels, relpath), categories_needed)
         gt_masks = official_masks(truth.lanes, width, height, lane_width) if truth.lanes else None
         for m, root in enumerate(pred_roots):
             predicted = read_lanes(json_path(root, relpath), categories_needed)
-            counts[m] += frame_counts(truth, gt_masks, predicted, (width, height, lane_width), modes, thresholds)
+            if diagnosis is None:
+                counts[m] += frame_counts(truth, gt_masks, predicted, (width, height, lane_width), modes, thresholds)
+            else:
+                counts[m] += _diagnosed_frame(truth, gt_masks, predicted, (width, height, lane_width), modes,
+                                              thresholds, diagnosed, m)
+    return counts if diagnosis is None else (counts, diagnosed.result(relpaths))
+
+
+def _diagnosed_frame(truth: OpenLaneLanes, gt_masks, predicted: OpenLaneLanes, size: tuple[int, int, int],
+                     modes: tuple[str, ...], thresholds, diagnosed: DiagnosisCollector, m: int) -> np.ndarray:
+    """frame_counts of a frame whose error types `diagnosed` collects in each mode (entry m x
+    modes + k): within categories, a false positive that would match a lane of another category
+    is a Cat error."""
+    similarity = (gt_masks.ious(official_masks(predicted.lanes, *size)) if truth.lanes and predicted.lanes
+                  else np.zeros((len(truth.lanes), len(predicted.lanes))))
+    counts = np.zeros((len(modes), len(thresholds), 3), np.int64)
+    for k, mode in enumerate(modes):
+        matrix, other = similarity, None
+        if mode == MODES[0]:
+            same = np.equal.outer(np.array(truth.categories), np.array(predicted.categories)).reshape(similarity.shape)
+            matrix, other = category_iou(similarity, same)
+        errors = diagnosed.add(m * len(modes) + k, partial(np.asarray, matrix), other_iou=other)
+        assert errors is not None
+        tp = np.count_nonzero(errors.matched_iou[None, :] > np.asarray(thresholds)[:, None], axis=1)
+        counts[k] = np.stack([tp, errors.n_pred - tp, errors.n_gt - tp], axis=1)
     return counts
 
 
@@ -83,10 +114,14 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                    iou: str | None = None, width: int = LANE_WIDTH, modes: tuple[str, ...] = MODES,
                    out: str | Path | None = None, workers: int | None = None, progress: bool = False,
                    announce: Callable[[str], None] | None = None, strict: bool = False, shard: str | None = None,
-                   merged: Merged | None = None) -> OpenLaneScore | None:
+                   merged: Merged | None = None, diagnose: bool = False,
+                   loc_iou: float | None = None) -> OpenLaneScore | None:
     """Score OpenLane JSON predictions mirroring `labels` (`<segment>/<frame>.json`). With `shard`
-    ('I/N'), only that share of the segments, written as a part to `out` (None is returned)."""
+    ('I/N'), only that share of the segments, written as a part to `out` (None is returned).
+    `diagnose`: also the error types (errors.csv, .md, .png; Cat within categories) and every
+    frame's counts (frames.csv.gz), as `score culane --diagnose` gives them."""
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
+    diagnosis = diagnosis_settings(diagnose, loc_iou, None, thresholds.values, sharded=shard is not None)
     check_lane_width(width)
     modes = tuple(modes)
     if not modes or any(mode not in MODES for mode in modes) or len(set(modes)) != len(modes):
@@ -112,10 +147,12 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
             roots = tuple(tree.root for tree in trees)
             scored = sharding.share(relpaths, posixpath.dirname)  # a segment is a clip
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
-            tasks = [(chunk, labels, roots, IMAGE_WIDTH, IMAGE_HEIGHT, width, modes, thresholds.values)
+            tasks = [(chunk, labels, roots, IMAGE_WIDTH, IMAGE_HEIGHT, width, modes, thresholds.values, diagnosis)
                      for chunk in chunks]
-            counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, trees=trees),
-                         np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
+            pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, trees=trees,
+                                   kernel_groups=kernel_groups(("official",), diagnosis))
+            pieces, diagnosed = _split(pieces, diagnosis)
+            counts = sum(pieces, np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
                 sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
@@ -129,12 +166,35 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                     rows.append((tree.method, mode, label, tp, fp, fn, *f_measure(tp, fp, fn)))
         score = OpenLaneScore(PlainTable(COLUMNS, tuple(rows)), thresholds, tuple(t.method for t in trees), modes,
                               len(relpaths), tuple(warnings))
+        score = _diagnosed(score, diagnosed, width, diagnosis)
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
             staging.write_text("summary.md", summary_markdown(score, width))
+            write_diagnosis(staging, score.diagnosed, score.thresholds.labels[:1])
             folder.commit()
     return score
+
+
+def _split(pieces: list, diagnosis: DiagnosisSettings | None) -> tuple[list, FrameDiagnoses | None]:
+    """(the chunks' counts, their diagnoses joined) from _score_frames' results."""
+    if diagnosis is None:
+        return pieces, None
+    return [piece[0] for piece in pieces], FrameDiagnoses.joined([piece[1] for piece in pieces])
+
+
+def _diagnosed(score: OpenLaneScore, diagnoses: FrameDiagnoses | None, width: int,
+               diagnosis: DiagnosisSettings | None) -> OpenLaneScore:
+    """The score with its diagnosis: every frame in one group (`all`), its segment as its
+    sequence; each method's matchings."""
+    if diagnosis is None or diagnoses is None:
+        return score
+    entries = tuple((method, mode) for method in score.methods for mode in score.modes)
+    return replace(score, diagnosed=Diagnosed(
+        diagnoses, entries, (("all", np.ones(len(diagnoses.frames), bool)),), score.thresholds.labels,
+        diagnosis.loc_iou, lambda frame: (posixpath.dirname(frame), ""),
+        f"OpenLane 2D, lane2d's IoU F1 ({width} px at {IMAGE_WIDTH}x{IMAGE_HEIGHT})", errors=diagnosis.errors,
+        with_categories=MODES[0] in score.modes))
 
 
 def summary_table(score: OpenLaneScore) -> str:

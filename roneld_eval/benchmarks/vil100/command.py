@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots, width
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
 
 
 def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
@@ -15,6 +15,11 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     echo(summary_table(score))
     if any(version == "rvld" for _, version in score.acc_overall):
         echo(RVLD_ACC_NOTE)
+    if score.diagnosed is not None:
+        from ...report.diagnosis import console_lines
+
+        for line in console_lines(score.diagnosed, score.thresholds.labels[0]):
+            echo(line)
 
 
 COMMAND = ScoreCommand(
@@ -43,6 +48,8 @@ COMMAND = ScoreCommand(
               "temporal metrics draw 30 px, as RVLD's script."),
         Option("--temporal/--no-temporal", "Also RVLD's temporal metrics Rs, Rj, Rm (evaluate_temporal.py), each "
                                            "threshold as tau.", default=True, show_default=True),
+        *diagnosis("a lane is kept when its score in <frame>.scores.txt is at least the threshold; 1.0 without the "
+                   "file"),
         *closing_options("Stop when any listed frame has no prediction or ground-truth file (default: no lanes, "
                          "a warning).",
                          "Folder for official.csv (every method, sequence, scenario and threshold), temporal.csv and "

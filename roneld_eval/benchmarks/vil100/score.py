@@ -7,9 +7,10 @@ threshold). Sequences are scored at their own size, in parallel.
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -21,8 +22,11 @@ from ...datasets._paths import under_root
 from ...errors import ConfigError, InputError
 from ...metrics.line_masks import LaneMask
 from ...model import Lane, image_stem
-from ...lanes_io import check_coordinates, check_inside_image, read_lines_txt
-from ...metrics.lane_iou_f1 import FrameMatches, match_frame, f_measure, official_masks
+from ...lanes_io import check_coordinates, check_inside_image, read_lane_scores, read_lines_txt, scores_path
+from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_settings,
+                                    kernel_groups)
+from ...metrics.lane_iou_f1 import FrameMatches, frame_similarity, match_frame, f_measure, official_masks
+from ...report.diagnosis import Diagnosed, write_diagnosis
 from .acc import AccFrame, mmanet_frame, rvld_frame
 from .acc import means as acc_means
 from .official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
@@ -56,6 +60,7 @@ class Vil100Score:
     acc_rows: PlainTable | None = None  # Acc/FP/FN per sequence, scenario and all, in both versions
     acc_overall: dict = field(default_factory=dict)  # (method, version) -> AccMeans; MMA-Net's needs masks
     warnings: tuple[str, ...] = ()
+    diagnosed: Diagnosed | None = None  # --diagnose, --score-sweep: error types, frames, score sweep
 
 
 @dataclass
@@ -73,6 +78,7 @@ class ScoredSequence:
     # masks of another size than the sequence's (the script reads them at their own)
     truth_outside: list[str] = field(default_factory=list)
     odd_masks: list[list[str]] = field(default_factory=list)
+    diagnoses: FrameDiagnoses | None = None  # --diagnose, --score-sweep
 
 
 @dataclass(frozen=True)
@@ -192,9 +198,10 @@ def frame_outcome(truth: FrameTruth, predictions: Sequence[Lane], width: int, he
 
 
 def _score_sequence(args) -> ScoredSequence:
-    relpaths, labels, pred_roots, width, height, lane_width, temporal, pred_format = args
+    relpaths, labels, pred_roots, width, height, lane_width, temporal, pred_format, diagnosis = args
     out = ScoredSequence([[] for _ in pred_roots], [], [[] for _ in pred_roots], [[] for _ in pred_roots], [],
                          [[] for _ in pred_roots])
+    diagnosed = DiagnosisCollector(diagnosis, len(pred_roots))
     previous: list | None = None
     for relpath in relpaths:
         label = frame_truth(labels, relpath, width, height, lane_width, temporal)
@@ -215,6 +222,10 @@ def _score_sequence(args) -> ScoredSequence:
             out.acc[m].append((outcome.acc, mmanet))
             if temporal:
                 out.assigned[m].append(outcome.assigned)
+            scores = scores_path(_prediction_path(root, relpath, "lines"))
+            diagnosed.add(m, partial(frame_similarity, len(truth), label.masks, list(predictions), width, height,
+                                     lane_width), partial(read_lane_scores, scores, len(predictions)))
+    out.diagnoses = diagnosed.result(relpaths)
     return out
 
 
@@ -224,7 +235,8 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                  out: str | Path | None = None, workers: int | None = None, progress: bool = False,
                  announce: Callable[[str], None] | None = None, strict: bool = False,
                  temporal: bool = True, pred_format: str = "lines", shard: str | None = None,
-                 merged: Merged | None = None) -> Vil100Score | None:
+                 merged: Merged | None = None, diagnose: bool = False, loc_iou: float | None = None,
+                 score_sweep: str | None = None) -> Vil100Score | None:
     """Score `.lines.txt` predictions mirroring `labels` (`<sequence>/<frame>.lines.txt`).
 
     Sizes come from exactly one of `image_root`, `json_root` and `sizes_file`. `iou`: one
@@ -233,10 +245,12 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
     instance masks `<sequence>/<frame>.png`, converted as its generate_iou_pred_txt.py converts
     them). `out` gets official.csv, temporal.csv, summary.csv and summary.md. With `shard`
     ('I/N'), only that share of the sequences, written as a part to `out` (None is returned).
+    `diagnose` and `score_sweep`: as `score culane` takes them (scores from `.scores.txt` files).
     """
     if pred_format not in PRED_FORMATS:
         raise ConfigError(f"prediction format must be one of {', '.join(PRED_FORMATS)}, got {pred_format!r}")
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
+    diagnosis = _diagnosis(diagnose, loc_iou, score_sweep, thresholds, shard, pred_format)
     check_lane_width(width)
     sharding = Sharding("score vil100", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, list_file=list_file, image_root=image_root, json_root=json_root,
@@ -262,6 +276,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         def files_of(m: int, relpath: str) -> tuple[Path]:
             return (_prediction_path(trees[m].root, relpath, pred_format),)
 
+        diagnoses: FrameDiagnoses | None = None
         if merged is not None:
             sharding.check_merged(relpaths, trees, label_files, _sequence_of, sizes, files_of=files_of)
             totals = _merged_totals(sharding, dataset, len(trees), len(thresholds.values), len(versions))
@@ -270,13 +285,14 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             roots = tuple(tree.root for tree in trees)
             names = [name for name, frames in dataset.sequences.items() if frames[0] in share]
             tasks = [(dataset.sequences[name], dataset.labels, roots, *dataset.sizes[name], width, temporal,
-                      pred_format) for name in names]
+                      pred_format, diagnosis) for name in names]
             # instance masks are mostly decoded by the PNG maps' kernel (maps.vil100_png)
-            groups = ("official", "maps") if pred_format == "png" else ("official",)
+            groups = kernel_groups(("official", "maps") if pred_format == "png" else ("official",), diagnosis)
             scored = scored_pieces(_score_sequence, tasks, workers, progress, announce, kernel_groups=groups,
                                    trees=trees)
             totals = [sequence_totals(piece, dataset.sequences[name], thresholds, temporal, versions)
                       for name, piece in zip(names, scored)]
+            diagnoses = _joined_diagnoses(scored)
             if sharding.shard is not None:
                 assert folder is not None
                 sharding.write_part(folder, relpaths, trees, label_files,
@@ -295,6 +311,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                             PlainTable(TEMPORAL_COLUMNS, tuple(temporal_table)) if temporal else None,
                             thresholds, methods, len(relpaths), len(dataset.sequences), overall, temporal_overall,
                             PlainTable(ACC_COLUMNS, tuple(acc_table)), acc_overall, tuple(warnings))
+        score = _diagnosed(score, diagnoses, width, diagnosis)
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
@@ -304,8 +321,43 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             staging.write_text("acc.csv", score.acc_rows.to_csv())
             staging.write_text("summary.csv", summary_rows(score).to_csv())
             staging.write_text("summary.md", summary_markdown(score, width))
+            write_diagnosis(staging, score.diagnosed, score.thresholds.labels)
             folder.commit()
     return score
+
+
+def _diagnosis(diagnose: bool, loc_iou: float | None, score_sweep: str | None, thresholds: Thresholds,
+               shard: str | None, pred_format: str) -> DiagnosisSettings | None:
+    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, thresholds.values, sharded=shard is not None)
+    if diagnosis is not None and pred_format != "lines":
+        raise ConfigError("--diagnose and --score-sweep read lane files: give them with --pred-format lines")
+    return diagnosis
+
+
+def _joined_diagnoses(scored: Sequence[ScoredSequence]) -> FrameDiagnoses | None:
+    pieces = [piece.diagnoses for piece in scored if piece.diagnoses is not None]
+    return FrameDiagnoses.joined(pieces) if pieces else None
+
+
+def _diagnosed(score: Vil100Score, diagnoses: FrameDiagnoses | None, width: int,
+               diagnosis: DiagnosisSettings | None) -> Vil100Score:
+    """The score with its diagnosis: frames grouped by scenario (each sequence's, from its name;
+    those with frames) then all, as official.csv groups them; a frame's category names every
+    scenario of its sequence."""
+    if diagnosis is None or diagnoses is None:
+        return score
+    codes = [scenarios_of(_sequence_of(frame)) for frame in diagnoses.frames]
+    groups = [(scenario, np.array([code in found for found in codes], bool)) for code, scenario in enumerate(SCENARIOS)]
+    groups = [(name, inside) for name, inside in groups if inside.any()] + [("all", np.ones(len(codes), bool))]
+
+    def facts(frame: str) -> tuple[str, str]:
+        sequence = _sequence_of(frame)
+        return sequence, "|".join(SCENARIOS[code] for code in scenarios_of(sequence) if code < len(SCENARIOS))
+
+    return replace(score, diagnosed=Diagnosed(
+        diagnoses, tuple((method, "") for method in score.methods), tuple(groups), score.thresholds.labels,
+        diagnosis.loc_iou, facts, f"VIL-100, MMA-Net's lane IoU F1 ({width} px at each sequence's size)",
+        diagnosis.sweep, diagnosis.errors))
 
 
 def _sequence_of(relpath: str) -> str:
