@@ -146,6 +146,8 @@ SCORED = {  # synth's folder -> the score command's inputs, and whether predicti
                           f"det={s / 'maps'}"], ["--maps-format", "lanes"], True),
     "openlane": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}", "--iou", "0.3,0.5"],
                  [], False),
+    "llamas": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}"], ["--maps-format", "lanes"],
+               False),
 }
 
 

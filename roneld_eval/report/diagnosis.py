@@ -95,6 +95,11 @@ def write_diagnosis(staging: Staging, diagnosed: Diagnosed | None, shown: Sequen
         sweep_figure(diagnosed, swept, shown[0], staging.file("sweep_scores.png"))
 
 
+def headline_thresholds(labels: Sequence[str]) -> list[str]:
+    """The thresholds errors.md shows of a grid: those papers print (0.50, 0.75), else the first."""
+    return [label for label in labels if label in ("0.50", "0.75")] or list(labels[:1])
+
+
 Summed = dict[tuple[str, str, str, str], dict[tuple[str, str], tuple[int, float]]]
 
 

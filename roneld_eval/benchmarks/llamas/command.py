@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots, width
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
 
 
 def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
@@ -13,6 +13,12 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     echo(f"{score.n_frames:,} labels, {len(score.methods)} method{'s' if len(score.methods) > 1 else ''}"
          + (f", width {values['width']}" if score.mf1s else ""))
     echo(summary_table(score).to_markdown(), nl=False)
+    if score.diagnosed is not None:
+        from ...report.diagnosis import console_lines
+
+        echo("")
+        for line in console_lines(score.diagnosed, score.thresholds.labels[0]):
+            echo(line)
 
 
 COMMAND = ScoreCommand(
@@ -33,6 +39,7 @@ COMMAND = ScoreCommand(
         Option("--iou", "IoU thresholds, scored in one pass. Default: 0.50:0.95:0.05 (F1@0.5, F1@0.75 and mF1).",
                metavar="T,T|START:STOP:STEP"),
         width("Lane width in pixels (evaluate.py's --width)."),
+        *diagnosis(),
         *closing_options("Stop when any label has no prediction file (default: no lanes).",
                          "Folder for official.csv, summary.csv and summary.md.", "recordings"),
     ),

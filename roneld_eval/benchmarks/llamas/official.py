@@ -80,6 +80,18 @@ def matched_ious(ious: np.ndarray) -> np.ndarray:
     return ious[rows, columns]
 
 
+def matched_lanes(ious: np.ndarray) -> np.ndarray:
+    """matched_ious' assignment as each ground-truth lane's prediction (-1 for none), from the same
+    (predicted, truth) IoUs: what the lane error types need (metrics.lane_errors)."""
+    from scipy.optimize import linear_sum_assignment
+
+    match = np.full(ious.shape[1], -1, np.int64)
+    if 0 not in ious.shape:
+        rows, columns = linear_sum_assignment(1 - ious)
+        match[columns] = rows
+    return match
+
+
 def counts_at(matched: np.ndarray, n_pred: int, n_gt: int, thresholds: Sequence[float]) -> np.ndarray:
     """(thresholds, 3): TP, FP, FN at each threshold, a TP an assigned pair with IoU > it."""
     out = np.zeros((len(thresholds), 3), np.int64)

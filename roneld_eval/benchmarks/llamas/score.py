@@ -12,7 +12,8 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
@@ -24,10 +25,13 @@ from .reader import (IMAGE_HEIGHT, IMAGE_WIDTH, every_label, label_of, map_path,
 from ...errors import ConfigError, InputError
 from ...lanes_io import check_coordinates, read_lines_txt
 from ...maps.scnn_png import read_grey_png
-from .official import f1_of, frame_counts, interpolated, lane_mask
+from .official import f1_of, frame_counts, interpolated, iou_matrix, lane_mask, matched_lanes
 from .segmentation import CLASSES, IMAGE_HEIGHT as MAP_HEIGHT, IMAGE_WIDTH as MAP_WIDTH, approx_auc
 from .segmentation import class_masks, mean_curves, ClassCurve
+from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_settings,
+                                    kernel_groups)
 from ...output import Staging
+from ...report.diagnosis import Diagnosed, headline_thresholds, write_diagnosis
 from ...report.tables import Table
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
 from ...shards import Merged, Sharding
@@ -53,6 +57,7 @@ class LlamasScore:
     # method -> per class l1, l0, r0, r1 the mean ClassCurve (recall, precision, threshold, AUC) of
     # its probability maps, as evaluate_segmentation.py prints them; methods given maps only
     segmentation: dict = dataclasses.field(default_factory=dict)
+    diagnosed: Diagnosed | None = None  # --diagnose: the lane files' error types and every frame's counts
 
     def ap(self, method: str, name: str) -> float:
         """AP of a class (l1, l0, r0, r1), or 'mean' over the four; NaN for a method without maps."""
@@ -124,10 +129,11 @@ def truth_masks(label, width: int) -> list:
 
 
 def _score_frames(args):
-    keys, labels, pred_roots, thresholds, width, map_roots = args
+    keys, labels, pred_roots, thresholds, width, map_roots, diagnosis = args
     counts = np.zeros((len(pred_roots), len(thresholds), 3), np.int64)
     dropped, refused = 0, np.zeros(len(pred_roots), np.int64)
     curves: list[list[list[ClassCurve]]] = [[] for _ in map_roots]  # per method, per frame, per class
+    diagnosed = DiagnosisCollector(diagnosis, len(pred_roots))
     for key in keys:
         record = read_record(labels[key])
         if pred_roots:
@@ -138,11 +144,19 @@ def _score_frames(args):
                 predicted, stopped = _predicted(prediction_path(root, key), width)
                 refused[m] += stopped
                 counts[m] += frame_counts(truth, predicted, thresholds)
+                _diagnose(diagnosed, m, truth, predicted)
         if map_roots:
             masks = _segmentation_label(record, labels[key])
             for m, root in enumerate(map_roots):
                 curves[m].append(_class_curves(root, key, masks))
-    return counts, dropped, refused, curves
+    return counts, dropped, refused, curves, diagnosed.result(keys if pred_roots else [])
+
+
+def _diagnose(diagnosed: DiagnosisCollector, m: int, truth: list, predicted: list) -> None:
+    """A frame's error types under evaluate.py's own assignment (linear_sum_assignment)."""
+    if diagnosed.settings is not None:
+        ious = iou_matrix(predicted, truth)
+        diagnosed.add(m, partial(np.transpose, ious), match=matched_lanes(ious))
 
 
 def _recording(key: str) -> str:
@@ -153,12 +167,15 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                  width: int = LANE_WIDTH, out: str | Path | None = None, workers: int | None = None,
                  progress: bool = False, announce: Callable[[str], None] | None = None, strict: bool = False,
                  maps: PredictionRoots = (), shard: str | None = None,
-                 merged: Merged | None = None) -> LlamasScore | None:
+                 merged: Merged | None = None, diagnose: bool = False,
+                 loc_iou: float | None = None) -> LlamasScore | None:
     """Score `.lines.txt` predictions (`<recording>/<frame>.lines.txt`, `pred_root`) for F1 and
     probability maps (`<recording>/<frame>.json_<c>.png`, `maps`) for AP against every label below
     `labels` (one split's folder of `<recording>/<frame>.json`). With `shard` ('I/N'), only that
-    share of the recordings, written as a part to `out` (None is returned)."""
+    share of the recordings, written as a part to `out` (None is returned). `diagnose`: the lane
+    files' error types and every frame's counts, as `score culane --diagnose` gives them."""
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
+    diagnosis = _diagnosis(diagnose, loc_iou, thresholds, shard, pred_root)
     check_lane_width(width)
     if not _given(pred_root) and not _given(maps):
         raise ConfigError("nothing to score: give --pred-root (lane files, for F1) or --maps (probability "
@@ -173,6 +190,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
         map_trees = _map_trees(maps, keys, announce) if _given(maps) else []
         scored_at = tuple(thresholds.values) + MF1_THRESHOLDS
         files_of = _files_of(trees, map_trees)
+        diagnoses: FrameDiagnoses | None = None
         if merged is not None:
             sharding.check_merged(keys, [*trees, *map_trees], list(found.values()), _recording, files_of=files_of)
             counts = sharding.merged_array("sum_counts", (len(trees), len(scored_at), 3))
@@ -185,10 +203,11 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             map_roots = tuple(tree.root for tree in map_trees)
             scored = sharding.share(keys, _recording)
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
-            tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width, map_roots)
+            tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width, map_roots, diagnosis)
                      for chunk in chunks]
-            pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(),
-                                   trees=[*trees, *map_trees])
+            pieces = scored_pieces(_score_frames, tasks, workers, progress, announce,
+                                   kernel_groups=kernel_groups((), diagnosis), trees=[*trees, *map_trees])
+            diagnoses = _joined_diagnoses(pieces)
             counts = sum((piece[0] for piece in pieces), np.zeros((len(trees), len(scored_at), 3), np.int64))
             dropped = int(sum(piece[1] for piece in pieces))
             refused = sum((piece[2] for piece in pieces), np.zeros(len(trees), np.int64))
@@ -230,13 +249,40 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                                 "refuses, where evaluate.py stops: left out")
         score = LlamasScore(PlainTable(COLUMNS + AP_COLUMNS, tuple(rows)), thresholds, methods, len(keys), stopping,
                             mf1s, tuple(warnings), segmentation)
+        score = _diagnosed(score, diagnoses, trees, width, diagnosis)
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
             staging.write_text("summary.csv", summary_rows(score).to_csv())
             staging.write_text("summary.md", summary_markdown(score, width))
+            write_diagnosis(staging, score.diagnosed, headline_thresholds(thresholds.labels))
             folder.commit()
     return score
+
+
+def _diagnosis(diagnose: bool, loc_iou: float | None, thresholds: Thresholds, shard: str | None,
+               pred_root: PredictionRoots) -> DiagnosisSettings | None:
+    diagnosis = diagnosis_settings(diagnose, loc_iou, None, thresholds.values, sharded=shard is not None)
+    if diagnosis is not None and not _given(pred_root):
+        raise ConfigError("--diagnose gives the error types of lane files: give --pred-root (maps are scored for "
+                          "AP, which has no lanes to match)")
+    return diagnosis
+
+
+def _joined_diagnoses(pieces: list) -> FrameDiagnoses | None:
+    found = [piece[4] for piece in pieces if piece[4] is not None]
+    return FrameDiagnoses.joined(found) if found else None
+
+
+def _diagnosed(score: LlamasScore, diagnoses: FrameDiagnoses | None, trees: list, width: int,
+               diagnosis: DiagnosisSettings | None) -> LlamasScore:
+    """The score with its diagnosis: every frame in one group (`all`), its recording as its sequence."""
+    if diagnosis is None or diagnoses is None:
+        return score
+    return replace(score, diagnosed=Diagnosed(
+        diagnoses, tuple((tree.method, "") for tree in trees), (("all", np.ones(len(diagnoses.frames), bool)),),
+        score.thresholds.labels, diagnosis.loc_iou, lambda key: (_recording(key), ""),
+        f"LLAMAS, evaluate.py's lane IoU F1 ({width} px at {IMAGE_WIDTH}x{IMAGE_HEIGHT})", errors=diagnosis.errors))
 
 
 def clrnet_mf1(counts) -> float:
