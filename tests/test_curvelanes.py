@@ -32,7 +32,7 @@ def images(tmp_path_factory) -> Path:
 
 def test_every_image_equals_the_metric(images):
     for relpath in read_list(GOLDEN / "list.txt"):
-        counts = _score_frames(([relpath], GOLDEN / "labels", images, (GOLDEN / "pred",), THRESHOLDS))
+        counts = _score_frames(([relpath], GOLDEN / "labels", images, (GOLDEN / "pred",), THRESHOLDS, None))
         for t, threshold in enumerate(EXPECTED["thresholds"]):
             assert [int(v) for v in counts[0, t]] == EXPECTED["thresholds"][threshold]["frames"][relpath], relpath
 

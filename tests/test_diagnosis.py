@@ -146,6 +146,8 @@ SCORED = {  # synth's folder -> the score command's inputs, and whether predicti
                           f"det={s / 'maps'}"], ["--maps-format", "lanes"], True),
     "openlane": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}", "--iou", "0.3,0.5"],
                  [], False),
+    "curvelanes": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}", "--image-root",
+                              s / "images"], [], True),
     "llamas": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}"], ["--maps-format", "lanes"],
                False),
 }
@@ -172,6 +174,10 @@ def test_every_iou_benchmark_diagnoses_what_its_official_table_counts(benchmark,
     official = pd.read_csv(tmp_path / "diag" / "official.csv", dtype=str, keep_default_na=False)
     if "category" in official:
         official = official[official["category"] == "all"]
+    if "hits" in official:  # CurveLanes: hits, predicted and truth lanes at the fixed score threshold, IoU > 0.5
+        official = official[official["chosen"] == "fixed"].astype({"hits": int, "predicted": int, "truth": int})
+        official = official.assign(threshold="0.5", tp=official["hits"], fp=official["predicted"] - official["hits"],
+                                   fn=official["truth"] - official["hits"])
     keys = ["method", "matching", "threshold"] if "matching" in official else ["method", "threshold"]
     official = official.set_index(keys)[["tp", "fp", "fn"]].astype(int).sort_index()
     frames = pd.read_csv(tmp_path / "diag" / "frames.csv.gz", dtype={"threshold": str, "matching": str},

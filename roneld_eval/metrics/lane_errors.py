@@ -201,14 +201,17 @@ def _highest_iou_lane(ious: np.ndarray) -> tuple[int, float]:
     return g, values[g]
 
 
-def delta_f1(tp: int, fp: int, fn: int, counts: Sequence[int]) -> list[float]:
+Measure = Callable[[int, int, int], tuple[float, float, float]]  # (tp, fp, fn) -> (precision, recall, F1)
+
+
+def delta_f1(tp: int, fp: int, fn: int, counts: Sequence[int], measure: Measure = f_measure) -> list[float]:
     """dF1 of each error type (ERROR_TYPES order) from summed counts: F1 with every error of that
     type fixed, minus F1 as it is (NaN where F1 is undefined either way)."""
-    f1 = f_measure(tp, fp, fn)[2]
+    f1 = measure(tp, fp, fn)[2]
     loc, dupe, cat, bkg, _, miss = (int(c) for c in counts)
     fixed = [(tp + loc, fp - loc, fn - loc), (tp, fp - dupe, fn), (tp, fp - cat, fn), (tp, fp - bkg, fn),
              (tp + loc, fp - loc, fn - loc), (tp, fp, fn - miss)]
-    return [f_measure(*after)[2] - f1 for after in fixed]
+    return [measure(*after)[2] - f1 for after in fixed]
 
 
 @dataclass(frozen=True, eq=False)
@@ -278,6 +281,12 @@ class DiagnosisCollector:
             self.swept[m].append(swept_frame(matrix, np.array(scores(), np.float64), settings.sweep, settings.limits))
         return errors
 
+    def add_swept(self, m: int, true_positives: np.ndarray, kept: np.ndarray) -> None:
+        """Method m's frame at each score threshold where a benchmark counts it itself: (score
+        thresholds, IoU thresholds) true positives and (score thresholds,) predictions kept."""
+        if self.settings is not None and self.settings.sweep is not None:
+            self.swept[m].append((np.asarray(true_positives, np.int64), np.asarray(kept, np.int64)))
+
     def result(self, frames: Sequence[str]) -> FrameDiagnoses | None:
         if self.settings is None:
             return None
@@ -295,7 +304,8 @@ def _joined(arrays: Sequence[np.ndarray | None]) -> np.ndarray:
 
 
 def error_records(diagnoses: FrameDiagnoses, entries: Sequence[tuple[str, str]],
-                  groups: Sequence[tuple[str, np.ndarray]], labels: Sequence[str], types: Sequence[int]) -> list[tuple]:
+                  groups: Sequence[tuple[str, np.ndarray]], labels: Sequence[str], types: Sequence[int],
+                  measure: Measure = f_measure) -> list[tuple]:
     """errors.csv's rows (method, matching, category, threshold, side, type, count, dF1): per entry
     of the method axis (its method and matching), category group (name, frame mask) and
     threshold, the count and dF1 of each error type of `types` (indices into ERROR_TYPES)."""
@@ -308,7 +318,7 @@ def error_records(diagnoses: FrameDiagnoses, entries: Sequence[tuple[str, str]],
             counts = diagnoses.errors[m, inside].sum(axis=0)
             for t, label in enumerate(labels):
                 tp = int(tps[t])
-                deltas = delta_f1(tp, n_pred - tp, n_gt - tp, counts[t].tolist())
+                deltas = delta_f1(tp, n_pred - tp, n_gt - tp, counts[t].tolist(), measure)
                 for k in types:
                     side, kind = ERROR_TYPES[k]
                     rows.append((method, matching, name, label, side, kind, int(counts[t, k]), float(deltas[k])))
@@ -316,7 +326,8 @@ def error_records(diagnoses: FrameDiagnoses, entries: Sequence[tuple[str, str]],
 
 
 def sweep_records(diagnoses: FrameDiagnoses, entries: Sequence[tuple[str, str]],
-                  groups: Sequence[tuple[str, np.ndarray]], labels: Sequence[str], sweep: ScoreSweep) -> list[tuple]:
+                  groups: Sequence[tuple[str, np.ndarray]], labels: Sequence[str], sweep: ScoreSweep,
+                  measure: Measure = f_measure) -> list[tuple]:
     """sweep_scores.csv's rows (method, matching, category, threshold, score_threshold, tp, fp, fn,
     precision, recall, f1, best): per entry, category group and IoU threshold, at each score
     threshold; `best` marks the highest F1 (the lowest score threshold of equal ones), chosen on
@@ -333,7 +344,7 @@ def sweep_records(diagnoses: FrameDiagnoses, entries: Sequence[tuple[str, str]],
                 for c, score in enumerate(sweep.labels):
                     tp, n_pred = int(tps[c, t]), int(kept[c])
                     block.append((method, matching, name, label, score, tp, n_pred - tp, n_gt - tp,
-                                  *f_measure(tp, n_pred - tp, n_gt - tp)))
+                                  *measure(tp, n_pred - tp, n_gt - tp)))
                 f1s = [-np.inf if np.isnan(row[-1]) else row[-1] for row in block]
                 best = int(np.argmax(f1s)) if max(f1s, default=-np.inf) > -np.inf else -1  # the first of equal ones
                 rows += [(*row, c == best) for c, row in enumerate(block)]

@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
-from ..metrics.lane_errors import (CAT, ERROR_COLUMNS, ERROR_TYPES, FrameDiagnoses, ScoreSweep, error_records,
-                                   sweep_records)
+from ..metrics.lane_errors import (CAT, ERROR_COLUMNS, ERROR_TYPES, FrameDiagnoses, Measure, ScoreSweep,
+                                   error_records, sweep_records)
 from ..metrics.lane_iou_f1 import f_measure
 from ..scoring import PlainTable
 
@@ -46,6 +46,7 @@ class Diagnosed:
     sweep: ScoreSweep | None = None
     errors: bool = True  # --diagnose (else only the sweep was asked for)
     with_categories: bool = False  # lanes match within their category: the Cat type is shown
+    measure: Measure = f_measure  # the benchmark's precision, recall and F1 of (tp, fp, fn)
 
     @property
     def types(self) -> tuple[int, ...]:
@@ -62,11 +63,11 @@ class Diagnosed:
         return any(matching for _, matching in self.entries)
 
     def error_rows(self) -> list[tuple]:
-        return error_records(self.diagnoses, self.entries, self.groups, self.labels, self.types)
+        return error_records(self.diagnoses, self.entries, self.groups, self.labels, self.types, self.measure)
 
     def sweep_rows(self) -> list[tuple]:
         assert self.sweep is not None
-        return sweep_records(self.diagnoses, self.entries, self.groups, self.labels, self.sweep)
+        return sweep_records(self.diagnoses, self.entries, self.groups, self.labels, self.sweep, self.measure)
 
     def name(self, method: str, matching: str) -> str:
         return f"{method} ({matching})" if matching else method
@@ -156,7 +157,7 @@ def error_lines(diagnosed: Diagnosed, rows: Sequence[tuple], label: str) -> list
         fp = sum(types[key][0] for key in shown if key[0] == "fp")
         fn = sum(types[key][0] for key in shown if key[0] == "fn")
         tp = _true_positives(diagnosed, (method, matching), category, label)
-        f1 = f_measure(tp, fp, fn)[2]
+        f1 = diagnosed.measure(tp, fp, fn)[2]
         cells = [diagnosed.name(method, matching), category, str(tp), str(fp), str(fn),
                  "" if math.isnan(f1) else f"{100 * f1:.2f}"]
         cells += [str(types[key][0]) for key in shown]

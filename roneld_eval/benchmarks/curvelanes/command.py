@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots
+from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots
 
 
 def _thresholds(value: str | None) -> tuple[float, ...]:
@@ -26,6 +26,11 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     echo("|---|---|---|---|---|---|")
     for row in score.rows.rows:
         echo(f"| {row[0]} | {row[1]:g} | {row[2]} | {100 * row[6]:.2f} | {100 * row[7]:.2f} | {100 * row[8]:.2f} |")
+    if score.diagnosed is not None:
+        from ...report.diagnosis import console_lines
+
+        for line in console_lines(score.diagnosed, score.diagnosed.labels[0]):
+            echo(line)
 
 
 COMMAND = ScoreCommand(
@@ -46,6 +51,8 @@ COMMAND = ScoreCommand(
         Option("--best-of", "Also give the best F1 over these score thresholds, labelled as chosen on the test set. "
                             "Default: vega's list (auto_lane.yml, 0f1d0d0: 0.56, 0.60, 0.63, ..., 0.93); none: only "
                             "the fixed --score-threshold.", metavar="T,T,...", parse=_thresholds),
+        *diagnosis("a lane is kept when its score is above the threshold, one without a score always; the whole "
+                   "curve behind --best-of"),
         *closing_options("Stop when any listed image has no prediction file (default: no lanes).",
                          "Folder for official.csv.", "images"),
     ),

@@ -129,6 +129,18 @@ def hits(matrix: np.ndarray) -> int:
     return sum(1 for r, c in zip(rows, columns) if matrix[r][c] > IOU_THRESHOLD)
 
 
+def matched_lanes(matrix: np.ndarray) -> np.ndarray:
+    """hits' assignment as each ground-truth lane's prediction (-1 for none), from the same
+    (truth, predicted) IoUs: what the lane error types need (metrics.lane_errors)."""
+    from scipy.optimize import linear_sum_assignment
+
+    match = np.full(matrix.shape[0], -1, np.int64)
+    if matrix.size:
+        rows, columns = linear_sum_assignment(1 - np.array(matrix))
+        match[rows] = columns
+    return match
+
+
 def f_measure(hits: int, predicted: int, truth: int) -> tuple[float, float, float]:
     """LaneMetricCore.summary: (precision, recall, F1) with its epsilon guards."""
     precision = hits / (predicted + EPSILON)

@@ -6,7 +6,8 @@ best F1 over it, labelled as chosen on the test set (as vega's summary reports i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -17,8 +18,11 @@ from ...datasets._paths import under_root
 from .reader import (IMAGE_SUFFIXES, SUFFIX, CurveLanesFrame, every_labelled_image, image_size, lanes_path,
                      read_frame, read_list)
 
-from .official import f_measure, has_zero_step, hits, iou_matrix
+from .official import IOU_THRESHOLD, f_measure, has_zero_step, hits, iou_matrix, matched_lanes
+from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_settings,
+                                    kernel_groups)
 from ...output import Staging
+from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 from ...shards import Merged, Sharding
 
@@ -32,6 +36,7 @@ class CurveLanesScore:
     methods: tuple[str, ...]
     n_frames: int
     warnings: tuple[str, ...] = ()
+    diagnosed: Diagnosed | None = None  # --diagnose, --score-sweep: error types, frames, the whole score curve
 
 
 def _zero_step(path: Path, index: int) -> InputError:
@@ -39,18 +44,39 @@ def _zero_step(path: Path, index: int) -> InputError:
                             "there (and its drawing stops on NaN)")
 
 
-def _score_frames(args) -> np.ndarray:
-    """(methods, thresholds, 3): hits, predicted and ground-truth lanes of a chunk of images."""
-    relpaths, labels, images, pred_roots, thresholds = args
+def _score_frames(args) -> np.ndarray | tuple[np.ndarray, FrameDiagnoses | None]:
+    """(methods, thresholds, 3): hits, predicted and ground-truth lanes of a chunk of images; with
+    `diagnosis`, and the images' error types at the first threshold (the fixed one) and their counts
+    at each score threshold of its sweep."""
+    relpaths, labels, images, pred_roots, thresholds, diagnosis = args
     counts = np.zeros((len(pred_roots), len(thresholds), 3), np.int64)
+    diagnosed = DiagnosisCollector(diagnosis, len(pred_roots))
     for relpath in relpaths:
         width, height = image_size(images, relpath)
         path = lanes_path(labels, relpath)
         truth = checked_truth(read_frame(path, True), path, width, height)
         for m, root in enumerate(pred_roots):
             path = lanes_path(root, relpath)
-            counts[m] += frame_counts(truth, read_frame(path, True), path, width, height, thresholds)
-    return counts
+            frame = read_frame(path, True)
+            counts[m] += frame_counts(truth, frame, path, width, height, thresholds)
+            _diagnose(diagnosed, m, truth, frame, path, (width, height), thresholds[0])
+    return counts if diagnosis is None else (counts, diagnosed.result(relpaths))
+
+
+def _diagnose(diagnosed: DiagnosisCollector, m: int, truth: tuple, frame: CurveLanesFrame, path,
+              size: tuple[int, int], score_threshold: float) -> None:
+    """An image's error types among the lanes kept at the fixed score threshold, under the metric's
+    own assignment (linear_sum_assignment); with a sweep, its counts at each of its thresholds."""
+    settings = diagnosed.settings
+    if settings is None:
+        return
+    kept = [k for k, score in enumerate(frame.scores) if score is None or score > score_threshold]
+    matrix = (iou_matrix(truth, [frame.lanes[k] for k in kept], *size) if truth and kept
+              else np.zeros((len(truth), len(kept))))
+    diagnosed.add(m, partial(np.asarray, matrix), match=matched_lanes(matrix))
+    if settings.sweep is not None:
+        swept = frame_counts(truth, frame, path, *size, settings.sweep.limits.tolist())
+        diagnosed.add_swept(m, swept[:, :1], swept[:, 1])
 
 
 def checked_truth(frame: CurveLanesFrame, path, width: int, height: int) -> tuple:
@@ -104,10 +130,16 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
                      best_of: Sequence[float] = (), out: str | Path | None = None, workers: int | None = None,
                      progress: bool = False, announce: Callable[[str], None] | None = None,
                      strict: bool = False, shard: str | None = None,
-                     merged: Merged | None = None) -> CurveLanesScore | None:
+                     merged: Merged | None = None, diagnose: bool = False, loc_iou: float | None = None,
+                     score_sweep: str | None = None) -> CurveLanesScore | None:
     """Score CurveLanes predictions mirroring `labels`; a lane with a score is kept above the threshold.
-    With `shard` ('I/N'), only that share of the images, written as a part to `out` (None is returned)."""
+    With `shard` ('I/N'), only that share of the images, written as a part to `out` (None is returned).
+    `diagnose`: the error types at `score_threshold` (errors.csv, .md, .png) and every image's counts
+    (frames.csv.gz); `score_sweep` ('0.00:0.95:0.05'): the whole curve behind `best_of` (a lane kept
+    when its score is above each threshold), as `score culane` gives them."""
     thresholds = score_thresholds(score_threshold, best_of)
+    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, (IOU_THRESHOLD,), strict=True,
+                                   sharded=shard is not None)
     sharding = Sharding("score curvelanes", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, image_root=image_root, list_file=list_file,
         score_threshold=float(score_threshold), best_of=[float(t) for t in best_of], strict=strict))
@@ -125,6 +157,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         def files_of(m: int, relpath: str) -> tuple[Path]:
             return (lanes_path(trees[m].root, relpath),)
 
+        diagnoses: FrameDiagnoses | None = None
         if merged is not None:
             sharding.check_merged(relpaths, trees, label_files, _each_image, files_of=files_of)
             counts = sharding.merged_array("sum_counts", (len(trees), len(thresholds), 3))
@@ -132,9 +165,11 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             roots = tuple(tree.root for tree in trees)
             scored = sharding.share(relpaths, _each_image)
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
-            tasks = [(chunk, labels, images, roots, thresholds) for chunk in chunks]
-            counts = sum(scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=(),
-                                       unit="image", trees=trees), np.zeros((len(trees), len(thresholds), 3), np.int64))
+            tasks = [(chunk, labels, images, roots, thresholds, diagnosis) for chunk in chunks]
+            pieces, diagnoses = _split(scored_pieces(_score_frames, tasks, workers, progress, announce,
+                                                     kernel_groups=kernel_groups((), diagnosis), unit="image",
+                                                     trees=trees), diagnosis)
+            counts = sum(pieces, np.zeros((len(trees), len(thresholds), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
                 sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
@@ -143,11 +178,41 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         rows = [row for m, tree in enumerate(trees) for row in method_rows(tree.method, thresholds, best_of, counts[m])]
         score = CurveLanesScore(PlainTable(COLUMNS, tuple(rows)), tuple(t.method for t in trees), len(relpaths),
                                 tuple(warnings))
+        score = _diagnosed(score, diagnoses, thresholds[0], diagnosis)
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
+            write_diagnosis(staging, score.diagnosed, (IOU_LABEL,))
             folder.commit()
     return score
+
+
+IOU_LABEL = str(IOU_THRESHOLD)
+
+
+def _split(pieces: list, diagnosis: DiagnosisSettings | None) -> tuple[list, FrameDiagnoses | None]:
+    """(the chunks' counts, their diagnoses joined) from _score_frames' results."""
+    if diagnosis is None:
+        return pieces, None
+    found = [piece[1] for piece in pieces if piece[1] is not None]
+    return [piece[0] for piece in pieces], FrameDiagnoses.joined(found) if found else None
+
+
+def _measure(tp: int, fp: int, fn: int) -> tuple[float, float, float]:
+    """The metric's precision, recall and F1 (with its epsilon guards) of TP, FP and FN."""
+    return f_measure(tp, tp + fp, tp + fn)
+
+
+def _diagnosed(score: CurveLanesScore, diagnoses: FrameDiagnoses | None, score_threshold: float,
+               diagnosis: DiagnosisSettings | None) -> CurveLanesScore:
+    """The score with its diagnosis: every image in one group (`all`), none in a sequence."""
+    if diagnosis is None or diagnoses is None:
+        return score
+    return replace(score, diagnosed=Diagnosed(
+        diagnoses, tuple((method, "") for method in score.methods), (("all", np.ones(len(diagnoses.frames), bool)),),
+        (IOU_LABEL,), diagnosis.loc_iou, lambda frame: ("", ""),
+        f"CurveLanes, CondLaneNet's lane IoU F1 (lanes kept when score > {score_threshold:g})", diagnosis.sweep,
+        diagnosis.errors, measure=_measure))
 
 
 def score_thresholds(score_threshold: float, best_of: Sequence[float]) -> list[float]:
