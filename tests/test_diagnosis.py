@@ -192,3 +192,26 @@ def test_every_iou_benchmark_diagnoses_what_its_official_table_counts(benchmark,
                             keep_default_na=False)
         at_zero = swept[(swept["score_threshold"] == "0.00") & (swept["category"] == "all")]
         assert at_zero.set_index(keys)[["tp", "fp", "fn"]].sort_index().equals(official)
+
+
+def test_tusimple_writes_each_frames_accuracy_and_rates_that_average_to_its_official_row(tmp_path):
+    result = invoke("synth", "--dataset", "tusimple", "--out", tmp_path / "set", "--maps-format", "lanes")
+    assert result.exit_code == 0, result.output
+    scored = tmp_path / "labelled.json"  # lane.py scores the labelled frames, the last of each clip
+    scored.write_text("".join(line for line in (tmp_path / "set" / "maps" / "predictions.json").open()
+                              if '/20.jpg"' in line))
+    labels = tmp_path / "set" / "data" / "test_label.json"
+    plain = invoke("score", "tusimple", "--labels", labels, "--pred", scored, "--out", tmp_path / "plain")
+    diagnosed = invoke("score", "tusimple", "--labels", labels, "--pred", scored, "--pred", f"again={scored}",
+                       "--diagnose", "--out", tmp_path / "diag")
+    assert plain.exit_code == 0 and diagnosed.exit_code == 0, diagnosed.output
+    frames = pd.read_csv(tmp_path / "diag" / "frames.csv.gz", keep_default_na=False)
+    official = pd.read_csv(tmp_path / "diag" / "official.csv").set_index("method")
+    assert len(frames) == 2 * 3 and list(frames["method"].unique()) == ["labelled", "again"]
+    for method, rows in frames.groupby("method"):
+        for column in ("accuracy", "fp", "fn"):
+            assert rows[column].mean() == pytest.approx(official.loc[method, column], abs=1e-12)
+    assert (tmp_path / "plain" / "official.csv").read_text().splitlines()[1] == \
+        (tmp_path / "diag" / "official.csv").read_text().splitlines()[1]
+    refused = invoke("score", "tusimple", "--labels", labels, "--pred", scored, "--diagnose")
+    assert refused.exit_code == 2 and "give --out" in refused.output and "Traceback" not in refused.output

@@ -30,6 +30,8 @@ COMMAND = ScoreCommand(
                          "One method, named by the file's stem or NAME. Repeatable: every method against one reading "
                          "of the labels.", name="preds", required=True, multiple=True, metavar="FILE|NAME=FILE"),
         out("Folder for official.csv: method, accuracy, fp, fn, f1_ufld, f1_clrnet (a row per method)."),
+        Option("--diagnose", "Also every frame's accuracy, FP and FN per method (frames.csv.gz; TuSimple's FP and FN "
+                             "are rates, so there are no lane error types). Needs --out.", kind="flag"),
         Sharding("clips"),
         quiet("Print nothing."),
     ),

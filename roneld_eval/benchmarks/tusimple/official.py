@@ -152,11 +152,12 @@ def read_labels(labels: str | Path) -> dict[str, dict]:
 
 def frame_scores(labels: str | Path, predictions: str | Path, gts: Mapping[str, dict],
                  scored: frozenset[str] | None = None,
-                 checked_only: bool = False) -> tuple[list[int], list[tuple[float, float, float]]]:
+                 checked_only: bool = False, keys: list[str] | None = None
+                 ) -> tuple[list[int], list[tuple[float, float, float]]]:
     """Each prediction line's number and (accuracy, fp, fn), in file order: of every labelled
     frame, or of the frames in `scored` alone (a shard's share); with `checked_only`, the line
-    numbers alone. Every line is checked whatever the share: a prediction of an unlabelled or
-    twice-predicted frame is refused."""
+    numbers alone; each line's frame appended to `keys` when given. Every line is checked whatever
+    the share: a prediction of an unlabelled or twice-predicted frame is refused."""
     labels, predictions = Path(labels), Path(predictions)
     seen: dict[str, int] = {}
     lines, scores = [], []
@@ -171,6 +172,8 @@ def frame_scores(labels: str | Path, predictions: str | Path, gts: Mapping[str, 
         if scored is not None and key not in scored:
             continue
         lines.append(number)
+        if keys is not None:
+            keys.append(key)
         if checked_only:
             continue
         gt = gts[key]

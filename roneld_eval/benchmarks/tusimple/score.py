@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Union, overload
 import numpy as np
 
 
-from ...errors import InputError
+from ...errors import ConfigError, InputError
 from ...output import Staging
 from ...shards import Merged, Sharding
 
@@ -31,23 +31,29 @@ PredictionFiles = Union[list, tuple, Mapping[str, Union[str, Path]]]
 
 @overload
 def score_tusimple(labels: str | Path, pred: str | Path, out: str | Path | None = None, shard: str | None = None,
-                   merged: Merged | None = None) -> TusimpleScore | None: ...
+                   merged: Merged | None = None, diagnose: bool = False) -> TusimpleScore | None: ...
 
 
 @overload
 def score_tusimple(labels: str | Path, pred: PredictionFiles, out: str | Path | None = None,
-                   shard: str | None = None, merged: Merged | None = None) -> dict[str, TusimpleScore] | None: ...
+                   shard: str | None = None, merged: Merged | None = None,
+                   diagnose: bool = False) -> dict[str, TusimpleScore] | None: ...
 
 
-def score_tusimple(labels, pred, out=None, shard=None, merged=None):
+def score_tusimple(labels, pred, out=None, shard=None, merged=None, diagnose=False):
     """Score TuSimple JSON-lines predictions against a label file, as evaluate/lane.py does,
     with F1 under UFLD-v2's and CLRNet's formulas (f1_ufld, f1_clrnet). `pred`: one file (its
     score is returned), or several, each a method named by its file's stem or 'NAME=FILE' (a
     dict of method to score is returned); `out` gets official.csv, a row per method. With
     `shard` ('I/N'), only that share of the clips (in label-file order), written as a part to
     `out` (None is returned); the part keeps each frame's scores and their lines, which a merge
-    adds up in each prediction file's order, as lane.py does."""
+    adds up in each prediction file's order, as lane.py does. `diagnose`: also every frame's
+    accuracy, FP and FN per method (frames.csv.gz; rates, so no error types)."""
     from .official import frame_scores, mean_scores, read_labels
+
+    if diagnose and (shard is not None or out is None):
+        raise ConfigError("--diagnose writes frames.csv.gz, which a shard's part does not keep yet: give --out, "
+                          "without --shard")
 
     single = isinstance(pred, (str, Path))
     methods = _methods(pred)
@@ -56,6 +62,7 @@ def score_tusimple(labels, pred, out=None, shard=None, merged=None):
     with _taking(out, "score tusimple", reads=(labels, *methods.values())) as folder:
         gts = read_labels(labels)
         keys, files = list(gts), [Path(labels), *methods.values()]
+        keys_of: list[list[str]] = []  # each method's frames in its file's order (--diagnose)
         if merged is not None:
             sharding.check_merged(keys, [], files, posixpath.dirname, files_of=None)  # pred: among `files`
             per_method = _merged_scores(sharding, labels, methods, gts)
@@ -64,7 +71,8 @@ def score_tusimple(labels, pred, out=None, shard=None, merged=None):
             scored = None if sharding.shard is None else frozenset(share)
             lines, per_method = [], []
             for path in methods.values():  # the labels read once, every method against them
-                taken, frames = frame_scores(labels, path, gts, scored)
+                keys_of.append([])
+                taken, frames = frame_scores(labels, path, gts, scored, keys=keys_of[-1])
                 lines.append(taken)
                 per_method.append(frames)
             if sharding.shard is not None:
@@ -76,9 +84,33 @@ def score_tusimple(labels, pred, out=None, shard=None, merged=None):
                 return None
         means = {method: mean_scores(frames, len(gts)) for method, frames in zip(methods, per_method)}
         if folder is not None:
-            Staging(folder).write_text("official.csv", official_table(means).to_csv())
+            staging = Staging(folder)
+            staging.write_text("official.csv", official_table(means).to_csv())
+            if diagnose and merged is None:
+                staging.write_bytes("frames.csv.gz", frames_csv_gz(list(methods), keys_of, per_method))
             folder.commit()
     return next(iter(means.values())) if single else means
+
+
+FRAME_COLUMNS = ("frame", "sequence", "category", "method", "matching", "threshold", "accuracy", "fp", "fn")
+
+
+def frames_csv_gz(methods: list[str], keys_of: list[list[str]], per_method: list[list]) -> bytes:
+    """frames.csv.gz: each method's frames in its prediction file's order, lane.py's accuracy, FP
+    and FN of each (a clip's folder as its sequence; no category, matching or IoU threshold)."""
+    import csv
+    import gzip
+    import io
+
+    from ...output import csv_float
+
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(FRAME_COLUMNS)
+    for method, keys, frames in zip(methods, keys_of, per_method):
+        writer.writerows((key, posixpath.dirname(key), "", method, "", "", *(csv_float(float(v)) for v in values))
+                         for key, values in zip(keys, frames))
+    return gzip.compress(text.getvalue().encode("utf-8"), compresslevel=6, mtime=0)
 
 
 def official_table(scores: Mapping[str, TusimpleScore]) -> PlainTable:
