@@ -32,6 +32,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .. import _numba_cache  # noqa: F401  (numba imported first, a signal deferred meanwhile)
 from . import _kernels
 from .iou import KM_TOLERANCE, match_lanes
 from .lane_iou_f1 import f_measure

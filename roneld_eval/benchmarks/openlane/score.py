@@ -140,6 +140,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
         def files_of(m: int, relpath: str) -> tuple[Path]:
             return (json_path(trees[m].root, relpath),)
 
+        diagnosed: FrameDiagnoses | None = None
         if merged is not None:
             sharding.check_merged(relpaths, trees, label_files, posixpath.dirname, files_of=files_of)
             counts = sharding.merged_array("sum_counts", (len(trees), len(modes), len(thresholds.values), 3))
