@@ -40,7 +40,7 @@ def _case_frames(pred_root: Path, pred_format: str) -> dict:
     out = {}
     for sequence, frames in dataset.sequences.items():
         piece = _score_sequence((frames, dataset.labels, (pred_root,), *dataset.sizes[sequence], 30, False,
-                                 pred_format))
+                                 pred_format, None))
         for relpath, (rvld, mmanet) in zip(frames, piece.acc[0]):
             out[relpath] = rvld if mmanet is None else mmanet
     return out
