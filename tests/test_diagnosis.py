@@ -148,8 +148,8 @@ SCORED = {  # synth's folder -> the score command's inputs, and whether predicti
                  [], False),
     "curvelanes": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}", "--image-root",
                               s / "images"], [], True),
-    "llamas": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}"], ["--maps-format", "lanes"],
-               False),
+    "llamas": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}"],
+               ["--maps-format", "lanes"], False),
 }
 
 

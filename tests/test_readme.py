@@ -144,3 +144,30 @@ def test_the_submitit_recipe_runs_as_written(tmp_path, monkeypatch):
     score_culane(gt, "work_dirs/epoch_*/lines", iou="0.5:0.95:0.05", out=tmp_path / "whole")
     for name in ("official.csv", "summary.csv", "sweep.csv"):
         assert (tmp_path / "sweep" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name
+
+
+def test_the_why_is_my_f1_low_walkthrough_prints_what_the_readme_shows(tmp_path, monkeypatch):
+    import contextlib
+    import io
+
+    from click.testing import CliRunner
+
+    section = README.split("### Why is my F1 low?")[1].split("\n### ")[0]
+    blocks = re.findall(r"^```(\w*)\n(.*?)^```", section, flags=re.S | re.M)
+    assert [language for language, _ in blocks] == ["sh", "", "python", ""]
+    (_, sh), (_, console), (_, python), (_, printed) = blocks
+    monkeypatch.chdir(tmp_path)
+    outputs = []
+    for argv in commands(sh):
+        result = CliRunner().invoke(main, argv)
+        assert result.exit_code == 0, result.output
+        outputs.append(result.output)
+    for line in console.splitlines():
+        assert line in outputs[-1].splitlines(), line
+    errors_md = (tmp_path / "why" / "scores" / "errors.md").read_text(encoding="utf-8")
+    row = next(line for line in section.splitlines() if line.startswith("| det | all |"))
+    assert row == next(line for line in errors_md.splitlines() if line.startswith("| det | all |"))
+    said = io.StringIO()
+    with contextlib.redirect_stdout(said):
+        exec(compile(python, "README.md", "exec"), {})
+    assert said.getvalue() == printed
