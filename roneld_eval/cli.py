@@ -561,12 +561,27 @@ def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
     Folders that `score` wrote for several prediction roots (sweep.csv) are checkpoint sweeps:
     sweeps.csv, sweeps.md (each sweep's best checkpoint) and sweeps.png, for sweeps of the same
     frames, lane width and thresholds.
+
+    Folders that `score --diagnose` wrote (frames.csv.gz), holding two methods between them, are
+    compared frame by frame: frames_compared.csv and .md list the frames where one method makes
+    fewer errors (false positives plus false negatives) than the other, most first.
     """
     from .comparison import compare as compare_runs, parse_label_options
     from .comparison.sweeps import compare_sweeps, is_sweep
 
     _no_collections_at_exit()
 
+    from .comparison.frames import compare_frames, is_diagnosed
+
+    if any(is_diagnosed(run) for run in runs):
+        if not all(is_diagnosed(run) for run in runs) or labels or thresholds or pairs:
+            _guard(_refuse, debug, "score folders written with --diagnose are compared frame by frame alone: give "
+                                   "only such folders, without --label, --thresholds or --pair")
+        found = _guard(compare_frames, debug, runs, out)
+        if not quiet:
+            click.echo(found.markdown)
+            click.echo(f"every frame in {out}/frames_compared.csv")
+        return
     chosen = _guard(parse_label_options, debug, labels, runs)
     sweeps = [run for run in runs if is_sweep(run)]
     if sweeps:

@@ -215,3 +215,31 @@ def test_tusimple_writes_each_frames_accuracy_and_rates_that_average_to_its_offi
         (tmp_path / "diag" / "official.csv").read_text().splitlines()[1]
     refused = invoke("score", "tusimple", "--labels", labels, "--pred", scored, "--diagnose")
     assert refused.exit_code == 2 and "give --out" in refused.output and "Traceback" not in refused.output
+
+
+def test_compare_lists_the_frames_where_one_method_beats_the_other_most(lanes, tmp_path):
+    gt, roots = lanes
+    score_culane(gt, roots, workers=1, out=tmp_path / "both", diagnose=True)
+    score_culane(gt, roots["noisy"], workers=1, out=tmp_path / "noisy", diagnose=True)
+    score_culane(gt, roots["other"], workers=1, out=tmp_path / "other", diagnose=True)
+    frames = pd.read_csv(tmp_path / "both" / "frames.csv.gz", keep_default_na=False).set_index(["method", "frame"])
+    for given in ([tmp_path / "both"], [tmp_path / "noisy", tmp_path / "other"]):
+        out = tmp_path / f"compared{len(given)}"
+        result = invoke("compare", *given, "--out", out)
+        assert result.exit_code == 0, result.output
+        assert "## Where A beats B most" in result.output
+        table = pd.read_csv(out / "frames_compared.csv", keep_default_na=False)
+        assert len(table) == 120 and table["difference"].is_monotonic_decreasing
+        top = table.iloc[0]
+        noisy, other = frames.loc[("noisy", top["frame"])], frames.loc[("other", top["frame"])]
+        assert top["difference"] == other["fp"] + other["fn"] - noisy["fp"] - noisy["fn"] > 0
+    refused = invoke("compare", tmp_path / "noisy", "--out", tmp_path / "one")
+    assert refused.exit_code == 2 and "hold 1 method (noisy: noisy), not two" in refused.output
+    score_culane(gt, roots["other"], workers=1, out=tmp_path / "fewer", diagnose=True, list_file=None,
+                 iou="0.5,0.75")
+    refused = invoke("compare", tmp_path / "noisy", tmp_path / "fewer", "--out", tmp_path / "mixed")
+    assert refused.exit_code == 2 and "not scored on the same frames and thresholds" in refused.output
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "frames.csv.gz").write_bytes(b"not gzip")
+    refused = invoke("compare", tmp_path / "bad", tmp_path / "noisy", "--out", tmp_path / "badout")
+    assert refused.exit_code == 2 and "frames.csv.gz" in refused.output and "Traceback" not in refused.output
