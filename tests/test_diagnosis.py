@@ -234,7 +234,7 @@ def test_compare_lists_the_frames_where_one_method_beats_the_other_most(lanes, t
         noisy, other = frames.loc[("noisy", top["frame"])], frames.loc[("other", top["frame"])]
         assert top["difference"] == other["fp"] + other["fn"] - noisy["fp"] - noisy["fn"] > 0
     refused = invoke("compare", tmp_path / "noisy", "--out", tmp_path / "one")
-    assert refused.exit_code == 2 and "hold 1 method (noisy: noisy), not two" in refused.output
+    assert refused.exit_code == 2 and "hold 1 method (noisy: pred), not two" in refused.output
     score_culane(gt, roots["other"], workers=1, out=tmp_path / "fewer", diagnose=True, list_file=None,
                  iou="0.5,0.75")
     refused = invoke("compare", tmp_path / "noisy", tmp_path / "fewer", "--out", tmp_path / "mixed")
