@@ -316,13 +316,18 @@ __all__ = ["run", "show", "score", "score_culane", "score_tusimple", "synthesize
 
 
 def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = None, methods: Sequence[str] = (),
-         out: str | Path | None = None) -> list[Path]:
-    """Draw frames of a finished run (given ones, or the `worst` N where methods differ most).
+         out: str | Path | None = None, image_root: str | Path | None = None) -> list[Path]:
+    """Draw frames of a finished run (given ones, or the `worst` N where methods differ most), or
+    the gallery of a score written with --diagnose (show_gallery).
 
     Pictures go to `out` (default: `<run>/show/`), never over the run's own files:
     overlays/<frame>.png and the contact sheet overlays.png.
     """
     run_dir = Path(run_dir)
+    from .report.gallery import GALLERY
+
+    if (run_dir / GALLERY).is_file() and not (run_dir / "config.toml").exists():
+        return show_gallery(run_dir, worst, out, image_root)
     check_finished_run(run_dir)
     target = Path(out) if out is not None else run_dir / SHOW_FOLDER
     if target.resolve() == run_dir.resolve():
@@ -333,6 +338,34 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
         from .report.write import write_pictures
 
         write_pictures(Staging(folder), pictures)
+        return folder.commit()
+
+
+def show_gallery(score_dir: Path, worst: int | None = None, out: str | Path | None = None,
+                 image_root: str | Path | None = None) -> list[Path]:
+    """The gallery of a score written with --diagnose (its gallery.json): for each method, the
+    `worst` frames (default 3) with most errors in each category and most of each error type,
+    ground truth and every method's lanes over the image (`image_root`, default the one the
+    score read; a blank canvas of the frame's size without one): gallery/<k>.png and gallery.png."""
+    from .report.gallery import draw_gallery, read_gallery
+
+    record = read_gallery(score_dir)
+    target = Path(out) if out is not None else score_dir / SHOW_FOLDER
+    if target.resolve() == score_dir.resolve():
+        raise InputError(target, "pictures go to their own folder, not over the score's files: choose another --out")
+    root = image_root if image_root is not None else record.get("image_root")
+    with terminate_as_interrupt(), OutputFolder(target, "show") as folder:
+        pictures = draw_gallery(record, Path(root) if root else None, worst or 3)
+        import cv2
+
+        from .report.overlays import contact_sheet
+
+        staging = Staging(folder)
+        for name, image in pictures:
+            if not cv2.imwrite(str(staging.file(f"gallery/{name}.png")), image):
+                raise InputError(target / "gallery" / f"{name}.png", "cannot write")
+        if pictures and not cv2.imwrite(str(staging.file("gallery.png")), contact_sheet([p for _, p in pictures])):
+            raise InputError(target / "gallery.png", "cannot write")
         return folder.commit()
 
 

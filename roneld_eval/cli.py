@@ -510,7 +510,8 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
 
 @main.command()
 @click.option("--run", "run_dir", required=True, type=click.Path(path_type=Path),
-              help="A folder written by `roneld-eval run` (it holds config.toml and per_frame.csv).")
+              help="A folder written by `roneld-eval run` (it holds config.toml and per_frame.csv), or by "
+                   "`roneld-eval score ... --diagnose --out` (its gallery.json).")
 @click.option("--frame", "frames", multiple=True, metavar="REL",
               help="A frame to draw, as its image path relative to the dataset root (repeatable).")
 @click.option("--worst", type=click.IntRange(min=1),
@@ -519,16 +520,25 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
               help="Methods to draw (repeatable). Default: those of the run.")
 @click.option("--out", type=OUT_FOLDER,
               help="Folder for the pictures. Default: RUN/show (the run's own files are never touched).")
+@click.option("--image-root", type=click.Path(path_type=Path),
+              help="A score's gallery: where the frames' images are (default: the data root the score read, "
+                   "where it holds them; a blank canvas of each frame's size without).")
 @debug_option
-def show(run_dir, frames, worst, methods, out, debug):
+def show(run_dir, frames, worst, methods, out, image_root, debug):
     """Draw frames of a run: camera image (or the maps), ground truth blue, baseline red, RONELD green.
 
     Each lane's IoU is written beside it; overlays.png gathers the pictures. They go to
     RUN/show (or --out), never over the run's own files.
+
+    On a score written with --diagnose, its gallery: for each method the --worst frames (default
+    3) with most errors in each category and with most of each error type, ground truth and every
+    method's lanes, the counts in the caption (gallery/<k>.png and gallery.png).
     """
     from . import api
 
-    written = _guard(api.show, debug, run_dir, frames, worst, methods, out)
+    if (frames or methods) and (Path(run_dir) / "gallery.json").is_file():
+        _guard(_refuse, debug, "--frame and --method are for a run: a score's gallery draws the frames it chose")
+    written = _guard(api.show, debug, run_dir, frames, worst, methods, out, image_root)
     for path in written:
         click.echo(str(path))
 

@@ -4,6 +4,7 @@ kept, and the official tables stay byte for byte what they are without the optio
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -140,23 +141,23 @@ def test_the_sweep_of_a_malformed_scores_file_names_it(lanes, tmp_path):
 # ---- every benchmark that matches lanes by IoU ---------------------------------------------------
 
 SCORED = {  # synth's folder -> the score command's inputs, and whether predictions carry scores
-    "culane": (lambda s: ["--data-root", s / "data", "--pred-root", f"det={s / 'maps'}"], ["--maps-format", "lanes"],
-               True),
+    "culane": (lambda s: ["--data-root", s / "data", "--pred-root", f"det={s / 'maps'}"],
+               ["--maps-format", "lanes", "--clips", 2], True),
     "vil100": (lambda s: ["--labels", s / "data" / "anno_txt", "--sizes", s / "data" / "sizes.json", "--pred-root",
-                          f"det={s / 'maps'}"], ["--maps-format", "lanes"], True),
+                          f"det={s / 'maps'}"], ["--maps-format", "lanes", "--clips", 2], True),
     "openlane": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}", "--iou", "0.3,0.5"],
                  [], False),
     "curvelanes": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}", "--image-root",
-                              s / "images"], [], True),
+                              s / "images"], ["--clips", 12], True),
     "llamas": (lambda s: ["--labels", s / "labels", "--pred-root", f"det={s / 'predictions'}"],
-               ["--maps-format", "lanes"], False),
+               ["--maps-format", "lanes", "--clips", 2], False),
 }
 
 
 @pytest.mark.parametrize("benchmark", sorted(SCORED))
 def test_every_iou_benchmark_diagnoses_what_its_official_table_counts(benchmark, tmp_path):
     inputs, synth_options, with_scores = SCORED[benchmark]
-    result = invoke("synth", "--dataset", benchmark, "--out", tmp_path / "set", "--clips", 2, *synth_options)
+    result = invoke("synth", "--dataset", benchmark, "--out", tmp_path / "set", *(synth_options or ["--clips", 2]))
     assert result.exit_code == 0, result.output
     plain = invoke("score", benchmark, *inputs(tmp_path / "set"), "--workers", 1, "--out", tmp_path / "plain")
     assert plain.exit_code == 0, plain.output
@@ -168,7 +169,7 @@ def test_every_iou_benchmark_diagnoses_what_its_official_table_counts(benchmark,
     kept = sorted(p.name for p in (tmp_path / "plain").iterdir() if not p.name.startswith("."))  # not the marker
     for name in kept:  # the official files as they were, byte for byte
         assert (tmp_path / "plain" / name).read_bytes() == (tmp_path / "diag" / name).read_bytes(), name
-    added = {"errors.csv", "errors.md", "errors.png", "frames.csv.gz"} | (
+    added = {"errors.csv", "errors.md", "errors.png", "frames.csv.gz", "gallery.json"} | (
         {"sweep_scores.csv", "sweep_scores.png"} if with_scores else set())
     assert set(p.name for p in (tmp_path / "diag").iterdir() if not p.name.startswith(".")) == set(kept) | added
     official = pd.read_csv(tmp_path / "diag" / "official.csv", dtype=str, keep_default_na=False)
@@ -180,13 +181,28 @@ def test_every_iou_benchmark_diagnoses_what_its_official_table_counts(benchmark,
                                    fn=official["truth"] - official["hits"])
     keys = ["method", "matching", "threshold"] if "matching" in official else ["method", "threshold"]
     official = official.set_index(keys)[["tp", "fp", "fn"]].astype(int).sort_index()
-    frames = pd.read_csv(tmp_path / "diag" / "frames.csv.gz", dtype={"threshold": str, "matching": str},
+    frames = pd.read_csv(tmp_path / "diag" / "frames.csv.gz", dtype={"frame": str, "threshold": str, "matching": str},
                          keep_default_na=False)
     pd.testing.assert_frame_equal(frames.groupby(keys)[["tp", "fp", "fn"]].sum().sort_index(), official)
     errors = pd.read_csv(tmp_path / "diag" / "errors.csv", dtype={"threshold": str}, keep_default_na=False)
     errors = errors[errors["category"] == "all"]
     sides = errors.pivot_table(index=keys, columns="side", values="count", aggfunc="sum").sort_index()
     assert sides["fp"].tolist() == official["fp"].tolist() and sides["fn"].tolist() == official["fn"].tolist()
+    # the gallery: each chosen frame's lanes as scored, drawn by `show`
+    gallery = json.loads((tmp_path / "diag" / "gallery.json").read_text())
+    assert bool(gallery["pictures"]) == bool((frames["fp"] + frames["fn"]).sum())  # a frame a picture, if wrong
+    assert all(picture["reasons"] for picture in gallery["pictures"])
+    for picture in gallery["pictures"]:
+        counts = frames[(frames["frame"] == picture["frame"]) & (frames["threshold"] == gallery["threshold"])]
+        first = counts.iloc[0]
+        assert list(picture["counts"].values())[0] == [first["tp"], first["fp"], first["fn"]]
+        assert len(picture["truth"]) == first["tp"] + first["fn"]
+        assert len(list(picture["predicted"].values())[0]) == first["tp"] + first["fp"]
+    shown = invoke("show", "--run", tmp_path / "diag", "--worst", 1)
+    assert shown.exit_code == 0, shown.output
+    if gallery["pictures"]:
+        assert list((tmp_path / "diag" / "show" / "gallery").iterdir())
+        assert (tmp_path / "diag" / "show" / "gallery.png").is_file()
     if with_scores:
         swept = pd.read_csv(tmp_path / "diag" / "sweep_scores.csv", dtype={"threshold": str, "score_threshold": str},
                             keep_default_na=False)
@@ -243,3 +259,28 @@ def test_compare_lists_the_frames_where_one_method_beats_the_other_most(lanes, t
     (tmp_path / "bad" / "frames.csv.gz").write_bytes(b"not gzip")
     refused = invoke("compare", tmp_path / "bad", tmp_path / "noisy", "--out", tmp_path / "badout")
     assert refused.exit_code == 2 and "frames.csv.gz" in refused.output and "Traceback" not in refused.output
+
+
+def test_show_draws_a_scores_gallery_over_its_images_and_refuses_an_edited_one(lanes, tmp_path):
+    import cv2
+
+    gt, roots = lanes
+    score_culane(gt, roots["noisy"], workers=1, out=tmp_path / "scored", diagnose=True)
+    gallery = json.loads((tmp_path / "scored" / "gallery.json").read_text())
+    first = gallery["pictures"][0]
+    images = tmp_path / "images"
+    (images / first["frame"]).parent.mkdir(parents=True)
+    cv2.imwrite(str(images / first["frame"]), np.full((590, 1640, 3), 200, np.uint8))
+    result = invoke("show", "--run", tmp_path / "scored", "--image-root", images, "--out", tmp_path / "drawn")
+    assert result.exit_code == 0, result.output
+    picture = cv2.imread(str(tmp_path / "drawn" / "gallery" / "000.png"))
+    assert picture[5, 5].tolist() == [200, 200, 200]  # the image, not the blank canvas
+    assert first["reasons"][0].startswith("pred: most errors in ")
+    refused = invoke("show", "--run", tmp_path / "scored", "--frame", first["frame"])
+    assert refused.exit_code == 2 and "--frame and --method are for a run" in refused.output
+    for edit in ({"pictures": "x"}, {"pictures": [{**first, "truth": [[[1, "x"]]]}]},
+                 {"pictures": [{**first, "size": [0, 10]}]}, {"format": "other"}):
+        (tmp_path / "scored" / "gallery.json").write_text(json.dumps({**gallery, **edit}))
+        refused = invoke("show", "--run", tmp_path / "scored", "--out", tmp_path / "edited")
+        assert refused.exit_code == 2 and "gallery.json" in refused.output and "Traceback" not in refused.output
+        assert not (tmp_path / "edited").exists()

@@ -12,7 +12,7 @@ import gzip
 import io
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 
@@ -47,6 +47,8 @@ class Diagnosed:
     errors: bool = True  # --diagnose (else only the sweep was asked for)
     with_categories: bool = False  # lanes match within their category: the Cat type is shown
     measure: Measure = f_measure  # the benchmark's precision, recall and F1 of (tp, fp, fn)
+    frame_lanes: Callable[[str], Any] | None = None  # a frame's gallery.GalleryFrame (its lanes read again)
+    image_root: str | None = None  # where the frames' images are, as the score was told
 
     @property
     def types(self) -> tuple[int, ...]:
@@ -90,6 +92,9 @@ def write_diagnosis(staging: Staging, diagnosed: Diagnosed | None, shown: Sequen
         staging.write_text("errors.md", errors_markdown(diagnosed, rows, shown))
         errors_figure(diagnosed, rows, shown[0], staging.file("errors.png"))
         staging.write_bytes("frames.csv.gz", frames_csv_gz(diagnosed))
+        from .gallery import write_gallery
+
+        write_gallery(staging, diagnosed, shown[0])
     if diagnosed.sweep is not None:
         swept = diagnosed.sweep_rows()
         staging.write_text("sweep_scores.csv", _table(SWEEP_CSV_COLUMNS, swept, diagnosed.matched_two_ways).to_csv())

@@ -43,6 +43,7 @@ from ...metrics.lane_iou_f1 import (
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, FrameErrors,
                                     diagnosis_settings, kernel_groups)
 from ...report.diagnosis import Diagnosed, write_diagnosis
+from ...report.gallery import GalleryFrame
 from ...output import OutputFolder
 from ...report.tables import Table
 from ...output import Staging
@@ -320,11 +321,16 @@ def _with_diagnosis(score: CulaneScore, diagnosed: list[FrameDiagnoses], dataset
     def facts(frame: str) -> tuple[str, str]:
         return frame.lstrip("/").rpartition("/")[0], member_of.get(frame, "")
 
+    def lanes_of(frame: str) -> GalleryFrame:
+        return GalleryFrame((dataset.image_width, dataset.image_height), read_frame_labels(dataset.root, frame),
+                            {tree.method: read_lines_txt(labels_path(tree.root, frame)) for tree in score.trees},
+                            frame.lstrip("/"))
+
     groups = tuple(category_groups(diagnoses.frames, dataset.categories))
     return replace(score, diagnosed=Diagnosed(
         diagnoses, tuple((method, "") for method in score.methods), groups, score.thresholds.labels,
-        diagnosis.loc_iou, facts,
-        f"CULane, SCNN's lane IoU F1 ({width} px at 1640x590)", diagnosis.sweep, diagnosis.errors))
+        diagnosis.loc_iou, facts, f"CULane, SCNN's lane IoU F1 ({width} px at 1640x590)", diagnosis.sweep,
+        diagnosis.errors, frame_lanes=lanes_of, image_root=str(dataset.root)))
 
 
 def _keep_truth(key: str | None, kept: list[TruthRuns] | None, say: Callable[[str], None]) -> None:

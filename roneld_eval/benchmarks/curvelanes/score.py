@@ -23,6 +23,8 @@ from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, Frame
                                     kernel_groups)
 from ...output import Staging
 from ...report.diagnosis import Diagnosed, write_diagnosis
+from ...report.gallery import GalleryFrame
+from ...model import Lane
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 from ...shards import Merged, Sharding
 
@@ -178,7 +180,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         rows = [row for m, tree in enumerate(trees) for row in method_rows(tree.method, thresholds, best_of, counts[m])]
         score = CurveLanesScore(PlainTable(COLUMNS, tuple(rows)), tuple(t.method for t in trees), len(relpaths),
                                 tuple(warnings))
-        score = _diagnosed(score, diagnoses, thresholds[0], diagnosis)
+        score = _diagnosed(score, diagnoses, thresholds[0], diagnosis, partial(_gallery_frame, labels, images, trees))
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
@@ -203,8 +205,20 @@ def _measure(tp: int, fp: int, fn: int) -> tuple[float, float, float]:
     return f_measure(tp, tp + fp, tp + fn)
 
 
+def _gallery_frame(labels: Path, images: Path, trees, score_threshold: float, frame: str) -> GalleryFrame:
+    """An image's lanes read again for the gallery (predictions as kept at the fixed threshold)."""
+    def kept(found: CurveLanesFrame) -> list[Lane]:
+        return [Lane(np.array(lane, np.float64).reshape(-1, 2)) for lane, score in zip(found.lanes, found.scores)
+                if score is None or score > score_threshold]
+
+    image = next((frame + suffix for suffix in IMAGE_SUFFIXES if under_root(images, frame + suffix).is_file()), None)
+    return GalleryFrame(image_size(images, frame), kept(read_frame(lanes_path(labels, frame), True)),
+                        {tree.method: kept(read_frame(lanes_path(tree.root, frame), True)) for tree in trees}, image)
+
+
 def _diagnosed(score: CurveLanesScore, diagnoses: FrameDiagnoses | None, score_threshold: float,
-               diagnosis: DiagnosisSettings | None) -> CurveLanesScore:
+               diagnosis: DiagnosisSettings | None,
+               frame_lanes: Callable[..., GalleryFrame] | None = None) -> CurveLanesScore:
     """The score with its diagnosis: every image in one group (`all`), none in a sequence."""
     if diagnosis is None or diagnoses is None:
         return score
@@ -212,7 +226,8 @@ def _diagnosed(score: CurveLanesScore, diagnoses: FrameDiagnoses | None, score_t
         diagnoses, tuple((method, "") for method in score.methods), (("all", np.ones(len(diagnoses.frames), bool)),),
         (IOU_LABEL,), diagnosis.loc_iou, lambda frame: ("", ""),
         f"CurveLanes, CondLaneNet's lane IoU F1 (lanes kept when score > {score_threshold:g})", diagnosis.sweep,
-        diagnosis.errors, measure=_measure))
+        diagnosis.errors, measure=_measure,
+        frame_lanes=None if frame_lanes is None else partial(frame_lanes, score_threshold)))
 
 
 def score_thresholds(score_threshold: float, best_of: Sequence[float]) -> list[float]:

@@ -32,6 +32,7 @@ from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, Frame
                                     kernel_groups)
 from ...output import Staging
 from ...report.diagnosis import Diagnosed, headline_thresholds, write_diagnosis
+from ...report.gallery import GalleryFrame
 from ...report.tables import Table
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
 from ...shards import Merged, Sharding
@@ -249,7 +250,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                                 "refuses, where evaluate.py stops: left out")
         score = LlamasScore(PlainTable(COLUMNS + AP_COLUMNS, tuple(rows)), thresholds, methods, len(keys), stopping,
                             mf1s, tuple(warnings), segmentation)
-        score = _diagnosed(score, diagnoses, trees, width, diagnosis)
+        score = _diagnosed(score, diagnoses, trees, width, diagnosis, found)
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
@@ -275,14 +276,22 @@ def _joined_diagnoses(pieces: list) -> FrameDiagnoses | None:
 
 
 def _diagnosed(score: LlamasScore, diagnoses: FrameDiagnoses | None, trees: list, width: int,
-               diagnosis: DiagnosisSettings | None) -> LlamasScore:
-    """The score with its diagnosis: every frame in one group (`all`), its recording as its sequence."""
+               diagnosis: DiagnosisSettings | None, labels: dict) -> LlamasScore:
+    """The score with its diagnosis: every frame in one group (`all`), its recording as its sequence;
+    a frame's lanes read again for the gallery (its image: `<key>.png` under `show --image-root`)."""
     if diagnosis is None or diagnoses is None:
         return score
+
+    def lanes_of(key: str) -> GalleryFrame:
+        return GalleryFrame((IMAGE_WIDTH, IMAGE_HEIGHT), label_of(read_record(labels[key]), labels[key]).lanes,
+                            {tree.method: read_lines_txt(prediction_path(tree.root, key)) for tree in trees},
+                            f"{key}.png")
+
     return replace(score, diagnosed=Diagnosed(
         diagnoses, tuple((tree.method, "") for tree in trees), (("all", np.ones(len(diagnoses.frames), bool)),),
         score.thresholds.labels, diagnosis.loc_iou, lambda key: (_recording(key), ""),
-        f"LLAMAS, evaluate.py's lane IoU F1 ({width} px at {IMAGE_WIDTH}x{IMAGE_HEIGHT})", errors=diagnosis.errors))
+        f"LLAMAS, evaluate.py's lane IoU F1 ({width} px at {IMAGE_WIDTH}x{IMAGE_HEIGHT})", errors=diagnosis.errors,
+        frame_lanes=lanes_of))
 
 
 def clrnet_mf1(counts) -> float:

@@ -25,6 +25,7 @@ from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, Frame
                                     diagnosis_settings, kernel_groups)
 from ...metrics.lane_iou_f1 import f_measure, matched_result, official_masks
 from ...report.diagnosis import Diagnosed, write_diagnosis
+from ...report.gallery import GalleryFrame
 from ...output import Staging
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 from ...shards import Merged, Sharding
@@ -167,7 +168,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                     rows.append((tree.method, mode, label, tp, fp, fn, *f_measure(tp, fp, fn)))
         score = OpenLaneScore(PlainTable(COLUMNS, tuple(rows)), thresholds, tuple(t.method for t in trees), modes,
                               len(relpaths), tuple(warnings))
-        score = _diagnosed(score, diagnosed, width, diagnosis)
+        score = _diagnosed(score, diagnosed, width, diagnosis, partial(_gallery_frame, labels, trees))
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
@@ -184,8 +185,16 @@ def _split(pieces: list, diagnosis: DiagnosisSettings | None) -> tuple[list, Fra
     return [piece[0] for piece in pieces], FrameDiagnoses.joined([piece[1] for piece in pieces])
 
 
+def _gallery_frame(labels: Path, trees, frame: str) -> GalleryFrame:
+    """A frame's lanes read again for the gallery; its image is the frame's path (no image root:
+    `show --image-root` gives one)."""
+    return GalleryFrame((IMAGE_WIDTH, IMAGE_HEIGHT), read_lanes(json_path(labels, frame), False).lanes,
+                        {tree.method: read_lanes(json_path(tree.root, frame), False).lanes for tree in trees}, frame)
+
+
 def _diagnosed(score: OpenLaneScore, diagnoses: FrameDiagnoses | None, width: int,
-               diagnosis: DiagnosisSettings | None) -> OpenLaneScore:
+               diagnosis: DiagnosisSettings | None,
+               frame_lanes: Callable[[str], GalleryFrame] | None = None) -> OpenLaneScore:
     """The score with its diagnosis: every frame in one group (`all`), its segment as its
     sequence; each method's matchings."""
     if diagnosis is None or diagnoses is None:
@@ -195,7 +204,7 @@ def _diagnosed(score: OpenLaneScore, diagnoses: FrameDiagnoses | None, width: in
         diagnoses, entries, (("all", np.ones(len(diagnoses.frames), bool)),), score.thresholds.labels,
         diagnosis.loc_iou, lambda frame: (posixpath.dirname(frame), ""),
         f"OpenLane 2D, lane2d's IoU F1 ({width} px at {IMAGE_WIDTH}x{IMAGE_HEIGHT})", errors=diagnosis.errors,
-        with_categories=MODES[0] in score.modes))
+        with_categories=MODES[0] in score.modes, frame_lanes=frame_lanes))
 
 
 def summary_table(score: OpenLaneScore) -> str:

@@ -27,6 +27,7 @@ from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, Frame
                                     kernel_groups)
 from ...metrics.lane_iou_f1 import FrameMatches, frame_similarity, match_frame, f_measure, official_masks
 from ...report.diagnosis import Diagnosed, write_diagnosis
+from ...report.gallery import GalleryFrame
 from .acc import AccFrame, mmanet_frame, rvld_frame
 from .acc import means as acc_means
 from .official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
@@ -311,7 +312,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                             PlainTable(TEMPORAL_COLUMNS, tuple(temporal_table)) if temporal else None,
                             thresholds, methods, len(relpaths), len(dataset.sequences), overall, temporal_overall,
                             PlainTable(ACC_COLUMNS, tuple(acc_table)), acc_overall, tuple(warnings))
-        score = _diagnosed(score, diagnoses, width, diagnosis)
+        score = _diagnosed(score, diagnoses, width, diagnosis, _gallery_lanes(dataset, trees), image_root)
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
@@ -339,8 +340,19 @@ def _joined_diagnoses(scored: Sequence[ScoredSequence]) -> FrameDiagnoses | None
     return FrameDiagnoses.joined(pieces) if pieces else None
 
 
+def _gallery_lanes(dataset, trees) -> Callable[[str], GalleryFrame]:
+    """A frame's lanes read again for the gallery, at its sequence's size; its image `<frame>.jpg`."""
+    def lanes_of(frame: str) -> GalleryFrame:
+        width, height = dataset.sizes[_sequence_of(frame)]
+        predicted = {tree.method: read_lines_txt(_prediction_path(tree.root, frame, "lines")) for tree in trees}
+        return GalleryFrame((width, height), read_lines_txt(labels_path(dataset.labels, frame)), predicted,
+                            f"{frame}.jpg")
+    return lanes_of
+
+
 def _diagnosed(score: Vil100Score, diagnoses: FrameDiagnoses | None, width: int,
-               diagnosis: DiagnosisSettings | None) -> Vil100Score:
+               diagnosis: DiagnosisSettings | None, frame_lanes: Callable[[str], GalleryFrame] | None = None,
+               image_root: str | Path | None = None) -> Vil100Score:
     """The score with its diagnosis: frames grouped by scenario (each sequence's, from its name;
     those with frames) then all, as official.csv groups them; a frame's category names every
     scenario of its sequence."""
@@ -357,7 +369,8 @@ def _diagnosed(score: Vil100Score, diagnoses: FrameDiagnoses | None, width: int,
     return replace(score, diagnosed=Diagnosed(
         diagnoses, tuple((method, "") for method in score.methods), tuple(groups), score.thresholds.labels,
         diagnosis.loc_iou, facts, f"VIL-100, MMA-Net's lane IoU F1 ({width} px at each sequence's size)",
-        diagnosis.sweep, diagnosis.errors))
+        diagnosis.sweep, diagnosis.errors, frame_lanes=frame_lanes,
+        image_root=None if image_root is None else str(image_root)))
 
 
 def _sequence_of(relpath: str) -> str:

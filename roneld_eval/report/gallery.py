@@ -1,0 +1,201 @@
+"""Galleries of a diagnosed score: the worst frames per category and per error type, ground truth
+and each method's lanes over the image (over a blank canvas of the frame's size without one).
+
+`score ... --diagnose --out DIR` writes gallery.json: the frames chosen (for each method, the
+GALLERY_FRAMES with most errors in each category and with most of each error type, at the first
+headline threshold), each with its size, its ground truth and every method's lanes in image
+pixels, and each method's counts there. `roneld-eval show --run DIR` draws them (a file read back
+is untrusted: every field is checked). The lanes are kept so that drawing needs no benchmark
+reader, only the images (`--image-root`, default the one the score was given where it names one).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from ..model import Lane
+
+GALLERY = "gallery.json"
+GALLERY_FORMAT = "roneld-eval gallery"
+GALLERY_FRAMES = 6  # kept per method and reason; `show --worst` draws up to this many
+MAX_POINTS = 1 << 16  # in one lane of a gallery file
+MAX_PICTURES = 2000
+
+
+@dataclass(frozen=True)
+class GalleryFrame:
+    """A frame as a gallery shows it: its size and lanes in image pixels, and its image if any."""
+
+    size: tuple[int, int]
+    truth: Sequence[Lane]
+    predicted: Mapping[str, Sequence[Lane]]  # method -> lanes
+    image: str | None = None  # the image's path relative to the image root
+
+
+def chosen_frames(diagnosed, label: str, per_reason: int = GALLERY_FRAMES) -> list[tuple[str, list[str]]]:
+    """(frame, reasons) in order of choice: per method, the frames with most errors (FP + FN) in each
+    category, then with most of each error type, at threshold `label`."""
+    from ..metrics.lane_errors import ERROR_TYPES
+
+    d = diagnosed.diagnoses
+    t = diagnosed.labels.index(label)
+    chosen: dict[int, list[str]] = {}
+    for m, (method, matching) in enumerate(diagnosed.entries):
+        name = diagnosed.name(method, matching)
+        tp = d.tp[m, :, t]
+        errors = (d.n_pred[m] - tp) + (d.n_gt - tp)
+        groups = [group for group in diagnosed.groups if group[0] != "all"] or list(diagnosed.groups)
+        reasons = [(f"{name}: most errors in {group}", np.where(inside, errors, 0)) for group, inside in groups]
+        reasons += [(f"{name}: most {side.upper()} {kind}", d.errors[m, :, t, k])
+                    for k, (side, kind) in ((k, ERROR_TYPES[k]) for k in diagnosed.types)]
+        for reason, values in reasons:
+            order = np.argsort(-values, kind="stable")[:per_reason]
+            for k in order[values[order] > 0]:
+                chosen.setdefault(int(k), []).append(reason)
+    return [(d.frames[k], reasons) for k, reasons in chosen.items()]
+
+
+def _lane_points(lane: Lane) -> list[list[float]]:
+    return [[round(float(x), 1), round(float(y), 1)] for x, y in lane.points]
+
+
+def gallery_record(diagnosed, label: str, frame_lanes: Callable[[str], GalleryFrame],
+                   image_root: str | None) -> dict:
+    """gallery.json's content."""
+    d = diagnosed.diagnoses
+    index = {frame: k for k, frame in enumerate(d.frames)}
+    t = diagnosed.labels.index(label)
+    pictures = []
+    for frame, reasons in chosen_frames(diagnosed, label):
+        found = frame_lanes(frame)
+        k = index[frame]
+        counts = {}
+        for m, (method, matching) in enumerate(diagnosed.entries):
+            tp = int(d.tp[m, k, t])
+            counts[diagnosed.name(method, matching)] = [tp, int(d.n_pred[m, k]) - tp, int(d.n_gt[k]) - tp]
+        pictures.append({"frame": frame, "reasons": reasons, "size": list(found.size), "image": found.image,
+                         "truth": [_lane_points(lane) for lane in found.truth],
+                         "predicted": {method: [_lane_points(lane) for lane in lanes]
+                                       for method, lanes in found.predicted.items()},
+                         "counts": counts})
+    return {"format": GALLERY_FORMAT, "title": diagnosed.title, "threshold": label, "image_root": image_root,
+            "pictures": pictures}
+
+
+def write_gallery(staging, diagnosed, label: str) -> None:
+    if diagnosed.frame_lanes is None:
+        return
+    record = gallery_record(diagnosed, label, diagnosed.frame_lanes, diagnosed.image_root)
+    staging.write_text(GALLERY, json.dumps(record, indent=None, separators=(",", ":")) + "\n")
+
+
+# ---- reading one back, and drawing it ----------------------------------------------------------
+
+def _bad(path: Path, what: str) -> InputError:
+    return InputError(path, f"not a gallery `score --diagnose` writes: {what}")
+
+
+def _lanes(value, path: Path) -> list[Lane]:
+    if not isinstance(value, list) or len(value) > 1000:
+        raise _bad(path, "lanes must be a list")
+    lanes = []
+    for lane in value:
+        if not (isinstance(lane, list) and len(lane) <= MAX_POINTS and all(
+                isinstance(p, list) and len(p) == 2 and all(type(v) in (int, float) and math.isfinite(v)
+                                                           and abs(v) < 1 << 24 for v in p) for p in lane)):
+            raise _bad(path, "a lane must be a list of [x, y] numbers")
+        lanes.append(Lane(np.array(lane, np.float64).reshape(-1, 2)))
+    return lanes
+
+
+def read_gallery(folder: Path) -> dict:
+    """A gallery.json, every field checked."""
+    from ..json_fields import loads
+    from ..lanes_io import read_bytes
+    from ..limits import RUN_TABLE
+
+    path = folder / GALLERY
+    try:
+        record = loads(read_bytes(path, limit=RUN_TABLE).decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as error:
+        raise _bad(path, str(error)) from None
+    if not isinstance(record, dict) or record.get("format") != GALLERY_FORMAT:
+        raise _bad(path, f"its format is not {GALLERY_FORMAT!r}")
+    pictures = record.get("pictures")
+    if not isinstance(pictures, list) or len(pictures) > MAX_PICTURES or not isinstance(record.get("title"), str):
+        raise _bad(path, "pictures must be a list")
+    for picture in pictures:
+        size = picture.get("size") if isinstance(picture, dict) else None
+        if not (isinstance(size, list) and len(size) == 2 and all(type(v) is int and 1 <= v <= 20000 for v in size)
+                and isinstance(picture.get("frame"), str) and isinstance(picture.get("reasons"), list)
+                and all(isinstance(r, str) for r in picture["reasons"])
+                and (picture.get("image") is None or isinstance(picture["image"], str))
+                and isinstance(picture.get("predicted"), dict) and isinstance(picture.get("counts"), dict)):
+            raise _bad(path, "each picture needs frame, reasons, size, image, truth, predicted, counts")
+        picture["truth"] = _lanes(picture.get("truth"), path)
+        picture["predicted"] = {str(method): _lanes(lanes, path) for method, lanes in picture["predicted"].items()}
+    if record.get("image_root") is not None and not isinstance(record["image_root"], str):
+        raise _bad(path, "image_root must be a path or null")
+    return record
+
+
+COLOURS = [(60, 60, 230), (60, 200, 60), (235, 200, 60), (200, 60, 200), (40, 160, 240), (160, 160, 160)]  # BGR
+
+
+def draw_gallery(record: dict, image_root: Path | None, worst: int) -> list[tuple[str, np.ndarray]]:
+    """(name, picture) of the first `worst` frames of each reason, in the record's order."""
+    import cv2
+
+    from .overlays import BLUE, CAPTION_LINE, FONT, OUTPUT_WIDTH, _fitting_scale, _polyline
+
+    taken: dict[str, int] = {}
+    out = []
+    for number, picture in enumerate(record["pictures"]):
+        wanted = [r for r in picture["reasons"] if taken.get(r, 0) < worst]
+        if not wanted:
+            continue
+        for reason in wanted:
+            taken[reason] = taken.get(reason, 0) + 1
+        width, height = picture["size"]
+        background = _background(image_root, picture.get("image"), width, height)
+        scale = OUTPUT_WIDTH / width
+        image = cv2.resize(background, (OUTPUT_WIDTH, max(1, round(height * scale))), interpolation=cv2.INTER_AREA)
+        for lane in picture["truth"]:
+            _polyline(image, lane.points * scale, BLUE, 9, False)
+        for rank, lanes in enumerate(picture["predicted"].values()):
+            for lane in lanes:
+                _polyline(image, lane.points * scale, COLOURS[rank % len(COLOURS)], 3, rank % 2 == 1)
+        lines = [picture["frame"], "; ".join(wanted)]
+        lines += [f"{method}: TP {c[0]}  FP {c[1]}  FN {c[2]}" for method, c in picture["counts"].items()
+                  if isinstance(c, list) and len(c) == 3]
+        lines.append(f"blue: ground truth; {', '.join(picture['predicted'])} in turn red, green, ... "
+                     f"({record['title']}, IoU > {record.get('threshold')})")
+        bar = np.full((CAPTION_LINE * len(lines) + 12, OUTPUT_WIDTH, 3), 255, np.uint8)
+        for row, text in enumerate(lines):
+            cv2.putText(bar, text, (8, CAPTION_LINE * (row + 1)), FONT, _fitting_scale(text, OUTPUT_WIDTH - 16),
+                        (0, 0, 0), 2, cv2.LINE_AA)
+        out.append((f"{number:03d}", np.vstack([image, bar])))
+    return out
+
+
+def _background(image_root: Path | None, image: str | None, width: int, height: int) -> np.ndarray:
+    """The frame's image at its size when the root holds it (read as any image the tool reads),
+    else a dark canvas of the frame's size."""
+    if image_root is not None and image is not None:
+        import cv2
+
+        from ..datasets._paths import under_root
+
+        path = under_root(image_root, image)
+        if path.is_file() and path.stat().st_size < 256 << 20:
+            found = cv2.imread(str(path), cv2.IMREAD_COLOR)
+            if found is not None and found.shape[:2] == (height, width):
+                return found
+    return np.full((height, width, 3), 40, np.uint8)
