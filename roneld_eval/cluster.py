@@ -53,9 +53,6 @@ def executed(executor: str, scheduler: str | None, command: str, function: Calla
     if arguments.get("resume") or arguments.get("overlays") or arguments.get("timings") is False:
         raise ConfigError("--executor dask merges shards, which keep no report to resume or draw in: without --resume, "
                           "--overlays (draw pictures of the merged run with `roneld-eval show`) or --no-timings")
-    if arguments.get("diagnose") or arguments.get("score_sweep") is not None:
-        raise ConfigError("--executor dask merges shards' parts, which keep no error types or score sweep yet: give "
-                          "--diagnose and --score-sweep without it")
     if getattr(arguments.get("config"), "plugins", None):
         raise ConfigError("--executor dask merges the shards' parts, and a merge imports no code a part names: run "
                           "plug-in methods without it")

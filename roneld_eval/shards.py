@@ -304,11 +304,12 @@ def check_together(parts: Sequence[Part]) -> list[Part]:
     return [by_index[k] for k in sorted(by_index)]
 
 
-def check_part_arrays(part: Part, n_methods: int, n_categories: int) -> dict[str, np.ndarray]:
-    """A `score culane` part's arrays, every shape, type and value range checked."""
+def check_part_arrays(part: Part, n_methods: int, n_categories: int, more: Iterable[str] = ()) -> dict[str, np.ndarray]:
+    """A `score culane` part's arrays, every shape, type and value range checked (`more`: the
+    names of arrays its settings add, which their reader checks)."""
     arrays = part.arrays
     where = part.path / ARRAYS_NAME
-    wanted = {"frames", "n_gt", "n_pred", "matched_iou", *(f"category_{k}" for k in range(n_categories))}
+    wanted = {"frames", "n_gt", "n_pred", "matched_iou", *(f"category_{k}" for k in range(n_categories)), *more}
     if set(arrays) != wanted:
         raise InputError(where, f"holds {sorted(arrays)}, not {sorted(wanted)}")
     frames = arrays["frames"]
@@ -503,6 +504,12 @@ class Sharding:
                     "share": digest(list(scored)), "predictions": predictions_fingerprint(trees, files_of, scored)}
         write_part(Staging(folder), manifest, arrays)
         folder.commit()
+
+
+def given_options(**options) -> dict:
+    """Options a part records only when given (--diagnose, --loc-iou, --score-sweep): a part of a
+    command without them stays what it was."""
+    return {name: value for name, value in options.items() if value not in (None, False)}
 
 
 def _absolute_roots(value) -> list[list]:

@@ -114,8 +114,7 @@ def test_the_command_reports_the_errors_and_refuses_what_it_cannot_keep(lanes, t
     assert "all frames: FP Loc" in result.output and "(errors.md)" in result.output
     for extra, says in ((["--loc-iou", "0.2"], "give --diagnose too"),
                         (["--diagnose", "--loc-iou", "0"], "must be in (0, 1]"),
-                        (["--diagnose", "--shard", "1/2"], "score without --shard"),
-                        (["--score-sweep", "--executor", "dask"], "without it")):
+                        (["--score-sweep", "1.5"], "1.5")):
         result = invoke("score", "culane", "--data-root", gt, "--pred-root", roots["noisy"], *extra,
                         "--out", tmp_path / "refused")
         assert result.exit_code == 2, result.output
@@ -231,6 +230,14 @@ def test_tusimple_writes_each_frames_accuracy_and_rates_that_average_to_its_offi
         (tmp_path / "diag" / "official.csv").read_text().splitlines()[1]
     refused = invoke("score", "tusimple", "--labels", labels, "--pred", scored, "--diagnose")
     assert refused.exit_code == 2 and "give --out" in refused.output and "Traceback" not in refused.output
+    for k in (1, 2):  # shards merge into the same frames.csv.gz
+        part = invoke("score", "tusimple", "--labels", labels, "--pred", scored, "--pred", f"again={scored}",
+                      "--diagnose", "--shard", f"{k}/2", "--out", tmp_path / f"part{k}")
+        assert part.exit_code == 0, part.output
+    merged = invoke("merge", tmp_path / "part1", tmp_path / "part2", "--out", tmp_path / "merged")
+    assert merged.exit_code == 0, merged.output
+    for name in ("frames.csv.gz", "official.csv"):
+        assert (tmp_path / "merged" / name).read_bytes() == (tmp_path / "diag" / name).read_bytes()
 
 
 def test_compare_lists_the_frames_where_one_method_beats_the_other_most(lanes, tmp_path):
@@ -284,3 +291,32 @@ def test_show_draws_a_scores_gallery_over_its_images_and_refuses_an_edited_one(l
         refused = invoke("show", "--run", tmp_path / "scored", "--out", tmp_path / "edited")
         assert refused.exit_code == 2 and "gallery.json" in refused.output and "Traceback" not in refused.output
         assert not (tmp_path / "edited").exists()
+
+
+@pytest.mark.parametrize("benchmark", sorted(SCORED))
+def test_shards_of_a_diagnosed_score_merge_into_its_files(benchmark, tmp_path):
+    inputs, synth_options, with_scores = SCORED[benchmark]
+    result = invoke("synth", "--dataset", benchmark, "--out", tmp_path / "set", *(synth_options or ["--clips", 2]))
+    assert result.exit_code == 0, result.output
+    extra = ["--diagnose", "--loc-iou", "0.2"] + (["--score-sweep", "0.1:0.9:0.2"] if with_scores else [])
+    whole = invoke("score", benchmark, *inputs(tmp_path / "set"), *extra, "--workers", 1, "--out", tmp_path / "whole")
+    assert whole.exit_code == 0, whole.output
+    for k in (1, 2):
+        part = invoke("score", benchmark, *inputs(tmp_path / "set"), *extra, "--workers", 1, "--shard", f"{k}/2",
+                      "--out", tmp_path / f"part{k}")
+        assert part.exit_code == 0, part.output
+    merged = invoke("merge", tmp_path / "part1", tmp_path / "part2", "--out", tmp_path / "merged")
+    assert merged.exit_code == 0, merged.output
+    written = sorted(p.name for p in (tmp_path / "whole").iterdir() if not p.name.startswith("."))
+    assert "errors.csv" in written and "gallery.json" in written
+    assert written == sorted(p.name for p in (tmp_path / "merged").iterdir() if not p.name.startswith("."))
+    for name in written:
+        assert (tmp_path / "whole" / name).read_bytes() == (tmp_path / "merged" / name).read_bytes(), name
+    # a part whose error types were edited is refused in one line
+    from roneld_eval.shards import ARRAYS_NAME
+    arrays = dict(np.load(tmp_path / "part1" / ARRAYS_NAME))
+    arrays["cat_diag_errors"] = arrays["cat_diag_errors"] + 1000
+    np.savez(tmp_path / "part1" / ARRAYS_NAME, **arrays)
+    refused = invoke("merge", tmp_path / "part1", tmp_path / "part2", "--out", tmp_path / "edited")
+    assert refused.exit_code == 2 and "Traceback" not in refused.output, refused.output
+    assert not (tmp_path / "edited").exists()

@@ -84,10 +84,9 @@ DEFAULT_SCORE_SWEEP = "0.00:0.95:0.05"
 
 
 def diagnosis_settings(diagnose: bool, loc_iou: float | None, score_sweep: str | None, limits: Sequence[float],
-                       strict: bool = False, sharded: bool = False) -> DiagnosisSettings | None:
+                       strict: bool = False) -> DiagnosisSettings | None:
     """The settings of --diagnose/--loc-iou/--score-sweep (None when neither is asked for); a
-    ConfigError line for a --loc-iou outside (0, 1] or given alone, or for a shard (whose part
-    does not keep them)."""
+    ConfigError line for a --loc-iou outside (0, 1] or given alone."""
     from ..errors import ConfigError
     from ..thresholds import parse_thresholds
 
@@ -98,8 +97,6 @@ def diagnosis_settings(diagnose: bool, loc_iou: float | None, score_sweep: str |
         raise ConfigError(f"--loc-iou {loc_iou} must be in (0, 1]")
     if not diagnose and score_sweep is None:
         return None
-    if sharded:
-        raise ConfigError("--diagnose and --score-sweep are not kept in a shard's part yet: score without --shard")
     sweep = None
     if score_sweep is not None:
         grid = parse_thresholds(score_sweep)
@@ -298,6 +295,66 @@ class DiagnosisCollector:
 def kernel_groups(groups: tuple[str, ...], settings: DiagnosisSettings | None) -> tuple[str, ...]:
     """A scorer's kernel groups, and the diagnosis' when it diagnoses."""
     return groups if settings is None else groups + ("diagnosis",)
+
+
+def part_arrays(diagnoses: FrameDiagnoses | None, n_entries: int, n_limits: int,
+                n_scores: int | None) -> dict[str, np.ndarray]:
+    """A shard's diagnoses as its part keeps them: frame-first arrays whose rows the merge
+    concatenates in shard order (`cat_`), empty for a shard without frames; `n_scores` None
+    without a score sweep."""
+    if diagnoses is None:
+        diagnoses = FrameDiagnoses((), np.zeros(0, np.int64), np.zeros((n_entries, 0), np.int64),
+                                   np.zeros((n_entries, 0, n_limits), np.int64),
+                                   np.zeros((n_entries, 0, n_limits, len(ERROR_TYPES)), np.int64),
+                                   None if n_scores is None else np.zeros((n_entries, 0, n_scores, n_limits), np.int64),
+                                   None if n_scores is None else np.zeros((n_entries, 0, n_scores), np.int64))
+    arrays = {"cat_diag_n_gt": diagnoses.n_gt, "cat_diag_n_pred": diagnoses.n_pred.T,
+              "cat_diag_tp": diagnoses.tp.transpose(1, 0, 2), "cat_diag_errors": diagnoses.errors.transpose(1, 0, 2, 3)}
+    if n_scores is not None:
+        assert diagnoses.sweep_tp is not None and diagnoses.sweep_kept is not None
+        arrays.update(cat_diag_sweep_tp=diagnoses.sweep_tp.transpose(1, 0, 2, 3),
+                      cat_diag_sweep_kept=diagnoses.sweep_kept.transpose(1, 0, 2))
+    return {name: np.ascontiguousarray(array, np.int64) for name, array in arrays.items()}
+
+
+def diagnosis_part(settings: DiagnosisSettings | None, diagnoses: FrameDiagnoses | None,
+                   n_entries: int) -> dict[str, np.ndarray]:
+    """part_arrays of a shard scored with these settings (none without)."""
+    if settings is None:
+        return {}
+    return part_arrays(diagnoses, n_entries, len(settings.limits),
+                       None if settings.sweep is None else len(settings.sweep.labels))
+
+
+def diagnoses_merged(settings: DiagnosisSettings | None, frames: Sequence[str], merged_array: Callable[..., np.ndarray],
+                     n_entries: int) -> FrameDiagnoses | None:
+    """merged_diagnoses of a merge whose shards were scored with these settings (None without)."""
+    if settings is None:
+        return None
+    return merged_diagnoses(frames, merged_array, n_entries, len(settings.limits),
+                            None if settings.sweep is None else len(settings.sweep.labels))
+
+
+def merged_diagnoses(frames: Sequence[str], merged_array: Callable[..., np.ndarray], n_entries: int, n_limits: int,
+                     n_scores: int | None) -> FrameDiagnoses:
+    """The diagnoses of a merge from its parts' arrays (`merged_array(name, shape, kind, within)`
+    checks each shape and range: an untrusted file)."""
+    n = len(frames)
+
+    def read(name: str, *shape: int) -> np.ndarray:
+        return merged_array(f"cat_diag_{name}", (n, *shape), "i", (0, 1 << 40))
+
+    tp = read("tp", n_entries, n_limits).transpose(1, 0, 2)
+    n_gt, n_pred = read("n_gt"), read("n_pred", n_entries).T
+    errors = read("errors", n_entries, n_limits, len(ERROR_TYPES)).transpose(1, 0, 2, 3)
+    if (tp > n_gt[None, :, None]).any() or (tp > n_pred[:, :, None]).any() or (
+            errors.sum(axis=3) > (n_gt[None, :, None] + n_pred[:, :, None])).any():
+        raise ValueError("the parts' error types exceed their lanes")
+    sweep_tp = sweep_kept = None
+    if n_scores is not None:
+        sweep_tp = read("sweep_tp", n_entries, n_scores, n_limits).transpose(1, 0, 2, 3)
+        sweep_kept = read("sweep_kept", n_entries, n_scores).transpose(1, 0, 2)
+    return FrameDiagnoses(tuple(frames), n_gt, n_pred, tp, errors, sweep_tp, sweep_kept)
 
 
 def _joined(arrays: Sequence[np.ndarray | None]) -> np.ndarray:

@@ -25,7 +25,7 @@ import numpy as np
 from ...config import check_lane_width
 
 from ...thresholds import Thresholds, parse_thresholds
-from .reader import read_culane
+from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, read_culane
 from .reader import labels_path, read_frame_labels
 from ...errors import ConfigError, InputError
 from ...lanes_io import check_coordinates, read_lane_scores, read_lines_txt, scores_path
@@ -41,7 +41,7 @@ from ...metrics.lane_iou_f1 import (
     summary_records,
 )
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, FrameErrors,
-                                    diagnosis_settings, kernel_groups)
+                                    diagnosis_part, diagnosis_settings, diagnoses_merged, kernel_groups)
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...output import OutputFolder
@@ -209,7 +209,7 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     thresholds, highlighted = _thresholds(iou, preset)
     check_lane_width(width)
     share = parse_shard(shard) if shard is not None else None
-    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, thresholds.values, sharded=share is not None)
+    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, thresholds.values)
     if not isinstance(pred_root, Mapping):  # glob patterns: one checkpoint per folder matched
         pred_root = expand_roots([pred_root] if isinstance(pred_root, (str, Path)) else list(pred_root))
     sweep = not isinstance(pred_root, Mapping) and is_sweep(pred_root)
@@ -239,12 +239,16 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
             assert folder is not None
             joined = _joined(pieces, len(trees))
             _keep_truth(key, kept, say)
+            recorded = None if diagnosis is None else {"diagnose": diagnose, "loc_iou": loc_iou,
+                                                       "score_sweep": score_sweep,
+                                                       "data_root": os.path.abspath(dataset.root)}
             _write_culane_part(folder, share, joined, dataset, relpaths, trees, warnings, iou, preset, width, strict,
-                               sweep)
+                               sweep, recorded, diagnosis_part(diagnosis, _joined_diagnoses(diagnosed), len(trees)))
             return None
         score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings,
                               _culane_ground_truth(relpaths, dataset.categories), sweep)
-        score = _with_diagnosis(score, diagnosed, dataset, width, diagnosis)
+        score = _with_diagnosis(score, _joined_diagnoses(diagnosed), dataset.categories, dataset.root, width,
+                                diagnosis)
         _keep_truth(key, kept, say)
         if folder is not None:
             write_culane_score(folder, score, width)
@@ -306,31 +310,34 @@ def _piece(chunk: list[str], piece: tuple, kept: list[TruthRuns] | None,
     return ScoredFrames(tuple(chunk), n_gt, n_pred, matched)
 
 
-def _with_diagnosis(score: CulaneScore, diagnosed: list[FrameDiagnoses], dataset, width: int,
-                    diagnosis: DiagnosisSettings | None) -> CulaneScore:
+def _joined_diagnoses(pieces: list[FrameDiagnoses]) -> FrameDiagnoses | None:
+    return FrameDiagnoses.joined(pieces) if pieces else None
+
+
+def _with_diagnosis(score: CulaneScore, diagnoses: FrameDiagnoses | None, categories: Mapping[str, frozenset[str]],
+                    root: Path, width: int, diagnosis: DiagnosisSettings | None) -> CulaneScore:
     """The score with what --diagnose and --score-sweep write of it: frames grouped as
-    official.csv groups them (category lists, then all), each frame's clip folder as its sequence."""
+    official.csv groups them (category lists, then all), each frame's clip folder as its sequence;
+    each frame's lanes read again (from `root` and the trees) for the gallery."""
     from ...metrics.lane_iou_f1 import category_groups
 
-    if diagnosis is None:
+    if diagnosis is None or diagnoses is None:
         return score
-    diagnoses = FrameDiagnoses.joined(diagnosed)
-
-    member_of = {frame: name for name, members in reversed(list(dataset.categories.items())) for frame in members}
+    member_of = {frame: name for name, members in reversed(list(categories.items())) for frame in members}
 
     def facts(frame: str) -> tuple[str, str]:
         return frame.lstrip("/").rpartition("/")[0], member_of.get(frame, "")
 
     def lanes_of(frame: str) -> GalleryFrame:
-        return GalleryFrame((dataset.image_width, dataset.image_height), read_frame_labels(dataset.root, frame),
+        return GalleryFrame((IMAGE_WIDTH, IMAGE_HEIGHT), read_frame_labels(root, frame),
                             {tree.method: read_lines_txt(labels_path(tree.root, frame)) for tree in score.trees},
                             frame.lstrip("/"))
 
-    groups = tuple(category_groups(diagnoses.frames, dataset.categories))
+    groups = tuple(category_groups(diagnoses.frames, categories))
     return replace(score, diagnosed=Diagnosed(
         diagnoses, tuple((method, "") for method in score.methods), groups, score.thresholds.labels,
         diagnosis.loc_iou, facts, f"CULane, SCNN's lane IoU F1 ({width} px at 1640x590)", diagnosis.sweep,
-        diagnosis.errors, frame_lanes=lanes_of, image_root=str(dataset.root)))
+        diagnosis.errors, frame_lanes=lanes_of, image_root=str(root)))
 
 
 def _keep_truth(key: str | None, kept: list[TruthRuns] | None, say: Callable[[str], None]) -> None:
@@ -419,7 +426,8 @@ def _culane_ground_truth(relpaths: Sequence[str], categories: Mapping[str, froze
 
 
 def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, dataset, relpaths, trees, warnings,
-                       iou, preset, width: int, strict: bool, sweep: bool) -> None:
+                       iou, preset, width: int, strict: bool, sweep: bool, diagnosis: dict | None,
+                       diagnosed: dict[str, np.ndarray]) -> None:
     from ...shards import PART_FORMAT, PART_VERSION, write_part
     from ...version import __version__
 
@@ -433,7 +441,9 @@ def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, datase
         "settings": {"iou": None if iou is None else str(iou), "preset": preset, "width": width, "strict": strict,
                      "sweep": sweep,
                      "trees": [[t.method, os.path.abspath(t.root), t.found, t.listed] for t in trees],
-                     "categories": list(dataset.categories), "frames": len(relpaths)},
+                     "categories": list(dataset.categories), "frames": len(relpaths),
+                     # --diagnose, --score-sweep: as given, and the data root the merge reads the gallery's lanes from
+                     **({} if diagnosis is None else {"diagnosis": diagnosis})},
         # the list and categories (what merge checks the parts' frames against) and the label files
         # (path, size, modification time: what the parts must agree on)
         "ground_truth": digest({"list": listed, "labels": labels}), "list": listed,
@@ -445,6 +455,7 @@ def _write_culane_part(folder: OutputFolder, share, scored: ScoredFrames, datase
               "n_gt": scored.n_gt, "n_pred": scored.n_pred, "matched_iou": scored.matched_iou}
     for k, members in enumerate(dataset.categories.values()):
         arrays[f"category_{k}"] = np.array([frame in members for frame in scored.frames], bool)
+    arrays.update(diagnosed)
     staging = Staging(folder)
     write_part(staging, manifest, arrays)
     folder.commit()
@@ -469,7 +480,9 @@ def _culane_part_settings(part) -> dict:
         return type(value) is int and value >= 0
 
     good = (isinstance(settings, dict)
-            and set(settings) == {"iou", "preset", "width", "strict", "sweep", "trees", "categories", "frames"}
+            and set(settings) - {"diagnosis"} == {"iou", "preset", "width", "strict", "sweep", "trees", "categories",
+                                                  "frames"}
+            and _diagnosis_recorded(settings.get("diagnosis"))
             and (settings["iou"] is None or isinstance(settings["iou"], str))
             and settings["preset"] in (None, *SCORE_PRESETS)
             and type(settings["width"]) is int and 2 <= settings["width"] <= MAX_LINE_THICKNESS
@@ -487,6 +500,33 @@ def _culane_part_settings(part) -> dict:
     return settings
 
 
+def _diagnosis_recorded(value) -> bool:
+    """A part's "diagnosis" setting: absent, or --diagnose, --loc-iou, --score-sweep and the data root."""
+    return value is None or (
+        isinstance(value, dict) and set(value) == {"diagnose", "loc_iou", "score_sweep", "data_root"}
+        and isinstance(value["diagnose"], bool) and isinstance(value["data_root"], str)
+        and (value["loc_iou"] is None or type(value["loc_iou"]) in (int, float))
+        and (value["score_sweep"] is None or isinstance(value["score_sweep"], str)))
+
+
+def _part_diagnoses(part, frames: list[str], diagnosis: DiagnosisSettings | None, n_methods: int
+                    ) -> FrameDiagnoses | None:
+    """A part's diagnoses from its arrays, each shape and range checked (an untrusted file)."""
+    from ...shards import ARRAYS_NAME
+
+    def checked(name: str, shape: tuple[int, ...], kind: str, within: tuple[int, int]) -> np.ndarray:
+        array = part.arrays.get(name)
+        if array is None or array.dtype.kind != kind or array.shape != shape or (
+                array.size and not ((array >= within[0]) & (array <= within[1])).all()):
+            raise InputError(part.path / ARRAYS_NAME, f"its {name} does not fit this score's methods and frames")
+        return array
+
+    try:
+        return diagnoses_merged(diagnosis, frames, checked, n_methods)
+    except ValueError as error:
+        raise InputError(part.path / ARRAYS_NAME, str(error)) from None
+
+
 def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
     """The files one unsharded `score culane` writes, from its shards' parts (checked together)."""
     from ...shards import check_part_arrays, check_predictions
@@ -497,12 +537,17 @@ def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
     trees = tuple(PredictionTree(method, Path(root), found, listed)
                   for method, root, found, listed in settings["trees"])
     names = settings["categories"]
+    recorded = settings.get("diagnosis")
+    diagnosis = None if recorded is None else diagnosis_settings(
+        recorded["diagnose"], recorded["loc_iou"], recorded["score_sweep"], thresholds.values)
+    diagnosed: list[FrameDiagnoses] = []
     frames: list[str] = []
     n_gt, n_pred, matched = [], [], []
     members: list[list[str]] = [[] for _ in names]
     for part in parts:
-        arrays = check_part_arrays(part, len(trees), len(names))
+        arrays = check_part_arrays(part, len(trees), len(names), diagnosis_part(diagnosis, None, len(trees)))
         part_frames = [str(v) for v in arrays["frames"].tolist()]
+        diagnosed += [found for found in [_part_diagnoses(part, part_frames, diagnosis, len(trees))] if found]
         # a merge that does not find the trees where the parts say (merged elsewhere) cannot check them
         check_predictions(part.path, part.manifest.get("predictions"), trees, _files_of(trees), part_frames,
                           present_only=True)
@@ -520,6 +565,8 @@ def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
                           np.concatenate(matched, axis=1))
     score = _culane_score([scored], categories, thresholds, highlighted, trees, settings["frames"], first["warnings"],
                           first["list"], settings["sweep"])
+    score = _with_diagnosis(score, _joined_diagnoses(diagnosed), categories,
+                            Path(recorded["data_root"]) if recorded else Path(), settings["width"], diagnosis)
     with _taking(out, "score culane") as folder:
         assert folder is not None
         write_culane_score(folder, score, settings["width"])

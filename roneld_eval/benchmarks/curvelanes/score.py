@@ -19,14 +19,14 @@ from .reader import (IMAGE_SUFFIXES, SUFFIX, CurveLanesFrame, every_labelled_ima
                      read_frame, read_list)
 
 from .official import IOU_THRESHOLD, f_measure, has_zero_step, hits, iou_matrix, matched_lanes
-from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_settings,
-                                    kernel_groups)
+from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
+                                    diagnosis_settings, diagnoses_merged, kernel_groups)
 from ...output import Staging
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...model import Lane
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
-from ...shards import Merged, Sharding
+from ...shards import Merged, Sharding, given_options
 
 COLUMNS = ("method", "score_threshold", "chosen", "hits", "predicted", "truth", "precision", "recall", "f1")
 CHUNK_FRAMES = 100
@@ -140,11 +140,11 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
     (frames.csv.gz); `score_sweep` ('0.00:0.95:0.05'): the whole curve behind `best_of` (a lane kept
     when its score is above each threshold), as `score culane` gives them."""
     thresholds = score_thresholds(score_threshold, best_of)
-    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, (IOU_THRESHOLD,), strict=True,
-                                   sharded=shard is not None)
+    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, (IOU_THRESHOLD,), strict=True)
     sharding = Sharding("score curvelanes", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, image_root=image_root, list_file=list_file,
-        score_threshold=float(score_threshold), best_of=[float(t) for t in best_of], strict=strict))
+        score_threshold=float(score_threshold), best_of=[float(t) for t in best_of], strict=strict,
+        **given_options(diagnose=diagnose, loc_iou=loc_iou, score_sweep=score_sweep)))
     labels, images = Path(labels), Path(image_root)
     with _taking(out, "score curvelanes", reads=(labels, images, list_file)) as folder:
         relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels)
@@ -163,6 +163,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         if merged is not None:
             sharding.check_merged(relpaths, trees, label_files, _each_image, files_of=files_of)
             counts = sharding.merged_array("sum_counts", (len(trees), len(thresholds), 3))
+            diagnoses = diagnoses_merged(diagnosis, relpaths, sharding.merged_array, len(trees))
         else:
             roots = tuple(tree.root for tree in trees)
             scored = sharding.share(relpaths, _each_image)
@@ -174,7 +175,8 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             counts = sum(pieces, np.zeros((len(trees), len(thresholds), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
-                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
+                sharding.write_part(folder, relpaths, trees, label_files, scored, {
+                    "sum_counts": counts, **diagnosis_part(diagnosis, diagnoses, len(trees))},
                                     files_of=files_of)
                 return None
         rows = [row for m, tree in enumerate(trees) for row in method_rows(tree.method, thresholds, best_of, counts[m])]

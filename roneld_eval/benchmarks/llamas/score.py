@@ -28,14 +28,14 @@ from ...maps.scnn_png import read_grey_png
 from .official import f1_of, frame_counts, interpolated, iou_matrix, lane_mask, matched_lanes
 from .segmentation import CLASSES, IMAGE_HEIGHT as MAP_HEIGHT, IMAGE_WIDTH as MAP_WIDTH, approx_auc
 from .segmentation import class_masks, mean_curves, ClassCurve
-from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_settings,
-                                    kernel_groups)
+from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
+                                    diagnosis_settings, diagnoses_merged, kernel_groups)
 from ...output import Staging
 from ...report.diagnosis import Diagnosed, headline_thresholds, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...report.tables import Table
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
-from ...shards import Merged, Sharding
+from ...shards import Merged, Sharding, given_options
 from ...thresholds import Thresholds, parse_thresholds
 
 DEFAULT_IOU = "0.50:0.95:0.05"  # mF1's grid; 0.5 is the script's own threshold
@@ -182,7 +182,8 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
         raise ConfigError("nothing to score: give --pred-root (lane files, for F1) or --maps (probability "
                           "maps, for AP), or both")
     sharding = Sharding("score llamas", shard, out, merged, dict(
-        labels=labels, pred_root=pred_root, iou=iou, width=width, strict=strict, maps=maps))
+        labels=labels, pred_root=pred_root, iou=iou, width=width, strict=strict, maps=maps,
+        **given_options(diagnose=diagnose, loc_iou=loc_iou)))
     with _taking(out, "score llamas", reads=(labels,)) as folder:
         found = every_label(Path(labels))
         keys = list(found)
@@ -197,6 +198,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             counts = sharding.merged_array("sum_counts", (len(trees), len(scored_at), 3))
             dropped = int(sharding.merged_array("sum_dropped", (1,))[0])
             refused = sharding.merged_array("sum_refused", (len(trees),))
+            diagnoses = diagnoses_merged(diagnosis, keys, sharding.merged_array, len(trees))
             curves = sharding.merged_array("cat_curves", (len(keys) if map_trees else 0, len(map_trees),
                                                           len(CLASSES), 4), kind="f", within=(0.0, 1.0))
         else:
@@ -221,7 +223,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                 assert folder is not None
                 sharding.write_part(folder, keys, [*trees, *map_trees], list(found.values()), scored, {
                     "sum_counts": counts, "sum_dropped": np.array([dropped], np.int64), "sum_refused": refused,
-                    "cat_curves": curves}, files_of=files_of)
+                    "cat_curves": curves, **diagnosis_part(diagnosis, diagnoses, len(trees))}, files_of=files_of)
                 return None
         segmentation = {}
         for m, tree in enumerate(map_trees):  # the frames in key order: the mean summed as evaluate_set sums it
@@ -263,7 +265,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
 
 def _diagnosis(diagnose: bool, loc_iou: float | None, thresholds: Thresholds, shard: str | None,
                pred_root: PredictionRoots) -> DiagnosisSettings | None:
-    diagnosis = diagnosis_settings(diagnose, loc_iou, None, thresholds.values, sharded=shard is not None)
+    diagnosis = diagnosis_settings(diagnose, loc_iou, None, thresholds.values)
     if diagnosis is not None and not _given(pred_root):
         raise ConfigError("--diagnose gives the error types of lane files: give --pred-root (maps are scored for "
                           "AP, which has no lanes to match)")

@@ -22,13 +22,14 @@ from ...thresholds import Thresholds, parse_thresholds
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, OpenLaneLanes, every_labelled_frame, json_path, read_lanes, read_list
 from ...errors import ConfigError
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, category_iou,
-                                    diagnosis_settings, kernel_groups)
+                                    diagnosis_part, diagnosis_settings, diagnoses_merged,
+                                    kernel_groups)
 from ...metrics.lane_iou_f1 import f_measure, matched_result, official_masks
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...output import Staging
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
-from ...shards import Merged, Sharding
+from ...shards import Merged, Sharding, given_options
 
 DEFAULT_IOU = "0.3"  # evaluate.cpp:121 (its help() says 0.4)
 LANE_WIDTH = 30  # evaluate.cpp:120 (its help() says 10)
@@ -122,13 +123,14 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
     `diagnose`: also the error types (errors.csv, .md, .png; Cat within categories) and every
     frame's counts (frames.csv.gz), as `score culane --diagnose` gives them."""
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
-    diagnosis = diagnosis_settings(diagnose, loc_iou, None, thresholds.values, sharded=shard is not None)
+    diagnosis = diagnosis_settings(diagnose, loc_iou, None, thresholds.values)
     check_lane_width(width)
     modes = tuple(modes)
     if not modes or any(mode not in MODES for mode in modes) or len(set(modes)) != len(modes):
         raise ConfigError(f"matching must be among {', '.join(MODES)}")
     sharding = Sharding("score openlane", shard, out, merged, dict(
-        labels=labels, pred_root=pred_root, list_file=list_file, iou=iou, width=width, modes=modes, strict=strict))
+        labels=labels, pred_root=pred_root, list_file=list_file, iou=iou, width=width, modes=modes, strict=strict,
+        **given_options(diagnose=diagnose, loc_iou=loc_iou)))
     labels = Path(labels)
     with _taking(out, "score openlane", reads=(labels, list_file)) as folder:
         relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_frame(labels)
@@ -145,6 +147,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
         if merged is not None:
             sharding.check_merged(relpaths, trees, label_files, posixpath.dirname, files_of=files_of)
             counts = sharding.merged_array("sum_counts", (len(trees), len(modes), len(thresholds.values), 3))
+            diagnosed = diagnoses_merged(diagnosis, relpaths, sharding.merged_array, len(trees) * len(modes))
         else:
             roots = tuple(tree.root for tree in trees)
             scored = sharding.share(relpaths, posixpath.dirname)  # a segment is a clip
@@ -157,7 +160,8 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
             counts = sum(pieces, np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
-                sharding.write_part(folder, relpaths, trees, label_files, scored, {"sum_counts": counts},
+                sharding.write_part(folder, relpaths, trees, label_files, scored, {
+                    "sum_counts": counts, **diagnosis_part(diagnosis, diagnosed, len(trees) * len(modes))},
                                     files_of=files_of)
                 return None
         rows = []

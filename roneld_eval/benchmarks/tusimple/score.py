@@ -15,7 +15,7 @@ import numpy as np
 
 from ...errors import ConfigError, InputError
 from ...output import Staging
-from ...shards import Merged, Sharding
+from ...shards import Merged, Sharding, given_options
 
 if TYPE_CHECKING:
 
@@ -51,13 +51,13 @@ def score_tusimple(labels, pred, out=None, shard=None, merged=None, diagnose=Fal
     accuracy, FP and FN per method (frames.csv.gz; rates, so no error types)."""
     from .official import frame_scores, mean_scores, read_labels
 
-    if diagnose and (shard is not None or out is None):
-        raise ConfigError("--diagnose writes frames.csv.gz, which a shard's part does not keep yet: give --out, "
-                          "without --shard")
+    if diagnose and out is None:
+        raise ConfigError("--diagnose writes frames.csv.gz: give --out")
 
     single = isinstance(pred, (str, Path))
     methods = _methods(pred)
-    sharding = Sharding("score tusimple", shard, out, merged, dict(labels=labels, pred=_recorded(pred)),
+    sharding = Sharding("score tusimple", shard, out, merged,
+                        dict(labels=labels, pred=_recorded(pred), **given_options(diagnose=diagnose)),
                         paths=("labels",), roots=())
     with _taking(out, "score tusimple", reads=(labels, *methods.values())) as folder:
         gts = read_labels(labels)
@@ -65,7 +65,7 @@ def score_tusimple(labels, pred, out=None, shard=None, merged=None, diagnose=Fal
         keys_of: list[list[str]] = []  # each method's frames in its file's order (--diagnose)
         if merged is not None:
             sharding.check_merged(keys, [], files, posixpath.dirname, files_of=None)  # pred: among `files`
-            per_method = _merged_scores(sharding, labels, methods, gts)
+            per_method = _merged_scores(sharding, labels, methods, gts, keys_of)
         else:
             share = sharding.share(keys, posixpath.dirname)  # a clip: a folder of frames
             scored = None if sharding.shard is None else frozenset(share)
@@ -86,7 +86,7 @@ def score_tusimple(labels, pred, out=None, shard=None, merged=None, diagnose=Fal
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", official_table(means).to_csv())
-            if diagnose and merged is None:
+            if diagnose:
                 staging.write_bytes("frames.csv.gz", frames_csv_gz(list(methods), keys_of, per_method))
             folder.commit()
     return next(iter(means.values())) if single else means
@@ -134,8 +134,10 @@ def _recorded(pred) -> str | list[str]:
     return texts[0] if isinstance(pred, (str, Path)) else texts
 
 
-def _merged_scores(sharding: Sharding, labels, methods: Mapping[str, Path], gts: Mapping[str, dict]) -> list[list]:
-    """Each method's frame scores from the parts, in its prediction file's line order."""
+def _merged_scores(sharding: Sharding, labels, methods: Mapping[str, Path], gts: Mapping[str, dict],
+                   keys_of: list[list[str]]) -> list[list]:
+    """Each method's frame scores from the parts, in its prediction file's line order (each line's
+    frame appended to `keys_of`, a list a method)."""
     from .official import frame_scores
 
     taken = sharding.merged_array("cat_line", (len(gts), len(methods)), "i")
@@ -143,7 +145,8 @@ def _merged_scores(sharding: Sharding, labels, methods: Mapping[str, Path], gts:
     values = sharding.merged_array("cat_scores", (len(gts), len(methods), 3), "f", within=(-1e6, 1e6))
     per_method = []
     for m, path in enumerate(methods.values()):
-        lines, _ = frame_scores(labels, path, gts, checked_only=True)  # every line checked, none scored
+        keys_of.append([])
+        lines, _ = frame_scores(labels, path, gts, checked_only=True, keys=keys_of[-1])  # every line checked
         order = np.argsort(taken[:, m], kind="stable")
         if not np.array_equal(taken[order, m], np.array(lines, np.int64)):
             raise InputError(None, "the parts' frames are not the prediction file's lines: not its shards")

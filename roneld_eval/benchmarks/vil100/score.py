@@ -23,8 +23,8 @@ from ...errors import ConfigError, InputError
 from ...metrics.line_masks import LaneMask
 from ...model import Lane, image_stem
 from ...lanes_io import check_coordinates, check_inside_image, read_lane_scores, read_lines_txt, scores_path
-from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_settings,
-                                    kernel_groups)
+from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
+                                    diagnosis_settings, diagnoses_merged, kernel_groups)
 from ...metrics.lane_iou_f1 import FrameMatches, frame_similarity, match_frame, f_measure, official_masks
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
@@ -34,7 +34,7 @@ from .official import PooledScore, SequenceScore, frame_miou, pooled, printed, s
 from .temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
 from ...output import Staging
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
-from ...shards import Merged, Sharding
+from ...shards import Merged, Sharding, given_options
 
 DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers report both
 LANE_WIDTH = 30  # evaluate_iou.py:22, for every sequence whatever its size
@@ -255,7 +255,8 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
     check_lane_width(width)
     sharding = Sharding("score vil100", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, list_file=list_file, image_root=image_root, json_root=json_root,
-        sizes_file=sizes_file, iou=iou, width=width, strict=strict, temporal=temporal, pred_format=pred_format),
+        sizes_file=sizes_file, iou=iou, width=width, strict=strict, temporal=temporal, pred_format=pred_format,
+        **given_options(diagnose=diagnose, loc_iou=loc_iou, score_sweep=score_sweep)),
         paths=("labels", "list_file", "image_root", "json_root", "sizes_file"))
     versions = versions_of(pred_format)
     with _taking(out, "score vil100", reads=(labels, list_file, image_root, json_root, sizes_file)) as folder:
@@ -281,6 +282,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         if merged is not None:
             sharding.check_merged(relpaths, trees, label_files, _sequence_of, sizes, files_of=files_of)
             totals = _merged_totals(sharding, dataset, len(trees), len(thresholds.values), len(versions))
+            diagnoses = diagnoses_merged(diagnosis, relpaths, sharding.merged_array, len(trees))
         else:
             share = set(sharding.share(relpaths, _sequence_of))
             roots = tuple(tree.root for tree in trees)
@@ -298,8 +300,8 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                 assert folder is not None
                 sharding.write_part(folder, relpaths, trees, label_files,
                                     [r for name in names for r in dataset.sequences[name]],
-                                    _part_arrays(totals, len(trees), len(thresholds.values), len(versions)), sizes,
-                                    files_of=files_of)
+                                    {**_part_arrays(totals, len(trees), len(thresholds.values), len(versions)),
+                                     **diagnosis_part(diagnosis, diagnoses, len(trees))}, sizes, files_of=files_of)
                 return None
         warnings += _size_warnings(dataset, totals, trees)
         methods = tuple(tree.method for tree in trees)
@@ -329,7 +331,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
 
 def _diagnosis(diagnose: bool, loc_iou: float | None, score_sweep: str | None, thresholds: Thresholds,
                shard: str | None, pred_format: str) -> DiagnosisSettings | None:
-    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, thresholds.values, sharded=shard is not None)
+    diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, thresholds.values)
     if diagnosis is not None and pred_format != "lines":
         raise ConfigError("--diagnose and --score-sweep read lane files: give them with --pred-format lines")
     return diagnosis
