@@ -328,7 +328,7 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
 
     if (run_dir / GALLERY).is_file() and not (run_dir / "config.toml").exists():
         return show_gallery(run_dir, worst, out, image_root)
-    check_finished_run(run_dir)
+    check_finished_run(run_dir, "; a score's gallery needs `score ... --diagnose --out`")
     target = Path(out) if out is not None else run_dir / SHOW_FOLDER
     if target.resolve() == run_dir.resolve():
         raise InputError(target, "pictures go to their own folder, not over the run's files: choose another --out")

@@ -581,16 +581,7 @@ def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
 
     _no_collections_at_exit()
 
-    from .comparison.frames import compare_frames, is_diagnosed
-
-    if any(is_diagnosed(run) for run in runs):
-        if not all(is_diagnosed(run) for run in runs) or labels or thresholds or pairs:
-            _guard(_refuse, debug, "score folders written with --diagnose are compared frame by frame alone: give "
-                                   "only such folders, without --label, --thresholds or --pair")
-        found = _guard(compare_frames, debug, runs, out)
-        if not quiet:
-            click.echo(found.markdown)
-            click.echo(f"every frame in {out}/frames_compared.csv")
+    if _compared_frames(runs, out, bool(labels or thresholds or pairs), quiet, debug):
         return
     chosen = _guard(parse_label_options, debug, labels, runs)
     sweeps = [run for run in runs if is_sweep(run)]
@@ -610,6 +601,22 @@ def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
     if not quiet:
         click.echo((Path(out) / "table_accuracy.md").read_text(encoding="utf-8"))
         click.echo(f"{counted(len(result.runs), 'run')} compared; results in {out}/")
+
+
+def _compared_frames(runs, out, run_options: bool, quiet: bool, debug: bool) -> bool:
+    """compare of score folders written with --diagnose, frame by frame; False for other folders."""
+    from .comparison.frames import compare_frames, is_diagnosed
+
+    if not any(is_diagnosed(run) for run in runs):
+        return False
+    if not all(is_diagnosed(run) for run in runs) or run_options:
+        _guard(_refuse, debug, "score folders written with --diagnose are compared frame by frame alone: give "
+                               "only such folders, without --label, --thresholds or --pair")
+    found = _guard(compare_frames, debug, runs, out)
+    if not quiet:
+        click.echo(found.markdown)
+        click.echo(f"every frame in {out}/frames_compared.csv")
+    return True
 
 
 class _ImageSize(click.ParamType):

@@ -132,18 +132,25 @@ def read_gallery(folder: Path) -> dict:
     if not isinstance(pictures, list) or len(pictures) > MAX_PICTURES or not isinstance(record.get("title"), str):
         raise _bad(path, "pictures must be a list")
     for picture in pictures:
-        size = picture.get("size") if isinstance(picture, dict) else None
-        if not (isinstance(size, list) and len(size) == 2 and all(type(v) is int and 1 <= v <= 20000 for v in size)
-                and isinstance(picture.get("frame"), str) and isinstance(picture.get("reasons"), list)
-                and all(isinstance(r, str) for r in picture["reasons"])
-                and (picture.get("image") is None or isinstance(picture["image"], str))
-                and isinstance(picture.get("predicted"), dict) and isinstance(picture.get("counts"), dict)):
+        if not _picture_fields(picture):
             raise _bad(path, "each picture needs frame, reasons, size, image, truth, predicted, counts")
         picture["truth"] = _lanes(picture.get("truth"), path)
         picture["predicted"] = {str(method): _lanes(lanes, path) for method, lanes in picture["predicted"].items()}
     if record.get("image_root") is not None and not isinstance(record["image_root"], str):
         raise _bad(path, "image_root must be a path or null")
     return record
+
+
+def _picture_fields(picture) -> bool:
+    """A picture's fields but its lanes are of the types gallery_record writes."""
+    if not isinstance(picture, dict):
+        return False
+    size = picture.get("size")
+    return (isinstance(size, list) and len(size) == 2 and all(type(v) is int and 1 <= v <= 20000 for v in size)
+            and isinstance(picture.get("frame"), str) and isinstance(picture.get("reasons"), list)
+            and all(isinstance(r, str) for r in picture["reasons"])
+            and (picture.get("image") is None or isinstance(picture["image"], str))
+            and isinstance(picture.get("predicted"), dict) and isinstance(picture.get("counts"), dict))
 
 
 COLOURS = [(60, 60, 230), (60, 200, 60), (235, 200, 60), (200, 60, 200), (40, 160, 240), (160, 160, 160)]  # BGR

@@ -239,9 +239,7 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
             assert folder is not None
             joined = _joined(pieces, len(trees))
             _keep_truth(key, kept, say)
-            recorded = None if diagnosis is None else {"diagnose": diagnose, "loc_iou": loc_iou,
-                                                       "score_sweep": score_sweep,
-                                                       "data_root": os.path.abspath(dataset.root)}
+            recorded = _recorded_diagnosis(diagnosis, diagnose, loc_iou, score_sweep, dataset.root)
             _write_culane_part(folder, share, joined, dataset, relpaths, trees, warnings, iou, preset, width, strict,
                                sweep, recorded, diagnosis_part(diagnosis, _joined_diagnoses(diagnosed), len(trees)))
             return None
@@ -479,10 +477,7 @@ def _culane_part_settings(part) -> dict:
     def count(value) -> bool:
         return type(value) is int and value >= 0
 
-    good = (isinstance(settings, dict)
-            and set(settings) - {"diagnosis"} == {"iou", "preset", "width", "strict", "sweep", "trees", "categories",
-                                                  "frames"}
-            and _diagnosis_recorded(settings.get("diagnosis"))
+    good = (isinstance(settings, dict) and _settings_named(settings)
             and (settings["iou"] is None or isinstance(settings["iou"], str))
             and settings["preset"] in (None, *SCORE_PRESETS)
             and type(settings["width"]) is int and 2 <= settings["width"] <= MAX_LINE_THICKNESS
@@ -498,6 +493,21 @@ def _culane_part_settings(part) -> dict:
     if not good:
         raise InputError(part.path / MANIFEST_NAME, "its settings are not those `score culane --shard` writes")
     return settings
+
+
+def _recorded_diagnosis(diagnosis: DiagnosisSettings | None, diagnose: bool, loc_iou: float | None,
+                        score_sweep: str | None, root: Path) -> dict | None:
+    """What a part records of --diagnose and --score-sweep: the options as given, and the data
+    root the merge reads the gallery's lanes from (None without them)."""
+    if diagnosis is None:
+        return None
+    return {"diagnose": diagnose, "loc_iou": loc_iou, "score_sweep": score_sweep, "data_root": os.path.abspath(root)}
+
+
+def _settings_named(settings: dict) -> bool:
+    """A part's settings have the names `score culane --shard` writes (its diagnosis if any)."""
+    return (set(settings) - {"diagnosis"} == {"iou", "preset", "width", "strict", "sweep", "trees", "categories",
+                                              "frames"} and _diagnosis_recorded(settings.get("diagnosis")))
 
 
 def _diagnosis_recorded(value) -> bool:
