@@ -349,6 +349,8 @@ def show_gallery(score_dir: Path, worst: int | None = None, out: str | Path | No
     score read; a blank canvas of the frame's size without one): gallery/<k>.png and gallery.png."""
     from .report.gallery import draw_gallery, read_gallery
 
+    if image_root is not None and not Path(image_root).is_dir():
+        raise InputError(Path(image_root), "not a folder: give the folder the frames' images are under")
     record = read_gallery(score_dir)
     target = Path(out) if out is not None else score_dir / SHOW_FOLDER
     if target.resolve() == score_dir.resolve():

@@ -286,11 +286,21 @@ def test_show_draws_a_scores_gallery_over_its_images_and_refuses_an_edited_one(l
     refused = invoke("show", "--run", tmp_path / "scored", "--frame", first["frame"])
     assert refused.exit_code == 2 and "--frame and --method are for a run" in refused.output
     for edit in ({"pictures": "x"}, {"pictures": [{**first, "truth": [[[1, "x"]]]}]},
-                 {"pictures": [{**first, "size": [0, 10]}]}, {"format": "other"}):
+                 {"pictures": [{**first, "size": [0, 10]}]}, {"format": "other"},
+                 {"pictures": [{**first, "size": [1, 20000]}]},  # 60 GB once scaled to the picture's width
+                 {"pictures": [{**first, "truth": [[[10 ** 400, 1]]]}]},
+                 {"pictures": [{**first, "image": "/etc/hostname"}]}, {"pictures": [{**first, "image": "../x.png"}]},
+                 {"title": "x" * 100_000}, {"pictures": [{**first, "reasons": ["y" * 5000]}]}):
         (tmp_path / "scored" / "gallery.json").write_text(json.dumps({**gallery, **edit}))
         refused = invoke("show", "--run", tmp_path / "scored", "--out", tmp_path / "edited")
         assert refused.exit_code == 2 and "gallery.json" in refused.output and "Traceback" not in refused.output
         assert not (tmp_path / "edited").exists()
+    (tmp_path / "scored" / "gallery.json").write_text('{"format": "roneld-eval gallery", "pictures": '
+                                                      + "[" * 100_000 + "]" * 100_000 + "}")
+    refused = invoke("show", "--run", tmp_path / "scored", "--out", tmp_path / "deep")
+    assert refused.exit_code == 2 and "nested too deeply" in refused.output
+    missing = invoke("show", "--run", tmp_path / "scored", "--image-root", tmp_path / "nowhere")
+    assert missing.exit_code == 2 and "nowhere" in missing.output
 
 
 @pytest.mark.parametrize("benchmark", sorted(SCORED))

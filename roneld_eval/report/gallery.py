@@ -12,7 +12,6 @@ reader, only the images (`--image-root`, default the one the score was given whe
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
@@ -20,6 +19,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ..errors import InputError
+from ..json_fields import is_finite_number
+from ..lanes_io import parse_json
 from ..model import Lane
 
 GALLERY = "gallery.json"
@@ -27,6 +28,8 @@ GALLERY_FORMAT = "roneld-eval gallery"
 GALLERY_FRAMES = 6  # kept per method and reason; `show --worst` draws up to this many
 MAX_POINTS = 1 << 16  # in one lane of a gallery file
 MAX_PICTURES = 2000
+MAX_TEXT = 1000  # characters of a title, frame name, reason or method name read back
+MAX_SIDE, MAX_ASPECT = 20000, 8  # a frame's sides in pixels, and how far from square a picture may be
 
 
 @dataclass(frozen=True)
@@ -108,35 +111,46 @@ def _lanes(value, path: Path) -> list[Lane]:
     lanes = []
     for lane in value:
         if not (isinstance(lane, list) and len(lane) <= MAX_POINTS and all(
-                isinstance(p, list) and len(p) == 2 and all(type(v) in (int, float) and math.isfinite(v)
-                                                           and abs(v) < 1 << 24 for v in p) for p in lane)):
+                isinstance(p, list) and len(p) == 2 and all(is_finite_number(v) and abs(v) < 1 << 24 for v in p)
+                for p in lane)):
             raise _bad(path, "a lane must be a list of [x, y] numbers")
         lanes.append(Lane(np.array(lane, np.float64).reshape(-1, 2)))
     return lanes
 
 
+def _text(value) -> bool:
+    return isinstance(value, str) and len(value) <= MAX_TEXT
+
+
+def _image(value) -> bool:
+    """An image path relative to the image root, inside it: no absolute path, no '..'."""
+    if value is None:
+        return True
+    if not _text(value) or not value or value.startswith(("/", "\\")) or ":" in value.split("/")[0]:
+        return False
+    return all(part not in ("..", "") for part in value.replace("\\", "/").split("/"))
+
+
 def read_gallery(folder: Path) -> dict:
     """A gallery.json, every field checked."""
-    from ..json_fields import loads
     from ..lanes_io import read_bytes
     from ..limits import RUN_TABLE
 
     path = folder / GALLERY
-    try:
-        record = loads(read_bytes(path, limit=RUN_TABLE).decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as error:
-        raise _bad(path, str(error)) from None
+    record = parse_json(read_bytes(path, limit=RUN_TABLE), path, "not a gallery `score --diagnose` writes",
+                        "not a gallery `score --diagnose` writes")
     if not isinstance(record, dict) or record.get("format") != GALLERY_FORMAT:
         raise _bad(path, f"its format is not {GALLERY_FORMAT!r}")
     pictures = record.get("pictures")
-    if not isinstance(pictures, list) or len(pictures) > MAX_PICTURES or not isinstance(record.get("title"), str):
-        raise _bad(path, "pictures must be a list")
+    if not isinstance(pictures, list) or len(pictures) > MAX_PICTURES or not _text(record.get("title")) or not (
+            record.get("threshold") is None or _text(record["threshold"])):
+        raise _bad(path, "pictures must be a list, the title and threshold short texts")
     for picture in pictures:
         if not _picture_fields(picture):
             raise _bad(path, "each picture needs frame, reasons, size, image, truth, predicted, counts")
         picture["truth"] = _lanes(picture.get("truth"), path)
         picture["predicted"] = {str(method): _lanes(lanes, path) for method, lanes in picture["predicted"].items()}
-    if record.get("image_root") is not None and not isinstance(record["image_root"], str):
+    if record.get("image_root") is not None and not _text(record["image_root"]):
         raise _bad(path, "image_root must be a path or null")
     return record
 
@@ -146,11 +160,15 @@ def _picture_fields(picture) -> bool:
     if not isinstance(picture, dict):
         return False
     size = picture.get("size")
-    return (isinstance(size, list) and len(size) == 2 and all(type(v) is int and 1 <= v <= 20000 for v in size)
-            and isinstance(picture.get("frame"), str) and isinstance(picture.get("reasons"), list)
-            and all(isinstance(r, str) for r in picture["reasons"])
-            and (picture.get("image") is None or isinstance(picture["image"], str))
-            and isinstance(picture.get("predicted"), dict) and isinstance(picture.get("counts"), dict))
+    return (isinstance(size, list) and len(size) == 2 and all(type(v) is int and 1 <= v <= MAX_SIDE for v in size)
+            and max(size) <= MAX_ASPECT * min(size)
+            and _text(picture.get("frame")) and isinstance(picture.get("reasons"), list)
+            and len(picture["reasons"]) <= 100 and all(_text(r) for r in picture["reasons"])
+            and _image(picture.get("image")) and isinstance(picture.get("predicted"), dict)
+            and len(picture["predicted"]) <= 100 and all(_text(m) for m in picture["predicted"])
+            and isinstance(picture.get("counts"), dict) and len(picture["counts"]) <= 100
+            and all(_text(m) and isinstance(c, list) and len(c) == 3 and all(type(v) is int for v in c)
+                    for m, c in picture["counts"].items()))
 
 
 COLOURS = [(60, 60, 230), (60, 200, 60), (235, 200, 60), (200, 60, 200), (40, 160, 240), (160, 160, 160)]  # BGR
@@ -171,17 +189,18 @@ def draw_gallery(record: dict, image_root: Path | None, worst: int) -> list[tupl
         for reason in wanted:
             taken[reason] = taken.get(reason, 0) + 1
         width, height = picture["size"]
-        background = _background(image_root, picture.get("image"), width, height)
         scale = OUTPUT_WIDTH / width
-        image = cv2.resize(background, (OUTPUT_WIDTH, max(1, round(height * scale))), interpolation=cv2.INTER_AREA)
+        size = (OUTPUT_WIDTH, max(1, round(height * scale)))  # at most MAX_ASPECT x OUTPUT_WIDTH high
+        background = _background(image_root, picture.get("image"), width, height)
+        image = (np.full((size[1], size[0], 3), 40, np.uint8) if background is None
+                 else cv2.resize(background, size, interpolation=cv2.INTER_AREA))
         for lane in picture["truth"]:
             _polyline(image, lane.points * scale, BLUE, 9, False)
         for rank, lanes in enumerate(picture["predicted"].values()):
             for lane in lanes:
                 _polyline(image, lane.points * scale, COLOURS[rank % len(COLOURS)], 3, rank % 2 == 1)
         lines = [picture["frame"], "; ".join(wanted)]
-        lines += [f"{method}: TP {c[0]}  FP {c[1]}  FN {c[2]}" for method, c in picture["counts"].items()
-                  if isinstance(c, list) and len(c) == 3]
+        lines += [f"{method}: TP {c[0]}  FP {c[1]}  FN {c[2]}" for method, c in picture["counts"].items()]
         lines.append(f"blue: ground truth; {', '.join(picture['predicted'])} in turn red, green, ... "
                      f"({record['title']}, IoU > {record.get('threshold')})")
         bar = np.full((CAPTION_LINE * len(lines) + 12, OUTPUT_WIDTH, 3), 255, np.uint8)
@@ -192,17 +211,21 @@ def draw_gallery(record: dict, image_root: Path | None, worst: int) -> list[tupl
     return out
 
 
-def _background(image_root: Path | None, image: str | None, width: int, height: int) -> np.ndarray:
-    """The frame's image at its size when the root holds it (read as any image the tool reads),
-    else a dark canvas of the frame's size."""
-    if image_root is not None and image is not None:
-        import cv2
+def _background(image_root: Path | None, image: str | None, width: int, height: int) -> np.ndarray | None:
+    """The frame's image when the root holds it at the frame's size (a regular file of at most
+    the map files' size, its header read first), else None: a dark canvas is drawn instead."""
+    if image_root is None or image is None:
+        return None
+    import cv2
 
-        from ..datasets._paths import under_root
+    from ..datasets._paths import under_root
+    from ..image_header import image_file_size
+    from ..limits import MAP
 
-        path = under_root(image_root, image)
-        if path.is_file() and path.stat().st_size < 256 << 20:
-            found = cv2.imread(str(path), cv2.IMREAD_COLOR)
-            if found is not None and found.shape[:2] == (height, width):
-                return found
-    return np.full((height, width, 3), 40, np.uint8)
+    path = under_root(image_root, image)
+    try:
+        if not path.is_file() or path.stat().st_size > MAP.bytes or image_file_size(path) != (width, height):
+            return None
+    except (OSError, ValueError, InputError):
+        return None
+    return cv2.imread(str(path), cv2.IMREAD_COLOR)
