@@ -515,7 +515,8 @@ def synth(dataset, out, clips, frames, seed, maps_format, debug):
 @click.option("--frame", "frames", multiple=True, metavar="REL",
               help="A frame to draw, as its image path relative to the dataset root (repeatable).")
 @click.option("--worst", type=click.IntRange(min=1),
-              help="Draw the N frames where the baseline's and RONELD's IoUs differ most. Default: 6 without --frame.")
+              help="Draw the N frames where the baseline's and RONELD's IoUs differ most. Default: 6 without --frame. "
+                   "A score's gallery: N frames a reason (default 3, at most the 6 it keeps).")
 @click.option("--method", "methods", multiple=True, metavar="NAME",
               help="Methods to draw (repeatable). Default: those of the run.")
 @click.option("--out", type=OUT_FOLDER,
@@ -604,10 +605,12 @@ def compare(runs, out, labels, thresholds, pairs, allow_mixed, quiet, debug):
 
 
 def _compared_frames(runs, out, run_options: bool, quiet: bool, debug: bool) -> bool:
-    """compare of score folders written with --diagnose, frame by frame; False for other folders."""
+    """compare of score folders written with --diagnose, frame by frame; False for other folders
+    (checkpoint sweeps are compared as sweeps, diagnosed or not)."""
     from .comparison.frames import compare_frames, is_diagnosed
+    from .comparison.sweeps import is_sweep
 
-    if not any(is_diagnosed(run) for run in runs):
+    if not any(is_diagnosed(run) for run in runs) or any(is_sweep(run) for run in runs):
         return False
     if not all(is_diagnosed(run) for run in runs) or run_options:
         _guard(_refuse, debug, "score folders written with --diagnose are compared frame by frame alone: give "

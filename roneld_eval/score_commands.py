@@ -109,8 +109,8 @@ def diagnosis(score_sweep: str | None = None) -> tuple[Option, ...]:
     options = [
         Option("--diagnose", "Also say why F1 is not higher: each false positive and false negative as an error "
                "type (Loc, Dupe, Bkg; Loc, Miss) with the F1 gained by fixing every error of that type "
-               "(errors.csv, errors.md, errors.png), and every frame's counts (frames.csv.gz). The official "
-               "tables stay as they are.", kind="flag"),
+               "(errors.csv, errors.md, errors.png), every frame's counts (frames.csv.gz), and the worst frames "
+               "for `roneld-eval show --run OUT` (gallery.json). The official tables stay as they are.", kind="flag"),
         Option("--loc-iou", f"With --diagnose: a false positive whose IoU with its ground-truth lane is at least "
                f"this is a localisation error (Loc), below it background (Bkg). Default: {DEFAULT_LOC_IOU}.",
                kind="float", metavar="IOU"),

@@ -176,7 +176,7 @@ def test_every_iou_benchmark_diagnoses_what_its_official_table_counts(benchmark,
         official = official[official["category"] == "all"]
     if "hits" in official:  # CurveLanes: hits, predicted and truth lanes at the fixed score threshold, IoU > 0.5
         official = official[official["chosen"] == "fixed"].astype({"hits": int, "predicted": int, "truth": int})
-        official = official.assign(threshold="0.5", tp=official["hits"], fp=official["predicted"] - official["hits"],
+        official = official.assign(threshold="0.50", tp=official["hits"], fp=official["predicted"] - official["hits"],
                                    fn=official["truth"] - official["hits"])
     keys = ["method", "matching", "threshold"] if "matching" in official else ["method", "threshold"]
     official = official.set_index(keys)[["tp", "fp", "fn"]].astype(int).sort_index()
@@ -330,3 +330,34 @@ def test_shards_of_a_diagnosed_score_merge_into_its_files(benchmark, tmp_path):
     refused = invoke("merge", tmp_path / "part1", tmp_path / "part2", "--out", tmp_path / "edited")
     assert refused.exit_code == 2 and "Traceback" not in refused.output, refused.output
     assert not (tmp_path / "edited").exists()
+
+
+def test_without_out_the_console_names_no_file_and_diagnosed_sweeps_compare_as_sweeps(lanes, tmp_path):
+    gt, roots = lanes
+    said = invoke("score", "culane", "--data-root", gt, "--pred-root", roots["noisy"], "--diagnose", "--workers", 1)
+    assert said.exit_code == 0 and "all frames: FP Loc" in said.output and "errors.md" not in said.output
+    pattern = str(tmp_path / "ckpt" / "epoch_*")
+    for epoch, root in ((1, roots["noisy"]), (2, roots["other"])):
+        shutil.copytree(root, tmp_path / "ckpt" / f"epoch_{epoch}")
+    for out in ("one", "two"):
+        scored = invoke("score", "culane", "--data-root", gt, "--pred-root", pattern, "--diagnose", "--workers", 1,
+                        "--out", tmp_path / out)
+        assert scored.exit_code == 0, scored.output
+    compared = invoke("compare", tmp_path / "one", tmp_path / "two", "--out", tmp_path / "sweeps")
+    assert compared.exit_code == 0, compared.output
+    assert (tmp_path / "sweeps" / "sweeps.csv").is_file()
+
+
+@pytest.mark.parametrize("column, value", [("fp", -5), ("fp", 1.5), ("fp_loc", 100), ("fn", 2 ** 62)])
+def test_compare_refuses_frame_counts_that_do_not_add_up(lanes, tmp_path, column, value):
+    import gzip
+
+    gt, roots = lanes
+    score_culane(gt, roots, workers=1, out=tmp_path / "both", diagnose=True)
+    path = tmp_path / "both" / "frames.csv.gz"
+    frames = pd.read_csv(path, dtype={"threshold": str}, keep_default_na=False)
+    frames[column] = frames[column].astype(object)
+    frames.loc[3, column] = value
+    path.write_bytes(gzip.compress(frames.to_csv(index=False).encode()))
+    refused = invoke("compare", tmp_path / "both", "--out", tmp_path / "compared")
+    assert refused.exit_code == 2 and "counts that add up" in refused.output, refused.output

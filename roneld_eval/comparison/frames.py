@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
+import numpy as np
 import pandas as pd
 
 from ..errors import InputError
@@ -55,10 +56,30 @@ def read_frames(folder: Path) -> pd.DataFrame:
     except (OSError, EOFError, ValueError, pd.errors.ParserError) as error:
         raise InputError(path, f"cannot read: {error}") from None
     needed = {"frame", "sequence", "category", "method", "matching", "threshold", "fp", "fn"}
-    if not needed <= set(table.columns) or not all(pd.api.types.is_numeric_dtype(table[c]) for c in ("fp", "fn")):
+    if not needed <= set(table.columns) or not _counts_hold(table):
         raise InputError(path, "not the frames.csv.gz of `score --diagnose` (frame, sequence, category, method, "
-                               "matching, threshold, ..., fp, fn)")
+                               "matching, threshold, ..., fp, fn: counts that add up, or rates without tp)")
     return table
+
+
+def _counts_hold(table: pd.DataFrame) -> bool:
+    """fp and fn are counts below 2^40 whose error types add up to them (or, without a tp column,
+    TuSimple's rates: finite, not negative)."""
+    numbers = [c for c in ("tp", "fp", "fn") if c in table]
+    if not all(pd.api.types.is_numeric_dtype(table[c]) for c in numbers):
+        return False
+    values = table[numbers].to_numpy(np.float64)
+    if not (np.isfinite(values).all() and (values >= 0).all() and (values < 1 << 40).all()):
+        return False
+    return "tp" not in table or _types_add_up(table, numbers)
+
+
+def _types_add_up(table: pd.DataFrame, numbers: list[str]) -> bool:
+    """Integer counts, each side's error types (fp_*, fn_*) summing to it."""
+    if not all(pd.api.types.is_integer_dtype(table[c]) for c in table.columns if c in numbers or "_" in c):
+        return False
+    sides = [[c for c in table.columns if c.startswith(f"{side}_")] for side in ("fp", "fn")]
+    return all(not kinds or (table[kinds].sum(axis=1) == table[side]).all() for side, kinds in zip(("fp", "fn"), sides))
 
 
 def compare_frames(folders: Sequence[str | Path], out: str | Path, top: int = 20) -> FramesCompared:

@@ -99,7 +99,11 @@ def diagnosis_settings(diagnose: bool, loc_iou: float | None, score_sweep: str |
         return None
     sweep = None
     if score_sweep is not None:
-        grid = parse_thresholds(score_sweep)
+        try:
+            grid = parse_thresholds(score_sweep)
+        except ConfigError as error:  # its wording is of IoU thresholds
+            raise ConfigError(f"--score-sweep {score_sweep}: {str(error).replace('IoU thresholds', 'score thresholds')}"
+                              ) from None
         sweep = ScoreSweep(grid.labels, np.array(grid.values, np.float64), strict)
     return DiagnosisSettings(np.array(limits, np.float64), loc, sweep, diagnose)
 

@@ -117,17 +117,18 @@ def _summed(rows: Sequence[tuple]) -> Summed:
     return out
 
 
-def console_lines(diagnosed: Diagnosed, label: str) -> list[str]:
+def console_lines(diagnosed: Diagnosed, label: str, written: bool = True) -> list[str]:
     """What the console says of a diagnosis at one threshold over all frames, a line an entry:
-    its error counts and the type whose fix gains most; the best F1 of the score sweep."""
+    its error counts and the type whose fix gains most; the best F1 of the score sweep (naming the
+    files that hold the rest when they are `written`)."""
     lines = []
     if diagnosed.errors:
         summed = _summed(diagnosed.error_rows())
         lines += [_error_line(diagnosed, method, matching, summed[(method, matching, "all", label)], label)
-                  for method, matching in diagnosed.entries]
+                  + (" (errors.md)" if written else "") for method, matching in diagnosed.entries]
     if diagnosed.sweep is not None:
         lines += [f"{diagnosed.name(row[0], row[1])}: best F1 {100 * row[10]:.2f} at score threshold {row[4]} "
-                  f"({diagnosed.sweep.rule}; chosen on the test set; sweep_scores.csv)"
+                  f"({diagnosed.sweep.rule}; chosen on the test set{'; sweep_scores.csv' if written else ''})"
                   for row in diagnosed.sweep_rows() if row[2] == "all" and row[3] == label and row[11]]
     return lines
 
@@ -140,8 +141,7 @@ def _error_line(diagnosed: Diagnosed, method: str, matching: str, types: dict[tu
     gains = [(types[key][1], key[1]) for key in diagnosed.fixes if not math.isnan(types[key][1])]
     top = max(gains) if gains else None
     best = f"; fixing {top[1]} gains most ({_points(top[0])} F1)" if top and top[0] > 0 else ""
-    return (f"{diagnosed.name(method, matching)} at IoU > {label}, all frames: FP {counts}; FN {missed}{best} "
-            "(errors.md)")
+    return f"{diagnosed.name(method, matching)} at IoU > {label}, all frames: FP {counts}; FN {missed}{best}"
 
 
 def _points(value: float) -> str:
@@ -186,8 +186,9 @@ def errors_markdown(diagnosed: Diagnosed, rows: Sequence[tuple], shown: Sequence
              "highest IoU; the others **Dupe**), **Dupe** when the lane is already a true positive, **Bkg** when no "
              "IoU reaches it. A missed lane is **Loc** when a Loc prediction is on it, else **Miss**. Each side adds "
              "up to the official FP and FN. dF1 is F1 with every error of that type fixed, minus F1 as it is, in "
-             "points (TIDE's dAP for lanes): a Loc pair made a true positive, a Dupe, Cat or Bkg prediction "
-             "removed, a Miss removed. Every threshold is in errors.csv, every frame in frames.csv.gz.", ""]
+             f"points (TIDE's dAP for lanes): a Loc pair made a true positive, a Dupe{', Cat' if cat else ''} or "
+             "Bkg prediction removed, a Miss removed. Every threshold is in errors.csv, every frame in frames.csv.gz.",
+             ""]
     for label in shown:
         lines += [f"## IoU > {label}", "", *error_lines(diagnosed, rows, label), ""]
     return "\n".join(lines)

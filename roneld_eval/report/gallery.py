@@ -159,16 +159,25 @@ def _picture_fields(picture) -> bool:
     """A picture's fields but its lanes are of the types gallery_record writes."""
     if not isinstance(picture, dict):
         return False
-    size = picture.get("size")
-    return (isinstance(size, list) and len(size) == 2 and all(type(v) is int and 1 <= v <= MAX_SIDE for v in size)
-            and max(size) <= MAX_ASPECT * min(size)
-            and _text(picture.get("frame")) and isinstance(picture.get("reasons"), list)
-            and len(picture["reasons"]) <= 100 and all(_text(r) for r in picture["reasons"])
+    return (_size(picture.get("size")) and _text(picture.get("frame")) and _texts(picture.get("reasons"))
             and _image(picture.get("image")) and isinstance(picture.get("predicted"), dict)
-            and len(picture["predicted"]) <= 100 and all(_text(m) for m in picture["predicted"])
-            and isinstance(picture.get("counts"), dict) and len(picture["counts"]) <= 100
-            and all(_text(m) and isinstance(c, list) and len(c) == 3 and all(type(v) is int for v in c)
-                    for m, c in picture["counts"].items()))
+            and _texts(list(picture["predicted"])) and _counts(picture.get("counts")))
+
+
+def _size(size) -> bool:
+    """[width, height]: whole pixels, at most MAX_SIDE, at most MAX_ASPECT times longer than wide or so."""
+    return (isinstance(size, list) and len(size) == 2 and all(type(v) is int and 1 <= v <= MAX_SIDE for v in size)
+            and max(size) <= MAX_ASPECT * min(size))
+
+
+def _texts(value) -> bool:
+    return isinstance(value, list) and len(value) <= 100 and all(_text(v) for v in value)
+
+
+def _counts(value) -> bool:
+    """{method: [tp, fp, fn]} of whole numbers, for at most 100 methods."""
+    return (isinstance(value, dict) and _texts(list(value))
+            and all(isinstance(c, list) and len(c) == 3 and all(type(v) is int for v in c) for c in value.values()))
 
 
 COLOURS = [(60, 60, 230), (60, 200, 60), (235, 200, 60), (200, 60, 200), (40, 160, 240), (160, 160, 160)]  # BGR

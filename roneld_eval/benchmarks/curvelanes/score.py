@@ -191,7 +191,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
     return score
 
 
-IOU_LABEL = str(IOU_THRESHOLD)
+IOU_LABEL = f"{IOU_THRESHOLD:.2f}"  # as the other benchmarks' thresholds are written
 
 
 def _split(pieces: list, diagnosis: DiagnosisSettings | None) -> tuple[list, FrameDiagnoses | None]:

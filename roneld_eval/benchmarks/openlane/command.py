@@ -24,7 +24,7 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     if score.diagnosed is not None:
         from ...report.diagnosis import console_lines
 
-        for line in console_lines(score.diagnosed, score.thresholds.labels[0]):
+        for line in console_lines(score.diagnosed, score.thresholds.labels[0], values["out"] is not None):
             echo(line)
 
 

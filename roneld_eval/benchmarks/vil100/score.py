@@ -337,6 +337,11 @@ def _diagnosis(diagnose: bool, loc_iou: float | None, score_sweep: str | None, t
     return diagnosis
 
 
+def _scenario_name(code: int) -> str:
+    """A scenario's category as official.csv names it: 'scenario 2 (curved road)'."""
+    return f"scenario {code} ({SCENARIOS[code]})"
+
+
 def _joined_diagnoses(scored: Sequence[ScoredSequence]) -> FrameDiagnoses | None:
     pieces = [piece.diagnoses for piece in scored if piece.diagnoses is not None]
     return FrameDiagnoses.joined(pieces) if pieces else None
@@ -361,12 +366,13 @@ def _diagnosed(score: Vil100Score, diagnoses: FrameDiagnoses | None, width: int,
     if diagnosis is None or diagnoses is None:
         return score
     codes = [scenarios_of(_sequence_of(frame)) for frame in diagnoses.frames]
-    groups = [(scenario, np.array([code in found for found in codes], bool)) for code, scenario in enumerate(SCENARIOS)]
+    groups = [(_scenario_name(code), np.array([code in found for found in codes], bool))
+              for code in range(len(SCENARIOS))]
     groups = [(name, inside) for name, inside in groups if inside.any()] + [("all", np.ones(len(codes), bool))]
 
     def facts(frame: str) -> tuple[str, str]:
         sequence = _sequence_of(frame)
-        return sequence, "|".join(SCENARIOS[code] for code in scenarios_of(sequence) if code < len(SCENARIOS))
+        return sequence, "|".join(_scenario_name(code) for code in scenarios_of(sequence) if code < len(SCENARIOS))
 
     return replace(score, diagnosed=Diagnosed(
         diagnoses, tuple((method, "") for method in score.methods), tuple(groups), score.thresholds.labels,
@@ -448,11 +454,11 @@ def official_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence
             per_sequence = [piece.sequence_score(name, m, t) for name, piece in zip(names, totals)]
             for score in per_sequence:
                 rows.append(_row(method, score.sequence, label, score.tp, score.fp, score.fn, score.miou, 1))
-            for code, scenario in enumerate(SCENARIOS):
+            for code in range(len(SCENARIOS)):
                 members = [s for s in per_sequence if code in scenarios_of(s.sequence)]
                 if members:
                     group = pooled(members)
-                    rows.append(_row(method, f"scenario {code} ({scenario})", label, group.tp, group.fp, group.fn,
+                    rows.append(_row(method, _scenario_name(code), label, group.tp, group.fp, group.fn,
                                      group.miou, group.sequences))
             every = pooled(per_sequence)
             overall[(method, label)] = every
@@ -468,11 +474,11 @@ def temporal_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence
         for t, label in enumerate(thresholds.labels):
             per_sequence = {name: piece.temporal_counts(m, t) for name, piece in zip(names, totals)}
             rows += [_temporal_row(method, name, label, counts) for name, counts in per_sequence.items()]
-            for code, scenario in enumerate(SCENARIOS):
+            for code in range(len(SCENARIOS)):
                 members = [counts for name, counts in per_sequence.items() if code in scenarios_of(name)]
                 if members:
                     pooled_counts = sum(members, TemporalCounts())
-                    rows.append(_temporal_row(method, f"scenario {code} ({scenario})", label, pooled_counts))
+                    rows.append(_temporal_row(method, _scenario_name(code), label, pooled_counts))
             every = sum(per_sequence.values(), TemporalCounts())
             overall[(method, label)] = every
             rows.append(_temporal_row(method, "all", label, every))
@@ -489,11 +495,11 @@ def acc_rows(names: Sequence[str], methods: Sequence[str], totals: Sequence[Sequ
         for v, version in enumerate(versions):
             per_sequence = {name: piece.acc_frames(m, v) for name, piece in zip(names, totals)}
             groups = [(name, frames) for name, frames in per_sequence.items()]
-            for code, scenario in enumerate(SCENARIOS):
+            for code in range(len(SCENARIOS)):
                 members = [frame for name, frames in per_sequence.items() if code in scenarios_of(name)
                            for frame in frames]
                 if members:
-                    groups.append((f"scenario {code} ({scenario})", members))
+                    groups.append((_scenario_name(code), members))
             every = [frame for frames in per_sequence.values() for frame in frames]
             groups.append(("all", every))
             for category, frames in groups:
