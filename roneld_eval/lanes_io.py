@@ -20,7 +20,7 @@ from typing import Any, Iterable, Literal, overload
 import numpy as np
 
 from .errors import InputError
-from .json_fields import RepeatedKey, is_finite_number, loads
+from .json_fields import RepeatedKey, is_finite_number, loads, shown
 from .limits import LANES, TEXT, SizeLimit
 from .model import Lane
 
@@ -187,7 +187,7 @@ def split_lines(text: str) -> list[str]:
 
 def parse_number(token: str, path, line: int) -> float:
     if not _NUMBER.match(token):
-        raise InputError(path, f"{token!r} is not a number", line=line)
+        raise InputError(path, f"{shown(token)} is not a number", line=line)
     return float(token)
 
 
@@ -278,7 +278,7 @@ def check_score(value, path, line: int | None) -> float:
     except (TypeError, ValueError):
         number = float("nan")
     if isinstance(value, bool) or not 0.0 <= number <= 1.0:
-        raise InputError(path, f"lane score {value!r} is not a number in [0, 1]", line=line)
+        raise InputError(path, f"lane score {shown(value)} is not a number in [0, 1]", line=line)
     return number
 
 
