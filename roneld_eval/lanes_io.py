@@ -256,6 +256,11 @@ def scores_path(lines_path: Path) -> Path:
     return lines_path.with_name(lines_path.name.removesuffix(".lines.txt") + SCORES_SUFFIX)
 
 
+def read_scores_beside(lines_path: Path, n_lanes: int) -> tuple[float, ...]:
+    """read_lane_scores of the `.scores.txt` beside a `.lines.txt`."""
+    return read_lane_scores(scores_path(lines_path), n_lanes)
+
+
 def read_lane_scores(path: Path, n_lanes: int) -> tuple[float, ...]:
     """The `.scores.txt` beside a `.lines.txt` of `n_lanes` lanes: one score in [0, 1] a lane line
     (1.0 for every lane when the file is missing)."""

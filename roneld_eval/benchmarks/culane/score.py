@@ -28,7 +28,7 @@ from ...thresholds import Thresholds, parse_thresholds
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, read_culane
 from .reader import labels_path, read_frame_labels
 from ...errors import ConfigError, InputError
-from ...lanes_io import check_coordinates, read_lane_scores, read_lines_txt, scores_path
+from ...lanes_io import check_coordinates, read_lines_txt, read_scores_beside
 from ...metrics.lane_iou_f1 import (
     OFFICIAL_COLUMNS,
     FrameMatches,
@@ -155,16 +155,25 @@ def _score_frames(args) -> tuple[np.ndarray, np.ndarray, np.ndarray, TruthRuns |
             path = labels_path(pred_root, relpath)
             predictions = read_lines_txt(path)
             check_coordinates(predictions, path)
-            result: FrameMatches | FrameErrors | None = diagnosed.add(
-                m, partial(frame_similarity, int(n_gt[k]), gt_masks, predictions, width, height, lane_width),
-                partial(read_lane_scores, scores_path(path), len(predictions)))
-            if result is None:
-                result = frame_result(int(n_gt[k]), gt_masks, predictions, width, height, lane_width)
+            result = _method_frame(int(n_gt[k]), gt_masks, predictions, path, (width, height, lane_width),
+                                   diagnosed, m)
             n_pred[m, k] = result.n_pred
             ious[m].append(result.matched_iou)
     matched = np.array([np.concatenate(parts) if parts else np.zeros(0) for parts in ious], np.float64)
     kept = truth_cache.from_frames(drawn) if keep_truth and cached is None else None
     return n_gt, n_pred, matched.reshape(len(pred_roots), int(n_gt.sum())), kept, diagnosed.result(relpaths)
+
+
+def _method_frame(n_gt: int, gt_masks: MaskSet | None, predictions, path: Path, size: tuple[int, int, int],
+                  diagnosed: DiagnosisCollector, m: int) -> FrameMatches | FrameErrors:
+    """A method's frame: frame_result, or with a diagnosis its FrameErrors (the same matched IoUs),
+    its error types and score sweep collected by `diagnosed`."""
+    if diagnosed.settings is None:
+        return frame_result(n_gt, gt_masks, predictions, *size)
+    errors = diagnosed.add(m, partial(frame_similarity, n_gt, gt_masks, predictions, *size),
+                           partial(read_scores_beside, path, len(predictions)))
+    assert errors is not None
+    return errors
 
 
 def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds, tuple[str, ...]]:

@@ -22,7 +22,7 @@ from ...datasets._paths import under_root
 from ...errors import ConfigError, InputError
 from ...metrics.line_masks import LaneMask
 from ...model import Lane, image_stem
-from ...lanes_io import check_coordinates, check_inside_image, read_lane_scores, read_lines_txt, scores_path
+from ...lanes_io import check_coordinates, check_inside_image, read_lines_txt, read_scores_beside
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
                                     diagnosis_settings, diagnoses_merged, kernel_groups)
 from ...metrics.lane_iou_f1 import FrameMatches, frame_similarity, match_frame, f_measure, official_masks
@@ -223,11 +223,17 @@ def _score_sequence(args) -> ScoredSequence:
             out.acc[m].append((outcome.acc, mmanet))
             if temporal:
                 out.assigned[m].append(outcome.assigned)
-            scores = scores_path(_prediction_path(root, relpath, "lines"))
-            diagnosed.add(m, partial(frame_similarity, len(truth), label.masks, list(predictions), width, height,
-                                     lane_width), partial(read_lane_scores, scores, len(predictions)))
+            _diagnose(diagnosed, m, label, predictions, root, relpath, (width, height, lane_width))
     out.diagnoses = diagnosed.result(relpaths)
     return out
+
+
+def _diagnose(diagnosed: DiagnosisCollector, m: int, truth: FrameTruth, predictions: Sequence[Lane], root: Path,
+              relpath: str, size: tuple[int, int, int]) -> None:
+    """A method's frame's error types and score sweep, when diagnosing (its scores beside its lanes)."""
+    if diagnosed.settings is not None:
+        diagnosed.add(m, partial(frame_similarity, len(truth.lanes), truth.masks, list(predictions), *size),
+                      partial(read_scores_beside, _prediction_path(root, relpath, "lines"), len(predictions)))
 
 
 def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
