@@ -361,3 +361,19 @@ def test_compare_refuses_frame_counts_that_do_not_add_up(lanes, tmp_path, column
     path.write_bytes(gzip.compress(frames.to_csv(index=False).encode()))
     refused = invoke("compare", tmp_path / "both", "--out", tmp_path / "compared")
     assert refused.exit_code == 2 and "counts that add up" in refused.output, refused.output
+
+
+def test_a_runs_saved_lanes_diagnosed_add_up_to_the_runs_official_table(fixture_run, tmp_path):
+    # what `run --diagnose` would give, until a run's tally carries the error types itself: the
+    # lanes a run saves, scored with --diagnose, add up to the run's own official.csv
+    from roneld_eval.api import with_fixture
+
+    result, out = fixture_run
+    data = with_fixture(result.config).dataset.data_root
+    score = score_culane(data, out / "lanes", workers=1, out=tmp_path / "diagnosed", diagnose=True)
+    assert score.diagnosed is not None
+    run = pd.read_csv(out / "official.csv", keep_default_na=False)
+    frames = pd.read_csv(tmp_path / "diagnosed" / "frames.csv.gz", keep_default_na=False)
+    mine = frames.groupby("method")[["tp", "fp", "fn"]].sum().sort_index()
+    theirs = run[run["category"] == "all"].set_index("method")[["tp", "fp", "fn"]].sort_index()
+    pd.testing.assert_frame_equal(mine, theirs, check_names=False)
