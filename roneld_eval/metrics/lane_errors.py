@@ -39,7 +39,7 @@ from .lane_iou_f1 import f_measure
 
 # (side, type) of each column of frame_errors' counts, in order
 ERROR_TYPES = (("fp", "Loc"), ("fp", "Dupe"), ("fp", "Cat"), ("fp", "Bkg"), ("fn", "Loc"), ("fn", "Miss"))
-ERROR_COLUMNS = ("fp_loc", "fp_dupe", "fp_cat", "fp_bkg", "fn_loc", "fn_miss")
+ERROR_COLUMNS = tuple(f"{side}_{kind.lower()}" for side, kind in ERROR_TYPES)  # frames.csv.gz's: fp_loc, ...
 CAT = ERROR_TYPES.index(("fp", "Cat"))
 DEFAULT_LOC_IOU = 0.1
 
@@ -225,7 +225,7 @@ class FrameDiagnoses:
     n_gt: np.ndarray  # (frames,)
     n_pred: np.ndarray  # (methods, frames)
     tp: np.ndarray  # (methods, frames, thresholds)
-    errors: np.ndarray  # (methods, frames, thresholds, 5), ERROR_TYPES order
+    errors: np.ndarray  # (methods, frames, thresholds, error types), ERROR_TYPES order
     sweep_tp: np.ndarray | None = None  # (methods, frames, score thresholds, thresholds)
     sweep_kept: np.ndarray | None = None  # (methods, frames, score thresholds)
 
@@ -301,11 +301,18 @@ def kernel_groups(groups: tuple[str, ...], settings: DiagnosisSettings | None) -
     return groups if settings is None else groups + ("diagnosis",)
 
 
-def part_arrays(diagnoses: FrameDiagnoses | None, n_entries: int, n_limits: int,
-                n_scores: int | None) -> dict[str, np.ndarray]:
-    """A shard's diagnoses as its part keeps them: frame-first arrays whose rows the merge
-    concatenates in shard order (`cat_`), empty for a shard without frames; `n_scores` None
-    without a score sweep."""
+def _sizes(settings: DiagnosisSettings) -> tuple[int, int | None]:
+    """(IoU thresholds, score thresholds or None without a sweep) of these settings."""
+    return len(settings.limits), None if settings.sweep is None else len(settings.sweep.labels)
+
+
+def diagnosis_part(settings: DiagnosisSettings | None, diagnoses: FrameDiagnoses | None,
+                   n_entries: int) -> dict[str, np.ndarray]:
+    """A shard's diagnoses as its part keeps them (none without settings): frame-first arrays whose
+    rows the merge concatenates in shard order (`cat_`), empty for a shard without frames."""
+    if settings is None:
+        return {}
+    n_limits, n_scores = _sizes(settings)
     if diagnoses is None:
         diagnoses = FrameDiagnoses((), np.zeros(0, np.int64), np.zeros((n_entries, 0), np.int64),
                                    np.zeros((n_entries, 0, n_limits), np.int64),
@@ -321,28 +328,14 @@ def part_arrays(diagnoses: FrameDiagnoses | None, n_entries: int, n_limits: int,
     return {name: np.ascontiguousarray(array, np.int64) for name, array in arrays.items()}
 
 
-def diagnosis_part(settings: DiagnosisSettings | None, diagnoses: FrameDiagnoses | None,
-                   n_entries: int) -> dict[str, np.ndarray]:
-    """part_arrays of a shard scored with these settings (none without)."""
-    if settings is None:
-        return {}
-    return part_arrays(diagnoses, n_entries, len(settings.limits),
-                       None if settings.sweep is None else len(settings.sweep.labels))
-
-
 def diagnoses_merged(settings: DiagnosisSettings | None, frames: Sequence[str], merged_array: Callable[..., np.ndarray],
                      n_entries: int) -> FrameDiagnoses | None:
-    """merged_diagnoses of a merge whose shards were scored with these settings (None without)."""
+    """The diagnoses of a merge whose shards were scored with these settings (None without), from
+    their parts' arrays (`merged_array(name, shape, kind, within)` checks each shape and range:
+    an untrusted file)."""
     if settings is None:
         return None
-    return merged_diagnoses(frames, merged_array, n_entries, len(settings.limits),
-                            None if settings.sweep is None else len(settings.sweep.labels))
-
-
-def merged_diagnoses(frames: Sequence[str], merged_array: Callable[..., np.ndarray], n_entries: int, n_limits: int,
-                     n_scores: int | None) -> FrameDiagnoses:
-    """The diagnoses of a merge from its parts' arrays (`merged_array(name, shape, kind, within)`
-    checks each shape and range: an untrusted file)."""
+    n_limits, n_scores = _sizes(settings)
     n = len(frames)
 
     def read(name: str, *shape: int) -> np.ndarray:

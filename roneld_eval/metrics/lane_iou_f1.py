@@ -258,6 +258,15 @@ def category_table(
     return table.drop(columns=["method", "threshold"]).reset_index(drop=True)
 
 
+# The thresholds papers single out, shown one by one whenever a grid holds them.
+HIGHLIGHTS = ("0.50", "0.75")
+
+
+def highlighted(labels: Sequence[str]) -> tuple[str, ...]:
+    """The thresholds of a grid that tables single out: those papers print (HIGHLIGHTS), else the first."""
+    return tuple(label for label in labels if label in HIGHLIGHTS) or tuple(labels[:1])
+
+
 def highlight_name(label: str) -> str:
     """'0.50' -> 'F1@50', '0.75' -> 'F1@75', '0.525' -> 'F1@52.5' (the papers' column names)."""
     percent = (Decimal(label) * 100).normalize()

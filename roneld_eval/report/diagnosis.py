@@ -12,6 +12,7 @@ import gzip
 import io
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
@@ -64,9 +65,12 @@ class Diagnosed:
     def matched_two_ways(self) -> bool:
         return any(matching for _, matching in self.entries)
 
+    @cached_property
     def error_rows(self) -> list[tuple]:
+        """error_records' rows (summed once: the files and the console both read them)."""
         return error_records(self.diagnoses, self.entries, self.groups, self.labels, self.types, self.measure)
 
+    @cached_property
     def sweep_rows(self) -> list[tuple]:
         assert self.sweep is not None
         return sweep_records(self.diagnoses, self.entries, self.groups, self.labels, self.sweep, self.measure)
@@ -87,7 +91,7 @@ def write_diagnosis(staging: Staging, diagnosed: Diagnosed | None, shown: Sequen
     if diagnosed is None:
         return
     if diagnosed.errors:
-        rows = diagnosed.error_rows()
+        rows = diagnosed.error_rows
         staging.write_text("errors.csv", _table(ERROR_CSV_COLUMNS, rows, diagnosed.matched_two_ways).to_csv())
         staging.write_text("errors.md", errors_markdown(diagnosed, rows, shown))
         errors_figure(diagnosed, rows, shown[0], staging.file("errors.png"))
@@ -96,14 +100,9 @@ def write_diagnosis(staging: Staging, diagnosed: Diagnosed | None, shown: Sequen
 
         write_gallery(staging, diagnosed, shown[0])
     if diagnosed.sweep is not None:
-        swept = diagnosed.sweep_rows()
+        swept = diagnosed.sweep_rows
         staging.write_text("sweep_scores.csv", _table(SWEEP_CSV_COLUMNS, swept, diagnosed.matched_two_ways).to_csv())
         sweep_figure(diagnosed, swept, shown[0], staging.file("sweep_scores.png"))
-
-
-def headline_thresholds(labels: Sequence[str]) -> list[str]:
-    """The thresholds errors.md shows of a grid: those papers print (0.50, 0.75), else the first."""
-    return [label for label in labels if label in ("0.50", "0.75")] or list(labels[:1])
 
 
 Summed = dict[tuple[str, str, str, str], dict[tuple[str, str], tuple[int, float]]]
@@ -123,13 +122,13 @@ def console_lines(diagnosed: Diagnosed, label: str, written: bool = True) -> lis
     files that hold the rest when they are `written`)."""
     lines = []
     if diagnosed.errors:
-        summed = _summed(diagnosed.error_rows())
+        summed = _summed(diagnosed.error_rows)
         lines += [_error_line(diagnosed, method, matching, summed[(method, matching, "all", label)], label)
                   + (" (errors.md)" if written else "") for method, matching in diagnosed.entries]
     if diagnosed.sweep is not None:
         lines += [f"{diagnosed.name(row[0], row[1])}: best F1 {100 * row[10]:.2f} at score threshold {row[4]} "
                   f"({diagnosed.sweep.rule}; chosen on the test set{'; sweep_scores.csv' if written else ''})"
-                  for row in diagnosed.sweep_rows() if row[2] == "all" and row[3] == label and row[11]]
+                  for row in diagnosed.sweep_rows if row[2] == "all" and row[3] == label and row[11]]
     return lines
 
 

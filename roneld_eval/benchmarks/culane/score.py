@@ -37,6 +37,7 @@ from ...metrics.lane_iou_f1 import (
     frame_result,
     frame_similarity,
     highlight_name,
+    highlighted,
     official_masks,
     summary_records,
 )
@@ -72,10 +73,6 @@ SCORE_PRESETS = {
     # CLRNet README (mF1, F1@50, F1@75) and clrnet/datasets/culane.py: np.linspace(0.5, 0.95, 10).
     "clrnet": ScorePreset("0.50:0.95:0.05", ("0.50", "0.75"), "CLRNet: mF1 over IoU 0.50:0.95:0.05, F1@50, F1@75"),
 }
-
-
-# The thresholds papers single out, shown whenever the grid holds them.
-HIGHLIGHTS = ("0.50", "0.75")
 
 
 CHUNK_FRAMES = 200
@@ -186,8 +183,7 @@ def _thresholds(iou: str | float | None, preset: str | None) -> tuple[Thresholds
         thresholds = parse_thresholds(SCORE_PRESETS[preset].iou)
         return thresholds, SCORE_PRESETS[preset].highlighted
     thresholds = parse_thresholds(str(0.5 if iou is None else iou))
-    highlighted = tuple(label for label in thresholds.labels if label in HIGHLIGHTS)
-    return thresholds, highlighted or thresholds.labels[:1]
+    return thresholds, highlighted(thresholds.labels)
 
 
 def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,

@@ -31,7 +31,8 @@ from .segmentation import class_masks, mean_curves, ClassCurve
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
                                     diagnosis_settings, diagnoses_merged, kernel_groups)
 from ...output import Staging
-from ...report.diagnosis import Diagnosed, headline_thresholds, write_diagnosis
+from ...metrics.lane_iou_f1 import highlighted
+from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...report.tables import Table
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
@@ -258,7 +259,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             staging.write_text("official.csv", score.rows.to_csv())
             staging.write_text("summary.csv", summary_rows(score).to_csv())
             staging.write_text("summary.md", summary_markdown(score, width))
-            write_diagnosis(staging, score.diagnosed, headline_thresholds(thresholds.labels))
+            write_diagnosis(staging, score.diagnosed, highlighted(thresholds.labels))
             folder.commit()
     return score
 
