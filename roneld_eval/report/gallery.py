@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -69,15 +69,14 @@ def _lane_points(lane: Lane) -> list[list[float]]:
     return [[round(float(x), 1), round(float(y), 1)] for x, y in lane.points]
 
 
-def gallery_record(diagnosed, label: str, frame_lanes: Callable[[str], GalleryFrame],
-                   image_root: str | None) -> dict:
-    """gallery.json's content."""
+def gallery_record(diagnosed, label: str) -> dict:
+    """gallery.json's content: each chosen frame's lanes read again (`diagnosed.frame_lanes`)."""
     d = diagnosed.diagnoses
     index = {frame: k for k, frame in enumerate(d.frames)}
     t = diagnosed.labels.index(label)
     pictures = []
     for frame, reasons in chosen_frames(diagnosed, label):
-        found = frame_lanes(frame)
+        found = diagnosed.frame_lanes(frame)
         k = index[frame]
         counts = {}
         for m, (method, matching) in enumerate(diagnosed.entries):
@@ -88,14 +87,14 @@ def gallery_record(diagnosed, label: str, frame_lanes: Callable[[str], GalleryFr
                          "predicted": {method: [_lane_points(lane) for lane in lanes]
                                        for method, lanes in found.predicted.items()},
                          "counts": counts})
-    return {"format": GALLERY_FORMAT, "title": diagnosed.title, "threshold": label, "image_root": image_root,
-            "pictures": pictures}
+    return {"format": GALLERY_FORMAT, "title": diagnosed.title, "threshold": label,
+            "image_root": diagnosed.image_root, "pictures": pictures}
 
 
 def write_gallery(staging, diagnosed, label: str) -> None:
     if diagnosed.frame_lanes is None:
         return
-    record = gallery_record(diagnosed, label, diagnosed.frame_lanes, diagnosed.image_root)
+    record = gallery_record(diagnosed, label)
     staging.write_text(GALLERY, json.dumps(record, indent=None, separators=(",", ":")) + "\n")
 
 
@@ -187,7 +186,7 @@ def draw_gallery(record: dict, image_root: Path | None, worst: int) -> list[tupl
     """(name, picture) of the first `worst` frames of each reason, in the record's order."""
     import cv2
 
-    from .overlays import BLUE, CAPTION_LINE, FONT, OUTPUT_WIDTH, _fitting_scale, _polyline
+    from .overlays import BLUE, OUTPUT_WIDTH, _polyline, caption_bar
 
     taken: dict[str, int] = {}
     out = []
@@ -212,11 +211,7 @@ def draw_gallery(record: dict, image_root: Path | None, worst: int) -> list[tupl
         lines += [f"{method}: TP {c[0]}  FP {c[1]}  FN {c[2]}" for method, c in picture["counts"].items()]
         lines.append(f"blue: ground truth; {', '.join(picture['predicted'])} in turn red, green, ... "
                      f"({record['title']}, IoU > {record.get('threshold')})")
-        bar = np.full((CAPTION_LINE * len(lines) + 12, OUTPUT_WIDTH, 3), 255, np.uint8)
-        for row, text in enumerate(lines):
-            cv2.putText(bar, text, (8, CAPTION_LINE * (row + 1)), FONT, _fitting_scale(text, OUTPUT_WIDTH - 16),
-                        (0, 0, 0), 2, cv2.LINE_AA)
-        out.append((f"{number:03d}", np.vstack([image, bar])))
+        out.append((f"{number:03d}", np.vstack([image, caption_bar(lines)])))
     return out
 
 

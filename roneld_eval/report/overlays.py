@@ -179,14 +179,18 @@ def draw_frame(picture: FramePicture, background: np.ndarray, caption: str = "")
             if iou is not None:
                 anchor = _point_at_height(points, out_height * (0.62 + 0.12 * rank))
                 _label(image, f"{iou:.2f}", anchor, colour)
-    # Capitals 20 px high in the picture: still 10.9 px where report.html shows two pictures
-    # side by side in its 1,100 px column (one line at scale 0.55 came out 7.6 px there).
-    lines = (caption or picture.relpath).split("\n")
+    return np.vstack([image, caption_bar((caption or picture.relpath).split("\n"))])
+
+
+def caption_bar(lines: list[str]) -> np.ndarray:
+    """The white bar under a picture, OUTPUT_WIDTH wide, a line of black text each, every line
+    shrunk to fit. Capitals 20 px high in the picture: still 10.9 px where report.html shows two
+    pictures side by side in its 1,100 px column (one line at scale 0.55 came out 7.6 px there)."""
     bar = np.full((CAPTION_LINE * len(lines) + 12, OUTPUT_WIDTH, 3), 255, np.uint8)
     for row, text in enumerate(lines):
         cv2.putText(bar, text, (8, CAPTION_LINE * (row + 1)), FONT, _fitting_scale(text, OUTPUT_WIDTH - 16), (0, 0, 0),
                     2, cv2.LINE_AA)
-    return np.vstack([image, bar])
+    return bar
 
 
 def _fitting_scale(text: str, width: int, weight: int = 2) -> float:
