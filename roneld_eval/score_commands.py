@@ -123,6 +123,18 @@ def diagnosis(score_sweep: str | None = None) -> tuple[Option, ...]:
     return tuple(options)
 
 
+def echo_diagnosis(score: Any, values: Mapping[str, Any], echo: Echo, label: str | None = None) -> None:
+    """What a score's --diagnose and --score-sweep say on the console (nothing without them), at
+    threshold `label` (default its first), naming their files where --out was given."""
+    diagnosed = getattr(score, "diagnosed", None)
+    if diagnosed is None:
+        return
+    from .report.diagnosis import console_lines
+
+    for line in console_lines(diagnosed, label or diagnosed.labels[0], values.get("out") is not None):
+        echo(line)
+
+
 def width(help: str) -> Option:
     from .config import MAX_LINE_THICKNESS
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
+from ...score_commands import Echo, echo_diagnosis, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
 
 
 def _with_listed_roots(values: dict[str, Any]) -> dict[str, Any]:
@@ -32,11 +32,7 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
         echo(summary_table(score).to_markdown())
     else:
         echo(first_threshold_table(score).to_markdown())
-    if score.diagnosed is not None:
-        from ...report.diagnosis import console_lines
-
-        for line in console_lines(score.diagnosed, score.highlighted[0], values["out"] is not None):
-            echo(line)
+    echo_diagnosis(score, values, echo, score.highlighted[0])
     if score.sweep and len(score.trees) > 1:
         _, best = culane_sweep(score)
         column = score.summary_rows.columns[-1]

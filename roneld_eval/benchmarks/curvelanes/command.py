@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots
+from ...score_commands import Echo, echo_diagnosis, Option, ScoreCommand, closing_options, diagnosis, pred_roots
 
 
 def _thresholds(value: str | None) -> tuple[float, ...]:
@@ -26,11 +26,7 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     echo("|---|---|---|---|---|---|")
     for row in score.rows.rows:
         echo(f"| {row[0]} | {row[1]:g} | {row[2]} | {100 * row[6]:.2f} | {100 * row[7]:.2f} | {100 * row[8]:.2f} |")
-    if score.diagnosed is not None:
-        from ...report.diagnosis import console_lines
-
-        for line in console_lines(score.diagnosed, score.diagnosed.labels[0], values["out"] is not None):
-            echo(line)
+    echo_diagnosis(score, values, echo)
 
 
 COMMAND = ScoreCommand(

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
+from ...score_commands import Echo, echo_diagnosis, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
 
 
 def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
@@ -14,11 +14,8 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
          + (f", width {values['width']}" if score.mf1s else ""))
     echo(summary_table(score).to_markdown(), nl=False)
     if score.diagnosed is not None:
-        from ...report.diagnosis import console_lines
-
-        echo("")
-        for line in console_lines(score.diagnosed, score.thresholds.labels[0], values["out"] is not None):
-            echo(line)
+        echo("")  # the table ends its own last line
+    echo_diagnosis(score, values, echo)
 
 
 COMMAND = ScoreCommand(

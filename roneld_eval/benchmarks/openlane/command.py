@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...score_commands import Echo, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
+from ...score_commands import Echo, echo_diagnosis, Option, ScoreCommand, closing_options, diagnosis, pred_roots, width
 
 
 def _matchings(values: dict[str, Any]) -> dict[str, Any]:
@@ -21,11 +21,7 @@ def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     echo(f"{score.n_frames:,} images, {len(score.methods)} method{'s' if len(score.methods) > 1 else ''}, "
          f"width {values['width']}")
     echo(summary_table(score))
-    if score.diagnosed is not None:
-        from ...report.diagnosis import console_lines
-
-        for line in console_lines(score.diagnosed, score.thresholds.labels[0], values["out"] is not None):
-            echo(line)
+    echo_diagnosis(score, values, echo)
 
 
 COMMAND = ScoreCommand(
