@@ -25,7 +25,7 @@ from .reader import (IMAGE_HEIGHT, IMAGE_WIDTH, every_label, label_of, map_path,
 from ...errors import ConfigError, InputError
 from ...lanes_io import check_coordinates, read_lines_txt
 from ...maps.scnn_png import read_grey_png
-from .official import f1_of, frame_counts, interpolated, iou_matrix, lane_mask, matched_lanes
+from .official import counts_at, f1_of, frame_counts, interpolated, iou_matrix, lane_mask, matched_lanes
 from .segmentation import CLASSES, IMAGE_HEIGHT as MAP_HEIGHT, IMAGE_WIDTH as MAP_WIDTH, approx_auc
 from .segmentation import class_masks, mean_curves, ClassCurve
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
@@ -145,8 +145,7 @@ def _score_frames(args):
             for m, root in enumerate(pred_roots):
                 predicted, stopped = _predicted(prediction_path(root, key), width)
                 refused[m] += stopped
-                counts[m] += frame_counts(truth, predicted, thresholds)
-                _diagnose(diagnosed, m, truth, predicted)
+                counts[m] += _method_frame(truth, predicted, thresholds, diagnosed, m)
         if map_roots:
             masks = _segmentation_label(record, labels[key])
             for m, root in enumerate(map_roots):
@@ -154,11 +153,15 @@ def _score_frames(args):
     return counts, dropped, refused, curves, diagnosed.result(keys if pred_roots else [])
 
 
-def _diagnose(diagnosed: DiagnosisCollector, m: int, truth: list, predicted: list) -> None:
-    """A frame's error types under evaluate.py's own assignment (linear_sum_assignment)."""
-    if diagnosed.settings is not None:
-        ious = iou_matrix(predicted, truth)
-        diagnosed.add(m, partial(np.transpose, ious), match=matched_lanes(ious))
+def _method_frame(truth: list, predicted: list, thresholds, diagnosed: DiagnosisCollector, m: int) -> np.ndarray:
+    """frame_counts of a method's frame; when diagnosing, its IoUs (computed once) give its error
+    types too, under evaluate.py's own assignment (linear_sum_assignment)."""
+    if diagnosed.settings is None:
+        return frame_counts(truth, predicted, thresholds)
+    ious = iou_matrix(predicted, truth)
+    errors = diagnosed.add(m, partial(np.transpose, ious), match=matched_lanes(ious))
+    assert errors is not None  # its matched IoUs: matched_ious' pairs (-inf for a lane unmatched, above no threshold)
+    return counts_at(errors.matched_iou, len(predicted), len(truth), thresholds)
 
 
 def _recording(key: str) -> str:
