@@ -59,26 +59,26 @@ def _score_frames(args) -> np.ndarray | tuple[np.ndarray, FrameDiagnoses | None]
         truth = checked_truth(read_frame(path, True), path, width, height)
         for m, root in enumerate(pred_roots):
             path = lanes_path(root, relpath)
-            frame = read_frame(path, True)
-            counts[m] += frame_counts(truth, frame, path, width, height, thresholds)
-            _diagnose(diagnosed, m, truth, frame, path, (width, height), thresholds[0])
+            counts[m] += _method_frame(truth, read_frame(path, True), path, (width, height), thresholds, diagnosed, m)
     return counts if diagnosis is None else (counts, diagnosed.result(relpaths))
 
 
-def _diagnose(diagnosed: DiagnosisCollector, m: int, truth: tuple, frame: CurveLanesFrame, path,
-              size: tuple[int, int], score_threshold: float) -> None:
-    """An image's error types among the lanes kept at the fixed score threshold, under the metric's
-    own assignment (linear_sum_assignment); with a sweep, its counts at each of its thresholds."""
+def _method_frame(truth: tuple, frame: CurveLanesFrame, path, size: tuple[int, int], thresholds: Sequence[float],
+                  diagnosed: DiagnosisCollector, m: int) -> np.ndarray:
+    """frame_counts of a method's image; when diagnosing, from the one IoU matrix (each lane drawn
+    once) also its error types among the lanes kept at the fixed (first) threshold, under the
+    metric's own assignment, and with a sweep its counts at each of the sweep's thresholds."""
     settings = diagnosed.settings
     if settings is None:
-        return
-    kept = [k for k, score in enumerate(frame.scores) if score is None or score > score_threshold]
-    matrix = (iou_matrix(truth, [frame.lanes[k] for k in kept], *size) if truth and kept
-              else np.zeros((len(truth), len(kept))))
-    diagnosed.add(m, partial(np.asarray, matrix), match=matched_lanes(matrix))
-    if settings.sweep is not None:
-        swept = frame_counts(truth, frame, path, *size, settings.sweep.limits.tolist())
-        diagnosed.add_swept(m, swept[:, :1], swept[:, 1])
+        return frame_counts(truth, frame, path, *size, thresholds)
+    swept = [] if settings.sweep is None else settings.sweep.limits.tolist()
+    kept, matrix, column = kept_matrix(truth, frame, path, *size, [*thresholds, *swept])
+    counts = kept_counts(len(truth), kept, matrix, column)
+    fixed = (matrix[:, [column[k] for k in kept[0]]] if matrix is not None
+             else np.zeros((len(truth), len(kept[0]))))
+    diagnosed.add(m, partial(np.asarray, fixed), match=matched_lanes(fixed))
+    diagnosed.add_swept(m, counts[len(thresholds):, :1], counts[len(thresholds):, 1])
+    return counts[:len(thresholds)]
 
 
 def checked_truth(frame: CurveLanesFrame, path, width: int, height: int) -> tuple:
@@ -95,16 +95,27 @@ def frame_counts(truth: tuple, frame: CurveLanesFrame, path, width: int, height:
     Each lane is drawn once; a score threshold keeps a subset of the predictions, whose columns
     of the one IoU matrix are matched (the same IoUs, in the same order, as drawing the kept
     lanes alone)."""
-    counts = np.zeros((len(thresholds), 3), np.int64)
+    return kept_counts(len(truth), *kept_matrix(truth, frame, path, width, height, thresholds))
+
+
+def kept_matrix(truth: tuple, frame: CurveLanesFrame, path, width: int, height: int,
+                thresholds) -> tuple[list[list[int]], np.ndarray | None, dict[int, int]]:
+    """(the predictions each score threshold keeps, the IoU matrix of the ground truth against
+    every prediction any keeps (None without ground truth), each such prediction's column)."""
     kept = [[k for k, score in enumerate(frame.scores) if score is None or score > threshold]
             for threshold in thresholds]
     used = sorted({k for chosen in kept for k in chosen})
     _check_kept(frame, kept, path, width, height)
     matrix = iou_matrix(truth, [frame.lanes[k] for k in used], width, height) if truth else None
-    column = {k: j for j, k in enumerate(used)}
+    return kept, matrix, {k: j for j, k in enumerate(used)}
+
+
+def kept_counts(n_truth: int, kept: list[list[int]], matrix: np.ndarray | None, column: dict[int, int]) -> np.ndarray:
+    """(thresholds, 3): hits, predicted and ground-truth lanes at each threshold of kept_matrix."""
+    counts = np.zeros((len(kept), 3), np.int64)
     for t, chosen in enumerate(kept):
         found = 0 if matrix is None or not chosen else hits(matrix[:, [column[k] for k in chosen]])
-        counts[t] = (found, len(chosen), len(truth))
+        counts[t] = (found, len(chosen), n_truth)
     return counts
 
 
