@@ -191,8 +191,10 @@ class FrameOutcome:
 
 
 def frame_outcome(truth: FrameTruth, predictions: Sequence[Lane], width: int, height: int, lane_width: int,
-                  temporal: bool) -> FrameOutcome:
-    matches = match_frame(list(truth.lanes), list(predictions), width, height, lane_width, gt_masks=truth.masks)
+                  temporal: bool, matches: FrameMatches | None = None) -> FrameOutcome:
+    """`matches`: the frame's official matching where the caller has it already (a diagnosis)."""
+    if matches is None:
+        matches = match_frame(list(truth.lanes), list(predictions), width, height, lane_width, gt_masks=truth.masks)
     assigned = (assigned_ious(truth.linked, [lane_mask(lane, width, height) for lane in usable(predictions)])
                 if temporal else np.zeros(0))
     return FrameOutcome(matches, frame_miou(matches), rvld_frame(predictions, truth.lanes), assigned)
@@ -217,23 +219,28 @@ def _score_sequence(args) -> ScoredSequence:
             predictions, mask = _read_predictions(root, relpath, pred_format)
             if mask is not None and mask.height is not None and (mask.width, mask.height) != (width, height):
                 out.odd_masks[m].append(relpath)
-            outcome = frame_outcome(label, predictions, width, height, lane_width, temporal)
+            outcome = frame_outcome(label, predictions, width, height, lane_width, temporal,
+                                    _diagnose(diagnosed, m, label, predictions, root, relpath,
+                                              (width, height, lane_width)))
             out.frames[m].append((outcome.matches, outcome.miou))
             mmanet = None if mask is None else mmanet_frame(mask.fits, truth, mask.height or height)
             out.acc[m].append((outcome.acc, mmanet))
             if temporal:
                 out.assigned[m].append(outcome.assigned)
-            _diagnose(diagnosed, m, label, predictions, root, relpath, (width, height, lane_width))
     out.diagnoses = diagnosed.result(relpaths)
     return out
 
 
 def _diagnose(diagnosed: DiagnosisCollector, m: int, truth: FrameTruth, predictions: Sequence[Lane], root: Path,
-              relpath: str, size: tuple[int, int, int]) -> None:
-    """A method's frame's error types and score sweep, when diagnosing (its scores beside its lanes)."""
-    if diagnosed.settings is not None:
-        diagnosed.add(m, partial(frame_similarity, len(truth.lanes), truth.masks, list(predictions), *size),
-                      partial(read_scores_beside, _prediction_path(root, relpath, "lines"), len(predictions)))
+              relpath: str, size: tuple[int, int, int]) -> FrameMatches | None:
+    """When diagnosing, a method's frame's error types and score sweep (its scores beside its lanes),
+    and its official matching from the same IoUs (so its lanes are drawn once); else None."""
+    if diagnosed.settings is None:
+        return None
+    errors = diagnosed.add(m, partial(frame_similarity, len(truth.lanes), truth.masks, list(predictions), *size),
+                           partial(read_scores_beside, _prediction_path(root, relpath, "lines"), len(predictions)))
+    assert errors is not None
+    return FrameMatches(errors.n_gt, errors.n_pred, errors.matched_iou)
 
 
 def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
