@@ -28,7 +28,7 @@ import signal
 import stat
 import tempfile
 from pathlib import Path
-from typing import Callable, SupportsFloat, cast
+from typing import Callable, Iterable, Sequence, SupportsFloat, cast
 
 from .errors import InputError, RunInterrupted
 from .signals import deferred_signals, held_signals, signal_number
@@ -574,6 +574,20 @@ def csv_float(value: object) -> str:
     # numpy's repr would say np.float64(...); a float32 is written as the double it is
     number = float(cast(SupportsFloat, value))
     return "" if math.isnan(number) else repr(number)
+
+
+def csv_gz(header: Sequence[str], rows: Iterable[Sequence[object]]) -> bytes:
+    """A CSV table ('\n' line ends, csv's minimal quoting) gzipped without a time stamp, so that
+    the same rows give the same bytes (frames.csv.gz); floats are formatted by the caller."""
+    import csv
+    import gzip
+    import io
+
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(rows)
+    return gzip.compress(text.getvalue().encode("utf-8"), compresslevel=6, mtime=0)
 
 
 class Staging:

@@ -7,19 +7,17 @@ their category, or whatever it is); the Cat type only where lanes match within t
 
 from __future__ import annotations
 
-import csv
-import gzip
-import io
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Sequence
 
 import numpy as np
 
 from ..metrics.lane_errors import (CAT, ERROR_COLUMNS, ERROR_TYPES, FrameDiagnoses, Measure, ScoreSweep,
                                    error_records, sweep_records)
 from ..metrics.lane_iou_f1 import f_measure
+from ..output import csv_gz
 from ..scoring import PlainTable
 
 if TYPE_CHECKING:
@@ -198,19 +196,19 @@ def frames_csv_gz(diagnosed: Diagnosed) -> bytes:
     types shown), gzip without a time stamp so that the same score writes the same bytes."""
     d = diagnosed.diagnoses
     types = list(diagnosed.types)
-    text = io.StringIO()
-    writer = csv.writer(text, lineterminator="\n")
-    writer.writerow(FRAME_CSV_COLUMNS + tuple(ERROR_COLUMNS[k] for k in types))
-    for k, frame in enumerate(d.frames):
-        sequence, category = diagnosed.frame_facts(frame)
-        n_gt = int(d.n_gt[k])
-        for m, (method, matching) in enumerate(diagnosed.entries):
-            n_pred = int(d.n_pred[m, k])
-            for t, label in enumerate(diagnosed.labels):
-                tp = int(d.tp[m, k, t])
-                writer.writerow((frame, sequence, category, method, matching, label, tp, n_pred - tp, n_gt - tp,
-                                 *d.errors[m, k, t, types].tolist()))
-    return gzip.compress(text.getvalue().encode("utf-8"), compresslevel=6, mtime=0)
+
+    def rows() -> Iterator[tuple]:
+        for k, frame in enumerate(d.frames):
+            sequence, category = diagnosed.frame_facts(frame)
+            n_gt = int(d.n_gt[k])
+            for m, (method, matching) in enumerate(diagnosed.entries):
+                n_pred = int(d.n_pred[m, k])
+                for t, label in enumerate(diagnosed.labels):
+                    tp = int(d.tp[m, k, t])
+                    yield (frame, sequence, category, method, matching, label, tp, n_pred - tp, n_gt - tp,
+                           *d.errors[m, k, t, types].tolist())
+
+    return csv_gz(FRAME_CSV_COLUMNS + tuple(ERROR_COLUMNS[k] for k in types), rows())
 
 
 def errors_figure(diagnosed: Diagnosed, rows: Sequence[tuple], label: str, path) -> None:

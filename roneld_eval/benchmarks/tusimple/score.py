@@ -98,19 +98,12 @@ FRAME_COLUMNS = ("frame", "sequence", "category", "method", "matching", "thresho
 def frames_csv_gz(methods: list[str], keys_of: list[list[str]], per_method: list[list]) -> bytes:
     """frames.csv.gz: each method's frames in its prediction file's order, lane.py's accuracy, FP
     and FN of each (a clip's folder as its sequence; no category, matching or IoU threshold)."""
-    import csv
-    import gzip
-    import io
+    from ...output import csv_float, csv_gz
 
-    from ...output import csv_float
-
-    text = io.StringIO()
-    writer = csv.writer(text, lineterminator="\n")
-    writer.writerow(FRAME_COLUMNS)
-    for method, keys, frames in zip(methods, keys_of, per_method):
-        writer.writerows((key, posixpath.dirname(key), "", method, "", "", *(csv_float(float(v)) for v in values))
-                         for key, values in zip(keys, frames))
-    return gzip.compress(text.getvalue().encode("utf-8"), compresslevel=6, mtime=0)
+    return csv_gz(FRAME_COLUMNS, ((key, posixpath.dirname(key), "", method, "", "",
+                                   *(csv_float(float(v)) for v in values))
+                                  for method, keys, frames in zip(methods, keys_of, per_method)
+                                  for key, values in zip(keys, frames)))
 
 
 def official_table(scores: Mapping[str, TusimpleScore]) -> PlainTable:
