@@ -311,11 +311,11 @@ def test_shards_of_a_diagnosed_score_merge_into_its_files(benchmark, tmp_path):
     extra = ["--diagnose", "--loc-iou", "0.2"] + (["--score-sweep", "0.1:0.9:0.2"] if with_scores else [])
     whole = invoke("score", benchmark, *inputs(tmp_path / "set"), *extra, "--workers", 1, "--out", tmp_path / "whole")
     assert whole.exit_code == 0, whole.output
-    for k in (1, 2):
-        part = invoke("score", benchmark, *inputs(tmp_path / "set"), *extra, "--workers", 1, "--shard", f"{k}/2",
+    for k in (1, 2, 3):  # a set of 2 clips in 3 shards: one shard scores no frame
+        part = invoke("score", benchmark, *inputs(tmp_path / "set"), *extra, "--workers", 1, "--shard", f"{k}/3",
                       "--out", tmp_path / f"part{k}")
         assert part.exit_code == 0, part.output
-    merged = invoke("merge", tmp_path / "part1", tmp_path / "part2", "--out", tmp_path / "merged")
+    merged = invoke("merge", tmp_path / "part1", tmp_path / "part2", tmp_path / "part3", "--out", tmp_path / "merged")
     assert merged.exit_code == 0, merged.output
     written = sorted(p.name for p in (tmp_path / "whole").iterdir() if not p.name.startswith("."))
     assert "errors.csv" in written and "gallery.json" in written
@@ -327,7 +327,7 @@ def test_shards_of_a_diagnosed_score_merge_into_its_files(benchmark, tmp_path):
     arrays = dict(np.load(tmp_path / "part1" / ARRAYS_NAME))
     arrays["cat_diag_errors"] = arrays["cat_diag_errors"] + 1000
     np.savez(tmp_path / "part1" / ARRAYS_NAME, **arrays)
-    refused = invoke("merge", tmp_path / "part1", tmp_path / "part2", "--out", tmp_path / "edited")
+    refused = invoke("merge", tmp_path / "part1", tmp_path / "part2", tmp_path / "part3", "--out", tmp_path / "edited")
     assert refused.exit_code == 2 and "Traceback" not in refused.output, refused.output
     assert not (tmp_path / "edited").exists()
 

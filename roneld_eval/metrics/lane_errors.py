@@ -28,7 +28,7 @@ Cat or Bkg prediction is removed (FP one less), a Miss is removed (FN one less).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -249,15 +249,29 @@ class FrameDiagnoses:
         return cls(tuple(frames), n_gt, n_pred, tp, counts, sweep_tp.reshape(n_methods, n_frames, n_scores, n_limits),
                    sweep_kept.reshape(n_methods, n_frames, n_scores))
 
-    @classmethod
-    def joined(cls, pieces: Sequence["FrameDiagnoses"]) -> "FrameDiagnoses":
-        """The pieces as one, frames in order."""
-        swept = all(piece.sweep_tp is not None for piece in pieces)
-        return cls(tuple(frame for piece in pieces for frame in piece.frames),
-                   np.concatenate([p.n_gt for p in pieces]), np.concatenate([p.n_pred for p in pieces], axis=1),
-                   np.concatenate([p.tp for p in pieces], axis=1), np.concatenate([p.errors for p in pieces], axis=1),
-                   _joined([p.sweep_tp for p in pieces]) if swept else None,
-                   _joined([p.sweep_kept for p in pieces]) if swept else None)
+
+
+def joined_diagnoses(pieces: Iterable[FrameDiagnoses | None]) -> FrameDiagnoses | None:
+    """A scorer's chunks' diagnoses as one, frames in order (None where no chunk has any: no
+    diagnosis, or a shard without frames)."""
+    found = [piece for piece in pieces if piece is not None]
+    if not found:
+        return None
+    swept = all(piece.sweep_tp is not None for piece in found)
+    return FrameDiagnoses(tuple(frame for piece in found for frame in piece.frames),
+                          np.concatenate([p.n_gt for p in found]), np.concatenate([p.n_pred for p in found], axis=1),
+                          np.concatenate([p.tp for p in found], axis=1),
+                          np.concatenate([p.errors for p in found], axis=1),
+                          _joined([p.sweep_tp for p in found]) if swept else None,
+                          _joined([p.sweep_kept for p in found]) if swept else None)
+
+
+def split_diagnosed(pieces: list, settings: DiagnosisSettings | None) -> tuple[list, FrameDiagnoses | None]:
+    """(each chunk's counts, their diagnoses joined) of a scorer's chunks, which are (counts,
+    diagnoses) when it diagnoses and counts alone when not."""
+    if settings is None:
+        return pieces, None
+    return [piece[0] for piece in pieces], joined_diagnoses(piece[1] for piece in pieces)
 
 
 class DiagnosisCollector:

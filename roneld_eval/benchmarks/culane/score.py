@@ -42,7 +42,8 @@ from ...metrics.lane_iou_f1 import (
     summary_records,
 )
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, FrameErrors,
-                                    diagnosis_part, diagnosis_settings, diagnoses_merged, kernel_groups)
+                                    diagnosis_part, diagnosis_settings, diagnoses_merged, joined_diagnoses,
+                                    kernel_groups)
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...output import OutputFolder
@@ -246,11 +247,11 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
             _keep_truth(key, kept, say)
             recorded = _recorded_diagnosis(diagnosis, diagnose, loc_iou, score_sweep, dataset.root)
             _write_culane_part(folder, share, joined, dataset, relpaths, trees, warnings, iou, preset, width, strict,
-                               sweep, recorded, diagnosis_part(diagnosis, _joined_diagnoses(diagnosed), len(trees)))
+                               sweep, recorded, diagnosis_part(diagnosis, joined_diagnoses(diagnosed), len(trees)))
             return None
         score = _culane_score(pieces, dataset.categories, thresholds, highlighted, trees, len(relpaths), warnings,
                               _culane_ground_truth(relpaths, dataset.categories), sweep)
-        score = _with_diagnosis(score, _joined_diagnoses(diagnosed), dataset.categories, dataset.root, width,
+        score = _with_diagnosis(score, joined_diagnoses(diagnosed), dataset.categories, dataset.root, width,
                                 diagnosis)
         _keep_truth(key, kept, say)
         if folder is not None:
@@ -311,10 +312,6 @@ def _piece(chunk: list[str], piece: tuple, kept: list[TruthRuns] | None,
     if diagnosed is not None and diagnoses is not None:
         diagnosed.append(diagnoses)
     return ScoredFrames(tuple(chunk), n_gt, n_pred, matched)
-
-
-def _joined_diagnoses(pieces: list[FrameDiagnoses]) -> FrameDiagnoses | None:
-    return FrameDiagnoses.joined(pieces) if pieces else None
 
 
 def _with_diagnosis(score: CulaneScore, diagnoses: FrameDiagnoses | None, categories: Mapping[str, frozenset[str]],
@@ -580,7 +577,7 @@ def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
                           np.concatenate(matched, axis=1))
     score = _culane_score([scored], categories, thresholds, highlighted, trees, settings["frames"], first["warnings"],
                           first["list"], settings["sweep"])
-    score = _with_diagnosis(score, _joined_diagnoses(diagnosed), categories,
+    score = _with_diagnosis(score, joined_diagnoses(diagnosed), categories,
                             Path(recorded["data_root"]) if recorded else Path(), settings["width"], diagnosis)
     with _taking(out, "score culane") as folder:
         assert folder is not None

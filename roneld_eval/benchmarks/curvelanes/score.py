@@ -20,7 +20,7 @@ from .reader import (IMAGE_SUFFIXES, SUFFIX, CurveLanesFrame, every_labelled_ima
 
 from .official import IOU_THRESHOLD, f_measure, has_zero_step, hits, iou_matrix, matched_lanes
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
-                                    diagnosis_settings, diagnoses_merged, kernel_groups)
+                                    diagnosis_settings, diagnoses_merged, kernel_groups, split_diagnosed)
 from ...output import Staging
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
@@ -180,7 +180,7 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             scored = sharding.share(relpaths, _each_image)
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
             tasks = [(chunk, labels, images, roots, thresholds, diagnosis) for chunk in chunks]
-            pieces, diagnoses = _split(scored_pieces(_score_frames, tasks, workers, progress, announce,
+            pieces, diagnoses = split_diagnosed(scored_pieces(_score_frames, tasks, workers, progress, announce,
                                                      kernel_groups=kernel_groups((), diagnosis), unit="image",
                                                      trees=trees), diagnosis)
             counts = sum(pieces, np.zeros((len(trees), len(thresholds), 3), np.int64))
@@ -203,14 +203,6 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
 
 
 IOU_LABEL = f"{IOU_THRESHOLD:.2f}"  # as the other benchmarks' thresholds are written
-
-
-def _split(pieces: list, diagnosis: DiagnosisSettings | None) -> tuple[list, FrameDiagnoses | None]:
-    """(the chunks' counts, their diagnoses joined) from _score_frames' results."""
-    if diagnosis is None:
-        return pieces, None
-    found = [piece[1] for piece in pieces if piece[1] is not None]
-    return [piece[0] for piece in pieces], FrameDiagnoses.joined(found) if found else None
 
 
 def _measure(tp: int, fp: int, fn: int) -> tuple[float, float, float]:

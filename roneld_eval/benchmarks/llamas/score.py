@@ -14,6 +14,7 @@ import functools
 import math
 from dataclasses import dataclass, replace
 from functools import partial
+from operator import itemgetter
 from pathlib import Path
 from typing import Callable
 
@@ -29,7 +30,7 @@ from .official import counts_at, f1_of, frame_counts, interpolated, iou_matrix, 
 from .segmentation import CLASSES, IMAGE_HEIGHT as MAP_HEIGHT, IMAGE_WIDTH as MAP_WIDTH, approx_auc
 from .segmentation import class_masks, mean_curves, ClassCurve
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
-                                    diagnosis_settings, diagnoses_merged, kernel_groups)
+                                    diagnosis_settings, diagnoses_merged, joined_diagnoses, kernel_groups)
 from ...output import Staging
 from ...metrics.lane_iou_f1 import highlighted
 from ...report.diagnosis import Diagnosed, write_diagnosis
@@ -214,7 +215,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                      for chunk in chunks]
             pieces = scored_pieces(_score_frames, tasks, workers, progress, announce,
                                    kernel_groups=kernel_groups((), diagnosis), trees=[*trees, *map_trees])
-            diagnoses = _joined_diagnoses(pieces)
+            diagnoses = joined_diagnoses(map(itemgetter(4), pieces))
             counts = sum((piece[0] for piece in pieces), np.zeros((len(trees), len(scored_at), 3), np.int64))
             dropped = int(sum(piece[1] for piece in pieces))
             refused = sum((piece[2] for piece in pieces), np.zeros(len(trees), np.int64))
@@ -274,11 +275,6 @@ def _diagnosis(diagnose: bool, loc_iou: float | None, thresholds: Thresholds, sh
         raise ConfigError("--diagnose gives the error types of lane files: give --pred-root (maps are scored for "
                           "AP, which has no lanes to match)")
     return diagnosis
-
-
-def _joined_diagnoses(pieces: list) -> FrameDiagnoses | None:
-    found = [piece[4] for piece in pieces if piece[4] is not None]
-    return FrameDiagnoses.joined(found) if found else None
 
 
 def _diagnosed(score: LlamasScore, diagnoses: FrameDiagnoses | None, trees: list, width: int,

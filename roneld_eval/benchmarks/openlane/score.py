@@ -22,8 +22,8 @@ from ...thresholds import Thresholds, parse_thresholds
 from .reader import IMAGE_HEIGHT, IMAGE_WIDTH, OpenLaneLanes, every_labelled_frame, json_path, read_lanes, read_list
 from ...errors import ConfigError
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, category_iou,
-                                    diagnosis_part, diagnosis_settings, diagnoses_merged,
-                                    kernel_groups)
+                                    diagnosis_part, diagnosis_settings, diagnoses_merged, kernel_groups,
+                                    split_diagnosed)
 from ...metrics.lane_iou_f1 import f_measure, matched_result, official_masks
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
@@ -156,7 +156,7 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                      for chunk in chunks]
             pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, trees=trees,
                                    kernel_groups=kernel_groups(("official",), diagnosis))
-            pieces, diagnosed = _split(pieces, diagnosis)
+            pieces, diagnosed = split_diagnosed(pieces, diagnosis)
             counts = sum(pieces, np.zeros((len(trees), len(modes), len(thresholds.values), 3), np.int64))
             if sharding.shard is not None:
                 assert folder is not None
@@ -180,13 +180,6 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
             write_diagnosis(staging, score.diagnosed, score.thresholds.labels[:1])
             folder.commit()
     return score
-
-
-def _split(pieces: list, diagnosis: DiagnosisSettings | None) -> tuple[list, FrameDiagnoses | None]:
-    """(the chunks' counts, their diagnoses joined) from _score_frames' results."""
-    if diagnosis is None:
-        return pieces, None
-    return [piece[0] for piece in pieces], FrameDiagnoses.joined([piece[1] for piece in pieces])
 
 
 def _gallery_frame(labels: Path, trees, frame: str) -> GalleryFrame:

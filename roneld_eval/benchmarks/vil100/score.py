@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from functools import partial
+from operator import attrgetter
 
 import numpy as np
 from dataclasses import dataclass, field, replace
@@ -24,7 +25,7 @@ from ...metrics.line_masks import LaneMask
 from ...model import Lane, image_stem
 from ...lanes_io import check_coordinates, check_inside_image, read_lines_txt, read_scores_beside
 from ...metrics.lane_errors import (DiagnosisCollector, DiagnosisSettings, FrameDiagnoses, diagnosis_part,
-                                    diagnosis_settings, diagnoses_merged, kernel_groups)
+                                    diagnosis_settings, diagnoses_merged, joined_diagnoses, kernel_groups)
 from ...metrics.lane_iou_f1 import FrameMatches, frame_similarity, match_frame, f_measure, official_masks
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
@@ -308,7 +309,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                                    trees=trees)
             totals = [sequence_totals(piece, dataset.sequences[name], thresholds, temporal, versions)
                       for name, piece in zip(names, scored)]
-            diagnoses = _joined_diagnoses(scored)
+            diagnoses = joined_diagnoses(map(attrgetter("diagnoses"), scored))
             if sharding.shard is not None:
                 assert folder is not None
                 sharding.write_part(folder, relpaths, trees, label_files,
@@ -353,11 +354,6 @@ def _diagnosis(diagnose: bool, loc_iou: float | None, score_sweep: str | None, t
 def _scenario_name(code: int) -> str:
     """A scenario's category as official.csv names it: 'scenario 2 (curved road)'."""
     return f"scenario {code} ({SCENARIOS[code]})"
-
-
-def _joined_diagnoses(scored: Sequence[ScoredSequence]) -> FrameDiagnoses | None:
-    pieces = [piece.diagnoses for piece in scored if piece.diagnoses is not None]
-    return FrameDiagnoses.joined(pieces) if pieces else None
 
 
 def _gallery_lanes(dataset, trees) -> Callable[[str], GalleryFrame]:
