@@ -324,9 +324,9 @@ def show(run_dir: str | Path, frames: Sequence[str] = (), worst: int | None = No
     overlays/<frame>.png and the contact sheet overlays.png.
     """
     run_dir = Path(run_dir)
-    from .report.gallery import GALLERY
+    from .report.gallery import is_gallery
 
-    if (run_dir / GALLERY).is_file() and not (run_dir / "config.toml").exists():
+    if is_gallery(run_dir):
         return show_gallery(run_dir, worst, out, image_root)
     check_finished_run(run_dir, "; a score's gallery needs `score ... --diagnose --out`")
     target = Path(out) if out is not None else run_dir / SHOW_FOLDER

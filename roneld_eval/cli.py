@@ -537,8 +537,12 @@ def show(run_dir, frames, worst, methods, out, image_root, debug):
     """
     from . import api
 
-    if (frames or methods) and (Path(run_dir) / "gallery.json").is_file():
+    from .report.gallery import is_gallery
+
+    if (frames or methods) and is_gallery(Path(run_dir)):
         _guard(_refuse, debug, "--frame and --method are for a run: a score's gallery draws the frames it chose")
+    if image_root is not None and not is_gallery(Path(run_dir)):
+        _guard(_refuse, debug, "--image-root is for a score's gallery: a run draws from its own data root")
     written = _guard(api.show, debug, run_dir, frames, worst, methods, out, image_root)
     for path in written:
         click.echo(str(path))

@@ -303,6 +303,13 @@ def test_show_draws_a_scores_gallery_over_its_images_and_refuses_an_edited_one(l
     assert missing.exit_code == 2 and "nowhere" in missing.output
 
 
+def test_show_of_a_run_refuses_an_image_root(fixture_run, tmp_path):
+    _, out = fixture_run
+    refused = invoke("show", "--run", out, "--image-root", tmp_path, "--out", tmp_path / "shown")
+    assert refused.exit_code == 2 and "--image-root is for a score's gallery" in refused.output
+    assert not (tmp_path / "shown").exists()
+
+
 @pytest.mark.parametrize("benchmark", sorted(SCORED))
 def test_shards_of_a_diagnosed_score_merge_into_its_files(benchmark, tmp_path):
     inputs, synth_options, with_scores = SCORED[benchmark]

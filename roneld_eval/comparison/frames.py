@@ -98,7 +98,7 @@ def compare_frames(folders: Sequence[str | Path], out: str | Path, top: int = 20
                                            f"({', '.join(_name(e) for e in entries)}), not two")
     (a, rows_a), (b, rows_b) = entries.items()
     first, second = rows_a.set_index(KEYS), rows_b.set_index(KEYS)
-    if first.index.has_duplicates or set(first.index) != set(second.index):
+    if first.index.has_duplicates or second.index.has_duplicates or set(first.index) != set(second.index):
         raise InputError(Path(folders[-1]), f"{_name(a)} and {_name(b)} are not scored on the same frames and "
                                             "thresholds: nothing to compare frame by frame")
     second = second.loc[first.index]
@@ -107,14 +107,14 @@ def compare_frames(folders: Sequence[str | Path], out: str | Path, top: int = 20
     joined["difference"] = (joined["b_fp"] + joined["b_fn"]) - (joined["a_fp"] + joined["a_fn"])
     joined = joined.sort_values("difference", ascending=False, kind="stable")
     listed = tuple(tuple(_plain(v) for v in row) for row in joined[list(COMPARED_COLUMNS)].itertuples(index=False))
-    compared = FramesCompared(_name(a), _name(b), PlainTable(COMPARED_COLUMNS, listed), "")
-    markdown = _markdown(compared, top)
+    rows = PlainTable(COMPARED_COLUMNS, listed)
+    compared = FramesCompared(_name(a), _name(b), rows, _markdown(_name(a), _name(b), rows, top))
     with OutputFolder(Path(out), "compare") as taken:
         staging = Staging(taken)
         staging.write_text("frames_compared.csv", compared.rows.to_csv())
-        staging.write_text("frames_compared.md", markdown)
+        staging.write_text("frames_compared.md", compared.markdown)
         taken.commit()
-    return FramesCompared(compared.a, compared.b, compared.rows, markdown)
+    return compared
 
 
 def _name(entry: tuple[str, str, str]) -> str:
@@ -126,17 +126,17 @@ def _plain(value):
     return value.item() if hasattr(value, "item") else value
 
 
-def _markdown(compared: FramesCompared, top: int) -> str:
+def _markdown(a: str, b: str, compared: PlainTable, top: int) -> str:
     head = "| frame | category | threshold | A: FP, FN | B: FP, FN | B's errors - A's |"
     rule = "|---|---|---|---|---|---|"
 
     def lines(rows) -> list[str]:
         return [f"| {r[0]} | {r[2]} | {r[3]} | {r[4]:g}, {r[5]:g} | {r[6]:g}, {r[7]:g} | {r[8]:+g} |" for r in rows]
 
-    ahead = [r for r in compared.rows.rows if r[8] > 0][:top]
-    behind = [r for r in reversed(compared.rows.rows) if r[8] < 0][:top]
+    ahead = [r for r in compared.rows if r[8] > 0][:top]
+    behind = [r for r in reversed(compared.rows) if r[8] < 0][:top]
     return "\n".join([
-        "# Frame by frame", "", f"A = {compared.a}; B = {compared.b}. A method's errors on a frame are its false "
+        "# Frame by frame", "", f"A = {a}; B = {b}. A method's errors on a frame are its false "
         "positives plus false negatives there (frames.csv.gz of `score --diagnose`); every frame is in "
         "frames_compared.csv.", "", f"## Where A beats B most ({len(ahead)} shown)", "", head, rule, *lines(ahead), "",
         f"## Where B beats A most ({len(behind)} shown)", "", head, rule, *lines(behind), ""])

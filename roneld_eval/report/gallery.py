@@ -32,6 +32,11 @@ MAX_TEXT = 1000  # characters of a title, frame name, reason or method name read
 MAX_SIDE, MAX_ASPECT = 20000, 8  # a frame's sides in pixels, and how far from square a picture may be
 
 
+def is_gallery(folder: Path) -> bool:
+    """A score folder with a gallery (`score --diagnose --out`), not a run's folder."""
+    return (folder / GALLERY).is_file() and not (folder / "config.toml").exists()
+
+
 @dataclass(frozen=True)
 class GalleryFrame:
     """A frame as a gallery shows it: its size and lanes in image pixels, and its image if any."""
