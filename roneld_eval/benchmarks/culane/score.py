@@ -336,8 +336,8 @@ def _with_diagnosis(score: CulaneScore, diagnoses: FrameDiagnoses | None, catego
     groups = tuple(category_groups(diagnoses.frames, categories))
     return replace(score, diagnosed=Diagnosed(
         diagnoses, tuple((method, "") for method in score.methods), groups, score.thresholds.labels,
-        diagnosis.loc_iou, facts, f"CULane, SCNN's lane IoU F1 ({width} px at 1640x590)", diagnosis.sweep,
-        diagnosis.errors, frame_lanes=lanes_of, image_root=str(root)))
+        diagnosis.loc_iou, facts, f"CULane, SCNN's lane IoU F1 ({width} px at {IMAGE_WIDTH}x{IMAGE_HEIGHT})",
+        diagnosis.sweep, diagnosis.errors, frame_lanes=lanes_of, image_root=str(root)))
 
 
 def _keep_truth(key: str | None, kept: list[TruthRuns] | None, say: Callable[[str], None]) -> None:
