@@ -13,10 +13,10 @@ import os
 from dataclasses import replace
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from .version import __version__
-from .benchmarks import benchmark_for, default_name
+from .benchmarks import Benchmark, benchmark_for, default_name
 from .config import EvalConfig
 from .errors import ConfigError, InputError, RoneldEvalError, RunInterrupted
 from .lanes_io import check_regular_file, read_text
@@ -84,7 +84,8 @@ def with_absolute_paths(config: EvalConfig) -> EvalConfig:
 
 def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progress: bool = True,
         resume: bool = False, overlays: int = 0, announce: Callable[[str], None] | None = None,
-        shard: str | None = None, timings: bool = True) -> RunResult | None:
+        shard: str | None = None, timings: bool = True, diagnose: bool = False,
+        loc_iou: float | None = None) -> RunResult | None:
     """Evaluate every configured method and write the report to `out` (see the README).
 
     Finished clips are kept in `out` while the run goes on; after an interruption,
@@ -94,8 +95,13 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
     The folder `out` is the run's own: see roneld_eval.output. With `shard` ('I/N') only that
     share of the clips is evaluated and `out` gets its part for `merge` (None is returned).
     `timings=False` leaves what the clock measured out of the report (RunResult.timed).
+    `diagnose`: also why each method's official F1 is not higher (`loc_iou`, its error types, as
+    `score NAME --diagnose` gives them): the lanes are saved (as `save_lanes`) and scored so.
     """
     requested = with_absolute_paths(config or default_config())
+    benchmark = benchmark_for(requested.dataset.name)
+    if diagnose or loc_iou is not None:
+        requested = _diagnosable(requested, benchmark, diagnose, loc_iou, shard)
     config = with_fixture(requested)
     say = announce or (lambda message: None)
     if shard is not None:
@@ -110,9 +116,14 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
         staging = Staging(folder)
         cache = ResultCache(folder.path, config, __version__, resume, note=say)
         with _kept_for_resume(cache):
-            result = _evaluated(config, requested, staging, cache, progress, resume, say)
+            writer = LaneWriter(staging, benchmark) if config.save_lanes else None
+            result = _evaluated(config, requested, staging, writer, cache, progress, resume, say)
             if overlays:
                 _stage_pictures(staging, config, result, overlays)
+            if diagnose:
+                assert writer is not None
+                result.diagnosed = _stage_diagnosis(staging, benchmark, config, result, list(writer.frames), loc_iou,
+                                                    say)
             result.timed = timings
             stage_report(result, staging)
             folder.commit(then=cache.discard)  # a signal meanwhile waits, then says the results are complete
@@ -136,10 +147,52 @@ def _kept_for_resume(cache: ResultCache):
         raise
 
 
-def _evaluated(config: EvalConfig, requested: EvalConfig, staging: Staging, cache: ResultCache, progress: bool,
-               resume: bool, say: Callable[[str], None]) -> RunResult:
-    """The run's result, its lanes staged (with save_lanes); it must have scored a frame."""
-    writer = LaneWriter(staging, benchmark_for(config.dataset.name)) if config.save_lanes else None
+def _run_diagnosis(benchmark) -> Callable[..., Any] | None:
+    """A benchmark's `diagnose_run` (the lanes a run saved, scored with --diagnose), where it has one:
+    its official metric matches lanes by IoU."""
+    return getattr(benchmark, "diagnose_run", None)
+
+
+def _diagnosable(config: EvalConfig, benchmark: Benchmark, diagnose: bool, loc_iou: float | None,
+                 shard: str | None) -> EvalConfig:
+    """The configuration `run --diagnose` evaluates (its lanes saved: what it scores); a
+    ConfigError where the options or the benchmark do not allow it, before any work."""
+    from .metrics.lane_errors import diagnosis_settings
+
+    diagnosis_settings(diagnose, loc_iou, None, ())  # --loc-iou alone, or outside (0, 1]
+    if _run_diagnosis(benchmark) is None:
+        raise ConfigError(f"--diagnose: {benchmark.display_name}'s official metric does not match lanes by IoU, so "
+                          "its errors have no types; save the lanes (--save-lanes) and see `roneld-eval score "
+                          f"{benchmark.name} --help` for what it says of each frame")
+    if shard is not None:
+        raise ConfigError("--diagnose writes a report, which a shard does not: run the shards with --save-lanes, "
+                          f"merge them, and score the merged lanes with `roneld-eval score {benchmark.name} "
+                          "--diagnose`")
+    return config.with_overrides(save_lanes=True)
+
+
+def _stage_diagnosis(staging: Staging, benchmark: Benchmark, config: EvalConfig, result: RunResult,
+                     frames: Sequence[str], loc_iou: float | None, say: Callable[[str], None]):
+    """errors.csv/.md/.png, frames.csv.gz, gallery.json and the gallery drawn (gallery/, gallery.png)
+    of the lanes the run staged, scored with its benchmark's --diagnose over the frames it scored."""
+    from .metrics.lane_iou_f1 import highlighted
+    from .report.diagnosis import write_diagnosis
+    from .report.gallery import read_gallery, stage_gallery
+
+    diagnose_run = _run_diagnosis(benchmark)
+    assert diagnose_run is not None  # _diagnosable refused the run without it
+    diagnosed = diagnose_run(staging.path / "lanes", result.dataset, frames, config, loc_iou, say)
+    write_diagnosis(staging, diagnosed, highlighted(diagnosed.labels))
+    if (staging.path / "gallery.json").is_file():
+        record = read_gallery(staging.path)
+        root = record.get("image_root")
+        stage_gallery(staging, record, Path(root) if root else None, 1)
+    return diagnosed
+
+
+def _evaluated(config: EvalConfig, requested: EvalConfig, staging: Staging, writer: LaneWriter | None,
+               cache: ResultCache, progress: bool, resume: bool, say: Callable[[str], None]) -> RunResult:
+    """The run's result, its lanes staged by `writer` (with save_lanes); it must have scored a frame."""
     try:
         result = evaluate(config, progress=progress, lane_sink=writer, cache=cache, announce=say,
                           meanwhile=load_drawing)
@@ -346,8 +399,9 @@ def show_gallery(score_dir: Path, worst: int | None = None, out: str | Path | No
     """The gallery of a score written with --diagnose (its gallery.json): for each method, the
     `worst` frames (default 3) with most errors in each category and most of each error type,
     ground truth and every method's lanes over the image (`image_root`, default the one the
-    score read; a blank canvas of the frame's size without one): gallery/<k>.png and gallery.png."""
-    from .report.gallery import draw_gallery, read_gallery
+    score read; a blank canvas of the frame's size without one): gallery/<k>.png and gallery.png,
+    and report.html with the score's error table, its score sweep and the gallery."""
+    from .report.gallery import read_gallery, stage_gallery
 
     if image_root is not None and not Path(image_root).is_dir():
         raise InputError(Path(image_root), "not a folder: give the folder the frames' images are under")
@@ -357,17 +411,12 @@ def show_gallery(score_dir: Path, worst: int | None = None, out: str | Path | No
         raise InputError(target, "pictures go to their own folder, not over the score's files: choose another --out")
     root = image_root if image_root is not None else record.get("image_root")
     with terminate_as_interrupt(), OutputFolder(target, "show") as folder:
-        pictures = draw_gallery(record, Path(root) if root else None, worst or 3)
-        import cv2
-
-        from .report.overlays import contact_sheet
-
         staging = Staging(folder)
-        for name, image in pictures:
-            if not cv2.imwrite(str(staging.file(f"gallery/{name}.png")), image):
-                raise InputError(target / "gallery" / f"{name}.png", "cannot write")
-        if pictures and not cv2.imwrite(str(staging.file("gallery.png")), contact_sheet([p for _, p in pictures])):
-            raise InputError(target / "gallery.png", "cannot write")
+        stage_gallery(staging, record, Path(root) if root else None, worst or 3)
+        from .report.html import build_diagnosis_html
+
+        staging.write_text("report.html", build_diagnosis_html(score_dir, staging.path,
+                                                               f"roneld-eval: why F1 is not higher, {record['title']}"))
         return folder.commit()
 
 

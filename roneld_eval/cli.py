@@ -283,6 +283,14 @@ def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
               help="Override any configuration value, e.g. --set paper.thickness_rule=height (repeatable).")
 @click.option("--overlays", type=click.IntRange(min=0), default=0,
               help="Also draw the N frames where the baseline and RONELD differ most (overlays/, overlays.png).")
+@click.option("--diagnose", is_flag=True,
+              help="Also say why each method's official F1 is not higher: its lanes (saved, as --save-lanes) scored "
+                   "as `score NAME --diagnose` scores them, each false positive and false negative as an error type "
+                   "(errors.csv/.md/.png), every frame's counts (frames.csv.gz) and the worst frames drawn (gallery/, "
+                   "gallery.png), all in report.html. On the benchmarks whose official metric matches lanes by IoU.")
+@click.option("--loc-iou", type=float, metavar="IOU",
+              help="With --diagnose: a false positive whose IoU with its ground-truth lane is at least this is a "
+                   "localisation error (Loc), below it background (Bkg). Default: 0.1.")
 @click.option("--on-error", type=click.Choice(["fail", "skip"]),
               help="On a bad frame, label or clip: stop with an error (default), or skip it and list it in "
                    "summary.json and on screen.")
@@ -300,15 +308,16 @@ def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
 @click.option("--quiet", is_flag=True, help="No progress bar or summary table.")
 @debug_option
 def run(config_file, dataset, data_root, maps_root, maps_format, list_file, methods, plugins, pft_ablation, no_pft,
-        thresholds, workers, limit, save_lanes, settings, overlays, on_error, resume, dry_run, out, shard, executor,
-        scheduler, no_timings, quiet, debug):
+        thresholds, workers, limit, save_lanes, settings, overlays, diagnose, loc_iou, on_error, resume, dry_run, out,
+        shard, executor, scheduler, no_timings, quiet, debug):
     """Evaluate the baseline, RONELD and any plug-in on a dataset's stored maps; write tables and curves.
 
     Clips run in parallel in time order, with RONELD's state carried within each clip. Outputs
     in OUT: accuracy.csv/.md/.tex, accuracy_curve.png/.svg, ablation.md/.tex (with
     --pft-ablation), runtime.csv/.md, per_frame.csv, official.csv, categories.csv/.png (CULane
     with category lists), overlays/ and overlays.png (with --overlays), lanes/ (with
-    --save-lanes), report.html, summary.json, config.toml. OUT belongs to the run: files an
+    --save-lanes), errors.csv/.md/.png, frames.csv.gz, gallery.json, gallery/ and gallery.png
+    (with --diagnose), report.html, summary.json, config.toml. OUT belongs to the run: files an
     earlier run wrote there and this one does not are removed; a folder holding other files is
     refused.
     """
@@ -367,18 +376,24 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
         return config
 
     config = _guard(build, debug)
-    if dry_run and (shard is not None or executor != "local"):
-        _guard(_refuse, debug, "--dry-run checks the whole dataset's layout here: run it without --shard or --executor")
+    _refuse_here_only(config, dry_run, diagnose, shard, executor, debug)
     if dry_run:
         _dry_run(config, quiet, debug)
         return
     result = _guard(executed, debug, executor, scheduler, "run", api.run, config, out, progress=not quiet,
-                    resume=resume, overlays=overlays, announce=_announcer(quiet), shard=shard, timings=not no_timings)
+                    resume=resume, overlays=overlays, announce=_announcer(quiet), shard=shard, timings=not no_timings,
+                    diagnose=diagnose, loc_iou=loc_iou)
     if result is None:  # a shard: its part is written
         shard_written(shard, out, quiet)
         return
     if not quiet:
         _print_summary(result, out)
+    if result.diagnosed is not None and not quiet:
+        from .metrics.lane_iou_f1 import highlighted
+        from .report.diagnosis import console_lines
+
+        for line in console_lines(result.diagnosed, highlighted(result.diagnosed.labels)[0]):
+            click.echo(line)
     for note in result.notes:  # nothing left out, but worth knowing
         click.echo(f"note: {note}", err=True)
     if result.skipped:  # never silently, --quiet or not
@@ -387,6 +402,18 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
             click.echo(f"  {line}", err=True)
         if len(result.skipped) > 10:
             click.echo(f"  ... and {len(result.skipped) - 10} more", err=True)
+
+
+def _refuse_here_only(config: EvalConfig, dry_run: bool, diagnose: bool, shard: str | None, executor: str,
+                      debug: bool) -> None:
+    """--dry-run and --diagnose work on the whole run in this process: refused with --shard or
+    --executor dask (api.run refuses --diagnose with --shard itself, for the library's callers)."""
+    if dry_run and (shard is not None or executor != "local"):
+        _guard(_refuse, debug, "--dry-run checks the whole dataset's layout here: run it without --shard or --executor")
+    if diagnose and executor != "local":
+        _guard(_refuse, debug, "--diagnose writes a report, which the shards --executor dask runs do not: run with "
+                               f"--save-lanes, then `roneld-eval score {config.dataset.name} --diagnose` on OUT/lanes "
+                               "(it takes --executor dask)")
 
 
 def _print_summary(result, out: Path) -> None:

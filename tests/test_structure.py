@@ -65,7 +65,7 @@ COMPLEX_LEFT = {
     "metrics/iou.py:match_lanes": 22,
     "output.py:OutputFolder._check_ownership": 23,
     "replay.py:_clip": 16,
-    "report/html.py:build_html": 29,
+    "report/html.py:build_html": 18,
     "report/pictures.py:frame_pictures": 17,
     "report/plots.py:category_figure": 18,
     "report/tables.py:Table.to_latex": 25,

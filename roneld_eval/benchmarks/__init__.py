@@ -75,7 +75,10 @@ class CategoryPanel:
 
 
 class Benchmark(Protocol):
-    """What the tool needs of a benchmark."""
+    """What the tool needs of a benchmark. Members a benchmark may have besides, asked for with
+    getattr: `scorer`, `metric`, `merge_parts`, `synth_maps_format`, and `diagnose_run(lanes,
+    dataset, frames, config, loc_iou, announce)` (`run --diagnose`: the lanes a run saved, scored
+    as `score NAME --diagnose` scores them, over the frames it scored; report.diagnosis.Diagnosed)."""
 
     name: str  # as configurations and the command line name it (the entry point's name)
     display_name: str  # as tables and titles print it

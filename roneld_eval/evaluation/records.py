@@ -7,7 +7,7 @@ from array import array
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -122,6 +122,8 @@ class RunResult:
     # Whether the report shows what the clock measured (runtime per frame, wall time); without it
     # the same run writes the same bytes (`run --no-timings`, how results/ is written).
     timed: bool = True
+    # `run --diagnose`: its lanes' error types, frames and gallery (report.diagnosis.Diagnosed)
+    diagnosed: Any = None
 
 
 

@@ -8,7 +8,7 @@ their category, or whatever it is); the Cat type only where lanes match within t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Sequence
 
@@ -75,6 +75,12 @@ class Diagnosed:
 
     def name(self, method: str, matching: str) -> str:
         return f"{method} ({matching})" if matching else method
+
+    def of_frames(self, wanted: Callable[[str], bool]) -> "Diagnosed":
+        """The diagnosis of the frames `wanted` says yes to (a run's, of a scorer that reads them all)."""
+        keep = np.array([wanted(frame) for frame in self.diagnoses.frames], bool).reshape(-1)
+        return replace(self, diagnoses=self.diagnoses.taken(keep),
+                       groups=tuple((name, inside[keep]) for name, inside in self.groups))
 
 
 def _table(columns: Sequence[str], rows: Sequence[tuple], keep_matching: bool) -> PlainTable:

@@ -220,6 +220,21 @@ def draw_gallery(record: dict, image_root: Path | None, worst: int) -> list[tupl
     return out
 
 
+def stage_gallery(staging, record: dict, image_root: Path | None, worst: int) -> None:
+    """gallery/<k>.png and the contact sheet gallery.png of `record` (read_gallery's), drawn into a
+    staging folder (output.Staging)."""
+    import cv2
+
+    from .overlays import contact_sheet
+
+    pictures = draw_gallery(record, image_root, worst)
+    for name, image in pictures:
+        if not cv2.imwrite(str(staging.file(f"gallery/{name}.png")), image):
+            raise InputError(staging.out_dir / "gallery" / f"{name}.png", "cannot write")
+    if pictures and not cv2.imwrite(str(staging.file("gallery.png")), contact_sheet([p for _, p in pictures])):
+        raise InputError(staging.out_dir / "gallery.png", "cannot write")
+
+
 def _background(image_root: Path | None, image: str | None, width: int, height: int) -> np.ndarray | None:
     """The frame's image when the root holds it at the frame's size (a regular file of at most
     the map files' size, its header read first), else None: a dark canvas is drawn instead."""

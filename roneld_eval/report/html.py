@@ -10,12 +10,16 @@ from __future__ import annotations
 
 import base64
 import html
+import io
 import json
 import re
 from pathlib import Path, PurePath
 
 import pandas as pd
 
+from ..errors import InputError
+from ..lanes_io import read_bytes, read_text
+from ..limits import MAP, RUN_TABLE
 from ..methods import METHOD_TABLE
 from .tables import Protocol, dataset_name, display_name, official_headline
 
@@ -71,7 +75,7 @@ def _official_tables(path: Path, benchmark, model: str | None) -> str:
 
 
 def _image(path: Path, alt: str) -> str:
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    data = base64.b64encode(read_bytes(path, limit=MAP)).decode("ascii")
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
 
 
@@ -143,23 +147,84 @@ def build_html(folder: Path) -> str:
     ]
     for title, table_file, image_file, note in sections:
         table_path = _present(folder, table_file)
-        image_path = _present(folder, image_file)
-        if table_path is None and image_path is None:
-            continue
-        parts.append(f"<h2>{html.escape(title)}</h2>")
-        markdown: str | None = None
-        if table_path is not None and table_path.suffix == ".md":
-            markdown = table_path.read_text(encoding="utf-8")
-        # A table's own notes (what produced its numbers) go with it; else the section's.
-        text = html.escape(note, quote=False) if note else _markdown_notes(markdown) if markdown else ""
-        if text:
-            parts.append(f'<p class="meta">{text}</p>')
-        if table_path is not None and markdown is None and table_file == "official.csv" and benchmark is not None:
-            parts.append(_official_tables(table_path, benchmark, config.get("model")))
-        elif table_path is not None:
-            parts.append(_csv_table(table_path, config.get("model")) if markdown is None else _markdown_table(markdown))
-        if image_path is not None:
-            parts.append(_image(image_path, title))
+        if table_path is not None and table_file == "official.csv" and benchmark is not None:
+            parts += _section(title, None, _present(folder, image_file), note,
+                              _official_tables(table_path, benchmark, config.get("model")))
+        else:
+            parts += _section(title, table_path, _present(folder, image_file), note, model=config.get("model"))
+    parts += diagnosis_sections(folder, folder)
+    return _page(parts)
+
+
+def _page(parts: list[str]) -> str:
     body = "\n".join(parts)
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>roneld-eval report</title>'
             f"<style>{STYLE}</style></head><body>\n{body}\n</body></html>\n")
+
+
+def _section(title: str, table_path: Path | None, image_path: Path | None, note: str | None,
+             table_html: str | None = None, model: str | None = None) -> list[str]:
+    """A heading, the notes, a table (our Markdown or CSV file, or `table_html`) and a picture;
+    nothing where there is neither table nor picture."""
+    if table_path is None and image_path is None and table_html is None:
+        return []
+    parts = [f"<h2>{html.escape(title)}</h2>"]
+    markdown: str | None = None
+    if table_path is not None and table_path.suffix == ".md":
+        markdown = read_text(table_path, RUN_TABLE)
+    # A table's own notes (what produced its numbers) go with it; else the section's.
+    text = html.escape(note, quote=False) if note else _markdown_notes(markdown) if markdown else ""
+    if text:
+        parts.append(f'<p class="meta">{text}</p>')
+    if table_html is not None:
+        parts.append(table_html)
+    elif markdown is not None:
+        parts.append(_markdown_tables(markdown))
+    elif table_path is not None:
+        parts.append(_csv_table(table_path, model))
+    if image_path is not None:
+        parts.append(_image(image_path, title))
+    return parts
+
+
+def _markdown_tables(text: str) -> str:
+    """Every table of one of our Markdown files, each under its own `## ` heading where it has one."""
+    blocks = re.split(r"^## (.+)$", text, flags=re.MULTILINE)
+    out = [_markdown_table(blocks[0])]
+    for heading, block in zip(blocks[1::2], blocks[2::2]):
+        out += [f"<h3>{html.escape(heading.strip(), quote=False)}</h3>", _markdown_table(block)]
+    return "".join(out)
+
+
+GALLERY_NOTE = ("For each method, the frame with most errors (FP + FN) in each category and the one with most of "
+                "each error type: ground truth in blue, each method's lanes in turn red, green, ...; its counts in the "
+                "caption (every frame the gallery keeps: gallery.json, drawn by `roneld-eval show`).")
+
+
+def _best_scores(path: Path) -> str:
+    """The best F1 of each method's score sweep over all frames, as sweep_scores.csv marks it."""
+    try:
+        table = pd.read_csv(io.StringIO(read_text(path, RUN_TABLE)), dtype=str, keep_default_na=False)
+        best = table[(table["category"] == "all") & (table["best"] == "True")]
+        return best.drop(columns=["category", "best"]).to_html(index=False, border=0)
+    except (ValueError, KeyError, pd.errors.ParserError) as error:
+        raise InputError(path, f"not a score sweep this tool writes: {error}") from None
+
+
+def diagnosis_sections(tables: Path, pictures: Path) -> list[str]:
+    """What --diagnose and --score-sweep wrote in `tables` (errors.md/.png, sweep_scores.csv/.png)
+    and the gallery drawn in `pictures` (gallery.png), as report.html shows them."""
+    sweep = _present(tables, "sweep_scores.csv")
+    return [*_section("Why F1 is not higher: error types", _present(tables, "errors.md"),
+                      _present(tables, "errors.png"), None),
+            *_section("Score sweep", None, _present(tables, "sweep_scores.png"),
+                      "Precision, recall and F1 when only the lanes scoring at least each threshold are kept; the best "
+                      "F1 is chosen on the test set itself (every threshold in sweep_scores.csv).",
+                      None if sweep is None else _best_scores(sweep)),
+            *_section("Gallery: the worst frames", None, _present(pictures, "gallery.png"), GALLERY_NOTE)]
+
+
+def build_diagnosis_html(tables: Path, pictures: Path, title: str) -> str:
+    """The page of a score written with --diagnose or --score-sweep (`tables`), its gallery drawn
+    in `pictures` (`roneld-eval show` writes it there)."""
+    return _page([f"<h1>{html.escape(title)}</h1>", *diagnosis_sections(tables, pictures)])

@@ -31,8 +31,10 @@ class LaneWriter:
         self.staging = staging
         self.benchmark = benchmark
         self.handles: dict[str, TextIO] = {}
+        self.frames: dict[str, None] = {}  # the frames written, in order (what `run --diagnose` scores)
 
     def __call__(self, outcome: FrameOutcome, frame: Frame) -> None:
+        self.frames[frame.relpath] = None
         lane_file = self.benchmark.lane_file(outcome.method, frame, outcome.lanes)
         name = f"lanes/{lane_file.name}"
         if not lane_file.append:

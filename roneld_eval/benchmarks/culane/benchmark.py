@@ -73,6 +73,8 @@ class CulaneBenchmark:
     score_command = declared_command(".command")
     scorer = from_module(".score", "score_culane")
     metric = from_module(".metric", "CulaneMetric", call=True)
+    # `run --diagnose`: the lanes a run saved, scored with --diagnose over the frames it scored
+    diagnose_run = from_module(".score", "diagnose_run", call=True)
     merge_parts = from_module(".score", "merge_culane_parts", call=True)
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,

@@ -632,3 +632,14 @@ def summary_markdown(score: CulaneScore, width: int) -> str:
 
 
 __all__ = ["score_culane", "CulaneScore", "SCORE_PRESETS", "highlight_name"]
+
+
+def diagnose_run(lanes: Path, dataset, frames: Iterable[str], config, loc_iou: float | None,
+                 announce: Callable[[str], None] | None = None) -> Diagnosed:
+    """`run --diagnose`: the lanes the run saved (`lanes`) scored as `score culane --diagnose`
+    scores them, at the run's threshold and lane width, over the frames it scored (`frames`)."""
+    score = score_culane(dataset.root, lanes, dataset.source_file, iou=config.official.iou_threshold,
+                         width=config.official.lane_width_px, workers=config.workers, announce=announce,
+                         diagnose=True, loc_iou=loc_iou)
+    assert score is not None and score.diagnosed is not None
+    return score.diagnosed.of_frames(set(frames).__contains__)

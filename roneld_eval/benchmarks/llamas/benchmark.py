@@ -84,6 +84,8 @@ class LlamasBenchmark:
     score_command = declared_command(".command")
     scorer = from_module(".score", "score_llamas")
     metric = from_module(".metric", "LlamasMetric", call=True)
+    # `run --diagnose`: the lanes a run saved, scored with --diagnose over the frames it scored
+    diagnose_run = from_module(".score", "diagnose_run", call=True)
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 from functools import partial
 from operator import itemgetter
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterable
 
 import numpy as np
 
@@ -375,3 +375,16 @@ AP_NOTE = ("AP: the probability maps <frame>.json_<c>.png of classes l1, l0, r0,
            "drawn per class, over 101 thresholds, averaged over the labels (unsupervised_llamas "
            "evaluation/evaluate_segmentation.py --multi_class, 9b99f46); 'AP mean' is the mean of the four "
            "classes (ours: the script prints each class).\n\n")
+
+
+def diagnose_run(lanes: Path, dataset, frames: Iterable[str], config, loc_iou: float | None,
+                 announce: Callable[[str], None] | None = None) -> Diagnosed:
+    """`run --diagnose`: the lanes the run saved (`lanes`) scored as `score llamas --diagnose`
+    scores them, at the run's thresholds and lane width, over the frames it scored (`frames`)."""
+    from .benchmark import THRESHOLDS
+    from .reader import frame_key
+
+    score = score_llamas(dataset.root, lanes, iou=THRESHOLDS, width=config.official.lane_width_px,
+                         workers=config.workers, announce=announce, diagnose=True, loc_iou=loc_iou)
+    assert score is not None and score.diagnosed is not None
+    return score.diagnosed.of_frames({frame_key(frame) for frame in frames}.__contains__)

@@ -1,7 +1,7 @@
 """VIL-100 (Zhang et al., ICCV 2021): 20 test videos of 100 frames, each at its own size, scored
 as MMA-Net's evaluator scores them (F1 at IoU 0.5 and 0.8, mIoU; `score vil100`:
 benchmarks/vil100/score.py), with RVLD's temporal metrics over consecutive frames. `run` reads
-a dataset root holding MMA-Net's anno_txt (reader.py, `run_layout`); a frame is drawn
+a dataset root holding MMA-Net's anno_txt (reader.py, `run_sources`); a frame is drawn
 and scored at its video's size, and its lanes are written as MMA-Net's pred_txt."""
 
 from __future__ import annotations
@@ -85,6 +85,8 @@ class Vil100Benchmark:
     score_command = declared_command(".command")
     scorer = from_module(".score", "score_vil100")
     metric = from_module(".metric", "Vil100Metric", call=True)
+    # `run --diagnose`: the lanes a run saved, scored with --diagnose over the frames it scored
+    diagnose_run = from_module(".score", "diagnose_run", call=True)
 
     def read(self, root: Path, list_file: Path | None, limit: int | None, errors: list | None,
              labels: bool) -> Dataset:

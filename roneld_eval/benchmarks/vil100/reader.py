@@ -15,7 +15,7 @@ import os
 import posixpath
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Mapping, NamedTuple, Sequence
 
 from ...errors import ConfigError, InputError
 from ...lanes_io import check_inside_image, parse_json, read_bytes, read_lines_txt, read_text, split_lines
@@ -219,9 +219,23 @@ def size_files(root: Path, relpath: str) -> list[Path]:
     return []
 
 
-def run_layout(root: Path, list_file: Path | None) -> Vil100Set:
-    """The frames `run` evaluates under a dataset root (those of `list_file`, else every labelled
-    one), with their videos' sizes (from the first of JPEGImages/, Json/ and sizes.json there)."""
+class RunSources(NamedTuple):
+    """What `run` reads under a dataset root, as read_vil100 (and `score vil100`) take it: the
+    labels, the list (None: every labelled frame) and one source of the videos' sizes."""
+
+    labels: Path
+    list_file: Path | None
+    image_root: Path | None = None
+    json_root: Path | None = None
+    sizes_file: Path | None = None
+
+    def read(self) -> Vil100Set:
+        return read_vil100(self.labels, self.list_file, self.image_root, self.json_root, self.sizes_file)
+
+
+def run_sources(root: Path, list_file: Path | None) -> RunSources:
+    """The labels under a dataset root, `list_file` (else data/test.txt where there is one) and the
+    first of JPEGImages/, Json/ and sizes.json there for the videos' sizes."""
     check_folder(root, f"dataset root not found ({RUN_LAYOUT})")
     labels = root / LABELS_FOLDER
     if not labels.is_dir():
@@ -229,10 +243,14 @@ def run_layout(root: Path, list_file: Path | None) -> Vil100Set:
         if _holds_sequences(root):
             hint = f"; {root} looks like the anno_txt folder itself: give the folder that holds it"
         raise InputError(labels, f"ground-truth folder not found: {RUN_LAYOUT}{hint}")
-    sources = {"image_root": root / "JPEGImages", "json_root": root / "Json", "sizes_file": root / SIZES_FILE}
-    for name, path in sources.items():
-        if path.is_dir() if name != "sizes_file" else path.is_file():
-            return read_vil100(labels, list_file, **{name: path})
+    if list_file is None and (root / DEFAULT_LIST).is_file():
+        list_file = root / DEFAULT_LIST
+    if (root / "JPEGImages").is_dir():
+        return RunSources(labels, list_file, image_root=root / "JPEGImages")
+    if (root / "Json").is_dir():
+        return RunSources(labels, list_file, json_root=root / "Json")
+    if (root / SIZES_FILE).is_file():
+        return RunSources(labels, list_file, sizes_file=root / SIZES_FILE)
     raise InputError(root, f"no image sizes: {RUN_LAYOUT}")
 
 
@@ -241,9 +259,8 @@ def read_vil100_run(root: Path, list_file: Path | None, limit: int | None,
     """(sequence, its frames in video order with lanes and size) for `run`, and the list or
     labels folder the frames came from. A listed frame must have its ground truth (with an
     `errors` list, a bad or missing one is left out and appended)."""
-    if list_file is None and (root / DEFAULT_LIST).is_file():
-        list_file = root / DEFAULT_LIST
-    found = run_layout(root, list_file)
+    sources = run_sources(root, list_file)
+    found = sources.read()
     clips = []
     for name, relpaths in list(found.sequences.items())[:limit]:
         width, height = found.sizes[name]
@@ -263,5 +280,4 @@ def read_vil100_run(root: Path, list_file: Path | None, limit: int | None,
             frames.append(Frame(relpath=relpath + ".jpg", lanes=tuple(lanes), image_size=(width, height)))
         if frames:
             clips.append((name, tuple(frames)))
-    source = Path(list_file) if list_file is not None else found.labels
-    return clips, source
+    return clips, sources.list_file if sources.list_file is not None else found.labels

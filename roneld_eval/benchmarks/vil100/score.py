@@ -13,7 +13,7 @@ from operator import attrgetter
 import numpy as np
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 from ...config import check_lane_width
 
@@ -612,3 +612,18 @@ def summary_markdown(score: Vil100Score, width: int) -> str:
 
 
 __all__ = ["score_vil100", "Vil100Score", "SequenceScore", "printed"]
+
+
+def diagnose_run(lanes: Path, dataset, frames: Iterable[str], config, loc_iou: float | None,
+                 announce: Callable[[str], None] | None = None) -> Diagnosed:
+    """`run --diagnose`: the lanes the run saved (`lanes`) scored as `score vil100 --diagnose`
+    scores them, at the run's thresholds and lane width, over the frames it scored (`frames`)."""
+    from .benchmark import THRESHOLDS
+    from .reader import run_sources
+
+    sources = run_sources(dataset.root, None if config.dataset.list_file is None else Path(config.dataset.list_file))
+    score = score_vil100(sources.labels, lanes, sources.list_file, sources.image_root, sources.json_root,
+                         sources.sizes_file, iou=THRESHOLDS, width=config.official.lane_width_px,
+                         workers=config.workers, announce=announce, temporal=False, diagnose=True, loc_iou=loc_iou)
+    assert score is not None and score.diagnosed is not None
+    return score.diagnosed.of_frames({image_stem(frame) for frame in frames}.__contains__)
