@@ -162,3 +162,14 @@ def test_show_of_a_diagnosed_score_writes_a_report_with_its_sweep_and_gallery(tm
     broken = invoke("show", "--run", tmp_path / "s", "--out", tmp_path / "again")
     assert broken.exit_code == 2 and "sweep_scores.csv" in broken.output and "Traceback" not in broken.output
     assert not (tmp_path / "again").exists()
+
+
+def test_the_real_clips_diagnosis_adds_up_to_its_official_table(real_clip_tree, tmp_path):
+    data, maps = real_clip_tree
+    result = invoke("run", "--data-root", data, "--maps-root", maps, "--maps-format", "scnn-png", "--pft-ablation",
+                    "--diagnose", "--workers", "1",
+                    "--out", tmp_path / "out", "--quiet")
+    assert result.exit_code == 0, result.output
+    assert _adds_up(tmp_path / "out", ["method"]) == 3  # one video, no category lists: all lanes
+    errors = pd.read_csv(tmp_path / "out" / "errors.csv", keep_default_na=False)
+    assert errors["count"].sum() > 0
