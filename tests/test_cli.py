@@ -283,7 +283,7 @@ def test_an_empty_out_is_refused_by_every_command_not_taken_for_the_current_fold
                 yield path + (name,), command
 
     outs = {path: param for path, command in commands(main) for param in command.params if param.name == "out"}
-    assert len(outs) == 11  # run, merge, synth, show, compare and the six benchmarks' score
+    assert len(outs) == 12  # run, merge, synth, show, compare and the seven benchmarks' score
     assert [path for path, param in outs.items() if param.type is not OUT_FOLDER] == []
 
 
