@@ -80,7 +80,7 @@ def main() -> None:
         frames = len(listed.read_text().split())
         print(f"{frames:,} frames; load {os.getloadavg()[0]:.1f}")
         outputs = {name: timed(command)[2] for name, command in cases.items()}  # warm-up: file cache, numba
-        theirs = outputs["official eval_3D_lane.py"].split()
+        theirs = outputs["official eval_3D_lane.py"].splitlines()[-1].split()  # after its progress lines
         mine = ours_printed(outputs["roneld-eval score openlane3d"]).split()
         print(f"same eight printed numbers: {theirs == mine}" + ("" if theirs == mine else f" ({theirs} / {mine})"))
         walls: dict[str, list[float]] = {name: [] for name in cases}
