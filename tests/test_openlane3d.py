@@ -16,7 +16,7 @@ from roneld_eval.benchmarks.openlane3d import official
 from roneld_eval.benchmarks.openlane3d.official import frame_counts, ground_truth_lanes
 from roneld_eval.benchmarks.openlane3d.reader import json_path, read_prediction, read_truth
 from roneld_eval.benchmarks.openlane3d.score import COLUMNS, printed, score_openlane3d
-from roneld_eval.benchmarks.openlane3d.synth import synth_openlane3d
+from roneld_eval.benchmarks.openlane3d.synth import synth_openlane3d, with_probabilities
 from roneld_eval.cli import main
 
 GOLDEN = Path(__file__).parent / "golden" / "openlane3d"
@@ -97,6 +97,49 @@ def test_without_ortools_every_matching_costs_what_the_evaluators_costs(golden_s
     result = invoke("score", "openlane3d", "--labels", root / "labels", "--pred-root", root / "predictions",
                     "--workers", "1")
     assert result.exit_code == 0 and "OR-Tools is not installed" in result.output
+
+
+@pytest.fixture(scope="module", params=[0, 1])
+def training_set(request, tmp_path_factory):
+    """A golden set's results as PersFormer's training-time evaluation takes them."""
+    golden = json.loads((GOLDEN / f"persformer_train_seed{request.param}.json").read_text())
+    root = _set(tmp_path_factory, request.param)
+    with_probabilities(root / "predictions", root / "train", seed=request.param)
+    return root, golden
+
+
+def test_the_training_time_protocol_is_persformers_frame_by_frame(training_set):
+    root, golden = training_set
+    pytest.importorskip("ortools")
+    for relpath, theirs in zip((root / "test_list.txt").read_text().split(), golden["frames"], strict=True):
+        truth = read_truth(json_path(root / "labels", relpath))
+        predicted = read_prediction(json_path(root / "train", relpath), 0.5)
+        assert list(predicted.categories) == theirs["pred_category"], relpath  # kept above 0.5, the first argmax
+        counts = frame_counts(list(predicted.lanes), list(predicted.categories),
+                              ground_truth_lanes(truth.extrinsic, truth.lanes), list(truth.visibility),
+                              list(truth.categories))
+        assert list(counts.counts()) == theirs["counts"], relpath
+        assert [list(pair) for pair in counts.pairs] == theirs["matching"], relpath
+        assert counts.errors.T.tolist() == theirs["errors"], relpath
+    score = score_openlane3d(root / "labels", root / "train", root / "test_list.txt", protocol="persformer-train",
+                             workers=1)
+    assert score is not None
+    assert [score.value("train", c) for c in PRINTED] + [score.value("train", c) for c in COLUMNS[3:9]] == \
+        golden["output_stats"]
+    result = invoke("score", "openlane3d", "--labels", root / "labels", "--pred-root", root / "train",
+                    "--protocol", "persformer-train", "--prob-threshold", "0.5", "--workers", "1")
+    assert result.exit_code == 0 and "above 0.5, its category the most probable" in result.output
+
+
+def test_protocol_options_are_checked(tmp_path):
+    root = tmp_path / "set"
+    synth_openlane3d(root, clips=1, frames=2, seed=8)
+    common = ["score", "openlane3d", "--labels", root / "labels", "--pred-root", root / "predictions"]
+    for extra, said in ((["--prob-threshold", "0.3"], "is for --protocol persformer-train"),
+                        (["--protocol", "persformer-train", "--prob-threshold", "1.5"], "from 0 to 1"),
+                        (["--protocol", "persformer-train"], "`laneLines` must be a list")):
+        result = invoke(*common, *extra)
+        assert result.exit_code == 2 and said in result.output and "Traceback" not in result.output, result.output
 
 
 def test_shards_merge_and_scenarios(tmp_path):

@@ -7,18 +7,11 @@ from typing import Any, Mapping
 from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_roots
 
 
-def _protocol(values: dict[str, Any]) -> dict[str, Any]:
-    from .score import check_protocol
-
-    check_protocol(values.pop("protocol"))
-    return values
-
-
 def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     from .score import summary_table
 
-    echo(f"{score.n_frames:,} images, {len(score.methods)} method{'s' if len(score.methods) > 1 else ''}, "
-         "OpenLane lane3d's file protocol")
+    echo(f"{score.n_frames:,} images, {len(score.methods)} method{'s' if len(score.methods) > 1 else ''}; "
+         f"{score.describe()}")
     echo(summary_table(score))
 
 
@@ -39,12 +32,15 @@ COMMAND = ScoreCommand(
                               "up_down_case/, curve_case/, ...) or a <case>.txt image list: also every number over "
                               "each scenario's images.", kind="path"),
         Option("--protocol", "Which evaluation: 'file', the file-based one of OpenLane's lane3d and PersFormer "
-                             "(every lane of each result file).", choices=("file",), kind="choice", default="file",
-               show_default=True),
+                             "(every lane of each file's lane_lines), or 'persformer-train', PersFormer's "
+                             "training-time one (laneLines with laneLines_prob: a lane kept when its highest class "
+                             "probability is above --prob-threshold, its category the most probable).",
+               choices=("file", "persformer-train"), kind="choice", default="file", show_default=True),
+        Option("--prob-threshold", "With --protocol persformer-train: the probability a lane's highest class must "
+                                   "exceed. Default: 0.5.", kind="float", default=0.5, metavar="P"),
         *closing_options("Stop when any listed image has no result file (default: no lanes).",
                          "Folder for official.csv and summary.md.", "segments"),
     ),
     positional=("labels", "pred_roots"),
-    prepare=_protocol,
     report=_report,
 )

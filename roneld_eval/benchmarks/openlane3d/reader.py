@@ -56,16 +56,16 @@ def read_list(path: Path) -> list[str]:
     return read_image_list(path, keep_suffix=True)
 
 
-def _record(path: Path) -> dict:
+def _record(path: Path, lanes_key: str = "lane_lines") -> dict:
     record = parse_json(decode_text(read_bytes(path), path), path, "not JSON", "not an OpenLane 3D file")
     if not isinstance(record, dict):
         raise InputError(path, "not an OpenLane 3D file: a JSON object is expected")
     key = record.get("file_path")
     if not isinstance(key, str):
         raise InputError(path, "has no `file_path` text (the evaluator pairs a result with its label by it)")
-    lines = record.get("lane_lines")
+    lines = record.get(lanes_key)
     if not isinstance(lines, list):
-        raise InputError(path, "`lane_lines` must be a list of lanes")
+        raise InputError(path, f"`{lanes_key}` must be a list of lanes")
     if len(lines) > LANES.count:
         raise InputError(path, LANES.problem(len(lines)))
     return record
@@ -118,19 +118,40 @@ def _truth_lane(line, path: Path, index: int) -> tuple[np.ndarray, np.ndarray, i
     return points, _numbers(visible, path, f"{where}: `visibility`"), _category(line, path, index)
 
 
-def read_prediction(path: Path) -> Predicted:
-    """One result, checked as the evaluator would need it; a missing file is a frame without lanes."""
+def read_prediction(path: Path, prob_threshold: float | None = None) -> Predicted:
+    """One result, checked as the evaluator would need it; a missing file is a frame without lanes.
+    With `prob_threshold`, in the form PersFormer's training-time evaluation takes
+    (`bench_one_submit_openlane_DDP`): `laneLines` and `laneLines_prob`, a lane kept when its
+    highest class probability is above the threshold, its category the first highest."""
     if read_bytes(path, missing_ok=True) is None:
         return Predicted(None, (), ())
+    if prob_threshold is not None:
+        return _read_with_probabilities(path, prob_threshold)
     record = _record(path)
     lanes, categories = [], []
     for index, line in enumerate(record["lane_lines"]):
-        where = f"lane {index}"
-        xyz = line.get("xyz") if isinstance(line, dict) else None
-        if not (isinstance(xyz, list) and 0 < len(xyz) <= MAX_POINTS and all(isinstance(p, list) for p in xyz)
-                and len({len(p) for p in xyz}) == 1 and len(xyz[0]) in (2, 3)):
-            raise InputError(path, f"{where}: `xyz` must be a list of [x, y, z] points (at least one)")
-        lanes.append(_numbers(xyz, path, f"{where}: `xyz`"))
-        category = _category(line, path, index)
-        categories.append(int(category))  # int(lane['category'])
+        lanes.append(_predicted_points(line.get("xyz") if isinstance(line, dict) else None, path, index))
+        categories.append(int(_category(line, path, index)))  # int(lane['category'])
     return Predicted(record["file_path"], tuple(lanes), tuple(categories))
+
+
+def _predicted_points(xyz, path: Path, index: int) -> np.ndarray:
+    if not (isinstance(xyz, list) and 0 < len(xyz) <= MAX_POINTS and all(isinstance(p, list) for p in xyz)
+            and len({len(p) for p in xyz}) == 1 and len(xyz[0]) in (2, 3)):
+        raise InputError(path, f"lane {index}: the points must be a list of [x, y, z] (at least one)")
+    return _numbers(xyz, path, f"lane {index}: the points")
+
+
+def _read_with_probabilities(path: Path, prob_threshold: float) -> Predicted:
+    record = _record(path, "laneLines")
+    probabilities = record.get("laneLines_prob")
+    if not isinstance(probabilities, list) or len(probabilities) != len(record["laneLines"]):
+        raise InputError(path, "`laneLines_prob` must hold one list of class probabilities for each lane of "
+                               "`laneLines`")
+    probs = _numbers(probabilities, path, "`laneLines_prob`") if probabilities else np.zeros((0, 1))
+    if probs.ndim != 2 or probs.shape[1] == 0:
+        raise InputError(path, "`laneLines_prob` must hold lists of class probabilities of one length")
+    kept = [k for k in range(len(probs)) if max(probs[k]) > prob_threshold]
+    lanes = tuple(_predicted_points(record["laneLines"][k], path, k) for k in kept)
+    categories = tuple(int(c) for c in np.argmax(probs[kept], 1)) if kept else ()
+    return Predicted(record["file_path"], lanes, categories)

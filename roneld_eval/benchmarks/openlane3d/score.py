@@ -26,7 +26,10 @@ from . import official
 from .official import frame_counts, ground_truth_lanes, totals
 from .reader import json_path, read_list, read_prediction, read_truth
 
-PROTOCOL = "file"  # bench_one_submit: lanes as the result files hold them, every lane kept
+# bench_one_submit: every lane of the result files; bench_one_submit_openlane_DDP: PersFormer's training-time
+# evaluation, lanes with class probabilities, kept above a threshold, their category the most probable
+PROTOCOLS = ("file", "persformer-train")
+PROB_THRESHOLD = 0.5  # bench_one_submit_openlane_DDP(prob_th=0.5)
 SUMS = ("recalled", "precise", "category_right", "gt_lanes", "pred_lanes", "matches")
 PRINTED = ("f", "recall", "precision", "category_accuracy", "x_error_near", "x_error_far", "z_error_near",
            "z_error_far")
@@ -41,6 +44,16 @@ class OpenLane3dScore:
     scenarios: tuple[str, ...]
     n_frames: int
     warnings: tuple[str, ...] = ()
+    protocol: str = "file"
+    prob_threshold: float | None = None  # persformer-train: a lane kept above it
+
+    def describe(self) -> str:
+        """The protocol as the tables name it."""
+        if self.protocol == "file":
+            return "protocol 'file': every lane of each result file, as bench_one_submit reads it"
+        return (f"protocol 'persformer-train': PersFormer's training-time evaluation (bench_one_submit_openlane_DDP), "
+                f"a lane kept when its highest class probability is above {self.prob_threshold:g}, its category "
+                "the most probable")
 
     def value(self, method: str, column: str, scenario: str = "all") -> float:
         at = COLUMNS.index(column)
@@ -49,7 +62,7 @@ class OpenLane3dScore:
 
 def _score_frames(args) -> tuple[np.ndarray, list[np.ndarray]]:
     """(frames, methods, 6) counts of one chunk, and per method its matches' errors (matches, 4)."""
-    relpaths, labels, roots = args
+    relpaths, labels, roots, prob_threshold = args
     stats = np.zeros((len(relpaths), len(roots), 6))
     errors: list[list[np.ndarray]] = [[] for _ in roots]
     for f, relpath in enumerate(relpaths):
@@ -58,7 +71,7 @@ def _score_frames(args) -> tuple[np.ndarray, list[np.ndarray]]:
         gt_lanes = ground_truth_lanes(truth.extrinsic, truth.lanes)
         for m, root in enumerate(roots):
             path = json_path(root, relpath)
-            predicted = read_prediction(path)
+            predicted = read_prediction(path, prob_threshold)
             if predicted.key is not None and predicted.key != truth.key:
                 raise InputError(path, f"its file_path {predicted.key!r} is not its label's ({truth.key!r} in "
                                        f"{label}): the evaluator pairs them by it")
@@ -105,16 +118,23 @@ def _scenario(path: Path, index: dict[str, int]) -> np.ndarray:
 
 
 def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
-                     scenarios: str | Path | None = None, out: str | Path | None = None, workers: int | None = None,
-                     progress: bool = False, announce: Callable[[str], None] | None = None, strict: bool = False,
-                     shard: str | None = None, merged: Merged | None = None) -> OpenLane3dScore | None:
+                     scenarios: str | Path | None = None, protocol: str = "file",
+                     prob_threshold: float = PROB_THRESHOLD, out: str | Path | None = None,
+                     workers: int | None = None, progress: bool = False, announce: Callable[[str], None] | None = None,
+                     strict: bool = False, shard: str | None = None,
+                     merged: Merged | None = None) -> OpenLane3dScore | None:
     """Score OpenLane 3D result files mirroring `labels` (`<segment>/<frame>.json`), the images of
     `list_file` (its test_list.txt; default every annotation), over them all and over each scenario
-    list in `scenarios`. With `shard` ('I/N'), only that share of the segments, written as a part to
-    `out` (None is returned)."""
+    in `scenarios`. `protocol`: "file" (OpenLane's and PersFormer's bench_one_submit: every lane of
+    `lane_lines`) or "persformer-train" (PersFormer's training-time evaluation: `laneLines` with
+    `laneLines_prob`, a lane kept when its highest probability is above `prob_threshold`, its
+    category the most probable). With `shard` ('I/N'), only that share of the segments, written as
+    a part to `out` (None is returned)."""
+    check_protocol(protocol, prob_threshold)
+    threshold = None if protocol == "file" else float(prob_threshold)
     sharding = Sharding("score openlane3d", shard, out, merged, dict(
-        labels=labels, pred_root=pred_root, list_file=list_file, scenarios=scenarios, strict=strict),
-        paths=("labels", "list_file", "scenarios"))
+        labels=labels, pred_root=pred_root, list_file=list_file, scenarios=scenarios, protocol=protocol,
+        prob_threshold=prob_threshold, strict=strict), paths=("labels", "list_file", "scenarios"))
     labels = Path(labels)
     with _taking(out, "score openlane3d", reads=(labels, list_file, scenarios)) as folder:
         relpaths = read_list(Path(list_file)) if list_file is not None else _every_label(labels)
@@ -130,7 +150,7 @@ def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: 
             stats, errors = _merged(sharding, len(relpaths), len(trees))
         else:
             scored = sharding.share(relpaths, posixpath.dirname)  # a segment is a clip
-            stats, errors = _scored(scored, labels, trees, workers, progress, announce)
+            stats, errors = _scored(scored, labels, trees, threshold, workers, progress, announce)
             if sharding.shard is not None:
                 assert folder is not None
                 tagged = [np.column_stack([np.full(len(found), float(m)), found]) for m, found in enumerate(errors)]
@@ -143,7 +163,7 @@ def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: 
                             "where another matching costs as little, the evaluator's min-cost flow may take that one "
                             "(pip install ortools, or roneld-eval[openlane3d], to match as it does)")
         score = OpenLane3dScore(_table(trees, groups, stats, errors), tuple(tree.method for tree in trees),
-                                tuple(groups), len(relpaths), tuple(warnings))
+                                tuple(groups), len(relpaths), tuple(warnings), protocol, threshold)
         if folder is not None:
             staging = Staging(folder)
             staging.write_text("official.csv", score.rows.to_csv())
@@ -152,13 +172,13 @@ def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: 
     return score
 
 
-def _scored(scored: Sequence[str], labels: Path, trees, workers: int | None, progress: bool,
-            announce: Callable[[str], None] | None) -> tuple[np.ndarray, list[np.ndarray]]:
+def _scored(scored: Sequence[str], labels: Path, trees, prob_threshold: float | None, workers: int | None,
+            progress: bool, announce: Callable[[str], None] | None) -> tuple[np.ndarray, list[np.ndarray]]:
     """(frames, methods, 6) counts of the frames `scored`, and per method its matches' errors."""
     chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
     roots = tuple(tree.root for tree in trees)
-    pieces = scored_pieces(_score_frames, [(chunk, labels, roots) for chunk in chunks], workers, progress, announce,
-                           kernel_groups=(), trees=trees)
+    pieces = scored_pieces(_score_frames, [(chunk, labels, roots, prob_threshold) for chunk in chunks], workers,
+                           progress, announce, kernel_groups=(), trees=trees)
     stats = np.concatenate([piece[0] for piece in pieces]) if pieces else np.zeros((0, len(trees), 6))
     errors = [np.concatenate([piece[1][m] for piece in pieces]) if pieces else np.zeros((0, 4))
               for m in range(len(trees))]
@@ -215,15 +235,16 @@ def summary_table(score: OpenLane3dScore) -> str:
 def summary_markdown(score: OpenLane3dScore) -> str:
     return ("# OpenLane 3D, official protocol\n\n"
             f"{score.n_frames:,} images, scored as OpenLane's lane3d evaluator (eval_3D_lane.py, 8a0ce6b; "
-            f"protocol '{PROTOCOL}': every lane of each result file, as bench_one_submit reads it; lanes matched by "
-            f"{official.matcher()}). A match counts "
+            f"{score.describe()}; lanes matched by {official.matcher()}). A match counts "
             "below an integer cost of 150 (1.5 m over 100 samples, y 3-102 m); recall and precision at 75% of a "
             "lane's visible samples within 1.5 m; x/z errors near y <= 40 m and far beyond, over the samples both "
             "lanes see. Printed as the evaluator prints them ({:.8}).\n\n" + summary_table(score) + "\n")
 
 
-def check_protocol(protocol: str) -> str:
-    if protocol != PROTOCOL:
-        raise ConfigError(f"--protocol {protocol!r}: only {PROTOCOL!r} is offered (the file-based evaluation of "
-                          "OpenLane's lane3d and PersFormer's, equal at their HEAD)")
-    return protocol
+def check_protocol(protocol: str, prob_threshold: float) -> None:
+    if protocol not in PROTOCOLS:
+        raise ConfigError(f"--protocol {protocol!r}: choose from {', '.join(PROTOCOLS)}")
+    if not (isinstance(prob_threshold, (int, float)) and 0.0 <= prob_threshold <= 1.0):
+        raise ConfigError(f"--prob-threshold {prob_threshold!r} must be a probability, from 0 to 1")
+    if protocol == "file" and prob_threshold != PROB_THRESHOLD:
+        raise ConfigError("--prob-threshold is for --protocol persformer-train (the file protocol keeps every lane)")

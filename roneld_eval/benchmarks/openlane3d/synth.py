@@ -137,3 +137,26 @@ def synth_openlane3d(out: str | Path, clips: int = 3, frames: int = 4, seed: int
     command = ("roneld-eval", "score", "openlane3d", "--labels", str(labels), "--pred-root", str(predictions),
                "--list", str(out / "test_list.txt"))
     return SynthResult(labels, predictions, "openlane3d", "lanes", clips, len(listed), score_command=command)
+
+
+def with_probabilities(results: Path, out: Path, seed: int = 0) -> None:
+    """The result files under `results` as PersFormer's training-time evaluation holds them
+    (`laneLines`: each lane's points, `laneLines_prob`: its 22 class probabilities), written under
+    `out`: most lanes with their own category most probable, some below the 0.5 threshold or at it,
+    some with another category most probable, some with two equal highest (argmax takes the first)."""
+    for path in sorted(Path(results).rglob("*.json")):
+        record = json.loads(path.read_text())
+        rng = np.random.default_rng([seed, len(str(path.relative_to(results))), sum(path.read_bytes()) % 100003])
+        lanes, probabilities = [], []
+        for line in record["lane_lines"]:
+            probs = rng.uniform(0, 0.05, 22)
+            top = int(line["category"]) if rng.random() < 0.8 else int(rng.integers(0, 22))
+            probs[top] = float(rng.choice([rng.uniform(0.5, 1.0), rng.uniform(0.3, 0.5), 0.5], p=[0.8, 0.15, 0.05]))
+            if rng.random() < 0.05:
+                probs[(top + 1) % 22] = probs[top]  # two equal highest
+            lanes.append(line["xyz"])
+            probabilities.append(np.round(probs, 6).tolist())
+        target = Path(out) / path.relative_to(results)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        write_file(target, json.dumps({"file_path": record["file_path"], "laneLines": lanes,
+                                       "laneLines_prob": probabilities}) + "\n")
