@@ -101,7 +101,7 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
     requested = with_absolute_paths(config or default_config())
     benchmark = benchmark_for(requested.dataset.name)
     if diagnose or loc_iou is not None:
-        requested = _diagnosable(requested, benchmark, diagnose, loc_iou, shard)
+        requested = diagnosable(requested, benchmark, diagnose, loc_iou, shard)
     config = with_fixture(requested)
     say = announce or (lambda message: None)
     if shard is not None:
@@ -153,7 +153,7 @@ def _run_diagnosis(benchmark) -> Callable[..., Any] | None:
     return getattr(benchmark, "diagnose_run", None)
 
 
-def _diagnosable(config: EvalConfig, benchmark: Benchmark, diagnose: bool, loc_iou: float | None,
+def diagnosable(config: EvalConfig, benchmark: Benchmark, diagnose: bool, loc_iou: float | None,
                  shard: str | None) -> EvalConfig:
     """The configuration `run --diagnose` evaluates (its lanes saved: what it scores); a
     ConfigError where the options or the benchmark do not allow it, before any work."""
@@ -177,11 +177,14 @@ def _stage_diagnosis(staging: Staging, benchmark: Benchmark, config: EvalConfig,
     of the lanes the run staged, scored with its benchmark's --diagnose over the frames it scored."""
     from .metrics.lane_iou_f1 import highlighted
     from .report.diagnosis import write_diagnosis
+    from .report.tables import display_name
     from .report.gallery import read_gallery, stage_gallery
 
     diagnose_run = _run_diagnosis(benchmark)
-    assert diagnose_run is not None  # _diagnosable refused the run without it
+    assert diagnose_run is not None  # diagnosable refused the run without it
     diagnosed = diagnose_run(staging.path / "lanes", result.dataset, frames, config, loc_iou, say)
+    # named in its tables and figures as the run's own tables name the methods
+    diagnosed = replace(diagnosed, display={method: display_name(method, config.model) for method in config.methods})
     write_diagnosis(staging, diagnosed, highlighted(diagnosed.labels))
     if (staging.path / "gallery.json").is_file():
         record = read_gallery(staging.path)
@@ -286,12 +289,16 @@ def merge_run(parts, out: str | Path) -> RunResult:
     return result
 
 
-def plan_run(config: EvalConfig | None = None, announce: Callable[[str], None] | None = None) -> RunPlan:
+def plan_run(config: EvalConfig | None = None, announce: Callable[[str], None] | None = None,
+             diagnose: bool = False, loc_iou: float | None = None) -> RunPlan:
     """What `run` would evaluate, checked as a run checks it before any work, without
     evaluating or writing anything (`run --dry-run`): the layout, every frame's maps, the
-    first map's geometry. A first map that cannot be read is the error the run would stop
-    with (under on_error = "fail"): a dry run said all was well where the run then failed."""
+    first map's geometry, and `diagnose` and `loc_iou` as `run` takes them. A first map that
+    cannot be read is the error the run would stop with (under on_error = "fail"): a dry run
+    said all was well where the run then failed."""
     planned = plan(with_fixture(with_absolute_paths(config or default_config())), announce=announce)
+    if diagnose or loc_iou is not None:
+        diagnosable(planned.context.config, planned.context.benchmark, diagnose, loc_iou, None)
     if planned.geometry is None and planned.clips and planned.context.config.on_error == "fail":
         planned.context.load(planned.clips[0].frames[0])  # raises what is wrong with it
     return planned
@@ -405,6 +412,10 @@ def show_gallery(score_dir: Path, worst: int | None = None, out: str | Path | No
 
     if image_root is not None and not Path(image_root).is_dir():
         raise InputError(Path(image_root), "not a folder: give the folder the frames' images are under")
+    from .report.gallery import GALLERY_FRAMES
+
+    if worst is not None and worst > GALLERY_FRAMES:
+        raise ConfigError(f"--worst {worst}: a score's gallery keeps {GALLERY_FRAMES} frames a reason")
     record = read_gallery(score_dir)
     target = Path(out) if out is not None else score_dir / SHOW_FOLDER
     if target.resolve() == score_dir.resolve():
@@ -415,8 +426,8 @@ def show_gallery(score_dir: Path, worst: int | None = None, out: str | Path | No
         stage_gallery(staging, record, Path(root) if root else None, worst or 3)
         from .report.html import build_diagnosis_html
 
-        staging.write_text("report.html", build_diagnosis_html(score_dir, staging.path,
-                                                               f"roneld-eval: why F1 is not higher, {record['title']}"))
+        staging.write_text("report.html", build_diagnosis_html(
+            score_dir, staging.path, f"roneld-eval: why F1 is not higher, {record['title']}", worst or 3))
         return folder.commit()
 
 

@@ -101,10 +101,10 @@ def _no_collections_at_exit() -> None:
     atexit.register(gc.freeze)
 
 
-def _dry_run(config: EvalConfig, quiet: bool, debug: bool) -> None:
+def _dry_run(config: EvalConfig, quiet: bool, debug: bool, diagnose: bool, loc_iou: float | None) -> None:
     from . import api
 
-    planned = _guard(api.plan_run, debug, config, announce=_announcer(quiet))
+    planned = _guard(api.plan_run, debug, config, announce=_announcer(quiet), diagnose=diagnose, loc_iou=loc_iou)
     frames = sum(len(clip.frames) for clip in planned.clips)
     labelled = sum(frame.labelled for clip in planned.clips for frame in clip.frames)
     click.echo(f"dry run: {planned.dataset.name}, {counted(len(planned.clips), 'clip')}, {counted(frames, 'frame')} "
@@ -378,7 +378,7 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
     config = _guard(build, debug)
     _refuse_here_only(config, dry_run, diagnose, shard, executor, debug)
     if dry_run:
-        _dry_run(config, quiet, debug)
+        _dry_run(config, quiet, debug, diagnose, loc_iou)
         return
     result = _guard(executed, debug, executor, scheduler, "run", api.run, config, out, progress=not quiet,
                     resume=resume, overlays=overlays, announce=_announcer(quiet), shard=shard, timings=not no_timings,
@@ -560,7 +560,9 @@ def show(run_dir, frames, worst, methods, out, image_root, debug):
 
     On a score written with --diagnose, its gallery: for each method the --worst frames (default
     3) with most errors in each category and with most of each error type, ground truth and every
-    method's lanes, the counts in the caption (gallery/<k>.png and gallery.png).
+    method's lanes, the counts in the caption (gallery/<k>.png and gallery.png), and report.html
+    with the score's error table, its score sweep and the gallery. A run written with --diagnose
+    drew its gallery itself (one frame a reason: OUT/gallery.png, in its report.html).
     """
     from . import api
 
@@ -643,9 +645,14 @@ def _compared_frames(runs, out, run_options: bool, quiet: bool, debug: bool) -> 
 
     if not any(is_diagnosed(run) for run in runs) or any(is_sweep(run) for run in runs):
         return False
-    if not all(is_diagnosed(run) for run in runs) or run_options:
-        _guard(_refuse, debug, "score folders written with --diagnose are compared frame by frame alone: give "
-                               "only such folders, without --label, --thresholds or --pair")
+    other = next((run for run in runs if not is_diagnosed(run)), None)
+    if other is not None:
+        _guard(_refuse, debug, f"{other} is not a score folder written with --diagnose (frames.csv.gz, and no "
+                               "per_frame.csv of a run), and those are compared frame by frame with their own kind "
+                               "alone: give only such folders, or only runs")
+    if run_options:
+        _guard(_refuse, debug, "score folders written with --diagnose are compared frame by frame: without --label, "
+                               "--thresholds or --pair")
     found = _guard(compare_frames, debug, runs, out)
     if not quiet:
         click.echo(found.markdown)

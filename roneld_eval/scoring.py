@@ -10,7 +10,7 @@ import csv
 import io
 import os
 import posixpath
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterator, Union
@@ -262,6 +262,21 @@ def check_method_names(named: Sequence[tuple[str, Path]], naming: str, what: str
             raise ConfigError(f"two {what} are named {method!r} ({seen[method]} and {where}): name them with "
                               f"{naming}")
         seen[method] = where
+
+
+def only_frames(keys: Sequence[str], frames: Collection[str] | None, shard: str | None) -> list[str]:
+    """The keys a scorer scores when it is given `frames` (a run's own: `run --diagnose`): those
+    it lists that `frames` holds, in its order; all of them without."""
+    if frames is None:
+        return list(keys)
+    if shard is not None:
+        raise ConfigError("frames and a shard cut the list two ways: give one")
+    wanted = set(frames)
+    kept = [key for key in keys if key in wanted]
+    if len(kept) != len(wanted):
+        missing = next(frame for frame in frames if frame not in set(kept))
+        raise ConfigError(f"frame {missing!r} is not among those listed")
+    return kept
 
 
 def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | None, progress: bool,

@@ -249,16 +249,6 @@ class FrameDiagnoses:
         return cls(tuple(frames), n_gt, n_pred, tp, counts, sweep_tp.reshape(n_methods, n_frames, n_scores, n_limits),
                    sweep_kept.reshape(n_methods, n_frames, n_scores))
 
-    def taken(self, keep: np.ndarray) -> "FrameDiagnoses":
-        """The frames where `keep` (a mask over them) is true, in the same order."""
-        def rows(array: np.ndarray | None) -> np.ndarray | None:
-            return None if array is None else array[:, keep]
-
-        return FrameDiagnoses(tuple(frame for frame, kept in zip(self.frames, keep) if kept), self.n_gt[keep],
-                              self.n_pred[:, keep], self.tp[:, keep], self.errors[:, keep], rows(self.sweep_tp),
-                              rows(self.sweep_kept))
-
-
 
 def joined_diagnoses(pieces: Iterable[FrameDiagnoses | None]) -> FrameDiagnoses | None:
     """A scorer's chunks' diagnoses as one, frames in order (None where no chunk has any: no

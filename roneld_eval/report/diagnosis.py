@@ -8,9 +8,9 @@ their category, or whatever it is); the Cat type only where lanes match within t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Callable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -41,13 +41,15 @@ class Diagnosed:
     labels: tuple[str, ...]
     loc_iou: float
     frame_facts: Callable[[str], tuple[str, str]]
-    title: str  # "CULane, SCNN's lane IoU F1 (30 px at 1640x590)"
+    title: str  # "CULane, the lane IoU F1 of SCNN's evaluator (30 px at 1640x590)"
     sweep: ScoreSweep | None = None
     errors: bool = True  # --diagnose (else only the sweep was asked for)
     with_categories: bool = False  # lanes match within their category: the Cat type is shown
     measure: Measure = f_measure  # the benchmark's precision, recall and F1 of (tp, fp, fn)
     frame_lanes: Callable[[str], Any] | None = None  # a frame's gallery.GalleryFrame (its lanes read again)
     image_root: str | None = None  # where the frames' images are, as the score was told
+    # method -> the name tables and figures give it (a run's: "SCNN + RONELD"); the CSV files keep the method's
+    display: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def types(self) -> tuple[int, ...]:
@@ -74,13 +76,8 @@ class Diagnosed:
         return sweep_records(self.diagnoses, self.entries, self.groups, self.labels, self.sweep, self.measure)
 
     def name(self, method: str, matching: str) -> str:
-        return f"{method} ({matching})" if matching else method
-
-    def of_frames(self, wanted: Callable[[str], bool]) -> "Diagnosed":
-        """The diagnosis of the frames `wanted` says yes to (a run's, of a scorer that reads them all)."""
-        keep = np.array([wanted(frame) for frame in self.diagnoses.frames], bool).reshape(-1)
-        return replace(self, diagnoses=self.diagnoses.taken(keep),
-                       groups=tuple((name, inside[keep]) for name, inside in self.groups))
+        shown = self.display.get(method, method)
+        return f"{shown} ({matching})" if matching else shown
 
 
 def _table(columns: Sequence[str], rows: Sequence[tuple], keep_matching: bool) -> PlainTable:
@@ -241,7 +238,7 @@ def errors_figure(diagnosed: Diagnosed, rows: Sequence[tuple], label: str, path)
     axes.set_xlabel("F1 gained by fixing every error of the type (points)")
     axes.set_title(f"{diagnosed.title}: all frames, IoU > {label}", fontsize=9)
     axes.grid(alpha=0.3, axis="x")
-    axes.legend(fontsize=8, loc="lower right")
+    axes.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the bars, never over one
     figure.tight_layout()
     write_png(figure, path)
     plt.close(figure)

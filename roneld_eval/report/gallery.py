@@ -89,7 +89,7 @@ def gallery_record(diagnosed, label: str) -> dict:
             counts[diagnosed.name(method, matching)] = [tp, int(d.n_pred[m, k]) - tp, int(d.n_gt[k]) - tp]
         pictures.append({"frame": frame, "reasons": reasons, "size": list(found.size), "image": found.image,
                          "truth": [_lane_points(lane) for lane in found.truth],
-                         "predicted": {method: [_lane_points(lane) for lane in lanes]
+                         "predicted": {diagnosed.display.get(method, method): [_lane_points(lane) for lane in lanes]
                                        for method, lanes in found.predicted.items()},
                          "counts": counts})
     return {"format": GALLERY_FORMAT, "title": diagnosed.title, "threshold": label,

@@ -52,7 +52,8 @@ def _markdown_notes(text: str) -> str:
     """The paragraphs of one of our Markdown files that are neither its title nor its table."""
     paragraphs = [block.strip() for block in text.split("\n\n")]
     notes = [block for block in paragraphs if block and not block.startswith(("#", "|"))]
-    return " ".join(html.escape(" ".join(block.split()), quote=False) for block in notes)
+    text = " ".join(html.escape(" ".join(block.split()), quote=False) for block in notes)
+    return re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", text)
 
 
 def _csv_table(path: Path, model: str | None = None) -> str:
@@ -74,16 +75,27 @@ def _official_tables(path: Path, benchmark, model: str | None) -> str:
             + f"<details><summary>Every row of official.csv</summary>{full}</details>")
 
 
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
 def _image(path: Path, alt: str) -> str:
-    data = base64.b64encode(read_bytes(path, limit=MAP)).decode("ascii")
+    raw = read_bytes(path, limit=MAP)
+    if not raw.startswith(PNG_SIGNATURE):
+        raise InputError(path, "not a PNG image: report.html embeds only the pictures this tool draws")
+    data = base64.b64encode(raw).decode("ascii")
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
 
 
 def _present(folder: Path, name: str | None) -> Path | None:
-    """The file `name` in `folder`, or None when no name is given or the run has no such file."""
-    if not name or not (folder / name).exists():
+    """The file `name` in `folder`, or None when no name is given or the run has no such file; a
+    symbolic link is refused (a folder read back could point it at any file, which the page would
+    then carry to whoever it is shared with)."""
+    if not name:
         return None
-    return folder / name
+    path = folder / name
+    if path.is_symlink():
+        raise InputError(path, "a symbolic link: report.html embeds only the folder's own files")
+    return path if path.exists() else None
 
 
 def _shared_name(data_root, fixture: bool) -> str:
@@ -152,7 +164,7 @@ def build_html(folder: Path) -> str:
                               _official_tables(table_path, benchmark, config.get("model")))
         else:
             parts += _section(title, table_path, _present(folder, image_file), note, model=config.get("model"))
-    parts += diagnosis_sections(folder, folder)
+    parts += diagnosis_sections(folder, folder, gallery_note(1, RUN_GALLERY))
     return _page(parts)
 
 
@@ -196,24 +208,38 @@ def _markdown_tables(text: str) -> str:
     return "".join(out)
 
 
-GALLERY_NOTE = ("For each method, the frame with most errors (FP + FN) in each category and the one with most of "
-                "each error type: ground truth in blue, each method's lanes in turn red, green, ...; its counts in the "
-                "caption (every frame the gallery keeps: gallery.json, drawn by `roneld-eval show`).")
+def gallery_note(per_reason: int, redrawn: str) -> str:
+    """What the gallery section says of its pictures: `per_reason` frames a reason, and how to draw
+    them otherwise (`redrawn`)."""
+    frames = "the frame" if per_reason == 1 else f"the {per_reason} frames"
+    return (f"For each method, {frames} with most errors (FP + FN) in each category and with most of each error "
+            "type: ground truth in blue, each method's lanes in turn red, green, ...; its counts in the caption. "
+            f"{redrawn}")
+
+
+RUN_GALLERY = ("gallery.json keeps six frames a reason with their lanes; `roneld-eval score NAME --diagnose --out` "
+               "on the run's lanes/ and `roneld-eval show --run` of that folder draw more, over the images.")
 
 
 def _best_scores(path: Path) -> str:
     """The best F1 of each method's score sweep over all frames, as sweep_scores.csv marks it."""
     try:
-        table = pd.read_csv(io.StringIO(read_text(path, RUN_TABLE)), dtype=str, keep_default_na=False)
+        table = pd.read_csv(io.StringIO(read_text(path, RUN_TABLE)), keep_default_na=False,
+                            dtype={"threshold": str, "score_threshold": str, "best": str})
         best = table[(table["category"] == "all") & (table["best"] == "True")]
-        return best.drop(columns=["category", "best"]).to_html(index=False, border=0)
+        shown = best.drop(columns=["category", "best"]).to_html(index=False, border=0,
+                                                              float_format=lambda v: f"{v:.4f}")
     except (ValueError, KeyError, pd.errors.ParserError) as error:
         raise InputError(path, f"not a score sweep this tool writes: {error}") from None
+    if best.empty:
+        raise InputError(path, "not a score sweep this tool writes: no row over all frames marks the best F1")
+    return shown
 
 
-def diagnosis_sections(tables: Path, pictures: Path) -> list[str]:
+def diagnosis_sections(tables: Path, pictures: Path, note: str) -> list[str]:
     """What --diagnose and --score-sweep wrote in `tables` (errors.md/.png, sweep_scores.csv/.png)
-    and the gallery drawn in `pictures` (gallery.png), as report.html shows them."""
+    and the gallery drawn in `pictures` (gallery.png, of which `note` speaks), as report.html
+    shows them."""
     sweep = _present(tables, "sweep_scores.csv")
     return [*_section("Why F1 is not higher: error types", _present(tables, "errors.md"),
                       _present(tables, "errors.png"), None),
@@ -221,10 +247,12 @@ def diagnosis_sections(tables: Path, pictures: Path) -> list[str]:
                       "Precision, recall and F1 when only the lanes scoring at least each threshold are kept; the best "
                       "F1 is chosen on the test set itself (every threshold in sweep_scores.csv).",
                       None if sweep is None else _best_scores(sweep)),
-            *_section("Gallery: the worst frames", None, _present(pictures, "gallery.png"), GALLERY_NOTE)]
+            *_section("Gallery: the worst frames", None, _present(pictures, "gallery.png"), note)]
 
 
-def build_diagnosis_html(tables: Path, pictures: Path, title: str) -> str:
+def build_diagnosis_html(tables: Path, pictures: Path, title: str, per_reason: int) -> str:
     """The page of a score written with --diagnose or --score-sweep (`tables`), its gallery drawn
-    in `pictures` (`roneld-eval show` writes it there)."""
-    return _page([f"<h1>{html.escape(title)}</h1>", *diagnosis_sections(tables, pictures)])
+    in `pictures` (`roneld-eval show` writes it there, `per_reason` frames a reason)."""
+    note = gallery_note(per_reason, "gallery.json keeps six a reason: `--worst N` draws more, `--image-root` over "
+                                    "the images.")
+    return _page([f"<h1>{html.escape(title)}</h1>", *diagnosis_sections(tables, pictures, note)])

@@ -78,6 +78,9 @@ def summary(result: RunResult) -> dict:
     extra: dict[str, object] = {"clip_sizes": sizes} if sizes else {}
     if result.notes:
         extra["notes"] = result.notes
+    if result.diagnosed is not None:  # run --diagnose: not in config.toml, so recorded here
+        extra["diagnosis"] = {"loc_iou": result.diagnosed.loc_iou, "thresholds": list(result.diagnosed.labels),
+                              "metric": result.diagnosed.title}
     return _json_safe({
         "tool": "roneld-eval",
         "dataset": result.dataset.name,

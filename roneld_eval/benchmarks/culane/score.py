@@ -14,7 +14,7 @@ imported only when a DataFrame is asked for (CulaneScore.official, .summary, .ta
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property, partial
 from pathlib import Path
@@ -58,7 +58,7 @@ if TYPE_CHECKING:
     from ...metrics.raster import MaskSet
 
 from ...scoring import (PlainTable, PredictionRoots, PredictionTree, _taking, check_still_there, find_prediction_trees,
-                     percent)
+                        only_frames, percent)
 
 
 @dataclass(frozen=True)
@@ -192,7 +192,8 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
                  workers: int | None = None, progress: bool = False,
                  announce: Callable[[str], None] | None = None, preset: str | None = None,
                  strict: bool = False, shard: str | None = None, diagnose: bool = False,
-                 loc_iou: float | None = None, score_sweep: str | None = None) -> CulaneScore | None:
+                 loc_iou: float | None = None, score_sweep: str | None = None,
+                 frames: Collection[str] | None = None) -> CulaneScore | None:
     """Score `.lines.txt` predictions with the official CULane protocol, every method in one pass.
 
     `pred_root`: a folder mirroring the list, a folder of such folders (one per method), or
@@ -223,7 +224,7 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         raise ConfigError("--shard writes a partial result for `roneld-eval merge`: give --out")
     with _taking(out, "score culane", reads=(data_root, list_file)) as folder:
         dataset = read_culane(data_root, list_file, labels=False, require_labels=True)
-        relpaths = [frame.relpath for clip in dataset.clips for frame in clip.frames]
+        relpaths = only_frames([frame.relpath for clip in dataset.clips for frame in clip.frames], frames, shard)
         # every shard finds the methods over the whole list: the same trees (and counts) in every part
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
         if share is not None:
@@ -336,7 +337,8 @@ def _with_diagnosis(score: CulaneScore, diagnoses: FrameDiagnoses | None, catego
     groups = tuple(category_groups(diagnoses.frames, categories))
     return replace(score, diagnosed=Diagnosed(
         diagnoses, tuple((method, "") for method in score.methods), groups, score.thresholds.labels,
-        diagnosis.loc_iou, facts, f"CULane, SCNN's lane IoU F1 ({width} px at {IMAGE_WIDTH}x{IMAGE_HEIGHT})",
+        diagnosis.loc_iou, facts,
+        f"CULane, the lane IoU F1 of SCNN's evaluator ({width} px at {IMAGE_WIDTH}x{IMAGE_HEIGHT})",
         diagnosis.sweep, diagnosis.errors, frame_lanes=lanes_of, image_root=str(root)))
 
 
@@ -640,6 +642,6 @@ def diagnose_run(lanes: Path, dataset, frames: Iterable[str], config, loc_iou: f
     scores them, at the run's threshold and lane width, over the frames it scored (`frames`)."""
     score = score_culane(dataset.root, lanes, dataset.source_file, iou=config.official.iou_threshold,
                          width=config.official.lane_width_px, workers=config.workers, announce=announce,
-                         diagnose=True, loc_iou=loc_iou)
+                         diagnose=True, loc_iou=loc_iou, frames=list(frames))
     assert score is not None and score.diagnosed is not None
-    return score.diagnosed.of_frames(set(frames).__contains__)
+    return score.diagnosed

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 from functools import partial
 from operator import itemgetter
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import Callable, Collection, Iterable
 
 import numpy as np
 
@@ -36,7 +36,8 @@ from ...metrics.lane_iou_f1 import highlighted
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...report.tables import Table
-from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
+from ...scoring import (PlainTable, PredictionRoots, _taking, find_prediction_trees, only_frames, percent,
+                        scored_pieces)
 from ...shards import Merged, Sharding, given_options
 from ...thresholds import Thresholds, parse_thresholds
 
@@ -174,7 +175,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
                  progress: bool = False, announce: Callable[[str], None] | None = None, strict: bool = False,
                  maps: PredictionRoots = (), shard: str | None = None,
                  merged: Merged | None = None, diagnose: bool = False,
-                 loc_iou: float | None = None) -> LlamasScore | None:
+                 loc_iou: float | None = None, frames: Collection[str] | None = None) -> LlamasScore | None:
     """Score `.lines.txt` predictions (`<recording>/<frame>.lines.txt`, `pred_root`) for F1 and
     probability maps (`<recording>/<frame>.json_<c>.png`, `maps`) for AP against every label below
     `labels` (one split's folder of `<recording>/<frame>.json`). With `shard` ('I/N'), only that
@@ -190,7 +191,7 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
         labels=labels, pred_root=pred_root, iou=iou, width=width, strict=strict, maps=maps,
         **given_options(diagnose=diagnose, loc_iou=loc_iou)))
     with _taking(out, "score llamas", reads=(labels,)) as folder:
-        found = every_label(Path(labels))
+        found = _labels(Path(labels), frames, shard)
         keys = list(found)
         trees, warnings = (find_prediction_trees(pred_root, keys, strict, announce, suffix=".lines.txt")
                            if _given(pred_root) else ([], []))
@@ -266,6 +267,12 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             write_diagnosis(staging, score.diagnosed, highlighted(thresholds.labels))
             folder.commit()
     return score
+
+
+def _labels(labels: Path, frames: Collection[str] | None, shard: str | None) -> dict[str, Path]:
+    """key -> label file of every label, or of `frames` alone (a run's own: run --diagnose)."""
+    found = every_label(labels)
+    return found if frames is None else {key: found[key] for key in only_frames(list(found), frames, shard)}
 
 
 def _diagnosis(diagnose: bool, loc_iou: float | None, thresholds: Thresholds, shard: str | None,
@@ -385,6 +392,7 @@ def diagnose_run(lanes: Path, dataset, frames: Iterable[str], config, loc_iou: f
     from .reader import frame_key
 
     score = score_llamas(dataset.root, lanes, iou=THRESHOLDS, width=config.official.lane_width_px,
-                         workers=config.workers, announce=announce, diagnose=True, loc_iou=loc_iou)
+                         workers=config.workers, announce=announce, diagnose=True, loc_iou=loc_iou,
+                         frames=[frame_key(frame) for frame in frames])
     assert score is not None and score.diagnosed is not None
-    return score.diagnosed.of_frames({frame_key(frame) for frame in frames}.__contains__)
+    return score.diagnosed

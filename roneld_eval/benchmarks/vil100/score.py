@@ -13,12 +13,12 @@ from operator import attrgetter
 import numpy as np
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Callable, Collection, Iterable, Sequence
 
 from ...config import check_lane_width
 
 from ...thresholds import Thresholds, parse_thresholds
-from .reader import SCENARIOS, labels_path, read_vil100, scenarios_of
+from .reader import SCENARIOS, Vil100Set, labels_path, read_vil100, scenarios_of
 from ...datasets._paths import under_root
 from ...errors import ConfigError, InputError
 from ...metrics.line_masks import LaneMask
@@ -34,7 +34,7 @@ from .acc import means as acc_means
 from .official import PooledScore, SequenceScore, frame_miou, pooled, printed, sequence_score
 from .temporal import TemporalCounts, assigned_ious, lane_mask, links, sequence_counts, usable
 from ...output import Staging
-from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, percent, scored_pieces
+from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, only_frames, percent, scored_pieces
 from ...shards import Merged, Sharding, given_options
 
 DEFAULT_IOU = "0.5,0.8"  # evaluate_iou.py:23 ("Set iou to 0.5 or 0.8"); papers report both
@@ -251,7 +251,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                  announce: Callable[[str], None] | None = None, strict: bool = False,
                  temporal: bool = True, pred_format: str = "lines", shard: str | None = None,
                  merged: Merged | None = None, diagnose: bool = False, loc_iou: float | None = None,
-                 score_sweep: str | None = None) -> Vil100Score | None:
+                 score_sweep: str | None = None, frames: Collection[str] | None = None) -> Vil100Score | None:
     """Score `.lines.txt` predictions mirroring `labels` (`<sequence>/<frame>.lines.txt`).
 
     Sizes come from exactly one of `image_root`, `json_root` and `sizes_file`. `iou`: one
@@ -274,8 +274,8 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         paths=("labels", "list_file", "image_root", "json_root", "sizes_file"))
     versions = versions_of(pred_format)
     with _taking(out, "score vil100", reads=(labels, list_file, image_root, json_root, sizes_file)) as folder:
-        dataset = read_vil100(labels, list_file, image_root, json_root, sizes_file)
-        relpaths = [relpath for frames in dataset.sequences.values() for relpath in frames]
+        dataset = _only(read_vil100(labels, list_file, image_root, json_root, sizes_file), frames, shard)
+        relpaths = [relpath for listed in dataset.sequences.values() for relpath in listed]
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=_SUFFIXES[pred_format])
         if dataset.unlabelled:
             first = labels_path(dataset.labels, dataset.unlabelled[0])
@@ -614,6 +614,17 @@ def summary_markdown(score: Vil100Score, width: int) -> str:
 __all__ = ["score_vil100", "Vil100Score", "SequenceScore", "printed"]
 
 
+def _only(dataset: Vil100Set, frames: Collection[str] | None, shard: str | None) -> Vil100Set:
+    """The set with only `frames` of it (a run's own: run --diagnose), sequences keeping their order."""
+    if frames is None:
+        return dataset
+    kept = set(only_frames([r for listed in dataset.sequences.values() for r in listed], frames, shard))
+    sequences = {name: tuple(r for r in listed if r in kept) for name, listed in dataset.sequences.items()}
+    sequences = {name: listed for name, listed in sequences.items() if listed}
+    return replace(dataset, sequences=sequences, sizes={name: dataset.sizes[name] for name in sequences},
+                   unlabelled=tuple(r for r in dataset.unlabelled if r in kept))
+
+
 def diagnose_run(lanes: Path, dataset, frames: Iterable[str], config, loc_iou: float | None,
                  announce: Callable[[str], None] | None = None) -> Diagnosed:
     """`run --diagnose`: the lanes the run saved (`lanes`) scored as `score vil100 --diagnose`
@@ -624,6 +635,7 @@ def diagnose_run(lanes: Path, dataset, frames: Iterable[str], config, loc_iou: f
     sources = run_sources(dataset.root, None if config.dataset.list_file is None else Path(config.dataset.list_file))
     score = score_vil100(sources.labels, lanes, sources.list_file, sources.image_root, sources.json_root,
                          sources.sizes_file, iou=THRESHOLDS, width=config.official.lane_width_px,
-                         workers=config.workers, announce=announce, temporal=False, diagnose=True, loc_iou=loc_iou)
+                         workers=config.workers, announce=announce, temporal=False, diagnose=True, loc_iou=loc_iou,
+                         frames=[image_stem(frame) for frame in frames])
     assert score is not None and score.diagnosed is not None
-    return score.diagnosed.of_frames({image_stem(frame) for frame in frames}.__contains__)
+    return score.diagnosed
