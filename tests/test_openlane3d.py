@@ -228,3 +228,42 @@ def test_resampling_is_interp1ds(tmp_path):
         assert x.tolist() == interp1d(lane[:, 1], lane[:, 0], fill_value="extrapolate")(official.Y_SAMPLES).tolist()
         assert z.tolist() == interp1d(lane[:, 1], lane[:, 2], fill_value="extrapolate")(official.Y_SAMPLES).tolist()
         assert inside.dtype == np.float32
+
+
+def test_the_metric_in_memory_gives_what_the_command_writes(golden_set):
+    import roneld_eval
+
+    root, golden = golden_set
+    pytest.importorskip("ortools")
+    metric = roneld_eval.metric("openlane3d", labels=str(root / "labels"), list_file=str(root / "test_list.txt"))
+    listed = (root / "test_list.txt").read_text().split()
+    for relpath in reversed(listed[1:]):  # any order; the first frame never updated: no lanes
+        predicted = read_prediction(json_path(root / "predictions", relpath))
+        metric.update(relpath, list(predicted.lanes), categories=list(predicted.categories))
+    without_first = root / "without_first"  # the same results, the first frame's file missing: no lanes
+    if not without_first.exists():
+        for relpath in listed[1:]:
+            target = json_path(without_first, relpath)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(json_path(root / "predictions", relpath).read_bytes())
+    score = score_openlane3d(root / "labels", {"-": without_first}, root / "test_list.txt", workers=1)
+    assert score is not None
+    assert metric.tables()["official"].rows == score.rows.rows
+    values = metric.compute()
+    assert values["F"] == score.value("-", "f") and values["z_error_far"] == score.value("-", "z_error_far")
+    with pytest.raises(Exception, match="categories"):
+        metric.update(listed[0], [np.zeros((3, 3))])
+
+
+def test_the_training_time_metric_in_memory_takes_each_lanes_probabilities(training_set):
+    import roneld_eval
+
+    root, golden = training_set
+    pytest.importorskip("ortools")
+    metric = roneld_eval.metric("openlane3d", labels=str(root / "labels"), list_file=str(root / "test_list.txt"),
+                                protocol="persformer-train")
+    for relpath in (root / "test_list.txt").read_text().split():
+        record = json.loads(json_path(root / "train", relpath).read_text())
+        metric.update(relpath, [np.array(lane) for lane in record["laneLines"]], scores=record["laneLines_prob"])
+    row = metric.tables()["official"].rows[0]
+    assert [row[COLUMNS.index(c)] for c in PRINTED] + list(row[3:9]) == golden["output_stats"]

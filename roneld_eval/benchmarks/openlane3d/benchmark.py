@@ -20,9 +20,11 @@ class OpenLane3dBenchmark(LaneFilesOnly):
     official_optional: dict[str, str] = {}
     official_key = ("method", "scenario")
 
-    # loaded from this folder when first used (benchmarks.from_module): the command and its library scorer
+    # loaded from this folder when first used (benchmarks.from_module): the command, its library scorer
+    # (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
     score_command = declared_command(".command")
     scorer = from_module(".score", "score_openlane3d")
+    metric = from_module(".metric", "OpenLane3dMetric", call=True)
 
     def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
         from .synth import synth_openlane3d
