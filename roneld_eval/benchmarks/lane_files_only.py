@@ -21,6 +21,8 @@ class LaneFilesOnly:
     synth_maps_format = "lanes"  # `synth` writes labels and a detector's lane files
     fixture: str | None = None
     missing_maps_hint = ""
+    kernel_groups: tuple[str, ...] = ()  # the numba kernels its scoring runs (none: NumPy and scipy alone)
+    official_optional: dict[str, str] = {}
 
     def _refuse(self) -> ConfigError:
         return ConfigError(f"{self.display_name} is scored from lane files only (`roneld-eval score {self.name}`): "
@@ -29,5 +31,11 @@ class LaneFilesOnly:
     def read(self, *args: Any, **kwargs: Any):
         raise self._refuse()
 
-    def synthesize(self, *args: Any, **kwargs: Any):
-        raise self._refuse()
+    # a subclass's generator of labels and a detector's lanes, where it has one:
+    # `synth = from_module(".synth", "synth_<name>", call=True)`, called (out, clips, frames, seed, progress=)
+    synth: Any = None
+
+    def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
+        if self.synth is None:
+            raise self._refuse()
+        return self.synth(out, clips, frames, seed, progress=progress)

@@ -13,22 +13,16 @@ class CurveLanesBenchmark(LaneFilesOnly):
     no_run_reason = "its images come in several sizes, and RONELD's presets are for CULane- and TuSimple-sized maps"
     frames_per_clip = 1  # what `synth` writes a clip
     image_size = (2560, 1440)  # its largest; each image is scored at its own
-    kernel_groups: tuple[str, ...] = ()
     official_columns = {"method": "text", "score_threshold": "text", "chosen": "text", "hits": "count",
                         "predicted": "count", "truth": "count", "f1": "optional number"}
-    official_optional: dict[str, str] = {}
     official_key = ("method", "chosen")
 
     # loaded from this folder when first used (benchmarks.from_module): the command, its library
     # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
     score_command = declared_command(".command")
     scorer = from_module(".score", "score_curvelanes")
+    synth = from_module(".synth", "synth_curvelanes", call=True)
     metric = from_module(".metric", "CurveLanesMetric", call=True)
-
-    def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
-        from .synth import synth_curvelanes
-
-        return synth_curvelanes(out, clips, frames, seed, progress=progress)
 
 
 BENCHMARK = CurveLanesBenchmark()

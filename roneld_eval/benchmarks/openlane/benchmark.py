@@ -24,12 +24,8 @@ class OpenLaneBenchmark(LaneFilesOnly):
     # scorer (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
     score_command = declared_command(".command")
     scorer = from_module(".score", "score_openlane")
+    synth = from_module(".synth", "synth_openlane", call=True)
     metric = from_module(".metric", "OpenLaneMetric", call=True)
-
-    def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
-        from .synth import synth_openlane
-
-        return synth_openlane(out, clips, frames, seed, progress=progress)
 
 
 BENCHMARK = OpenLaneBenchmark()

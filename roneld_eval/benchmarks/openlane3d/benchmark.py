@@ -13,23 +13,17 @@ class OpenLane3dBenchmark(LaneFilesOnly):
     no_run_reason = "its lanes are 3-D, in metres, and RONELD's maps are of the image plane"
     frames_per_clip = 4  # what `synth` writes a segment
     image_size = (1920, 1280)
-    kernel_groups: tuple[str, ...] = ()
     official_columns = {"method": "text", "scenario": "text", "frames": "count", "recalled": "count",
                         "precise": "count", "category_right": "count", "gt_lanes": "count", "pred_lanes": "count",
                         "matches": "count", "f": "optional number"}
-    official_optional: dict[str, str] = {}
     official_key = ("method", "scenario")
 
     # loaded from this folder when first used (benchmarks.from_module): the command, its library scorer
     # (roneld_eval.score; a merge runs it on parts' arrays), the in-memory metric's core
     score_command = declared_command(".command")
     scorer = from_module(".score", "score_openlane3d")
+    synth = from_module(".synth", "synth_openlane3d", call=True)
     metric = from_module(".metric", "OpenLane3dMetric", call=True)
-
-    def synthesize(self, out, clips: int, frames: int, seed: int, maps_format: str, progress):
-        from .synth import synth_openlane3d
-
-        return synth_openlane3d(out, clips, frames, seed, progress=progress)
 
 
 BENCHMARK = OpenLane3dBenchmark()
