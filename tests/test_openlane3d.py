@@ -267,3 +267,54 @@ def test_the_training_time_metric_in_memory_takes_each_lanes_probabilities(train
         metric.update(relpath, [np.array(lane) for lane in record["laneLines"]], scores=record["laneLines_prob"])
     row = metric.tables()["official"].rows[0]
     assert [row[COLUMNS.index(c)] for c in PRINTED] + list(row[3:9]) == golden["output_stats"]
+
+
+def test_what_the_evaluator_would_score_wrongly_or_forever_is_refused(tmp_path, monkeypatch):
+    root = tmp_path / "set"
+    synth_openlane3d(root, clips=1, frames=4, seed=12)
+    listed = (root / "test_list.txt").read_text().split()
+    common = ["score", "openlane3d", "--labels", root / "labels", "--pred-root", root / "predictions", "--workers", "1"]
+    # two labels of one file_path: the evaluator keeps the last and scores it twice
+    label, result = json_path(root / "labels", listed[1]), json_path(root / "predictions", listed[1])
+    for path in (label, result):
+        record = json.loads(path.read_text())
+        record["file_path"] = json.loads(json_path(root / "labels", listed[0]).read_text())["file_path"]
+        path.write_text(json.dumps(record))
+    twice = invoke(*common)
+    assert twice.exit_code == 2 and "each label needs its own" in twice.output and label.name in twice.output
+    synth_openlane3d(root, clips=1, frames=4, seed=12)
+    # a distance past the evaluator's integer cost: its min-cost flow runs without end
+    record = json.loads(result.read_text())
+    assert record["lane_lines"]
+    record["lane_lines"][0]["xyz"] = [[0.0, y, 1e300] for y in (5.0, 50.0)]
+    result.write_text(json.dumps(record))
+    far = invoke(*common)
+    assert far.exit_code == 2 and "beyond the evaluator's integer cost" in far.output and result.name in far.output
+    synth_openlane3d(root, clips=1, frames=4, seed=12)
+    # the file protocol keeps every lane: a threshold for it is a mistake, even the default one
+    assert "is for --protocol persformer-train" in invoke(*common, "--prob-threshold", "0.5").output
+    # results in the other format: the message names the protocol that reads them
+    with_probabilities(root / "predictions", tmp_path / "train")
+    hint = invoke("score", "openlane3d", "--labels", root / "labels", "--pred-root", tmp_path / "train")
+    assert hint.exit_code == 2 and "give --protocol persformer-train" in hint.output
+    # a missing result is a frame without lanes, said in a line (the evaluator stops on it)
+    result.unlink()
+    missing = invoke(*common, "--out", root / "labels" / "scores")  # an output folder inside the labels, too
+    assert missing.exit_code == 0 and "1 of 4 listed images have no result file" in missing.output
+    again = invoke(*common, "--out", tmp_path / "again")  # the labels' own output folder is not read as labels
+    assert again.exit_code == 0, again.output
+    inside = (root / "labels" / "scores" / "official.csv").read_text()
+    assert inside == (tmp_path / "again" / "official.csv").read_text()
+
+
+def test_a_frame_of_many_lanes_is_paired_a_block_at_a_time_with_the_same_bits(monkeypatch):
+    rng = np.random.default_rng(3)
+    gt = rng.normal(0, 3, (7, 100, 2))
+    pred = gt[rng.permutation(7)][:5] + rng.normal(0, 0.5, (5, 100, 2))
+    gt_visible = (rng.random((7, 100)) < 0.8).astype(float)
+    pred_visible = (rng.random((5, 100)) < 0.8).astype(float)
+    whole = official.pair_distances(gt, pred, gt_visible, pred_visible)
+    monkeypatch.setattr(official, "PAIRS_AT_ONCE", 6)  # a row of ground truth a block
+    blocked = official.pair_distances(gt, pred, gt_visible, pred_visible)
+    for a, b in zip(whole, blocked):
+        assert a.shape == b.shape and a.tobytes() == b.tobytes()

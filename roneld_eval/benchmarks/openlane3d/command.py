@@ -10,7 +10,8 @@ from ...score_commands import Echo, Option, ScoreCommand, closing_options, pred_
 def _report(score, values: Mapping[str, Any], echo: Echo) -> None:
     from .score import summary_table
 
-    echo(f"{score.n_frames:,} images, {len(score.methods)} method{'s' if len(score.methods) > 1 else ''}; "
+    echo(f"{score.n_frames:,} image{'s' if score.n_frames != 1 else ''}, {len(score.methods)} "
+         f"method{'s' if len(score.methods) > 1 else ''}; "
          f"{score.describe()}")
     echo(summary_table(score))
 
@@ -37,7 +38,7 @@ COMMAND = ScoreCommand(
                              "probability is above --prob-threshold, its category the most probable).",
                choices=("file", "persformer-train"), kind="choice", default="file", show_default=True),
         Option("--prob-threshold", "With --protocol persformer-train: the probability a lane's highest class must "
-                                   "exceed. Default: 0.5.", kind="float", default=0.5, metavar="P"),
+                                   "exceed. Default: 0.5.", kind="float", metavar="P"),
         *closing_options("Stop when any listed image has no result file (default: no lanes).",
                          "Folder for official.csv and summary.md.", "segments"),
     ),

@@ -27,9 +27,8 @@ class OpenLane3dMetric:
     name = "openlane3d"
 
     def __init__(self, labels: str | Path, list_file: str | Path | None = None, protocol: str = "file",
-                 prob_threshold: float = PROB_THRESHOLD):
-        check_protocol(protocol, prob_threshold)
-        self.protocol, self.prob_threshold = protocol, float(prob_threshold)
+                 prob_threshold: float | None = None):
+        self.protocol, self.prob_threshold = protocol, check_protocol(protocol, prob_threshold)
         self.labels = Path(labels)
         self.frames = tuple(read_list(Path(list_file)) if list_file is not None else _every_label(self.labels))
         self.truth = TruthMemo(self._read_truth)
@@ -63,7 +62,8 @@ class OpenLane3dMetric:
         probabilities = [numbers_of(score, f"lane {k}'s probabilities").reshape(-1) for k, score in enumerate(scores)]
         if len({len(p) for p in probabilities}) > 1 or any(len(p) == 0 for p in probabilities):
             raise ValueError("every lane's class probabilities must be of one length")
-        return {k: int(np.argmax(p)) for k, p in enumerate(probabilities) if max(p) > self.prob_threshold}
+        threshold = self.prob_threshold if self.prob_threshold is not None else PROB_THRESHOLD
+        return {k: int(np.argmax(p)) for k, p in enumerate(probabilities) if max(p) > threshold}
 
     def _combined(self, counts: Sequence[FrameCounts | None]) -> tuple[np.ndarray, np.ndarray]:
         """Every frame's six counts and every counted match's errors, frames in list order (one never

@@ -155,13 +155,27 @@ def _right_categories(counted: list[tuple[int, int]], gt_category: list, pred_ca
                for i, j in counted)
 
 
+PAIRS_AT_ONCE = 20000  # pairs whose 100 samples are held at once (some 100 MB of arrays)
+
+
 def pair_distances(gt: np.ndarray, pred: np.ndarray, gt_visible: np.ndarray, pred_visible: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every (ground truth, prediction) pair at once, from the lanes at Y_SAMPLES (lanes x 100 x
-    (x, z)) and their visibility: samples within the distance minus those neither sees, the integer
-    cost, and the errors x near, x far, z near, z far (-1 where no sample of that part is seen by
-    both). Each sum runs over a pair's own samples, a row of the last axis, which NumPy adds in the
-    order np.sum adds the evaluator's one pair (pairwise, in blocks of eight): the same bits."""
+    """Every (ground truth, prediction) pair, from the lanes at Y_SAMPLES (lanes x 100 x (x, z)) and
+    their visibility: samples within the distance minus those neither sees, the integer cost, and
+    the errors x near, x far, z near, z far (-1 where no sample of that part is seen by both). Rows
+    of ground truth a block at a time, so that a frame of many lanes stays in memory; a ValueError
+    where a cost is beyond the evaluator's integers (its min-cost flow then runs without end)."""
+    rows = max(1, PAIRS_AT_ONCE // max(1, len(pred)))
+    blocks = [_pair_block(gt[i:i + rows], pred, gt_visible[i:i + rows], pred_visible)
+              for i in range(0, len(gt), rows)] or [_pair_block(gt, pred, gt_visible, pred_visible)]
+    return tuple(np.concatenate([block[k] for block in blocks]) for k in range(3))  # type: ignore[return-value]
+
+
+def _pair_block(gt: np.ndarray, pred: np.ndarray, gt_visible: np.ndarray, pred_visible: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """pair_distances of some rows. Each sum runs over a pair's own samples, a row of the last axis,
+    which NumPy adds in the order np.sum adds the evaluator's one pair (pairwise, in blocks of
+    eight): the same bits."""
     x_dist = np.abs(gt[:, None, :, 0] - pred[None, :, :, 0])
     z_dist = np.abs(gt[:, None, :, 1] - pred[None, :, :, 1])
     seen_gt, seen_pred = gt_visible[:, None, :], pred_visible[None, :, :]
@@ -174,6 +188,9 @@ def pair_distances(gt: np.ndarray, pred: np.ndarray, gt_visible: np.ndarray, pre
         euclidean[other] = DIST_TH
         matches = (np.sum(euclidean < DIST_TH, axis=-1) - np.sum(both_invisible, axis=-1)).astype(float)
         total = np.sum(euclidean, axis=-1)
+        if not (total < 2.0 ** 62).all():  # inf, NaN or past int64: astype(int) would give nonsense
+            raise ValueError("a lane lies so far off that its distance to another is beyond the evaluator's integer "
+                             "cost (a coordinate of 1e17 m or more?)")
         cost = np.where(np.logical_and(total < 1, total > 0), 1, total.astype(int))
         near, far = slice(None, CLOSE_INDEX), slice(CLOSE_INDEX, None)
         errors = np.stack([_means(x_dist, both_visible, near), _means(x_dist, both_visible, far),

@@ -65,7 +65,10 @@ def _record(path: Path, lanes_key: str = "lane_lines") -> dict:
         raise InputError(path, "has no `file_path` text (the evaluator pairs a result with its label by it)")
     lines = record.get(lanes_key)
     if not isinstance(lines, list):
-        raise InputError(path, f"`{lanes_key}` must be a list of lanes")
+        other = {"lane_lines": ("laneLines", "persformer-train"), "laneLines": ("lane_lines", "file")}[lanes_key]
+        hint = (f" (it holds `{other[0]}`: give --protocol {other[1]})" if other[0] in record
+                else " (is this a folder of results, mirroring --labels?)" if "extrinsic" in record else "")
+        raise InputError(path, f"`{lanes_key}` must be a list of lanes{hint}")
     if len(lines) > LANES.count:
         raise InputError(path, LANES.problem(len(lines)))
     return record
@@ -80,7 +83,7 @@ def _numbers(values, path: Path, what: str) -> np.ndarray:
     except (ValueError, TypeError, OverflowError):
         array = np.array([], dtype=object)
     if array.dtype.kind not in "biuf" or (array.dtype.kind == "f" and not np.isfinite(array).all()):
-        raise InputError(path, f"{what} holds something other than finite numbers")
+        raise InputError(path, f"{what}: something other than finite numbers")
     return array.astype(float)
 
 
@@ -138,8 +141,8 @@ def read_prediction(path: Path, prob_threshold: float | None = None) -> Predicte
 def _predicted_points(xyz, path: Path, index: int) -> np.ndarray:
     if not (isinstance(xyz, list) and 0 < len(xyz) <= MAX_POINTS and all(isinstance(p, list) for p in xyz)
             and len({len(p) for p in xyz}) == 1 and len(xyz[0]) in (2, 3)):
-        raise InputError(path, f"lane {index}: the points must be a list of [x, y, z] (at least one)")
-    return _numbers(xyz, path, f"lane {index}: the points")
+        raise InputError(path, f"lane {index}: its points must be a list of [x, y, z] (at least one)")
+    return _numbers(xyz, path, f"lane {index}: its points")
 
 
 def _read_with_probabilities(path: Path, prob_threshold: float) -> Predicted:

@@ -11,6 +11,7 @@ numbers it prints. The evaluator prints them with `{:.8}`; summary.md does the s
 
 from __future__ import annotations
 
+import os
 import posixpath
 from dataclasses import dataclass
 from pathlib import Path
@@ -60,14 +61,17 @@ class OpenLane3dScore:
         return next(row[at] for row in self.rows.rows if row[0] == method and row[1] == scenario)
 
 
-def _score_frames(args) -> tuple[np.ndarray, list[np.ndarray]]:
-    """(frames, methods, 6) counts of one chunk, and per method its matches' errors (matches, 4)."""
+def _score_frames(args) -> tuple[np.ndarray, list[np.ndarray], list[str]]:
+    """(frames, methods, 6) counts of one chunk, per method its matches' errors (matches, 4), and
+    each label's file_path (which a merge of chunks checks once over the list)."""
     relpaths, labels, roots, prob_threshold = args
     stats = np.zeros((len(relpaths), len(roots), 6))
     errors: list[list[np.ndarray]] = [[] for _ in roots]
+    keys = []
     for f, relpath in enumerate(relpaths):
         label = json_path(labels, relpath)
         truth = read_truth(label)
+        keys.append(truth.key)
         gt_lanes = ground_truth_lanes(truth.extrinsic, truth.lanes)
         for m, root in enumerate(roots):
             path = json_path(root, relpath)
@@ -75,11 +79,37 @@ def _score_frames(args) -> tuple[np.ndarray, list[np.ndarray]]:
             if predicted.key is not None and predicted.key != truth.key:
                 raise InputError(path, f"its file_path {predicted.key!r} is not its label's ({truth.key!r} in "
                                        f"{label}): the evaluator pairs them by it")
-            counts = frame_counts(list(predicted.lanes), list(predicted.categories), gt_lanes,
-                                  list(truth.visibility), list(truth.categories))
+            try:
+                counts = frame_counts(list(predicted.lanes), list(predicted.categories), gt_lanes,
+                                      list(truth.visibility), list(truth.categories))
+            except ValueError as error:  # a distance beyond the integer cost
+                raise InputError(path, f"{error} (with its label {label})") from None
             stats[f, m] = counts.counts()
             errors[m].append(counts.errors)
-    return stats, [np.concatenate(found) if found else np.zeros((0, 4)) for found in errors]
+    return stats, [np.concatenate(found) if found else np.zeros((0, 4)) for found in errors], keys
+
+
+def _missing_results(trees, relpaths: Sequence[str]) -> list[str]:
+    """A line for each method some of whose listed images have no result file: scored here as
+    frames without lanes, where the evaluator stops."""
+    lines: list[str] = []
+    for tree in trees:
+        missing = sum(not json_path(tree.root, relpath).exists() for relpath in relpaths)
+        if missing:
+            lines.append(f"warning: {tree.method}: {missing:,} of {len(relpaths):,} listed images have no result "
+                         "file; scored as frames without lanes (the official evaluator stops on the first)")
+    return lines
+
+
+def _once_each(keys: Sequence[str], relpaths: Sequence[str], labels: Path) -> None:
+    """Each label's file_path once: the evaluator keeps the last label of a file_path and pairs every
+    result of that path with it, which would score another frame twice and this one never."""
+    first: dict[str, str] = {}
+    for key, relpath in zip(keys, relpaths):
+        if key in first:
+            raise InputError(json_path(labels, relpath), f"its file_path {key!r} is also that of "
+                                                         f"{json_path(labels, first[key])}: each label needs its own")
+        first[key] = relpath
 
 
 def _scenarios(folder: str | Path | None, relpaths: Sequence[str]) -> dict[str, np.ndarray]:
@@ -119,7 +149,7 @@ def _scenario(path: Path, index: dict[str, int]) -> np.ndarray:
 
 def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: str | Path | None = None,
                      scenarios: str | Path | None = None, protocol: str = "file",
-                     prob_threshold: float = PROB_THRESHOLD, out: str | Path | None = None,
+                     prob_threshold: float | None = None, out: str | Path | None = None,
                      workers: int | None = None, progress: bool = False, announce: Callable[[str], None] | None = None,
                      strict: bool = False, shard: str | None = None,
                      merged: Merged | None = None) -> OpenLane3dScore | None:
@@ -130,8 +160,7 @@ def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: 
     `laneLines_prob`, a lane kept when its highest probability is above `prob_threshold`, its
     category the most probable). With `shard` ('I/N'), only that share of the segments, written as
     a part to `out` (None is returned)."""
-    check_protocol(protocol, prob_threshold)
-    threshold = None if protocol == "file" else float(prob_threshold)
+    threshold = check_protocol(protocol, prob_threshold)
     sharding = Sharding("score openlane3d", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, list_file=list_file, scenarios=scenarios, protocol=protocol,
         prob_threshold=prob_threshold, strict=strict), paths=("labels", "list_file", "scenarios"))
@@ -140,6 +169,7 @@ def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: 
         relpaths = read_list(Path(list_file)) if list_file is not None else _every_label(labels)
         groups = _scenarios(scenarios, relpaths)
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
+        warnings += _missing_results(trees, relpaths)
         label_files = [json_path(labels, relpath) for relpath in relpaths]
 
         def files_of(m: int, relpath: str) -> tuple[Path]:
@@ -179,6 +209,7 @@ def _scored(scored: Sequence[str], labels: Path, trees, prob_threshold: float | 
     roots = tuple(tree.root for tree in trees)
     pieces = scored_pieces(_score_frames, [(chunk, labels, roots, prob_threshold) for chunk in chunks], workers,
                            progress, announce, kernel_groups=(), trees=trees)
+    _once_each([key for piece in pieces for key in piece[2]], scored, labels)
     stats = np.concatenate([piece[0] for piece in pieces]) if pieces else np.zeros((0, len(trees), 6))
     errors = [np.concatenate([piece[1][m] for piece in pieces]) if pieces else np.zeros((0, 4))
               for m in range(len(trees))]
@@ -198,8 +229,15 @@ def _every_label(labels: Path) -> list[str]:
     from ...datasets._paths import check_folder, frame_sort_key
 
     check_folder(labels, "annotation folder not found")
-    found = sorted((path.relative_to(labels).as_posix() for path in labels.rglob("*.json") if path.is_file()),
-                   key=lambda relpath: (posixpath.dirname(relpath), frame_sort_key(posixpath.basename(relpath))))
+    found = []
+    for folder, names, files in os.walk(labels):
+        # hidden entries, and an output folder of this tool written inside (its .roneld-run.json), are not labels
+        names[:] = [name for name in names if not name.startswith(".")
+                    and not os.path.exists(os.path.join(folder, name, ".roneld-run.json"))]
+        relative = os.path.relpath(folder, labels).replace(os.sep, "/")
+        found += [posixpath.normpath(posixpath.join(relative, name)) for name in files
+                  if name.endswith(".json") and not name.startswith(".")]
+    found.sort(key=lambda relpath: (posixpath.dirname(relpath), frame_sort_key(posixpath.basename(relpath))))
     if not found:
         raise InputError(labels, "no <segment>/<frame>.json here: is this OpenLane's lane3d annotation folder?")
     return [relpath[:-len(".json")] + ".jpg" for relpath in found]
@@ -238,13 +276,20 @@ def summary_markdown(score: OpenLane3dScore) -> str:
             f"{score.describe()}; lanes matched by {official.matcher()}). A match counts "
             "below an integer cost of 150 (1.5 m over 100 samples, y 3-102 m); recall and precision at 75% of a "
             "lane's visible samples within 1.5 m; x/z errors near y <= 40 m and far beyond, over the samples both "
-            "lanes see. Printed as the evaluator prints them ({:.8}).\n\n" + summary_table(score) + "\n")
+            "lanes see. Printed as the evaluator prints them ({:.8}).\n\n" + summary_table(score) + "\n"
+            + "".join(f"\n{line}\n" for line in score.warnings))
 
 
-def check_protocol(protocol: str, prob_threshold: float) -> None:
+def check_protocol(protocol: str, prob_threshold: float | None) -> float | None:
+    """The probability a lane's highest class must exceed (None: the file protocol keeps every lane)."""
     if protocol not in PROTOCOLS:
         raise ConfigError(f"--protocol {protocol!r}: choose from {', '.join(PROTOCOLS)}")
-    if not (isinstance(prob_threshold, (int, float)) and 0.0 <= prob_threshold <= 1.0):
+    if protocol == "file":
+        if prob_threshold is not None:
+            raise ConfigError("--prob-threshold is for --protocol persformer-train (the file protocol keeps every "
+                              "lane)")
+        return None
+    threshold = PROB_THRESHOLD if prob_threshold is None else prob_threshold
+    if not (isinstance(threshold, (int, float)) and 0.0 <= threshold <= 1.0):
         raise ConfigError(f"--prob-threshold {prob_threshold!r} must be a probability, from 0 to 1")
-    if protocol == "file" and prob_threshold != PROB_THRESHOLD:
-        raise ConfigError("--prob-threshold is for --protocol persformer-train (the file protocol keeps every lane)")
+    return float(threshold)
