@@ -162,3 +162,19 @@ def test_an_attack_is_one_line_naming_the_file(base, tmp_path, name, which, corr
     assert result.exit_code == 2, result.output
     assert re.match(rf"error: {re.escape(str(path))}(:\d+)?: ", result.output), result.output
     assert said in result.output and result.output.count("\n") == 1, result.output
+
+
+@pytest.mark.parametrize("name, synth", [("openlane", synth_openlane), ("llamas", synth_llamas)])
+def test_a_score_written_inside_the_labels_is_not_read_as_labels_next_time(tmp_path, name, synth):
+    # --out inside a label folder: its .roneld-run.json was read as a label (a .json) the next time
+    synth(tmp_path / "set", clips=1)
+    common = ["score", name, "--labels", tmp_path / "set" / "labels", "--pred-root", tmp_path / "set" / "predictions",
+              "--workers", "1"]
+    first = CliRunner().invoke(main, [str(a) for a in common + ["--out", tmp_path / "set" / "labels" / "scores"]])
+    assert first.exit_code == 0, first.output
+    again = CliRunner().invoke(main, [str(a) for a in common + ["--out", tmp_path / "again"]])
+    assert again.exit_code == 0, again.output
+    assert first.output == again.output  # the same frames, counted the same
+    for written in (tmp_path / "again").iterdir():
+        if not written.name.startswith("."):
+            assert written.read_bytes() == (tmp_path / "set" / "labels" / "scores" / written.name).read_bytes()

@@ -7,6 +7,7 @@ import posixpath
 import stat
 import sys
 from pathlib import Path
+from typing import Any, Callable
 
 from ..errors import InputError
 from ..model import image_stem
@@ -57,6 +58,29 @@ def under_root(root, relpath: str) -> Path:
     if _FS_UTF8:
         return Path(root) / relpath
     return Path(root) / os.fsdecode(relpath.encode("utf-8", "surrogateescape"))
+
+
+def files_below(root: Path, suffix: str, key: Callable[[str], Any] | None = None) -> list[str]:
+    """The relative paths (with '/') of the files below `root` named `*<suffix>`: folder by folder in
+    the order of their paths, in a folder by `key` of the name (default: the name). This tool's own
+    files are not among them: an output folder (its manifest in it), a command's staging folder,
+    its lock and journal; so a command's --out given inside a label folder is not read as labels
+    the next time."""
+    from ..output import MANIFEST, STAGING_PREFIX
+
+    def ours(name: str) -> bool:
+        return name.startswith((".roneld-", STAGING_PREFIX))
+
+    walked = []
+    for folder, names, files in os.walk(root):
+        names[:] = [name for name in names
+                    if not ours(name) and not os.path.exists(os.path.join(folder, name, MANIFEST))]
+        walked.append((folder, [name for name in files if name.endswith(suffix) and not ours(name)]))
+    found = []
+    for folder, files in sorted(walked):
+        relative = os.path.relpath(folder, root).replace(os.sep, "/")
+        found += [name if relative == "." else f"{relative}/{name}" for name in sorted(files, key=key)]
+    return found
 
 
 def frame_sort_key(relpath: str):

@@ -18,7 +18,7 @@ from ...limits import LANES
 from ...image_header import image_file_size
 from ...lanes_io import decode_text, parse_json, read_bytes
 from ...model import image_stem
-from ...datasets._paths import read_image_list, check_folder, under_root
+from ...datasets._paths import read_image_list, check_folder, files_below, under_root
 
 SUFFIX = ".lines.json"
 IMAGE_SUFFIXES = (".jpg", ".png", ".jpeg")
@@ -44,12 +44,7 @@ def read_list(path: Path) -> list[str]:
 
 def every_labelled_image(labels: Path) -> list[str]:
     check_folder(labels, "label folder not found")
-    entries = []
-    for folder, _, files in sorted(os.walk(labels)):
-        relative = os.path.relpath(folder, labels).replace(os.sep, "/")
-        for name in sorted(name for name in files if name.endswith(SUFFIX)):
-            stem = name[:-len(SUFFIX)]
-            entries.append(stem if relative == "." else f"{relative}/{stem}")
+    entries = [relpath[:-len(SUFFIX)] for relpath in files_below(labels, SUFFIX)]
     if not entries:
         raise InputError(labels, f"no <name>{SUFFIX} here: is this CurveLanes' labels folder?")
     return entries

@@ -36,7 +36,7 @@ from ...json_fields import is_finite_number, shown
 from ...lanes_io import FAR_FROM_ORIGIN, MAX_PREDICTED_COORDINATE, parse_json, read_bytes
 from ...limits import CONFIG, LANES as LANE_COUNT
 from ...model import Clip, Frame, Lane
-from ...datasets._paths import check_folder, under_root
+from ...datasets._paths import check_folder, files_below, under_root
 
 IMAGE_WIDTH, IMAGE_HEIGHT = 1276, 717  # common/constants.py
 FIRST_ROW = 300  # add_ys: xs[300:], rows 300..716
@@ -291,17 +291,14 @@ def every_label(labels: Path) -> dict[str, Path]:
     """key -> label file for every .json below `labels` (load_labels walks the folder), sorted by key."""
     check_folder(labels, "label folder not found (expected <recording>/<frame>.json below it)")
     found: dict[str, Path] = {}
-    for folder, _, files in os.walk(labels):
-        for name in files:
-            if not name.endswith(".json"):
-                continue
-            path = Path(folder) / name
-            key = frame_key(os.path.relpath(path, labels).replace(os.sep, "/"))
-            if key in found:
-                raise InputError(path, f"a second label known as {key} (first: {found[key]}): evaluate.py pairs "
-                                       "a label with pred_dir/<recording>/<frame>.lines.txt, so both would be scored "
-                                       "against one prediction; give one split's folder")
-            found[key] = path
+    for relative in files_below(labels, ".json"):
+        path = labels / relative
+        key = frame_key(relative)
+        if key in found:
+            raise InputError(path, f"a second label known as {key} (first: {found[key]}): evaluate.py pairs "
+                                   "a label with pred_dir/<recording>/<frame>.lines.txt, so both would be scored "
+                                   "against one prediction; give one split's folder")
+        found[key] = path
     if not found:
         raise InputError(labels, "no .json label below this folder: is it LLAMAS's labels/<split>?")
     return dict(sorted(found.items()))

@@ -9,8 +9,6 @@ is refused here with its problem named.
 
 from __future__ import annotations
 
-import os
-import posixpath
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,7 +19,7 @@ from ...json_fields import is_finite_number, shown
 from ...limits import LANES
 from ...lanes_io import check_coordinates, decode_text, parse_json, read_bytes
 from ...model import Lane, image_stem
-from ...datasets._paths import read_image_list, check_folder, frame_sort_key, under_root
+from ...datasets._paths import read_image_list, check_folder, files_below, frame_sort_key, under_root
 
 IMAGE_WIDTH, IMAGE_HEIGHT = 1920, 1280  # evaluate.cpp:125-126 (-c, -r): the canvas every frame is drawn on
 
@@ -46,11 +44,7 @@ def read_list(path: Path) -> list[str]:
 def every_labelled_frame(labels: Path) -> list[str]:
     """`<segment>/<frame>.jpg` for every `<segment>/<frame>.json` below `labels`, sorted."""
     check_folder(labels, "annotation folder not found")
-    entries = []
-    for folder, _, files in sorted(os.walk(labels)):
-        relative = os.path.relpath(folder, labels)
-        for name in sorted((name for name in files if name.endswith(".json")), key=frame_sort_key):
-            entries.append(posixpath.join("" if relative == "." else relative.replace(os.sep, "/"), name[:-5] + ".jpg"))
+    entries = [relpath[:-len(".json")] + ".jpg" for relpath in files_below(labels, ".json", frame_sort_key)]
     if not entries:
         raise InputError(labels, "no <segment>/<frame>.json here: is this OpenLane's lane2d annotation folder?")
     return entries

@@ -11,7 +11,6 @@ numbers it prints. The evaluator prints them with `{:.8}`; summary.md does the s
 
 from __future__ import annotations
 
-import os
 import posixpath
 from dataclasses import dataclass
 from pathlib import Path
@@ -226,18 +225,10 @@ def _merged(sharding: Sharding, n_frames: int, n_methods: int) -> tuple[np.ndarr
 
 def _every_label(labels: Path) -> list[str]:
     """`<segment>/<frame>.jpg` for every `<segment>/<frame>.json` below `labels`, sorted."""
-    from ...datasets._paths import check_folder, frame_sort_key
+    from ...datasets._paths import check_folder, files_below, frame_sort_key
 
     check_folder(labels, "annotation folder not found")
-    found = []
-    for folder, names, files in os.walk(labels):
-        # hidden entries, and an output folder of this tool written inside (its .roneld-run.json), are not labels
-        names[:] = [name for name in names if not name.startswith(".")
-                    and not os.path.exists(os.path.join(folder, name, ".roneld-run.json"))]
-        relative = os.path.relpath(folder, labels).replace(os.sep, "/")
-        found += [posixpath.normpath(posixpath.join(relative, name)) for name in files
-                  if name.endswith(".json") and not name.startswith(".")]
-    found.sort(key=lambda relpath: (posixpath.dirname(relpath), frame_sort_key(posixpath.basename(relpath))))
+    found = files_below(labels, ".json", frame_sort_key)
     if not found:
         raise InputError(labels, "no <segment>/<frame>.json here: is this OpenLane's lane3d annotation folder?")
     return [relpath[:-len(".json")] + ".jpg" for relpath in found]
