@@ -408,12 +408,10 @@ def show_gallery(score_dir: Path, worst: int | None = None, out: str | Path | No
     ground truth and every method's lanes over the image (`image_root`, default the one the
     score read; a blank canvas of the frame's size without one): gallery/<k>.png and gallery.png,
     and report.html with the score's error table, its score sweep and the gallery."""
-    from .report.gallery import read_gallery, stage_gallery
+    from .report.gallery import GALLERY_FRAMES, read_gallery, stage_gallery
 
     if image_root is not None and not Path(image_root).is_dir():
         raise InputError(Path(image_root), "not a folder: give the folder the frames' images are under")
-    from .report.gallery import GALLERY_FRAMES
-
     if worst is not None and worst > GALLERY_FRAMES:
         raise ConfigError(f"--worst {worst}: a score's gallery keeps {GALLERY_FRAMES} frames a reason")
     record = read_gallery(score_dir)

@@ -274,7 +274,8 @@ def only_frames(keys: Sequence[str], frames: Collection[str] | None, shard: str 
     wanted = set(frames)
     kept = [key for key in keys if key in wanted]
     if len(kept) != len(wanted):
-        missing = next(frame for frame in frames if frame not in set(kept))
+        listed = set(kept)
+        missing = next(frame for frame in frames if frame not in listed)
         raise ConfigError(f"frame {missing!r} is not among those listed")
     return kept
 

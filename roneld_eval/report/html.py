@@ -21,6 +21,7 @@ from ..errors import InputError
 from ..lanes_io import read_bytes, read_text
 from ..limits import MAP, RUN_TABLE
 from ..methods import METHOD_TABLE
+from .gallery import GALLERY_FRAMES
 from .tables import Protocol, dataset_name, display_name, official_headline
 
 STYLE = """
@@ -41,10 +42,8 @@ def _markdown_table(text: str) -> str:
         return ""
     def cells(line):
         return [html.escape(c.strip(), quote=False) for c in line.strip("|").split("|")]
-    def bold(cell):
-        return re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", cell)
     head = "".join(f"<th>{c}</th>" for c in cells(rows[0]))
-    body = "".join("<tr>" + "".join(f"<td>{bold(c)}</td>" for c in cells(row)) + "</tr>" for row in rows[2:])
+    body = "".join("<tr>" + "".join(f"<td>{_bold(c)}</td>" for c in cells(row)) + "</tr>" for row in rows[2:])
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
@@ -52,7 +51,11 @@ def _markdown_notes(text: str) -> str:
     """The paragraphs of one of our Markdown files that are neither its title nor its table."""
     paragraphs = [block.strip() for block in text.split("\n\n")]
     notes = [block for block in paragraphs if block and not block.startswith(("#", "|"))]
-    text = " ".join(html.escape(" ".join(block.split()), quote=False) for block in notes)
+    return _bold(" ".join(html.escape(" ".join(block.split()), quote=False) for block in notes))
+
+
+def _bold(text: str) -> str:
+    """Escaped Markdown text with its **bold** as HTML."""
     return re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", text)
 
 
@@ -217,8 +220,9 @@ def gallery_note(per_reason: int, redrawn: str) -> str:
             f"{redrawn}")
 
 
-RUN_GALLERY = ("gallery.json keeps six frames a reason with their lanes; `roneld-eval score NAME --diagnose --out` "
-               "on the run's lanes/ and `roneld-eval show --run` of that folder draw more, over the images.")
+RUN_GALLERY = (f"gallery.json keeps {GALLERY_FRAMES} frames a reason with their lanes; `roneld-eval score NAME "
+               "--diagnose --out` on the run's lanes/ and `roneld-eval show --run` of that folder draw more, over the "
+               "images.")
 
 
 def _best_scores(path: Path) -> str:
@@ -244,8 +248,9 @@ def diagnosis_sections(tables: Path, pictures: Path, note: str) -> list[str]:
     return [*_section("Why F1 is not higher: error types", _present(tables, "errors.md"),
                       _present(tables, "errors.png"), None),
             *_section("Score sweep", None, _present(tables, "sweep_scores.png"),
-                      "Precision, recall and F1 when only the lanes scoring at least each threshold are kept; the best "
-                      "F1 is chosen on the test set itself (every threshold in sweep_scores.csv).",
+                      "Precision, recall and F1 with only the lanes each score threshold keeps (by the benchmark's own "
+                      "rule, in the figure's title); the best F1 is chosen on the test set itself (every threshold in "
+                      "sweep_scores.csv).",
                       None if sweep is None else _best_scores(sweep)),
             *_section("Gallery: the worst frames", None, _present(pictures, "gallery.png"), note)]
 
@@ -253,6 +258,6 @@ def diagnosis_sections(tables: Path, pictures: Path, note: str) -> list[str]:
 def build_diagnosis_html(tables: Path, pictures: Path, title: str, per_reason: int) -> str:
     """The page of a score written with --diagnose or --score-sweep (`tables`), its gallery drawn
     in `pictures` (`roneld-eval show` writes it there, `per_reason` frames a reason)."""
-    note = gallery_note(per_reason, "gallery.json keeps six a reason: `--worst N` draws more, `--image-root` over "
-                                    "the images.")
+    note = gallery_note(per_reason, f"gallery.json keeps {GALLERY_FRAMES} a reason: `--worst N` draws more, "
+                                    "`--image-root` over the images.")
     return _page([f"<h1>{html.escape(title)}</h1>", *diagnosis_sections(tables, pictures, note)])
