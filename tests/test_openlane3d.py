@@ -13,6 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from roneld_eval.benchmarks.openlane3d import official
+from roneld_eval.metrics import lane3d_flow
 from roneld_eval.benchmarks.openlane3d.official import frame_counts, ground_truth_lanes
 from roneld_eval.benchmarks.openlane3d.reader import json_path, read_prediction, read_truth
 from roneld_eval.benchmarks.openlane3d.score import COLUMNS, printed, score_openlane3d
@@ -85,7 +86,7 @@ def test_the_totals_and_the_printed_lines_are_the_evaluators(golden_set):
 
 def test_without_ortools_every_matching_costs_what_the_evaluators_costs(golden_set, monkeypatch):
     root, golden = golden_set
-    monkeypatch.setattr(official, "flow_solver", lambda: None)
+    monkeypatch.setattr(lane3d_flow, "flow_solver", lambda: None)
     other = 0
     for (truth, counts), theirs in zip(_frames(root), golden["frames"], strict=True):
         assert sum(pair[2] for pair in counts.pairs) == sum(pair[2] for pair in theirs["matching"]), truth.key
@@ -224,9 +225,9 @@ def test_resampling_is_interp1ds(tmp_path):
     for _ in range(200):
         n = int(rng.integers(2, 12))
         lane = np.column_stack([rng.normal(0, 5, n), rng.uniform(-10, 130, n), rng.normal(0, 1, n)])
-        x, z, inside = official.resample(lane)
-        assert x.tolist() == interp1d(lane[:, 1], lane[:, 0], fill_value="extrapolate")(official.Y_SAMPLES).tolist()
-        assert z.tolist() == interp1d(lane[:, 1], lane[:, 2], fill_value="extrapolate")(official.Y_SAMPLES).tolist()
+        x, z, inside = lane3d_flow.resample(lane)
+        assert x.tolist() == interp1d(lane[:, 1], lane[:, 0], fill_value="extrapolate")(lane3d_flow.Y_SAMPLES).tolist()
+        assert z.tolist() == interp1d(lane[:, 1], lane[:, 2], fill_value="extrapolate")(lane3d_flow.Y_SAMPLES).tolist()
         assert inside.dtype == np.float32
 
 
@@ -313,8 +314,8 @@ def test_a_frame_of_many_lanes_is_paired_a_block_at_a_time_with_the_same_bits(mo
     pred = gt[rng.permutation(7)][:5] + rng.normal(0, 0.5, (5, 100, 2))
     gt_visible = (rng.random((7, 100)) < 0.8).astype(float)
     pred_visible = (rng.random((5, 100)) < 0.8).astype(float)
-    whole = official.pair_distances(gt, pred, gt_visible, pred_visible)
-    monkeypatch.setattr(official, "PAIRS_AT_ONCE", 6)  # a row of ground truth a block
-    blocked = official.pair_distances(gt, pred, gt_visible, pred_visible)
+    whole = lane3d_flow.pair_distances(gt, pred, gt_visible, pred_visible, official.PAIR_RULE)
+    monkeypatch.setattr(lane3d_flow, "PAIRS_AT_ONCE", 6)  # a row of ground truth a block
+    blocked = lane3d_flow.pair_distances(gt, pred, gt_visible, pred_visible, official.PAIR_RULE)
     for a, b in zip(whole, blocked):
         assert a.shape == b.shape and a.tobytes() == b.tobytes()

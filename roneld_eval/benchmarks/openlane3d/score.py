@@ -22,7 +22,7 @@ from ...errors import ConfigError, InputError
 from ...output import Staging
 from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
 from ...shards import Merged, Sharding
-from . import official
+from ...metrics import lane3d_flow
 from .official import frame_counts, ground_truth_lanes, totals
 from .reader import json_path, read_list, read_prediction, read_truth
 
@@ -187,10 +187,8 @@ def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: 
                                     {"cat_stats": stats, "cat_errors": np.concatenate(tagged or [np.zeros((0, 5))])},
                                     files_of=files_of)
                 return None
-        if official.flow_solver() is None:
-            warnings.append("warning: OR-Tools is not installed, so lanes are matched by scipy at the same total cost; "
-                            "where another matching costs as little, the evaluator's min-cost flow may take that one "
-                            "(pip install ortools, or roneld-eval[openlane3d], to match as it does)")
+        if lane3d_flow.flow_solver() is None:
+            warnings.append(lane3d_flow.NO_ORTOOLS_WARNING)
         score = OpenLane3dScore(_table(trees, groups, stats, errors), tuple(tree.method for tree in trees),
                                 tuple(groups), len(relpaths), tuple(warnings), protocol, threshold)
         if folder is not None:
@@ -264,7 +262,7 @@ def summary_table(score: OpenLane3dScore) -> str:
 def summary_markdown(score: OpenLane3dScore) -> str:
     return ("# OpenLane 3D, official protocol\n\n"
             f"{score.n_frames:,} images, scored as OpenLane's lane3d evaluator (eval_3D_lane.py, 8a0ce6b; "
-            f"{score.describe()}; lanes matched by {official.matcher()}). A match counts "
+            f"{score.describe()}; lanes matched by {lane3d_flow.matcher()}). A match counts "
             "below an integer cost of 150 (1.5 m over 100 samples, y 3-102 m); recall and precision at 75% of a "
             "lane's visible samples within 1.5 m; x/z errors near y <= 40 m and far beyond, over the samples both "
             "lanes see. Printed as the evaluator prints them ({:.8}).\n\n" + summary_table(score) + "\n"
