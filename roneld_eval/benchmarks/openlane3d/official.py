@@ -101,11 +101,11 @@ def frame_counts(pred_lanes: list[np.ndarray], pred_category: Sequence[int | flo
                  gt_visibility: Sequence[np.ndarray], gt_category: Sequence[int | float]) -> FrameCounts:
     """One frame as `LaneEval.bench` scores it (ground truth already in the ground frame)."""
     seen = [lane[np.asarray(visible) > 0, ...] for lane, visible in zip(gt_lanes, gt_visibility)]
-    pred, pred_category = _kept(pred_lanes, list(pred_category))
-    gt, gt_category = _kept([lane for lane in seen if lane.shape[0] > 1],
-                            [gt_category[k] for k, lane in enumerate(seen) if lane.shape[0] > 1])
-    gt, gt_category, gt_visible = _sampled(gt, gt_category)
-    pred, pred_category, pred_visible = _sampled(pred, pred_category)
+    pred_kept, pred_category = _kept(pred_lanes, list(pred_category))
+    gt_kept, gt_category = _kept([lane for lane in seen if lane.shape[0] > 1],
+                                 [gt_category[k] for k, lane in enumerate(seen) if lane.shape[0] > 1])
+    gt, gt_category, gt_visible = _sampled(gt_kept, gt_category)
+    pred, pred_category, pred_visible = _sampled(pred_kept, pred_category)
     cnt_gt, cnt_pred = len(gt), len(pred)
     num_match, cost, errors = pair_distances(gt, pred, gt_visible, pred_visible, PAIR_RULE)
     pairs = matching(cost)
