@@ -287,10 +287,11 @@ def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | Non
     more than one task (all cores unless `workers`), else here; a progress bar counts frames.
     The kernels are compiled once here first, not in every worker. The prediction `trees` read
     are checked to hold, once scored, every file they held when the command looked."""
-    from . import kernels
     from .progress import progress_bar
 
-    if kernel_groups:
+    if kernel_groups:  # numba is imported only for them (a fifth of a second)
+        from . import kernels
+
         kernels.prepare(announce=announce, needed=kernel_groups)
     from .workers import worker_count
 
@@ -306,6 +307,8 @@ def scored_pieces(function: Callable, tasks: Sequence[tuple], workers: int | Non
                     bar.update(len(task[0]))
         else:
             if kernel_groups:
+                from . import kernels
+
                 kernels.warm_up(kernel_groups)  # loaded here in one go, not frame by frame
             for task in tasks:
                 pieces.append(function(task))

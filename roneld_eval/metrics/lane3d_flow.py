@@ -43,6 +43,18 @@ class PairRule:
     small_cost_is_one: bool
 
 
+def linear(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """scipy's interp1d(x, y, fill_value="extrapolate")(at), linear, written out (its `_call_linear`,
+    the same operations): x sorted stably, each point's interval by np.searchsorted (left), the
+    first or last one beyond the ends."""
+    order = np.argsort(x, kind="mergesort")  # interp1d sorts its x (assume_sorted=False)
+    xs, ys = x[order], y[order]
+    index = np.searchsorted(xs, at).clip(1, len(xs) - 1).astype(int)
+    lo, hi = index - 1, index
+    with np.errstate(divide="ignore", invalid="ignore"):  # equal x: inf and NaN, as interp1d gives them
+        return (ys[hi] - ys[lo]) / (xs[hi] - xs[lo]) * (at - xs[lo]) + ys[lo]
+
+
 def resample(lane: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x and z at Y_SAMPLES, and whether each sample lies within 5 m of the lane's y range
     (utils.resample_laneline_in_y with out_vis, its interp1d's linear extrapolation written out)."""
@@ -50,29 +62,58 @@ def resample(lane: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     y_max = np.max(lane[:, 1]) + 5
     if lane.shape[1] < 3:
         lane = np.concatenate([lane, np.zeros([lane.shape[0], 1], dtype=np.float32)], axis=1)
-    order = np.argsort(lane[:, 1], kind="mergesort")  # interp1d sorts its x (assume_sorted=False)
-    ys, xs, zs = lane[order, 1], lane[order, 0], lane[order, 2]
-    index = np.searchsorted(ys, Y_SAMPLES).clip(1, len(ys) - 1).astype(int)
-    lo, hi = index - 1, index
-    with np.errstate(divide="ignore", invalid="ignore"):  # equal y: inf and NaN, as interp1d gives them
-        x_values = (xs[hi] - xs[lo]) / (ys[hi] - ys[lo]) * (Y_SAMPLES - ys[lo]) + xs[lo]
-        z_values = (zs[hi] - zs[lo]) / (ys[hi] - ys[lo]) * (Y_SAMPLES - ys[lo]) + zs[lo]
+    x_values, z_values = linear(lane[:, 1], lane[:, 0], Y_SAMPLES), linear(lane[:, 1], lane[:, 2], Y_SAMPLES)
     inside = np.logical_and(Y_SAMPLES >= y_min, Y_SAMPLES <= y_max)
     return x_values, z_values, inside.astype(np.float32) + 1e-9
 
 
+SAMPLED_AT_ONCE = 4_000_000  # lanes x points x samples compared at once in `sampled` (4 MB of booleans)
+
+
 def sampled(lanes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Each lane (N x 3, or N x 2, at least two points) at Y_SAMPLES, as (lanes, 100, (x, z)), and
-    its visibility (lanes, 100): x in the range, y within the lane's own range and near it."""
+    its visibility (lanes, 100): x in the range, y within the lane's own range and near it. The
+    lanes of a frame are resampled together (`resample`'s operations on every lane at once: the
+    same bits), a block of them at a time."""
     points, visibility = np.zeros((len(lanes), 100, 2)), np.zeros((len(lanes), 100))
-    for i, lane in enumerate(lanes):
-        min_y, max_y = np.min(lane[:, 1]), np.max(lane[:, 1])
-        x_values, z_values, visibility_vec = resample(lane)
-        points[i] = np.vstack([x_values, z_values]).T
-        visibility[i, :] = np.logical_and(x_values >= X_MIN, np.logical_and(
-            x_values <= X_MAX, np.logical_and(Y_SAMPLES >= min_y, Y_SAMPLES <= max_y)))
-        visibility[i, :] = np.logical_and(visibility[i, :], visibility_vec)
+    start = 0
+    while start < len(lanes):
+        stop, longest = start, 0
+        while stop < len(lanes) and max(longest, len(lanes[stop])) * (stop + 1 - start) * 100 <= SAMPLED_AT_ONCE:
+            longest = max(longest, len(lanes[stop]))
+            stop += 1
+        stop = max(stop, start + 1)  # one lane of more points than the block holds: alone
+        points[start:stop], visibility[start:stop] = _sampled_block(lanes[start:stop])
+        start = stop
     return points, visibility
+
+
+def _sampled_block(lanes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """`sampled` of a few lanes at once: their points padded with y = inf (sorted last, never below a
+    sample), sorted by y as interp1d sorts them, each sample's interval found by counting the points
+    below it (np.searchsorted's left side), then interp1d's linear formula on every lane alike."""
+    count = np.array([len(lane) for lane in lanes])
+    ys = np.full((len(lanes), count.max()), np.inf)
+    xs, zs = np.zeros(ys.shape), np.zeros(ys.shape)
+    for i, lane in enumerate(lanes):
+        ys[i, :count[i]], xs[i, :count[i]] = lane[:, 1], lane[:, 0]
+        if lane.shape[1] > 2:
+            zs[i, :count[i]] = lane[:, 2]
+    rows = np.arange(len(lanes))[:, None]
+    order = np.argsort(ys, axis=1, kind="mergesort")
+    ys, xs, zs = ys[rows, order], xs[rows, order], zs[rows, order]
+    below = np.sum(ys[:, :, None] < Y_SAMPLES[None, None, :], axis=1)
+    hi = np.minimum(np.maximum(below, 1), (count - 1)[:, None])
+    lo = hi - 1
+    y_lo, y_hi = ys[rows, lo], ys[rows, hi]
+    with np.errstate(divide="ignore", invalid="ignore"):  # equal y: inf and NaN, as interp1d gives them
+        x_values = (xs[rows, hi] - xs[rows, lo]) / (y_hi - y_lo) * (Y_SAMPLES - y_lo) + xs[rows, lo]
+        z_values = (zs[rows, hi] - zs[rows, lo]) / (y_hi - y_lo) * (Y_SAMPLES - y_lo) + zs[rows, lo]
+    min_y, max_y = ys[:, :1], ys[rows, (count - 1)[:, None]]
+    near = np.logical_and(Y_SAMPLES >= min_y - 5, Y_SAMPLES <= max_y + 5).astype(np.float32) + 1e-9
+    visible = np.logical_and(x_values >= X_MIN, np.logical_and(
+        x_values <= X_MAX, np.logical_and(Y_SAMPLES >= min_y, Y_SAMPLES <= max_y)))
+    return np.stack([x_values, z_values], axis=-1), np.logical_and(visible, near).astype(float)
 
 
 PAIRS_AT_ONCE = 20000  # pairs whose 100 samples are held at once (some 100 MB of arrays)

@@ -16,7 +16,7 @@ and every digit it prints comes out the same:
   np.linspace(0.05, 0.95, 19) (several a hair below their decimal: 0.49999999999999994, so that a
   probability of exactly 0.5 passes "0.5"); recall, precision and F = 2RP / (R + P + 1e-6) at each,
   from sums over frames with 1e-6 added to each denominator; AP is the mean over recall 0.05, 0.10,
-  ..., 0.95 of the precision interpolated (scipy's interp1d) along the curve with (1, 0) and (0, 1)
+  ..., 0.95 of the precision interpolated (scipy's interp1d, lane3d_flow.linear) along the curve with (1, 0) and (0, 1)
   added at its ends; the threshold of the highest lane-line F (the first of equals) is chosen on the
   test set, and the centre lines are read at that same threshold;
 - `bench_one_submit` at that threshold gives F, recall and precision again and the x/z errors near
@@ -31,7 +31,7 @@ from typing import Sequence
 import numpy as np
 
 from ...metrics.lane3d_flow import DIST_TH, MATCH_LIMIT, RATIO_TH, X_MAX, X_MIN, Y_SAMPLES, PairRule, matching, \
-    pair_distances, sampled
+    linear, pair_distances, sampled
 
 PAIR_RULE = PairRule(both_unseen=DIST_TH, no_error=DIST_TH, small_cost_is_one=False)
 THRESHOLDS = np.linspace(0.05, 0.95, 19)  # varying_th
@@ -74,19 +74,20 @@ def frame_sweep(pred_lanes: Sequence[np.ndarray], probabilities: Sequence[float]
     scores = np.asarray(probabilities, dtype=float).reshape(len(pred_lanes))
     live = np.flatnonzero(scores > THRESHOLDS[0])  # the others are never compared (nor need two points)
     scores = scores[live]
-    gt_points, gt_visible = sampled(truth_kept(gt_lanes, gt_visibility))
-    pred_points, pred_visible = sampled([pred_lanes[int(j)] for j in live])
-    num_match, cost, errors = pair_distances(gt_points, pred_points, gt_visible, pred_visible, PAIR_RULE)
-    gt_seen, pred_seen = np.sum(gt_visible, axis=1), np.sum(pred_visible, axis=1)
+    truth = truth_kept(gt_lanes, gt_visibility)
+    points, visible = sampled(truth + [pred_lanes[int(j)] for j in live])  # one pass over every lane
+    n = len(truth)
+    num_match, cost, errors = pair_distances(points[:n], points[n:], visible[:n], visible[n:], PAIR_RULE)
+    gt_seen, pred_seen = np.sum(visible[:n], axis=1), np.sum(visible[n:], axis=1)
     counts = np.zeros((len(THRESHOLDS), len(COUNTS)))
     found: list[np.ndarray] = []
     pairs: list[tuple[tuple[int, int, int], ...]] = []
     done: dict[bytes, tuple] = {}
-    for t, threshold in enumerate(THRESHOLDS):
-        kept = np.flatnonzero(scores > threshold)
-        if kept.tobytes() not in done:
-            done[kept.tobytes()] = _at(kept, num_match, cost, errors, gt_seen, pred_seen)
-        counts[t], matched, pairs_t = done[kept.tobytes()]
+    for t, above in enumerate(scores[None, :] > THRESHOLDS[:, None]):
+        key = above.tobytes()
+        if key not in done:
+            done[key] = _at(np.flatnonzero(above), num_match, cost, errors, gt_seen, pred_seen)
+        counts[t], matched, pairs_t = done[key]
         found.append(matched)
         pairs.append(pairs_t)
     return FrameSweep(counts, tuple(found), tuple(pairs))
@@ -130,10 +131,8 @@ def sweep_curve(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 def average_precision(recall: np.ndarray, precision: np.ndarray) -> float:
     """bench_one_submit_varying_probs' AP: the precision interpolated along the curve, with (1, 0)
     and (0, 1) at its ends, averaged over RECALLS."""
-    from scipy.interpolate import interp1d
-
-    along = interp1d(np.array([1.0] + recall.tolist() + [0.0]), np.array([0.0] + precision.tolist() + [1.0]))
-    return float(np.mean(along(RECALLS)))
+    return float(np.mean(linear(np.array([1.0] + recall.tolist() + [0.0]), np.array([0.0] + precision.tolist() + [1.0]),
+                                RECALLS)))
 
 
 def totals(counts: np.ndarray, errors: np.ndarray, best: int | None = None) -> Totals:

@@ -82,13 +82,20 @@ def _lanes(record: dict, key: str, path: Path, number: int) -> tuple[np.ndarray,
 
 
 def _points(lane: Any, path: Path, number: int, where: str) -> np.ndarray:
-    """A lane's [x, y, z] (or [x, y]) points as an N x 3 (N x 2) float array."""
-    if not (isinstance(lane, list) and len(lane) <= MAX_POINTS and all(isinstance(p, list) for p in lane)
-            and len({len(p) for p in lane}) <= 1 and (not lane or len(lane[0]) in (2, 3))):
+    """A lane's [x, y, z] (or [x, y]) points as an N x 3 (N x 2) float array, as NumPy makes one of
+    them for the evaluator (true and false are 1 and 0 there too); text, null, numbers beyond a
+    float's range and ragged lists are refused."""
+    if not (isinstance(lane, list) and len(lane) <= MAX_POINTS):
         raise InputError(path, f"{where}: must be a list of [x, y, z] points", line=number)
-    if not all(is_finite_number(v) for point in lane for v in point):
+    try:
+        array = np.array(lane) if lane else np.zeros((0, 3))
+    except (ValueError, TypeError, OverflowError):
+        array = np.array([], dtype=object)
+    if array.ndim != 2 or array.shape[1] not in (2, 3):
+        raise InputError(path, f"{where}: must be a list of [x, y, z] points", line=number)
+    if array.dtype.kind not in "biuf" or (array.dtype.kind == "f" and not np.isfinite(array).all()):
         raise InputError(path, f"{where}: something other than finite numbers", line=number)
-    return np.array(lane, dtype=float).reshape(len(lane), len(lane[0]) if lane else 3)
+    return array.astype(float)
 
 
 def _values(record: dict, key: str, count: int, path: Path, number: int, what: str) -> list:
@@ -96,6 +103,19 @@ def _values(record: dict, key: str, count: int, path: Path, number: int, what: s
     if not isinstance(values, list) or len(values) != count:
         raise InputError(path, f"`{key}` must hold {what} for each of its {count} lanes", line=number)
     return values
+
+
+def _numbers(values: Any) -> np.ndarray | None:
+    """A list of finite numbers as a float array (None for anything else)."""
+    if not isinstance(values, list):
+        return None
+    try:
+        array = np.array(values) if values else np.zeros(0)
+    except (ValueError, TypeError, OverflowError):
+        return None
+    if array.ndim != 1 or array.dtype.kind not in "biuf" or not np.isfinite(array.astype(float)).all():
+        return None
+    return array.astype(float)
 
 
 def truth_of(record: dict, path: Path, number: int) -> Truth:
@@ -110,11 +130,11 @@ def truth_of(record: dict, path: Path, number: int) -> Truth:
         visible = _values(record, visible_key, len(found), path, number, "a visibility list")
         checked = []
         for k, (lane, values) in enumerate(zip(found, visible)):
-            if (not isinstance(values, list) or len(values) != len(lane)
-                    or not all(is_finite_number(v) for v in values)):
+            array = _numbers(values)
+            if array is None or array.shape != (len(lane),):
                 raise InputError(path, f"`{visible_key}`[{k}] must hold a number for each of its lane's {len(lane)} "
                                        "points", line=number)
-            checked.append(np.array(values, dtype=float))
+            checked.append(array)
         visibility[kind] = tuple(checked)
     return Truth(lanes, visibility)
 

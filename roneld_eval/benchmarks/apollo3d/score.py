@@ -184,10 +184,15 @@ def _score_frames(task) -> tuple[np.ndarray, np.ndarray]:
                 sweep = frame_sweep(predicted.lanes[kind], predicted.probabilities[kind], truth.lanes[kind] or (),
                                     truth.visibility[kind] or ())
                 counts[f, m, t] = sweep.counts
-                for threshold, errors in enumerate(sweep.errors):
-                    tags = np.tile([m, position, t, threshold], (len(errors), 1))
-                    rows.append(np.column_stack([tags, errors]))
+                rows.append(_tagged(sweep.errors, m, position, t))
     return counts, np.concatenate(rows) if rows else np.zeros((0, 8))
+
+
+def _tagged(errors: Sequence[np.ndarray], method: int, frame: int, kind: int) -> np.ndarray:
+    """A frame's errors at each threshold as rows: method, frame, lane type, threshold, the four errors."""
+    at = np.repeat(np.arange(len(errors)), [len(found) for found in errors])
+    tags = np.column_stack([np.full(len(at), method), np.full(len(at), frame), np.full(len(at), kind), at])
+    return np.column_stack([tags, np.concatenate(errors)]) if len(at) else np.zeros((0, 8))
 
 
 def _scored(share: Sequence[str], keys: Sequence[str], truths: Sequence[Truth], predictions, kinds, workers, progress,
