@@ -15,9 +15,9 @@ that happens inside every worker process at once, in the middle of the first cli
   mode included, so that no compile or first-call import lands in a timed region.
 
 Kernel groups: "roneld" and "baseline" (extract/_kernels.ENTRY_SIGNATURES), "official",
-"paper" and "diagnosis" (metrics/_kernels/__init__.py ENTRY_SIGNATURES; each brings "tables"), and "maps" (decoding PNG
-maps, maps/_kernels.ENTRY_SIGNATURES). `groups_for` says which a run needs. Nothing here
-changes a result: it only decides when compiling happens.
+"paper", "diagnosis" and "topview" (metrics/_kernels/__init__.py ENTRY_SIGNATURES; each brings
+"tables"), and "maps" (decoding PNG maps, maps/_kernels.ENTRY_SIGNATURES). `groups_for` says
+which a run needs. Nothing here changes a result: it only decides when compiling happens.
 The extractors' and the maps' kernels (and their modules) are imported only when one of their
 groups is asked for, so `score culane` loads the scoring kernels alone.
 """
@@ -38,9 +38,9 @@ from .metrics import _kernels as metric_kernels
 from .metrics.raster import warm_up as warm_up_scoring
 from .signals import deferred_signals
 
-GROUPS = ("roneld", "baseline", "official", "paper", "diagnosis", "maps")
+GROUPS = ("roneld", "baseline", "official", "paper", "diagnosis", "topview", "maps")
 EXTRACTION = ("roneld", "baseline")
-SCORING = ("official", "paper", "diagnosis")
+SCORING = ("official", "paper", "diagnosis", "topview")
 LOADING = ("maps",)
 
 @dataclass(frozen=True)
@@ -79,6 +79,7 @@ STEPS = (
     Step("roneld", frozenset({"roneld"}), ("frame_lanes", "track_lanes", "choose_active"), seconds=4.6),
     Step("baseline", frozenset({"baseline"}), ("row_argmax",), seconds=0.2),
     Step("maps", frozenset({"maps"}), ("unfilter_grey",), seconds=0.7),
+    Step("top view", frozenset({"topview"}), ("short_quad_extras", "rasterise_with_area"), seconds=3.0),
 )
 _STEP_NAMED = {step.name: step for step in STEPS}
 

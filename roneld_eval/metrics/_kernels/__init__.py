@@ -113,6 +113,10 @@ ENTRY_SIGNATURES: dict[str, list[tuple[Any, tuple]]] = {
     ],
     # paper.ego_masks and side_ious (raster.map_mask_set): the same kernels
     "paper": [(lane_set_runs, _LANE_SET), (lane_set_ious, _SET_IOUS)],
+    # lanes drawn from integer vertices into a top view (raster.mask_from_pixels: ONCE-3DLanes' IoU)
+    "topview": [(short_quad_extras, (_I,)),
+                (rasterise_with_area, (types.Array(types.int64, 1, "C"), types.Array(types.int64, 1, "C"), _I, _I, _I)
+                 + _TABLES)],
     # --diagnose (metrics.lane_errors): who matched whom, and the error types at every threshold
     "diagnosis": [
         (matched_columns, (types.Array(types.float64, 2, "C"), _COUNTS, _COUNTS, _F)),
