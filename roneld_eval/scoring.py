@@ -247,6 +247,15 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
     return trees, warnings
 
 
+def stopping_gaps(trees: Sequence[PredictionTree], listed: str = "listed images", file: str = "prediction file"
+                  ) -> list[str]:
+    """A warning for each method some of whose frames have no prediction file, for a benchmark whose
+    evaluator stops on the first: here each is a frame without lanes."""
+    return [f"warning: {tree.method}: {tree.listed - tree.found:,} of {tree.listed:,} {listed} have no {file}; "
+            "scored as frames without lanes (the official evaluator stops on the first)"
+            for tree in trees if tree.found < tree.listed]
+
+
 def check_method_names(named: Sequence[tuple[str, Path]], naming: str, what: str = "prediction trees") -> None:
     """Each method's name, (name, where it comes from), is UTF-8 text (it goes into every table)
     and no other's; else the error says how to name them (`naming`: '--pred-root NAME=DIR')."""
@@ -330,6 +339,18 @@ def _taking(out: str | Path | None, command: str, reads: Sequence[str | Path | N
             return
         with OutputFolder(out, command) as folder:
             yield folder
+
+
+def write_texts(folder: OutputFolder | None, texts: dict[str, str]) -> None:
+    """A score command's files, written into its --out folder (when given) and put in place whole."""
+    if folder is None:
+        return
+    from .output import Staging
+
+    staging = Staging(folder)
+    for name, text in texts.items():
+        staging.write_text(name, text)
+    folder.commit()
 
 
 def percent(value: float) -> str:

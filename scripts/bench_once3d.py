@@ -22,14 +22,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_openlane3d import timed  # noqa: E402  (one way of timing a child for every 3-D benchmark)
+from side_by_side import interleaved, timed  # noqa: E402
 
 RUNNER = """
 import sys
@@ -89,22 +88,7 @@ def main() -> None:
         theirs, mine = (_row(outputs[name], "0.95") for name in cases)
         same = theirs == mine and theirs is not None
         print(f"same 0.95 row: {same}" + ("" if same else f" ({theirs} / {mine})"))
-        walls: dict[str, list[float]] = {name: [] for name in cases}
-        cpus: dict[str, list[float]] = {name: [] for name in cases}
-        for _ in range(args.repeats):
-            for name, command in cases.items():
-                wall, cpu, _ = timed(command)
-                walls[name].append(wall)
-                cpus[name].append(cpu)
-        for name in cases:
-            wall, cpu = statistics.median(walls[name]), statistics.median(cpus[name])
-            print(f"  {name:32s} wall {wall:7.2f} s  CPU {cpu:7.2f} s  ({1000 * cpu / frames:.2f} ms CPU a frame)")
-        official, ours = cases
-        print(f"ours / official: wall {statistics.median(walls[ours]) / statistics.median(walls[official]):.3f}x, "
-              f"CPU {statistics.median(cpus[ours]) / statistics.median(cpus[official]):.3f}x "
-              f"(official / ours: {statistics.median(cpus[official]) / statistics.median(cpus[ours]):.1f}x); "
-              f"load {os.getloadavg()[0]:.1f}")
-
+        interleaved(cases, frames, args.repeats)
 
 if __name__ == "__main__":
     main()

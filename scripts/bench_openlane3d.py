@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
-import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from side_by_side import interleaved, timed  # noqa: E402
 
 RUNNER = """
 import sys
@@ -38,16 +38,6 @@ evaluator.dataset_name = 'openlane'
 stats = evaluator.bench_one_submit(args.pred_dir, args.dataset_dir, args.test_list, prob_th=0.5)
 print(' '.join('{{:.8}}'.format(v) for v in stats[:8]))
 """
-
-
-def timed(command: list[str]) -> tuple[float, float, str]:
-    """(wall s, CPU s of the child, its stdout)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    done = subprocess.run(command, check=True, capture_output=True, text=True)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), done.stdout
 
 
 def ours_printed(text: str) -> str:
@@ -83,22 +73,7 @@ def main() -> None:
         theirs = outputs["official eval_3D_lane.py"].splitlines()[-1].split()  # after its progress lines
         mine = ours_printed(outputs["roneld-eval score openlane3d"]).split()
         print(f"same eight printed numbers: {theirs == mine}" + ("" if theirs == mine else f" ({theirs} / {mine})"))
-        walls: dict[str, list[float]] = {name: [] for name in cases}
-        cpus: dict[str, list[float]] = {name: [] for name in cases}
-        for _ in range(args.repeats):
-            for name, command in cases.items():
-                wall, cpu, _ = timed(command)
-                walls[name].append(wall)
-                cpus[name].append(cpu)
-        for name in cases:
-            wall, cpu = statistics.median(walls[name]), statistics.median(cpus[name])
-            print(f"  {name:32s} wall {wall:7.2f} s  CPU {cpu:7.2f} s  ({1000 * cpu / frames:.2f} ms CPU a frame)")
-        official, ours = cases
-        print(f"ours / official: wall {statistics.median(walls[ours]) / statistics.median(walls[official]):.3f}x, "
-              f"CPU {statistics.median(cpus[ours]) / statistics.median(cpus[official]):.3f}x "
-              f"(official / ours: {statistics.median(cpus[official]) / statistics.median(cpus[ours]):.1f}x); "
-              f"load {os.getloadavg()[0]:.1f}")
-
+        interleaved(cases, frames, args.repeats)
 
 if __name__ == "__main__":
     main()

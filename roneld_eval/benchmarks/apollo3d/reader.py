@@ -27,6 +27,7 @@ LOWEST_THRESHOLD = float(THRESHOLDS[0])
 MAX_POINTS = 1 << 16  # of one lane
 KEYS = {"laneline": ("laneLines", "laneLines_visibility", "laneLines_prob"),
         "centerline": ("centerLines", "centerLines_visibility", "centerLines_prob")}
+KEYS_OF = {keys[2]: keys[0] for keys in KEYS.values()}  # a probability list's lanes
 
 
 @dataclass(frozen=True)
@@ -118,46 +119,48 @@ def _numbers(values: Any) -> np.ndarray | None:
     return array.astype(float)
 
 
+def _by_type(record: dict, path: Path, number: int, column: int, read) -> tuple[dict, dict]:
+    """Each lane type's lanes (None where the line has none), and what `read` makes of the list
+    under KEYS[type][column] for them (their visibility or probabilities)."""
+    lanes: dict[str, tuple[np.ndarray, ...] | None] = {}
+    values: dict[str, Any] = {}
+    for kind, keys in KEYS.items():
+        lanes[kind] = found = _lanes(record, keys[0], path, number)
+        values[kind] = None if found is None else read(found, keys[column])
+    return lanes, values
+
+
 def truth_of(record: dict, path: Path, number: int) -> Truth:
     """A label line's lanes and visibility."""
-    lanes: dict[str, tuple[np.ndarray, ...] | None] = {}
-    visibility: dict[str, tuple[np.ndarray, ...] | None] = {}
-    for kind, (key, visible_key, _) in KEYS.items():
-        lanes[kind] = found = _lanes(record, key, path, number)
-        if found is None:
-            visibility[kind] = None
-            continue
-        visible = _values(record, visible_key, len(found), path, number, "a visibility list")
+    def visibility(found: tuple[np.ndarray, ...], key: str) -> tuple[np.ndarray, ...]:
         checked = []
-        for k, (lane, values) in enumerate(zip(found, visible)):
+        for k, (lane, values) in enumerate(zip(found, _values(record, key, len(found), path, number,
+                                                              "a visibility list"))):
             array = _numbers(values)
             if array is None or array.shape != (len(lane),):
-                raise InputError(path, f"`{visible_key}`[{k}] must hold a number for each of its lane's {len(lane)} "
-                                       "points", line=number)
+                raise InputError(path, f"`{key}`[{k}] must hold a number for each of its lane's {len(lane)} points",
+                                 line=number)
             checked.append(array)
-        visibility[kind] = tuple(checked)
-    return Truth(lanes, visibility)
+        return tuple(checked)
+
+    return Truth(*_by_type(record, path, number, 1, visibility))
 
 
 def prediction_of(record: dict, path: Path, number: int) -> Predicted:
     """A prediction line's lanes and their probabilities (a lane the sweep may keep of two points or more)."""
-    lanes: dict[str, tuple[np.ndarray, ...] | None] = {}
-    probabilities: dict[str, np.ndarray | None] = {}
-    for kind, (key, _, prob_key) in KEYS.items():
-        lanes[kind] = found = _lanes(record, key, path, number)
-        if found is None:
-            probabilities[kind] = None
-            continue
-        values = _values(record, prob_key, len(found), path, number, "a probability")
+    def probabilities(found: tuple[np.ndarray, ...], key: str) -> np.ndarray:
+        values = _values(record, key, len(found), path, number, "a probability")
         bad = next((v for v in values if not is_finite_number(v)), None)
         if bad is not None:
-            raise InputError(path, f"`{prob_key}` holds {shown(bad)}, not a probability", line=number)
-        probabilities[kind] = np.array(values, dtype=float).reshape(len(found))
+            raise InputError(path, f"`{key}` holds {shown(bad)}, not a probability", line=number)
         short = next((k for k, lane in enumerate(found) if len(lane) < 2 and values[k] > LOWEST_THRESHOLD), None)
         if short is not None:  # one below every threshold is never compared, and may have fewer
-            raise InputError(path, f"{key}[{short}]: must be a list of [x, y, z], at least 2 points where its "
-                                   f"probability is above {LOWEST_THRESHOLD} (the evaluator's resampling asserts "
+            raise InputError(path, f"{KEYS_OF[key]}[{short}]: must be a list of [x, y, z], at least 2 points where "
+                                   f"its probability is above {LOWEST_THRESHOLD} (the evaluator's resampling asserts "
                                    "two)", line=number)
+        return np.array(values, dtype=float).reshape(len(found))
+
+    lanes, chances = _by_type(record, path, number, 2, probabilities)
     if lanes["laneline"] is None:
         raise InputError(path, "has no `laneLines` (the evaluator stops on it)", line=number)
-    return Predicted(lanes, probabilities)
+    return Predicted(lanes, chances)

@@ -21,8 +21,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...metrics import lane3d_flow
-from ...output import Staging
-from ...scoring import PlainTable, _root_specs, _taking, check_method_names, scored_pieces
+from ...scoring import PlainTable, write_texts, _root_specs, _taking, check_method_names, scored_pieces
 from ...shards import Merged, Sharding
 from .official import COUNTS, LANE_TYPES, THRESHOLDS, frame_sweep, printed_line, totals
 from .reader import Predicted, Truth, prediction_of, records, truth_of
@@ -83,12 +82,8 @@ def score_apollo3d(labels: str | Path, pred: Any, out: str | Path | None = None,
         if lane3d_flow.flow_solver() is None:
             warnings.append(lane3d_flow.NO_ORTOOLS_WARNING)
         score = _score(list(methods), kinds, orders, counts, errors, len(keys), warnings)
-        if folder is not None:
-            staging = Staging(folder)
-            staging.write_text("official.csv", score.rows.to_csv())
-            staging.write_text("sweep.csv", score.sweep.to_csv())
-            staging.write_text("summary.md", summary_markdown(score))
-            folder.commit()
+        write_texts(folder, {"official.csv": score.rows.to_csv(), "sweep.csv": score.sweep.to_csv(),
+                             "summary.md": summary_markdown(score)})
     return score
 
 

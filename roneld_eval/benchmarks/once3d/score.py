@@ -18,8 +18,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ...errors import ConfigError
-from ...output import Staging
-from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ...scoring import (PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces, stopping_gaps,
+                        write_texts)
 from ...shards import Merged, Sharding, given_options
 from .official import LABELS, THRESHOLDS, frame_counts, printed, totals
 from .reader import listed_frames, read_prediction, read_truth
@@ -83,7 +83,7 @@ def score_once3d(labels: str | Path, pred_root: PredictionRoots, iou_gate: float
     with _taking(out, "score once3d", reads=(labels,)) as folder:
         relpaths = listed_frames(labels)
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
-        warnings += _missing(trees, relpaths)
+        warnings += stopping_gaps(trees, "labelled frames")
         label_files = [_path(labels, relpath) for relpath in relpaths]
 
         def files_of(m: int, relpath: str) -> tuple[Path]:
@@ -104,26 +104,12 @@ def score_once3d(labels: str | Path, pred_root: PredictionRoots, iou_gate: float
                 return None
         score = Once3dScore(_table(trees, counts), tuple(tree.method for tree in trees), len(relpaths), iou_gate,
                             tuple(warnings))
-        if folder is not None:
-            staging = Staging(folder)
-            staging.write_text("official.csv", score.rows.to_csv())
-            staging.write_text("summary.md", summary_markdown(score))
-            folder.commit()
+        write_texts(folder, {"official.csv": score.rows.to_csv(), "summary.md": summary_markdown(score)})
     return score
 
 
 def _segment_of(relpath: str) -> str:
     return relpath.split("/", 1)[0]
-
-
-def _missing(trees, relpaths: Sequence[str]) -> list[str]:
-    lines = []
-    for tree in trees:
-        missing = sum(not _path(tree.root, relpath).exists() for relpath in relpaths)
-        if missing:
-            lines.append(f"warning: {tree.method}: {missing:,} of {len(relpaths):,} labelled frames have no prediction "
-                         "file; scored as frames without lanes (the official evaluator stops on the first)")
-    return lines
 
 
 def _scored(scored: Sequence[str], labels: Path, trees, iou_gate, workers, progress, announce) -> np.ndarray:

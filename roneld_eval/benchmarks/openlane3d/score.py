@@ -19,8 +19,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ...errors import ConfigError, InputError
-from ...output import Staging
-from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ...scoring import (PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces, stopping_gaps,
+                        write_texts)
 from ...shards import Merged, Sharding
 from ...metrics import lane3d_flow
 from .official import frame_counts, ground_truth_lanes, totals
@@ -86,18 +86,6 @@ def _score_frames(args) -> tuple[np.ndarray, list[np.ndarray], list[str]]:
             stats[f, m] = counts.counts()
             errors[m].append(counts.errors)
     return stats, [np.concatenate(found) if found else np.zeros((0, 4)) for found in errors], keys
-
-
-def _missing_results(trees, relpaths: Sequence[str]) -> list[str]:
-    """A line for each method some of whose listed images have no result file: scored here as
-    frames without lanes, where the evaluator stops."""
-    lines: list[str] = []
-    for tree in trees:
-        missing = sum(not json_path(tree.root, relpath).exists() for relpath in relpaths)
-        if missing:
-            lines.append(f"warning: {tree.method}: {missing:,} of {len(relpaths):,} listed images have no result "
-                         "file; scored as frames without lanes (the official evaluator stops on the first)")
-    return lines
 
 
 def _once_each(keys: Sequence[str], relpaths: Sequence[str], labels: Path) -> None:
@@ -168,7 +156,7 @@ def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: 
         relpaths = read_list(Path(list_file)) if list_file is not None else _every_label(labels)
         groups = _scenarios(scenarios, relpaths)
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
-        warnings += _missing_results(trees, relpaths)
+        warnings += stopping_gaps(trees, file="result file")
         label_files = [json_path(labels, relpath) for relpath in relpaths]
 
         def files_of(m: int, relpath: str) -> tuple[Path]:
@@ -191,11 +179,7 @@ def score_openlane3d(labels: str | Path, pred_root: PredictionRoots, list_file: 
             warnings.append(lane3d_flow.NO_ORTOOLS_WARNING)
         score = OpenLane3dScore(_table(trees, groups, stats, errors), tuple(tree.method for tree in trees),
                                 tuple(groups), len(relpaths), tuple(warnings), protocol, threshold)
-        if folder is not None:
-            staging = Staging(folder)
-            staging.write_text("official.csv", score.rows.to_csv())
-            staging.write_text("summary.md", summary_markdown(score))
-            folder.commit()
+        write_texts(folder, {"official.csv": score.rows.to_csv(), "summary.md": summary_markdown(score)})
     return score
 
 
