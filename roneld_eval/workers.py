@@ -167,6 +167,7 @@ def _wait_for_end(process, deadline: float) -> None:
         process.join(min(0.05, max(0.0, deadline - time.monotonic())))
 
 
+DRAIN_S = 2.0  # the longest an ended pool's unread calls are drained
 MANAGER_JOIN_S = 0.5  # a worker's forked process holding the pool's pipes keeps the thread alive: not waited out
 
 
@@ -175,6 +176,7 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
     for any still there after `grace_s`, so a stopped or stuck worker cannot hold us up."""
     processes = list((getattr(executor, "_processes", None) or {}).values())
     manager = getattr(executor, "_executor_manager_thread", None)  # shutdown forgets it
+    calls = getattr(executor, "_call_queue", None)  # and this
     if finished:
         executor.shutdown(wait=False)
     else:
@@ -200,6 +202,8 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
                 process.kill()
                 _wait_for_end(process, time.monotonic() + 1.0)
     executor.shutdown(wait=False, cancel_futures=True)
+    if not finished and calls is not None:
+        _drain_calls(calls)
     # The pool's manager thread closes its wake-up pipe as it ends; Python 3.11's exit handler
     # writes to that pipe unlocked, and one racing the close printed "Exception ignored ... Bad
     # file descriptor" after our one-line error (1 run in 50). Once the thread has ended, the
@@ -207,6 +211,23 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = GRACE_S, finished:
     if manager is not None:
         with contextlib.suppress(Exception):
             manager.join(MANAGER_JOIN_S)
+
+
+def _drain_calls(calls, wait_s: float = DRAIN_S) -> None:
+    """Read what the pool's call queue is still writing to its ended workers, and let the process
+    exit without waiting for that writer. A call larger than a pipe holds (a chunk of parsed
+    frames) left the queue's feeder thread blocked in its write for good, and the interpreter's
+    exit waits for it: `score apollo3d` ended by SIGTERM hung there (as multiprocessing.Pool's
+    own _help_stuff_finish drains its task pipe)."""
+    with contextlib.suppress(Exception):
+        calls.cancel_join_thread()
+        feeder = calls._thread
+        deadline = time.monotonic() + wait_s
+        while feeder is not None and feeder.is_alive() and time.monotonic() < deadline:
+            if calls._reader.poll(0.02):
+                calls._reader.recv_bytes()
+            elif not calls._buffer:
+                break  # nothing being written: its thread waits for more, which never blocks an exit
 
 
 @contextlib.contextmanager

@@ -239,3 +239,38 @@ def test_a_signal_raised_where_python_drops_it_still_stops_the_run(name, raised)
     done = subprocess.run([sys.executable, "-c", LOST, name], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == f"stopped by {raised}", (done.stdout, done.stderr)
     assert "Exception ignored" not in done.stderr
+
+
+
+UNREAD_CALL = """
+import multiprocessing, sys, time
+from roneld_eval import workers
+
+if __name__ == "__main__":
+    calls = multiprocessing.get_context("fork").Queue()
+    calls.put(b"x" * (4 << 20))  # far beyond a pipe's 64 KB, and no worker left to read it
+    time.sleep(0.5)
+    if sys.argv[1] == "drained":
+        workers._drain_calls(calls)
+    print("exiting", flush=True)
+"""
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="forks on Linux only")
+@pytest.mark.parametrize("how", ["drained", "left"])
+def test_a_call_larger_than_a_pipe_left_unread_by_ended_workers_does_not_hold_the_exit(tmp_path, how):
+    # `score apollo3d` hands its workers chunks of parsed frames; ended by SIGTERM, its call queue's
+    # feeder thread stayed blocked writing one to workers that were gone, and the interpreter's
+    # exit waited for it for good. stop_pool drains what is left (_drain_calls); the other case
+    # shows the hang it prevents.
+    script = tmp_path / "unread_call.py"
+    script.write_text(UNREAD_CALL)
+    command = [sys.executable, str(script), how]
+    if how == "left":
+        with pytest.raises(subprocess.TimeoutExpired):
+            subprocess.run(command, capture_output=True, timeout=5, cwd=Path(__file__).parent.parent)
+        return
+    start = time.monotonic()
+    done = subprocess.run(command, capture_output=True, text=True, timeout=60, cwd=Path(__file__).parent.parent)
+    assert done.returncode == 0 and done.stdout == "exiting\n", done.stderr
+    assert time.monotonic() - start < 10 and done.stderr == ""
