@@ -156,19 +156,23 @@ def _pair_block(gt: np.ndarray, pred: np.ndarray, gt_visible: np.ndarray, pred_v
         cost = total.astype(int)
         if rule.small_cost_is_one:
             cost = np.where(np.logical_and(total < 1, total > 0), 1, cost)
-        near, far = slice(None, CLOSE_INDEX), slice(CLOSE_INDEX, None)
-        errors = np.stack([_means(x_dist, both_visible, near, rule.no_error),
-                           _means(x_dist, both_visible, far, rule.no_error),
-                           _means(z_dist, both_visible, near, rule.no_error),
-                           _means(z_dist, both_visible, far, rule.no_error)], axis=-1)
+        errors = _means(np.stack([x_dist, z_dist], axis=-2), both_visible, rule.no_error)
     return matches, cost, errors
 
 
-def _means(dist: np.ndarray, both_visible: np.ndarray, part: slice, no_error: float) -> np.ndarray:
-    seen = np.sum(both_visible[..., part], axis=-1)
-    summed = np.sum(dist[..., part] * both_visible[..., part], axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(seen > 0, summed / np.maximum(seen, 1), no_error)
+def _means(dist: np.ndarray, both_visible: np.ndarray, no_error: float) -> np.ndarray:
+    """Each pair's mean x and z distance over the samples both lanes see, near (y <= 40 m) and
+    far: (..., 4) as x near, x far, z near, z far (`no_error` where a part has none). Each mean
+    sums its own samples as a row, as the evaluator's np.sum of that part does: the same bits."""
+    seen = both_visible[..., None, :]
+    weighted = dist * seen  # (..., 2, 100): x, z
+    parts = []
+    for part in (slice(None, CLOSE_INDEX), slice(CLOSE_INDEX, None)):
+        count = np.sum(both_visible[..., part], axis=-1)[..., None]
+        summed = np.sum(np.ascontiguousarray(weighted[..., part]), axis=-1)
+        parts.append(np.where(count > 0, summed / np.maximum(count, 1), no_error))
+    near, far = parts
+    return np.stack([near[..., 0], far[..., 0], near[..., 1], far[..., 1]], axis=-1)
 
 
 def flow_solver():
