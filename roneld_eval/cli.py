@@ -512,7 +512,8 @@ def merge(parts, out, debug):
 @click.option("--clips", default=3, show_default=True, type=click.IntRange(min=1), help="Number of clips.")
 @click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: the benchmark's (CULane 12, "
               "TuSimple 20: a labelled frame and the 19 before it).")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed; the same seed gives the same bytes.")
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(0, 2**63 - 1),
+              help="Random seed; the same seed gives the same bytes.")
 @click.option("--maps-format", type=MapFormatChoice(),
               help="How to store maps; lanes: a lane detector's output files instead of maps. Default: npy, or a "
                    "detector's lane files for the benchmarks scored from them.")

@@ -47,7 +47,7 @@ class SizeLimit:
 
 TEXT = SizeLimit("a label, lane, existence or list file", "RONELD_EVAL_MAX_TEXT_MIB", 16)
 CONFIG = SizeLimit("a configuration file", "RONELD_EVAL_MAX_TEXT_MIB", 16)
-JSON_LINES = SizeLimit("a TuSimple label or prediction file", "RONELD_EVAL_MAX_JSON_MIB", 256)
+JSON_LINES = SizeLimit("a JSON-lines label or prediction file", "RONELD_EVAL_MAX_JSON_MIB", 256)
 MAP = SizeLimit("a map file (.npy, .npz or one of its members, .png)", "RONELD_EVAL_MAX_MAP_MIB", 256)
 RUN_TABLE = SizeLimit("a run's table (per_frame.csv, accuracy.csv, ...)", "RONELD_EVAL_MAX_TABLE_MIB", 256)
 CACHE_ENTRY = SizeLimit("a resume cache entry", "RONELD_EVAL_MAX_CACHE_ENTRY_MIB", 64)

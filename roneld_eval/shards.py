@@ -277,12 +277,13 @@ def check_together(parts: Sequence[Part]) -> list[Part]:
         raise ConfigError("merge needs the folders of every shard's part")
     first = parts[0]
     for part in parts[1:]:
-        for key, what in (("command", "command"), ("version", "roneld-eval version"),
-                          ("ground_truth", "ground truth (its frames, categories and label files)"),
-                          ("settings", "settings (methods, thresholds, widths)")):
+        for key, what in (("command", "command differs from that"),
+                          ("version", "roneld-eval version differs from that"),
+                          ("ground_truth", "ground truth (its frames, categories and label files) differs from that"),
+                          ("settings", "settings (methods, thresholds, widths) differ from those")):
             if part.manifest[key] != first.manifest[key]:
-                raise InputError(part.path, f"this part's {what} differ from those of {first.path}: parts of "
-                                            "different commands cannot be merged")
+                raise InputError(part.path, f"this part's {what} of {first.path}: parts of different commands "
+                                            "cannot be merged")
         if part.shard.count != first.shard.count:
             raise InputError(part.path, f"shard {part.shard} of another split than {first.path}'s {first.shard}")
     from .version import __version__

@@ -183,7 +183,11 @@ PRED = {"raw_file": "images/00/0.jpg", "laneLines": [LANE], "laneLines_prob": [0
     ([LABEL], [{**PRED, "laneLines": [[[0.0, 5.0, float("nan")], [0.0, 9.0, 0.0]]]}], "finite numbers"),
     ([{**LABEL, "laneLines_visibility": [[1, 1]]}], [PRED], "a number for each of its lane's 3 points"),
     ([LABEL], [{"raw_file": "images/00/0.jpg"}], "has no `laneLines`"),
-    ([LABEL], [{**PRED, "laneLines": [[[0.0, 5.0, 1e300], [0.0, 90.0, -1e300]]]}], "beyond the evaluator's integer"),
+    ([LABEL], [{**PRED, "laneLines": [[[0.0, 5.0, 1e300], [0.0, 90.0, -1e300]]]}],
+     "pred.json: images/00/0.jpg: a lane lies so far off that its distance to another is beyond"),
+    ([{"raw_file": "images/00/0.jpg"}], [PRED], "test.json:1: has no `laneLines`"),
+    ([LABEL, {"raw_file": "images/00/1.jpg", "laneLines": [], "laneLines_visibility": []}],
+     [PRED, {**PRED, "raw_file": "images/00/1.jpg"}], "test.json:2: has no `centerLines` where other lines have them"),
 ])
 def test_bad_files_are_refused_in_one_line_naming_the_file(tmp_path, labels, preds, says):
     result = invoke("score", "apollo3d", "--labels", _write(tmp_path / "test.json", labels), "--pred",
@@ -250,3 +254,24 @@ def test_nothing_above_the_lowest_threshold_prints_what_the_evaluator_prints(tmp
     score = score_apollo3d(labels, pred, workers=1)
     assert score.printed["pred"][1] == "Laneline:  0.5  0.0  nan  nan  nan  nan"
     assert score.value("pred", "threshold") == 0.05
+
+
+def test_json_nested_too_deeply_is_one_line(tmp_path):
+    labels = _write(tmp_path / "test.json", [LABEL])
+    (tmp_path / "pred.json").write_text('{"raw_file": "x", "laneLines": ' + "[" * 100000 + "]" * 100000 + "}\n")
+    result = invoke("score", "apollo3d", "--labels", labels, "--pred", tmp_path / "pred.json")
+    assert result.exit_code != 0 and "pred.json:1: not an Apollo 3D line: nested too deeply" in result.output
+
+
+def test_the_metric_in_memory_refuses_what_the_files_may_not_hold(golden_set):
+    import roneld_eval
+    from roneld_eval.in_memory import MetricInputError
+
+    root, golden = golden_set
+    metric = roneld_eval.metric("apollo3d", labels=root / "test.json")
+    frame = golden["frames"][0]["raw_file"]
+    lane = np.column_stack([np.zeros(5), np.linspace(5, 60, 5), np.zeros(5)])
+    for lanes, scores, says in (([lane + [np.nan, 0, 0]], [0.9], "finite"), ([lane], [np.nan], "finite"),
+                                ([lane], [[0.9]], "one probability for each")):
+        with pytest.raises(MetricInputError, match=says):
+            metric.update(frame, lanes, scores)

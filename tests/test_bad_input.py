@@ -374,7 +374,7 @@ TEN_GB = 10 * 10**9
     ("culane", [], first_map, "a map file (.npy, .npz or one of its members, .png) may have at most"),
     ("culane-png", ["--maps-format", "scnn-png"], lambda r: first_map(r, "_1_avg.png"), "a map file"),
     ("culane-png", ["--maps-format", "scnn-png"], lambda r: first_map(r, ".exist.txt"), "a label, lane"),
-    ("tusimple", [], tusimple_labels, "a TuSimple label or prediction file may have at most 268,435,456 bytes"),
+    ("tusimple", [], tusimple_labels, "a JSON-lines label or prediction file may have at most 268,435,456 bytes"),
 ])
 def test_a_huge_input_file_is_refused_unread(sets, folder, extra, target, expected):
     # A 10 GB sparse .lines.txt reached 23 GB of memory before it was killed.

@@ -195,3 +195,25 @@ def test_synth_is_deterministic(tmp_path):
     synth_once3d(tmp_path / "b", clips=2, frames=3, seed=9)
     for path in sorted((tmp_path / "a").rglob("*.json")):
         assert (tmp_path / "b" / path.relative_to(tmp_path / "a")).read_bytes() == path.read_bytes()
+
+
+def test_an_out_folder_inside_the_labels_is_not_read_as_a_segment(tmp_path):
+    synth_once3d(tmp_path / "set", clips=2, frames=2, seed=5)
+    labels, preds = tmp_path / "set" / "labels", tmp_path / "set" / "predictions"
+    first = invoke("score", "once3d", "--labels", labels, "--pred-root", preds, "--out", labels / "scores")
+    assert first.exit_code == 0, first.output
+    again = invoke("score", "once3d", "--labels", labels, "--pred-root", preds, "--out", tmp_path / "again")
+    assert again.exit_code == 0, again.output
+    assert (labels / "scores" / "official.csv").read_text() == (tmp_path / "again" / "official.csv").read_text()
+
+
+def test_the_metric_in_memory_refuses_what_the_files_may_not_hold(golden_set):
+    import roneld_eval
+    from roneld_eval.in_memory import MetricInputError
+
+    root, golden = golden_set
+    metric = roneld_eval.metric("once3d", labels=root / "labels")
+    lane = np.column_stack([np.zeros(5), np.full(5, 1.6), np.linspace(2, 40, 5)])
+    for lanes, scores in (([lane + [np.inf, 0, 0]], [0.9]), ([lane], [np.nan])):
+        with pytest.raises(MetricInputError, match="finite"):
+            metric.update(golden["order"][0], lanes, scores)

@@ -44,8 +44,9 @@ class Apollo3dMetric:
                     raise ValueError(f"{kind} {k}: points must be an (N, 3) array of (x, y, z), at least two, "
                                      f"got shape {array.shape}")
             chances = numbers_of(probabilities if probabilities is not None else [], f"{kind} probabilities")
-            if chances.reshape(-1).shape != (len(arrays),):
+            if chances.shape != (len(arrays),):
                 raise ValueError(f"give one probability for each of the {len(arrays)} {kind}s")
+            _finite(arrays, chances, kind)
             found[kind] = frame_sweep(arrays, chances.reshape(-1), truth.lanes[kind] or (),
                                       truth.visibility[kind] or ())
         return found
@@ -83,3 +84,12 @@ class Apollo3dMetric:
             named = dict(zip(rows.columns, row))
             found.update({f"{prefix}{name}": float(named[name]) for name in ("threshold", *NUMBERS)})
         return found
+
+
+def _finite(arrays: list[np.ndarray], scores: np.ndarray, what: str) -> None:
+    """NaN and infinities refused, as `score NAME` refuses them in files."""
+    bad = next((k for k, array in enumerate(arrays) if not np.isfinite(array).all()), None)
+    if bad is not None:
+        raise ValueError(f"{what} {bad}: its points must be finite numbers")
+    if not np.isfinite(scores).all():
+        raise ValueError(f"every {what}'s score must be a finite number")

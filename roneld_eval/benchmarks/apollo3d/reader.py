@@ -60,6 +60,8 @@ def records(path: Path) -> list[tuple[int, str, dict[str, Any]]]:
             record = loads(line)
         except RepeatedKey as error:
             raise InputError(path, str(error), line=number) from None
+        except RecursionError:
+            raise InputError(path, "not an Apollo 3D line: nested too deeply", line=number) from None
         except ValueError:
             raise InputError(path, "not JSON (one JSON object a line is expected)", line=number) from None
         if not isinstance(record, dict) or not isinstance(record.get("raw_file"), str):
@@ -86,8 +88,11 @@ def _points(lane: Any, path: Path, number: int, where: str) -> np.ndarray:
     """A lane's [x, y, z] (or [x, y]) points as an N x 3 (N x 2) float array, as NumPy makes one of
     them for the evaluator (true and false are 1 and 0 there too); text, null, numbers beyond a
     float's range and ragged lists are refused."""
-    if not (isinstance(lane, list) and len(lane) <= MAX_POINTS):
+    if not isinstance(lane, list):
         raise InputError(path, f"{where}: must be a list of [x, y, z] points", line=number)
+    if len(lane) > MAX_POINTS:
+        raise InputError(path, f"{where}: {len(lane):,} points, more than the {MAX_POINTS:,} a lane may have here",
+                         line=number)
     try:
         array = np.array(lane) if lane else np.zeros((0, 3))
     except (ValueError, TypeError, OverflowError):
@@ -143,7 +148,10 @@ def truth_of(record: dict, path: Path, number: int) -> Truth:
             checked.append(array)
         return tuple(checked)
 
-    return Truth(*_by_type(record, path, number, 1, visibility))
+    truth = Truth(*_by_type(record, path, number, 1, visibility))
+    if truth.lanes["laneline"] is None:
+        raise InputError(path, "has no `laneLines` (the evaluator stops on it)", line=number)
+    return truth
 
 
 def prediction_of(record: dict, path: Path, number: int) -> Predicted:

@@ -73,7 +73,8 @@ def score_apollo3d(labels: str | Path, pred: Any, out: str | Path | None = None,
             errors = sharding.merged_array("cat_errors", (int(counts[..., 4].sum()), 8), "f")
         else:
             share = sharding.share(keys, posixpath.dirname)  # a clip: a folder of images
-            counts, errors = _scored(share, keys, truths, predictions, kinds, workers, progress, announce)
+            counts, errors = _scored(share, keys, truths, predictions, kinds, list(methods.values()), workers,
+                                     progress, announce)
             if sharding.shard is not None:
                 assert folder is not None
                 sharding.write_part(folder, keys, [], files, share, {"cat_counts": counts, "cat_errors": errors},
@@ -113,6 +114,10 @@ def _read_labels(labels: Path) -> tuple[list[str], list[Truth]]:
         seen[key] = number
         keys.append(key)
         truths.append(truth_of(record, labels, number))
+    centres = [truth.lanes["centerline"] is not None for truth in truths]
+    if any(centres) and not all(centres):
+        raise InputError(labels, "has no `centerLines` where other lines have them (the evaluator stops on it)",
+                         line=next(seen[key] for key, has in zip(keys, centres) if not has))
     return keys, truths
 
 
@@ -169,15 +174,18 @@ def _lane_types(path: Path, order: np.ndarray, found: list[Predicted], labelled_
 def _score_frames(task) -> tuple[np.ndarray, np.ndarray]:
     """The counts of a chunk of frames (frames, methods, 2, 19, 5) and its counted matches' errors,
     a row each: method, frame (its label index), lane type, threshold, x near, x far, z near, z far."""
-    positions, truths, predictions, kinds = task
+    positions, keys, truths, predictions, kinds, files = task
     counts = np.zeros((len(positions), len(kinds), 2, len(THRESHOLDS), len(COUNTS)))
     rows: list[np.ndarray] = []
     for f, (position, truth) in enumerate(zip(positions, truths)):
         for m, method_kinds in enumerate(kinds):
             predicted = predictions[m][f]
             for t, kind in enumerate(method_kinds):
-                sweep = frame_sweep(predicted.lanes[kind], predicted.probabilities[kind], truth.lanes[kind] or (),
-                                    truth.visibility[kind] or ())
+                try:
+                    sweep = frame_sweep(predicted.lanes[kind], predicted.probabilities[kind],
+                                        truth.lanes[kind] or (), truth.visibility[kind] or ())
+                except ValueError as error:  # a distance beyond the integer cost
+                    raise InputError(files[m], f"{keys[f]}: {error}") from None
                 counts[f, m, t] = sweep.counts
                 rows.append(_tagged(sweep.errors, m, position, t))
     return counts, np.concatenate(rows) if rows else np.zeros((0, 8))
@@ -190,16 +198,14 @@ def _tagged(errors: Sequence[np.ndarray], method: int, frame: int, kind: int) ->
     return np.column_stack([tags, np.concatenate(errors)]) if len(at) else np.zeros((0, 8))
 
 
-def _scored(share: Sequence[str], keys: Sequence[str], truths: Sequence[Truth], predictions, kinds, workers, progress,
-            announce) -> tuple[np.ndarray, np.ndarray]:
+def _scored(share: Sequence[str], keys: Sequence[str], truths: Sequence[Truth], predictions, kinds, files, workers,
+            progress, announce) -> tuple[np.ndarray, np.ndarray]:
     position = {key: k for k, key in enumerate(keys)}
     scored = [position[key] for key in share]
-    tasks = [(chunk, [truths[k] for k in chunk], [[found[k] for k in chunk] for found in predictions], kinds)
+    tasks = [(chunk, [keys[k] for k in chunk], [truths[k] for k in chunk],
+              [[found[k] for k in chunk] for found in predictions], kinds, files)
              for chunk in (scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES))]
-    try:
-        pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=())
-    except ValueError as error:  # a distance beyond the integer cost
-        raise InputError(None, f"{error}") from None
+    pieces = scored_pieces(_score_frames, tasks, workers, progress, announce, kernel_groups=())
     counts = (np.concatenate([piece[0] for piece in pieces]) if pieces
               else np.zeros((0, len(kinds), 2, len(THRESHOLDS), len(COUNTS))))
     errors = np.concatenate([piece[1] for piece in pieces]) if pieces else np.zeros((0, 8))

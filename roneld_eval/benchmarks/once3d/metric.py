@@ -32,9 +32,10 @@ class Once3dMetric:
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> FrameCounts:
         """The frame's counts: `lanes`, (N, 3) point arrays (x, y, z), and `scores`, one each."""
         arrays = [numbers_of(lane, f"lane {k}") for k, lane in enumerate(lanes)]
-        chances = numbers_of(scores if scores is not None else [], "scores").reshape(-1)
-        if len(chances) != len(arrays):
+        chances = numbers_of(scores if scores is not None else [], "scores")
+        if chances.shape != (len(arrays),):
             raise ValueError(f"give one score for each of the {len(arrays)} lanes")
+        _finite(arrays, chances, "lane")
         for k, array in enumerate(arrays):
             if array.ndim != 2 or array.shape[1] != 3 or (len(array) < 2 and chances[k] > THRESHOLDS[0]):
                 raise ValueError(f"lane {k}: points must be an (N, 3) array of (x, y, z), at least two, got shape "
@@ -60,3 +61,12 @@ class Once3dMetric:
                 if row[1] == REPORTED:
                     found[key] = float(named[key])
         return found
+
+
+def _finite(arrays: list[np.ndarray], scores: np.ndarray, what: str) -> None:
+    """NaN and infinities refused, as `score NAME` refuses them in files."""
+    bad = next((k for k, array in enumerate(arrays) if not np.isfinite(array).all()), None)
+    if bad is not None:
+        raise ValueError(f"{what} {bad}: its points must be finite numbers")
+    if not np.isfinite(scores).all():
+        raise ValueError(f"every {what}'s score must be a finite number")

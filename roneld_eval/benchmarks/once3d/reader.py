@@ -26,10 +26,11 @@ MAX_POINTS = 1 << 16  # of one lane
 CAMERA = "cam01"
 
 
-def listed_frames(labels: Path) -> list[str]:
+def listed_frames(labels: Path, out: str | Path | None = None) -> list[str]:
     """`<segment>/cam01/<frame>.json` of every label, in the order os.listdir gives them: the
-    evaluator's order. This tool's own output folders (a command's --out inside the labels) are
-    passed over; anything else that is not a segment folder with its cam01 folder is refused."""
+    evaluator's order. This tool's own output folders (a command's --out inside the labels, `out`
+    among them while it is being written) are passed over; anything else that is not a segment
+    folder with its cam01 folder is refused."""
     from ...output import MANIFEST, STAGING_PREFIX
 
     if not labels.is_dir():
@@ -37,7 +38,8 @@ def listed_frames(labels: Path) -> list[str]:
     frames = []
     for segment in os.listdir(labels):
         folder = labels / segment
-        if segment.startswith((".roneld-", STAGING_PREFIX)) or (folder / MANIFEST).exists():
+        if (segment.startswith((".roneld-", STAGING_PREFIX)) or (folder / MANIFEST).exists()
+                or (out is not None and folder.resolve() == Path(out).resolve())):
             continue
         if not folder.is_dir():
             raise InputError(folder, "not a segment folder (the evaluator takes every entry of the label folder for "
@@ -62,9 +64,10 @@ def _record(path: Path) -> dict:
 
 def _points(points: Any, path: Path, where: str) -> np.ndarray:
     """A lane's [x, y, z] points as an N x 3 float array (finite numbers only)."""
-    if not (isinstance(points, list) and len(points) <= MAX_POINTS
-            and all(isinstance(p, list) and len(p) == 3 for p in points)):
+    if not (isinstance(points, list) and all(isinstance(p, list) and len(p) == 3 for p in points)):
         raise InputError(path, f"{where}: must be a list of [x, y, z] points")
+    if len(points) > MAX_POINTS:
+        raise InputError(path, f"{where}: {len(points):,} points, more than the {MAX_POINTS:,} a lane may have here")
     if not all(is_finite_number(v) for p in points for v in p):
         raise InputError(path, f"{where}: something other than finite numbers")
     return np.array(points, dtype=float).reshape(len(points), 3)

@@ -81,7 +81,7 @@ def score_once3d(labels: str | Path, pred_root: PredictionRoots, iou_gate: float
         labels=labels, pred_root=pred_root, strict=strict, **given_options(iou_gate=iou_gate)), paths=("labels",))
     labels = Path(labels)
     with _taking(out, "score once3d", reads=(labels,)) as folder:
-        relpaths = listed_frames(labels)
+        relpaths = listed_frames(labels, out)
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
         warnings += stopping_gaps(trees, "labelled frames")
         label_files = [_path(labels, relpath) for relpath in relpaths]
