@@ -43,6 +43,18 @@ class PairRule:
     small_cost_is_one: bool
 
 
+def overlaps_samples(lane: np.ndarray) -> bool:
+    """Whether a lane's first point lies before the last sample and its last beyond the first, as
+    listed (not sorted): the evaluators keep only such lanes."""
+    return bool(lane[0, 1] < Y_SAMPLES[-1] and lane[-1, 1] > Y_SAMPLES[0])
+
+
+def in_range(lane: np.ndarray, x_min: float, x_max: float) -> np.ndarray:
+    """utils.prune_3d_lane_by_range: the points of 0 < y < 200 and x_min < x < x_max."""
+    lane = lane[np.logical_and(lane[:, 1] > 0, lane[:, 1] < 200), ...]
+    return lane[np.logical_and(lane[:, 0] > x_min, lane[:, 0] < x_max), ...]
+
+
 def linear(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
     """scipy's interp1d(x, y, fill_value="extrapolate")(at), linear, written out (its `_call_linear`,
     the same operations): x sorted stably, each point's interval by np.searchsorted (left), the

@@ -30,8 +30,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ...metrics.lane3d_flow import DIST_TH, MATCH_LIMIT, RATIO_TH, X_MAX, X_MIN, Y_SAMPLES, PairRule, matching, \
-    linear, pair_distances, sampled
+from ...metrics.lane3d_flow import (DIST_TH, MATCH_LIMIT, RATIO_TH, X_MAX, X_MIN, PairRule, in_range, linear,
+                                    matching, overlaps_samples, pair_distances, sampled)
 
 PAIR_RULE = PairRule(both_unseen=DIST_TH, no_error=DIST_TH, small_cost_is_one=False)
 THRESHOLDS = np.linspace(0.05, 0.95, 19)  # varying_th
@@ -55,15 +55,8 @@ def truth_kept(lanes: Sequence[np.ndarray], visibility: Sequence[np.ndarray]) ->
     """The labelled lanes the evaluator compares (its gt_lanes after the pruning in `bench`)."""
     seen = [lane[np.asarray(visible) > 0, ...] for lane, visible in zip(lanes, visibility)]
     seen = [lane for lane in seen if lane.shape[0] > 1]
-    seen = [lane for lane in seen if lane[0, 1] < Y_SAMPLES[-1] and lane[-1, 1] > Y_SAMPLES[0]]
-    cut = [_in_range(lane) for lane in seen]
+    cut = [in_range(lane, 3 * X_MIN, 3 * X_MAX) for lane in seen if overlaps_samples(lane)]
     return [lane for lane in cut if lane.shape[0] > 1]
-
-
-def _in_range(lane: np.ndarray) -> np.ndarray:
-    """utils.prune_3d_lane_by_range(lane, 3 * x_min, 3 * x_max)."""
-    lane = lane[np.logical_and(lane[:, 1] > 0, lane[:, 1] < 200), ...]
-    return lane[np.logical_and(lane[:, 0] > 3 * X_MIN, lane[:, 0] < 3 * X_MAX), ...]
 
 
 def frame_sweep(pred_lanes: Sequence[np.ndarray], probabilities: Sequence[float] | np.ndarray,

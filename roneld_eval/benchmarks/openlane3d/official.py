@@ -27,8 +27,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ...metrics.lane3d_flow import (MATCH_LIMIT, RATIO_TH, X_MAX, X_MIN, Y_SAMPLES, PairRule, matching, pair_distances,
-                                    sampled)
+from ...metrics.lane3d_flow import (MATCH_LIMIT, RATIO_TH, X_MAX, X_MIN, PairRule, in_range, matching,
+                                    overlaps_samples, pair_distances, sampled)
 
 # the lane3d evaluator: where neither lane sees a sample, no distance; a part no sample of which both see has
 # no error (-1, left out of the averages); a cost between 0 and 1 is 1
@@ -78,16 +78,10 @@ def ground_truth_lanes(extrinsic: np.ndarray, lanes_xyz: Sequence[np.ndarray]) -
 def _kept(lanes: list[np.ndarray], categories: list) -> tuple[list[np.ndarray], list]:
     """The lanes overlapping the sampled range (first point before the last sample, last beyond
     the first), cut to the x range, with at least two points left."""
-    overlapping = [k for k, lane in enumerate(lanes) if lane[0, 1] < Y_SAMPLES[-1] and lane[-1, 1] > Y_SAMPLES[0]]
-    cut = [_in_range(lanes[k]) for k in overlapping]
+    overlapping = [k for k, lane in enumerate(lanes) if overlaps_samples(lane)]
+    cut = [in_range(lanes[k], X_MIN, X_MAX) for k in overlapping]
     kept = [k for k, lane in enumerate(cut) if lane.shape[0] > 1]
     return [cut[k] for k in kept], [categories[overlapping[k]] for k in kept]
-
-
-def _in_range(lane: np.ndarray) -> np.ndarray:
-    """utils.prune_3d_lane_by_range."""
-    lane = lane[np.logical_and(lane[:, 1] > 0, lane[:, 1] < 200), ...]
-    return lane[np.logical_and(lane[:, 0] > X_MIN, lane[:, 0] < X_MAX), ...]
 
 
 def _sampled(lanes: list[np.ndarray], categories: list) -> tuple[np.ndarray, list, np.ndarray]:
