@@ -128,12 +128,16 @@ def average_precision(recall: np.ndarray, precision: np.ndarray) -> float:
                                 RECALLS)))
 
 
-def totals(counts: np.ndarray, errors: np.ndarray, best: int | None = None) -> Totals:
+def chosen_threshold(counts: np.ndarray) -> int:
+    """The index of the threshold of the highest F (the first of equals) over every frame's lane-line
+    counts (frames, 19, 5): where `__main__` reads both lane types."""
+    return int(np.argmax(sweep_curve(counts)[2]))
+
+
+def totals(counts: np.ndarray, errors: np.ndarray, chosen: int) -> Totals:
     """One lane type's numbers from every frame's counts (frames, 19, 5) and the counted matches'
-    errors at the chosen threshold (matches, 4), frames in prediction-file order. `best`: the
-    chosen threshold's index (None: this lane type's own highest F, as for lane lines)."""
+    errors at the chosen threshold's index (matches, 4), frames in prediction-file order."""
     recall, precision, f = sweep_curve(counts)
-    chosen = int(np.argmax(f)) if best is None else best
     at = counts[:, chosen, :]
     r_lane = np.sum(at[:, 0]) / (np.sum(at[:, 2]) + 1e-6)
     p_lane = np.sum(at[:, 1]) / (np.sum(at[:, 3]) + 1e-6)

@@ -23,7 +23,7 @@ from ...errors import InputError
 from ...metrics import lane3d_flow
 from ...scoring import PlainTable, write_texts, _root_specs, _taking, check_method_names, scored_pieces
 from ...shards import Merged, Sharding
-from .official import COUNTS, LANE_TYPES, THRESHOLDS, frame_sweep, printed_line, totals
+from .official import COUNTS, LANE_TYPES, THRESHOLDS, chosen_threshold, frame_sweep, printed_line, totals
 from .reader import Predicted, Truth, prediction_of, records, truth_of
 
 NUMBERS = ("ap", "f", "recall", "precision", "x_error_near", "x_error_far", "z_error_near", "z_error_far")
@@ -216,16 +216,15 @@ def _score(methods: list[str], kinds, orders, counts: np.ndarray, errors: np.nda
            warnings: list[str]) -> Apollo3dScore:
     rows, sweep_rows, printed = [], [], {}
     for m, method in enumerate(methods):
-        best, lines = None, [HEADER]
+        lines = [HEADER]
+        rank = np.empty(n_frames, dtype=int)
+        rank[orders[m]] = np.arange(n_frames)  # a frame's place in the method's file
+        best = chosen_threshold(counts[orders[m], m, 0])  # the lane lines' choice, for both types
         for t, kind in enumerate(kinds[m]):
-            rank = np.empty(n_frames, dtype=int)
-            rank[orders[m]] = np.arange(n_frames)  # a frame's place in the method's file
             ordered = counts[orders[m], m, t]
-            first = totals(ordered, np.zeros((0, 4)), best)
-            chosen = errors[(errors[:, 0] == m) & (errors[:, 2] == t) & (errors[:, 3] == first.best)]
+            chosen = errors[(errors[:, 0] == m) & (errors[:, 2] == t) & (errors[:, 3] == best)]
             chosen = chosen[np.argsort(rank[chosen[:, 1].astype(int)], kind="stable"), 4:]
             total = totals(ordered, chosen, best)
-            best = total.best
             sums = ordered[:, best, :].sum(axis=0)
             rows.append((method, kind, n_frames, float(THRESHOLDS[best]), *(int(v) for v in sums), total.ap,
                          *total.at_best, *total.errors))
