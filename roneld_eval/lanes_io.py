@@ -224,6 +224,22 @@ MAX_PREDICTED_COORDINATE = float(1 << 24)
 FAR_FROM_ORIGIN = "lies more than 2^24 px (16,777,216) from the image origin"
 
 
+def numpy_array_of(values: Any) -> np.ndarray:
+    """JSON values (a list, of equally long lists) as NumPy makes an array of them, as the Python
+    evaluators read them (true and false are 1 and 0 there); an empty object array where NumPy
+    cannot make one (ragged lists, integers past int64 and a float)."""
+    try:
+        return np.array(values)
+    except (ValueError, TypeError, OverflowError):
+        return np.array([], dtype=object)
+
+
+def finite_numbers(array: np.ndarray) -> bool:
+    """Whether numpy_array_of gave finite numbers: not text, null or a ragged list, not NaN or an
+    infinity (booleans count, as numbers of 0 and 1)."""
+    return array.dtype.kind in "biuf" and (array.dtype.kind != "f" or bool(np.isfinite(array).all()))
+
+
 def check_coordinates(lanes, path, line: int | None = None) -> None:
     """Refuse predicted lanes with a coordinate no lane can have (a unit mistake, an overflow):
     named by the lane's line, or for lanes that share a `line` (TuSimple) by their index."""

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...json_fields import RepeatedKey, is_finite_number, loads, shown
-from ...lanes_io import read_text, split_lines
+from ...lanes_io import finite_numbers, numpy_array_of, read_text, split_lines
 from ...limits import JSON_LINES, LANES
 from .official import THRESHOLDS
 
@@ -93,13 +93,10 @@ def _points(lane: Any, path: Path, number: int, where: str) -> np.ndarray:
     if len(lane) > MAX_POINTS:
         raise InputError(path, f"{where}: {len(lane):,} points, more than the {MAX_POINTS:,} a lane may have here",
                          line=number)
-    try:
-        array = np.array(lane) if lane else np.zeros((0, 3))
-    except (ValueError, TypeError, OverflowError):
-        array = np.array([], dtype=object)
+    array = numpy_array_of(lane) if lane else np.zeros((0, 3))
     if array.ndim != 2 or array.shape[1] not in (2, 3):
         raise InputError(path, f"{where}: must be a list of [x, y, z] points", line=number)
-    if array.dtype.kind not in "biuf" or (array.dtype.kind == "f" and not np.isfinite(array).all()):
+    if not finite_numbers(array):
         raise InputError(path, f"{where}: something other than finite numbers", line=number)
     return array.astype(float)
 
@@ -109,19 +106,6 @@ def _values(record: dict, key: str, count: int, path: Path, number: int, what: s
     if not isinstance(values, list) or len(values) != count:
         raise InputError(path, f"`{key}` must hold {what} for each of its {count} lanes", line=number)
     return values
-
-
-def _numbers(values: Any) -> np.ndarray | None:
-    """A list of finite numbers as a float array (None for anything else)."""
-    if not isinstance(values, list):
-        return None
-    try:
-        array = np.array(values) if values else np.zeros(0)
-    except (ValueError, TypeError, OverflowError):
-        return None
-    if array.ndim != 1 or array.dtype.kind not in "biuf" or not np.isfinite(array.astype(float)).all():
-        return None
-    return array.astype(float)
 
 
 def _by_type(record: dict, path: Path, number: int, column: int, read) -> tuple[dict, dict]:
@@ -141,11 +125,11 @@ def truth_of(record: dict, path: Path, number: int) -> Truth:
         checked = []
         for k, (lane, values) in enumerate(zip(found, _values(record, key, len(found), path, number,
                                                               "a visibility list"))):
-            array = _numbers(values)
-            if array is None or array.shape != (len(lane),):
+            array = numpy_array_of(values) if isinstance(values, list) else np.zeros(0, dtype=object)
+            if not finite_numbers(array) or array.shape != (len(lane),):
                 raise InputError(path, f"`{key}`[{k}] must hold a number for each of its lane's {len(lane)} points",
                                  line=number)
-            checked.append(array)
+            checked.append(array.astype(float))
         return tuple(checked)
 
     truth = Truth(*_by_type(record, path, number, 1, visibility))

@@ -20,7 +20,7 @@ import numpy as np
 from ...datasets._paths import read_image_list, under_root
 from ...errors import InputError
 from ...json_fields import is_finite_number, shown
-from ...lanes_io import decode_text, parse_json, read_bytes
+from ...lanes_io import decode_text, finite_numbers, numpy_array_of, parse_json, read_bytes
 from ...limits import LANES
 from ...model import image_stem
 
@@ -78,11 +78,8 @@ def _numbers(values, path: Path, what: str) -> np.ndarray:
     """A list (of equally long lists) of finite JSON numbers as a float array, as NumPy makes one of
     them for the evaluator (true and false are 1 and 0 there too); text, null, numbers beyond a
     float's range and ragged lists are refused."""
-    try:
-        array = np.array(values)
-    except (ValueError, TypeError, OverflowError):
-        array = np.array([], dtype=object)
-    if array.dtype.kind not in "biuf" or (array.dtype.kind == "f" and not np.isfinite(array).all()):
+    array = numpy_array_of(values)
+    if not finite_numbers(array):
         raise InputError(path, f"{what}: something other than finite numbers")
     return array.astype(float)
 
