@@ -255,6 +255,29 @@ def numbers_of(value: Any, what: str) -> np.ndarray:
     return found.astype(np.float64)
 
 
+def scored_3d_lanes(lanes: Any, scores: Any, what: str, score: tuple[str, str], widths: tuple[int, ...] = (3,),
+                    short_above: float | None = None) -> tuple[list[np.ndarray], np.ndarray]:
+    """A frame's 3-D lanes and a score each, as the 3-D benchmarks' metrics take them: (N, 3) point
+    arrays (N, 2 where `widths` allow it) of at least two points (or fewer where the lane's score
+    is at most `short_above`: never compared), one finite score a lane; a ValueError naming the
+    lane that is not so, as `score NAME` refuses such lanes in files. `score`: what a score is
+    called, one and several ("probability", "probabilities")."""
+    arrays = [numbers_of(lane, f"{what} {k}") for k, lane in enumerate(lanes)]
+    chances = numbers_of(scores if scores is not None else [], f"{what} {score[1]}")
+    if chances.shape != (len(arrays),):
+        raise ValueError(f"give one {score[0]} for each of the {len(arrays)} {what}s")
+    for k, array in enumerate(arrays):
+        if (array.ndim != 2 or array.shape[1] not in widths
+                or (len(array) < 2 and (short_above is None or chances[k] > short_above))):
+            raise ValueError(f"{what} {k}: points must be an (N, 3) array of (x, y, z), at least two, got shape "
+                             f"{array.shape}")
+        if not np.isfinite(array).all():
+            raise ValueError(f"{what} {k}: its points must be finite numbers")
+    if not np.isfinite(chances).all():
+        raise ValueError(f"every {what}'s {score[0]} must be a finite number")
+    return arrays, chances
+
+
 def pixel_lanes(values: Any) -> tuple[Lane, ...]:
     """Lanes as a detector holds them: a sequence of (N, 2) arrays of (x, y) image pixels, as a
     `.lines.txt` lists them (the C++ evaluator's float32 applies as when written and read)."""

@@ -12,7 +12,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ...in_memory import numbers_of
+from ...in_memory import scored_3d_lanes
 from ...scoring import PlainTable
 from .official import COUNTS, LANE_TYPES, THRESHOLDS, FrameSweep, frame_sweep
 from .score import NUMBERS, _read_labels, _score
@@ -38,17 +38,9 @@ class Apollo3dMetric:
         for kind, given, probabilities in (("laneline", lanes, scores), ("centerline", center_lanes, center_scores)):
             if given is None:
                 continue
-            arrays = [numbers_of(lane, f"{kind} {k}") for k, lane in enumerate(given)]
-            for k, array in enumerate(arrays):
-                if array.ndim != 2 or array.shape[1] not in (2, 3) or len(array) < 2:
-                    raise ValueError(f"{kind} {k}: points must be an (N, 3) array of (x, y, z), at least two, "
-                                     f"got shape {array.shape}")
-            chances = numbers_of(probabilities if probabilities is not None else [], f"{kind} probabilities")
-            if chances.shape != (len(arrays),):
-                raise ValueError(f"give one probability for each of the {len(arrays)} {kind}s")
-            _finite(arrays, chances, kind)
-            found[kind] = frame_sweep(arrays, chances.reshape(-1), truth.lanes[kind] or (),
-                                      truth.visibility[kind] or ())
+            arrays, chances = scored_3d_lanes(given, probabilities, kind, ("probability", "probabilities"),
+                                              widths=(2, 3))
+            found[kind] = frame_sweep(arrays, chances, truth.lanes[kind] or (), truth.visibility[kind] or ())
         return found
 
     def _nothing(self, frame: str, kind: str) -> FrameSweep:
@@ -85,11 +77,3 @@ class Apollo3dMetric:
             found.update({f"{prefix}{name}": float(named[name]) for name in ("threshold", *NUMBERS)})
         return found
 
-
-def _finite(arrays: list[np.ndarray], scores: np.ndarray, what: str) -> None:
-    """NaN and infinities refused, as `score NAME` refuses them in files."""
-    bad = next((k for k, array in enumerate(arrays) if not np.isfinite(array).all()), None)
-    if bad is not None:
-        raise ValueError(f"{what} {bad}: its points must be finite numbers")
-    if not np.isfinite(scores).all():
-        raise ValueError(f"every {what}'s score must be a finite number")

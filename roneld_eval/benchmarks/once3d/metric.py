@@ -10,7 +10,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ...in_memory import TruthMemo, numbers_of
+from ...in_memory import TruthMemo, scored_3d_lanes
 from ...scoring import PlainTable
 from .official import LABELS, THRESHOLDS, FrameCounts, frame_counts, totals
 from .reader import listed_frames, read_truth
@@ -31,15 +31,7 @@ class Once3dMetric:
 
     def frame_counts(self, frame: str, lanes: Any, scores: Any = None) -> FrameCounts:
         """The frame's counts: `lanes`, (N, 3) point arrays (x, y, z), and `scores`, one each."""
-        arrays = [numbers_of(lane, f"lane {k}") for k, lane in enumerate(lanes)]
-        chances = numbers_of(scores if scores is not None else [], "scores")
-        if chances.shape != (len(arrays),):
-            raise ValueError(f"give one score for each of the {len(arrays)} lanes")
-        _finite(arrays, chances, "lane")
-        for k, array in enumerate(arrays):
-            if array.ndim != 2 or array.shape[1] != 3 or (len(array) < 2 and chances[k] > THRESHOLDS[0]):
-                raise ValueError(f"lane {k}: points must be an (N, 3) array of (x, y, z), at least two, got shape "
-                                 f"{array.shape}")
+        arrays, chances = scored_3d_lanes(lanes, scores, "lane", ("score", "scores"), short_above=THRESHOLDS[0])
         return frame_counts(self.truth(frame), arrays, chances, self.iou_gate)
 
     def tables(self, counts: Sequence[FrameCounts | None]) -> dict[str, PlainTable]:
@@ -62,11 +54,3 @@ class Once3dMetric:
                     found[key] = float(named[key])
         return found
 
-
-def _finite(arrays: list[np.ndarray], scores: np.ndarray, what: str) -> None:
-    """NaN and infinities refused, as `score NAME` refuses them in files."""
-    bad = next((k for k, array in enumerate(arrays) if not np.isfinite(array).all()), None)
-    if bad is not None:
-        raise ValueError(f"{what} {bad}: its points must be finite numbers")
-    if not np.isfinite(scores).all():
-        raise ValueError(f"every {what}'s score must be a finite number")
