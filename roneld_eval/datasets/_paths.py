@@ -66,21 +66,30 @@ def files_below(root: Path, suffix: str, key: Callable[[str], Any] | None = None
     files are not among them: an output folder (its manifest in it), a command's staging folder,
     its lock and journal; so a command's --out given inside a label folder is not read as labels
     the next time."""
-    from ..output import MANIFEST, STAGING_PREFIX
-
-    def ours(name: str) -> bool:
-        return name.startswith((".roneld-", STAGING_PREFIX))
-
     walked = []
     for folder, names, files in os.walk(root):
-        names[:] = [name for name in names
-                    if not ours(name) and not os.path.exists(os.path.join(folder, name, MANIFEST))]
-        walked.append((folder, [name for name in files if name.endswith(suffix) and not ours(name)]))
+        names[:] = [name for name in names if not tool_folder(os.path.join(folder, name))]
+        walked.append((folder, [name for name in files if name.endswith(suffix) and not _tool_name(name)]))
     found = []
     for folder, files in sorted(walked):
         relative = os.path.relpath(folder, root).replace(os.sep, "/")
         found += [name if relative == "." else f"{relative}/{name}" for name in sorted(files, key=key)]
     return found
+
+
+def _tool_name(name: str) -> bool:
+    """This tool's own lock, journal or staging folder, by its name."""
+    from ..output import STAGING_PREFIX
+
+    return name.startswith((".roneld-", STAGING_PREFIX))
+
+
+def tool_folder(path: str | Path) -> bool:
+    """Whether a folder below a label folder is this tool's own: an output folder (its manifest in
+    it) or a command's staging folder, not labels."""
+    from ..output import MANIFEST
+
+    return _tool_name(os.path.basename(path)) or os.path.exists(os.path.join(path, MANIFEST))
 
 
 def frame_sort_key(relpath: str):

@@ -31,15 +31,14 @@ def listed_frames(labels: Path, out: str | Path | None = None) -> list[str]:
     evaluator's order. This tool's own output folders (a command's --out inside the labels, `out`
     among them while it is being written) are passed over; anything else that is not a segment
     folder with its cam01 folder is refused."""
-    from ...output import MANIFEST, STAGING_PREFIX
+    from ...datasets._paths import tool_folder
 
     if not labels.is_dir():
         raise InputError(labels, "label folder not found (expected <segment>/cam01/<frame>.json below it)")
     frames = []
     for segment in os.listdir(labels):
         folder = labels / segment
-        if (segment.startswith((".roneld-", STAGING_PREFIX)) or (folder / MANIFEST).exists()
-                or (out is not None and folder.resolve() == Path(out).resolve())):
+        if tool_folder(folder) or (out is not None and folder.resolve() == Path(out).resolve()):
             continue
         if not folder.is_dir():
             raise InputError(folder, "not a segment folder (the evaluator takes every entry of the label folder for "
