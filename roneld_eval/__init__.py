@@ -21,9 +21,9 @@ from .version import __version__
 _EXPORTS = {
     "run": "api", "show": "api", "score": "api", "score_culane": "api", "score_tusimple": "api", "synthesize": "api",
     "compare": "comparison", "metric": "in_memory", "Metric": "in_memory", "MetricInputError": "in_memory",
-    "evaluate": "evaluation",
+    "evaluate": "api",
     "EvalConfig": "config",
-    "read_dataset": "datasets",
+    "read_dataset": "api",
     "load_maps": "maps",
     "Lane": "model", "Frame": "model", "Clip": "model", "Dataset": "model", "FrameMaps": "model",
     "Prediction": "extract.protocol", "Extractor": "extract.protocol",
@@ -49,12 +49,10 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what static checkers and editors see
-    from .api import run, score, score_culane, score_tusimple, show, synthesize  # noqa: F401
+    from .api import evaluate, read_dataset, run, score, score_culane, score_tusimple, show, synthesize  # noqa: F401
     from .comparison import compare  # noqa: F401
     from .config import EvalConfig, RoneldParams  # noqa: F401
-    from .datasets import read_dataset  # noqa: F401
     from .errors import ConfigError, InputError, RoneldEvalError  # noqa: F401
-    from .evaluation import evaluate  # noqa: F401
     from .extract.online import FrameRefused, warm_up  # noqa: F401
     from .extract.protocol import Extractor, Prediction  # noqa: F401
     from .extract.roneld import RoneldTracker  # noqa: F401

@@ -16,14 +16,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from .version import __version__
-from .benchmarks import Benchmark, benchmark_for, default_name
+from .benchmarks import Benchmark
 from .config import EvalConfig
+from .resolve import benchmark_named, configured
 from .errors import ConfigError, InputError, RoneldEvalError, RunInterrupted
 from .lanes_io import check_regular_file, read_text
 from .limits import RUN_TABLE
 from .wording import counted
 from .cache import ResultCache
-from .evaluation import RunPlan, RunResult, evaluate, plan
+from . import evaluation
+from .evaluation import RunPlan, RunResult
 from .output import DEFAULT_OUT, INPUT_RUN_REMEDY, JOURNAL, OutputFolder, Staging, read_manifest
 from .signals import interruption_name, interruptions_unwrapped, terminate_as_interrupt
 from .report.tables import Protocol
@@ -32,12 +34,12 @@ from .report.write import LaneWriter, load_drawing, stage_report
 FIXTURE_MAPS_FORMAT = "npz"
 
 
-def fixture_roots(dataset: str) -> tuple[Path, Path]:
-    """(data root, maps root) of the bundled fixture of a dataset."""
-    folder = benchmark_for(dataset).fixture
+def fixture_roots(dataset: str | Benchmark) -> tuple[Path, Path]:
+    """(data root, maps root) of the bundled fixture of a dataset (a benchmark, or its name)."""
+    benchmark = benchmark_named(dataset) if isinstance(dataset, str) else dataset
+    folder = benchmark.fixture
     if folder is None:
-        raise ConfigError(f"{benchmark_for(dataset).display_name} has no bundled fixture: give --data-root and "
-                          "--maps-root")
+        raise ConfigError(f"{benchmark.display_name} has no bundled fixture: give --data-root and --maps-root")
     base = Path(str(resources.files("roneld_eval._fixture"))) / folder
     data, maps = base / "data", base / "maps"
     if not data.is_dir() or not maps.is_dir():
@@ -47,18 +49,19 @@ def fixture_roots(dataset: str) -> tuple[Path, Path]:
 
 def default_config(dataset: str | None = None) -> EvalConfig:
     """The preset of a dataset's default model (SCNN); without one, the fixture's benchmark."""
-    benchmark = benchmark_for(dataset or default_name())
+    benchmark = benchmark_named(dataset)
     if benchmark.default_preset is None:
         raise ConfigError(f"{benchmark.display_name} is scored from lane files only: "
                           f"`roneld-eval score {benchmark.name}`")
     return EvalConfig.from_toml(benchmark.default_preset)  # a preset name or a file
 
 
-def with_fixture(config: EvalConfig) -> EvalConfig:
-    """The configuration pointed at the bundled fixture when it names no data."""
+def with_fixture(config: EvalConfig, benchmark: Benchmark | None = None) -> EvalConfig:
+    """The configuration pointed at the bundled fixture (of `benchmark`, else of the benchmark it
+    names) when it names no data."""
     if config.dataset.data_root is not None or config.maps.root is not None:
         return config
-    data, maps = fixture_roots(config.dataset.name)
+    data, maps = fixture_roots(benchmark or config.dataset.name)
     return config.with_overrides(**{"dataset.data_root": str(data), "maps.root": str(maps),
                                     "maps.format": FIXTURE_MAPS_FORMAT})
 
@@ -98,11 +101,10 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
     `diagnose`: also why each method's official F1 is not higher (`loc_iou`, its error types, as
     `score NAME --diagnose` gives them): the lanes are saved (as `save_lanes`) and scored so.
     """
-    requested = with_absolute_paths(config or default_config())
-    benchmark = benchmark_for(requested.dataset.name)
+    requested, benchmark = configured(with_absolute_paths(config or default_config()))
     if diagnose or loc_iou is not None:
         requested = diagnosable(requested, benchmark, diagnose, loc_iou, shard)
-    config = with_fixture(requested)
+    config = with_fixture(requested, benchmark)
     say = announce or (lambda message: None)
     if shard is not None:
         from .shards import parse_shard
@@ -110,14 +112,14 @@ def run(config: EvalConfig | None = None, out: str | Path = DEFAULT_OUT, progres
         if resume or overlays or not timings:
             raise ConfigError("--shard writes a part for `roneld-eval merge`, not a report: without --resume, "
                               "--overlays (draw pictures of the merged run with `roneld-eval show`) or --no-timings")
-        _run_shard(config, requested, parse_shard(shard), out, progress, say)
+        _run_shard(config, benchmark, requested, parse_shard(shard), out, progress, say)
         return None
     with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
         staging = Staging(folder)
-        cache = ResultCache(folder.path, config, __version__, resume, note=say)
+        cache = ResultCache(folder.path, config, benchmark, __version__, resume, note=say)
         with _kept_for_resume(cache):
             writer = LaneWriter(staging, benchmark) if config.save_lanes else None
-            result = _evaluated(config, requested, staging, writer, cache, progress, resume, say)
+            result = _evaluated(config, benchmark, requested, staging, writer, cache, progress, resume, say)
             if overlays:
                 _stage_pictures(staging, config, result, overlays)
             if diagnose:
@@ -193,11 +195,12 @@ def _stage_diagnosis(staging: Staging, benchmark: Benchmark, config: EvalConfig,
     return diagnosed
 
 
-def _evaluated(config: EvalConfig, requested: EvalConfig, staging: Staging, writer: LaneWriter | None,
-               cache: ResultCache, progress: bool, resume: bool, say: Callable[[str], None]) -> RunResult:
+def _evaluated(config: EvalConfig, benchmark: Benchmark, requested: EvalConfig, staging: Staging,
+               writer: LaneWriter | None, cache: ResultCache, progress: bool, resume: bool,
+               say: Callable[[str], None]) -> RunResult:
     """The run's result, its lanes staged by `writer` (with save_lanes); it must have scored a frame."""
     try:
-        result = evaluate(config, progress=progress, lane_sink=writer, cache=cache, announce=say,
+        result = evaluation.evaluate(config, benchmark, progress=progress, lane_sink=writer, cache=cache, announce=say,
                           meanwhile=load_drawing)
     except RunInterrupted as error:  # a worker died: say what is kept for --resume
         raise RunInterrupted(_unfinished(str(error), cache), exit_code=error.exit_code) from None
@@ -224,11 +227,12 @@ def _stage_pictures(staging: Staging, config: EvalConfig, result: RunResult, ove
 
     chosen = worst_frames(result.per_frame, overlays)
     protocol = Protocol.of_run(result).paper_short()
-    write_pictures(staging, frame_pictures(config, result.dataset, chosen, list(config.methods), protocol))
+    pictures = frame_pictures(config, result.benchmark, result.dataset, chosen, list(config.methods), protocol)
+    write_pictures(staging, pictures)
 
 
-def _run_shard(config: EvalConfig, requested: EvalConfig, shard, out: str | Path, progress: bool,
-               say: Callable[[str], None]) -> None:
+def _run_shard(config: EvalConfig, benchmark: Benchmark, requested: EvalConfig, shard, out: str | Path,
+               progress: bool, say: Callable[[str], None]) -> None:
     """One shard of a run: its clips evaluated and kept as a part (roneld_eval.run_parts), with
     the configuration as requested (the bundled fixture by name), as a run's config.toml."""
     from .run_parts import PartWriter, write_run_part
@@ -236,7 +240,7 @@ def _run_shard(config: EvalConfig, requested: EvalConfig, shard, out: str | Path
     with terminate_as_interrupt(), OutputFolder(out, "run") as folder:
         staging = Staging(folder)
         writer = PartWriter(staging)
-        result = evaluate(config, progress=progress, cache=writer, announce=say, shard=shard)
+        result = evaluation.evaluate(config, benchmark, progress=progress, cache=writer, announce=say, shard=shard)
         write_run_part(staging, config, requested, shard, result.dataset, writer, __version__,
                        result.wall_time_s)
         folder.commit()
@@ -251,9 +255,9 @@ def merge_run(parts, out: str | Path) -> RunResult:
     from .limits import CONFIG as CONFIG_SIZE
 
     config_path = parts[0].path / CONFIG
-    requested = EvalConfig.from_toml_text(decode_text(parts[0].read(CONFIG, CONFIG_SIZE), config_path),
-                                          source=str(config_path))
-    config = with_fixture(requested)
+    requested, benchmark = configured(EvalConfig.from_toml_text(
+        decode_text(parts[0].read(CONFIG, CONFIG_SIZE), config_path), source=str(config_path)))
+    config = with_fixture(requested, benchmark)
     if config.plugins:  # a part is untrusted: merging it must not import code it names
         raise InputError(parts[0].path / CONFIG, "names plug-in methods; merge imports no code a part names: "
                                                  "run the whole evaluation unsharded, or merge without the plug-ins")
@@ -262,11 +266,11 @@ def merge_run(parts, out: str | Path) -> RunResult:
     if config_key(config, __version__) != parts[0].manifest["settings"]:
         raise InputError(parts[0].path / CONFIG, "not the configuration its part.json was run with (or a plug-in's "
                                                  "code changed since)")
-    cache = PartsCache(parts, config)
+    cache = PartsCache(parts, config, benchmark)
     with terminate_as_interrupt(), OutputFolder(out, "run", nested={SHOW_FOLDER: "show"}) as folder:
         staging = Staging(folder)
-        writer = LaneWriter(staging, benchmark_for(config.dataset.name)) if config.save_lanes else None
-        result = evaluate(config, progress=False, lane_sink=writer, cache=cache)
+        writer = LaneWriter(staging, benchmark) if config.save_lanes else None
+        result = evaluation.evaluate(config, benchmark, progress=False, lane_sink=writer, cache=cache)
         if ground_truth(result.dataset) != parts[0].manifest["ground_truth"]:
             raise InputError(config.dataset.data_root, "the dataset's clips or categories are not those the shards "
                                                        "were run on")
@@ -289,6 +293,23 @@ def merge_run(parts, out: str | Path) -> RunResult:
     return result
 
 
+def evaluate(config: EvalConfig, progress: bool = True, **options) -> RunResult:
+    """Evaluate every configured method on the dataset's stored maps and return the result,
+    writing nothing (the library `run` without its report; options as evaluation.evaluate's)."""
+    config, benchmark = configured(config)
+    return evaluation.evaluate(config, benchmark, progress=progress, **options)
+
+
+def read_dataset(dataset: str | Benchmark, root: str | Path, list_file: str | Path | None = None,
+                 limit: int | None = None, errors: list | None = None, labels: bool = True):
+    """A registered benchmark's dataset under `root` (the benchmark, or its name), clips in order;
+    see roneld_eval.datasets.read_dataset."""
+    from . import datasets
+
+    benchmark = benchmark_named(dataset) if isinstance(dataset, str) else dataset
+    return datasets.read_dataset(benchmark, root, list_file, limit, errors, labels)
+
+
 def plan_run(config: EvalConfig | None = None, announce: Callable[[str], None] | None = None,
              diagnose: bool = False, loc_iou: float | None = None) -> RunPlan:
     """What `run` would evaluate, checked as a run checks it before any work, without
@@ -296,7 +317,8 @@ def plan_run(config: EvalConfig | None = None, announce: Callable[[str], None] |
     first map's geometry, and `diagnose` and `loc_iou` as `run` takes them. A first map that
     cannot be read is the error the run would stop with (under on_error = "fail"): a dry run
     said all was well where the run then failed."""
-    planned = plan(with_fixture(with_absolute_paths(config or default_config())), announce=announce)
+    requested, benchmark = configured(with_absolute_paths(config or default_config()))
+    planned = evaluation.plan(with_fixture(requested, benchmark), benchmark, announce=announce)
     if diagnose or loc_iou is not None:
         diagnosable(planned.context.config, planned.context.benchmark, diagnose, loc_iou, None)
     if planned.geometry is None and planned.clips and planned.context.config.on_error == "fail":
@@ -328,9 +350,7 @@ def score(name: str, *args, **options):
     """`roneld-eval score NAME` as a function, for every registered benchmark: the options of its
     command as arguments (its library scorer's: `help(roneld_eval.benchmarks.benchmark_for(
     NAME).scorer())` lists them), returning what that scorer returns (its tables)."""
-    from .benchmarks import benchmark_for
-
-    benchmark = benchmark_for(name)
+    benchmark = benchmark_named(name)
     scorer = getattr(benchmark, "scorer", None)
     if scorer is None:
         raise ConfigError(f"benchmark {name!r} offers no library scorer: run `roneld-eval score {name}`")
@@ -368,7 +388,8 @@ def __dir__() -> list[str]:  # help() and tab completion list them too
     return sorted(set(globals()) | set(_LOADED_ON_USE))
 
 
-__all__ = ["run", "show", "score", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
+__all__ = ["run", "evaluate", "read_dataset", "show",
+           "score", "score_culane", "score_tusimple", "synthesize", "fixture_roots", "default_config",
            "SynthResult"]
 
 
@@ -430,8 +451,8 @@ def show_gallery(score_dir: Path, worst: int | None = None, out: str | Path | No
 
 
 def _show_pictures(run_dir: Path, frames: Sequence[str], worst: int | None, methods: Sequence[str]):
-    requested = EvalConfig.from_toml(run_dir / "config.toml")
-    config = with_fixture(requested)
+    requested, benchmark = configured(EvalConfig.from_toml(run_dir / "config.toml"))
+    config = with_fixture(requested, benchmark)
     check_regular_file(run_dir / "per_frame.csv", "missing from this run folder", RUN_TABLE)
     import pandas as pd
 
@@ -447,19 +468,16 @@ def _show_pictures(run_dir: Path, frames: Sequence[str], worst: int | None, meth
         from .report.overlays import worst_frames
 
         chosen += worst_frames(per_frame, worst or 6)
-    from .datasets import read_dataset
-
     if config.dataset.data_root is None:  # a run needs one, so its config.toml was edited since
         raise InputError(run_dir / "config.toml", "names no dataset.data_root, so the frames cannot be found")
-    dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
-                           config.dataset.limit)
+    dataset = read_dataset(benchmark, config.dataset.data_root, config.dataset.list_file, config.dataset.limit)
     try:
         recorded = Protocol.from_summary(json.loads(read_text(run_dir / "summary.json")))
     except (RoneldEvalError, ValueError, AttributeError, TypeError, RecursionError):
         recorded = None
     from .report.pictures import frame_pictures
 
-    return frame_pictures(config, dataset, chosen, methods, recorded.paper_short() if recorded else "")
+    return frame_pictures(config, benchmark, dataset, chosen, methods, recorded.paper_short() if recorded else "")
 
 
 SHOW_FOLDER = "show"

@@ -23,7 +23,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .benchmarks import Benchmark, benchmark_for
+from .benchmarks import Benchmark
 from .secret_key import secret_key as _secret_key
 from .config import EvalConfig
 from .errors import InputError
@@ -46,10 +46,10 @@ class ResultCache:
     why the others were computed.
     """
 
-    def __init__(self, out: str | Path, config: EvalConfig, version: str, resume: bool,
+    def __init__(self, out: str | Path, config: EvalConfig, benchmark: Benchmark, version: str, resume: bool,
                  note: Callable[[str], None] | None = None):
         self.config_key = config_key(config, version)
-        self.benchmark = benchmark_for(config.dataset.name)
+        self.benchmark = benchmark
         self.folder = Path(out) / CACHE
         self.note = note or (lambda message: None)
         self.reasons: Counter[str] = Counter()

@@ -237,7 +237,11 @@ def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
 
     if config_file is None:
         return default_config(dataset)
-    config = EvalConfig.from_toml(config_file)
+    from .presets import resolve_config_path
+    from .resolve import configured
+
+    # Filled in here, so that what the file lacks or contradicts is said naming it.
+    config, _ = configured(EvalConfig.from_toml(config_file), source=str(resolve_config_path(config_file)))
     if dataset is not None and dataset != config.dataset.name:
         raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
     return config
@@ -417,7 +421,6 @@ def _refuse_here_only(config: EvalConfig, dry_run: bool, diagnose: bool, shard: 
 
 
 def _print_summary(result, out: Path) -> None:
-    from .benchmarks import benchmark_for
     from .report import tables
 
     counts = result.counts
@@ -426,7 +429,7 @@ def _print_summary(result, out: Path) -> None:
                f"{counts['labelled_frames']} scored, {counts['ego_lanes']} ego lanes; {result.wall_time_s:.1f} s")
     click.echo(f"paper's protocol: {protocol.paper()}; Acc. Inc.: {protocol.interval()}")
     click.echo(tables.comparison_table(result.accuracy, result.config.model, protocol.clips).to_markdown())
-    benchmark = benchmark_for(result.dataset.name)
+    benchmark = result.benchmark
     headline = tables.official_headline(result.official, benchmark, result.config.model)
     if headline is not None:  # what papers quote, beside the paper's table (every count in official.csv)
         click.echo(f"official {benchmark.display_name} scores (all counts in official.csv):")
@@ -455,10 +458,10 @@ class _BenchmarkCommands(click.Group):
     @staticmethod
     def _command(name: str):
         """The benchmark's command; one that cannot be loaded or has none is one line, exit 2."""
-        from .benchmarks import benchmark_for
+        from .resolve import benchmark_named
 
         try:
-            command = benchmark_for(name).score_command()
+            command = benchmark_named(name).score_command()
         except RoneldEvalError as error:  # a third party's is guarded (benchmarks.plugins)
             raise UsageProblem(str(error)) from None
         if command is None:
@@ -521,13 +524,14 @@ def merge(parts, out, debug):
 def synth(dataset, out, clips, frames, seed, maps_format, debug):
     """Generate a small realistic dataset with SCNN-like maps (4 channels, 288x800)."""
     from . import api
-    from .benchmarks import benchmark_for
     from .progress import progress_bar
+    from .resolve import benchmark_named
 
-    total = clips * (frames or _guard(benchmark_for, debug, dataset).frames_per_clip)
+    benchmark = _guard(benchmark_named, debug, dataset)
+    total = clips * (frames or benchmark.frames_per_clip)
     _guard(check_environment, debug)  # before the bar: a bound set wrong is one line, not under a bar
     with progress_bar(total, "frame", "generating", wanted=total >= 200) as bar:
-        result = _guard(api.synthesize, debug, dataset, out, clips, frames, seed, maps_format, bar.update)
+        result = _guard(api.synthesize, debug, benchmark, out, clips, frames, seed, maps_format, bar.update)
     scored = result.score_command is not None  # a benchmark scored from lane files: labels and predictions
     click.echo(f"{'labels' if scored else 'data root'}: {result.data_root}")
     click.echo(f"{'predictions' if scored else 'maps root'}: {result.maps_root}")

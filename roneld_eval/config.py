@@ -82,8 +82,8 @@ def check_lane_width(width: int) -> None:
 # and the library (each dataclass checks its fields when built). Sources of the defaults are
 # beside the fields; the bounds keep a typo from running for hours or drawing nonsense.
 RANGES: dict[str, Range] = {
-    "dataset.image_width": Range(1, 100_000),
-    "dataset.image_height": Range(1, TALLEST_IMAGE),
+    "dataset.image_width": Range(0, 100_000),  # 0: the benchmark's (filled in where the run starts)
+    "dataset.image_height": Range(0, TALLEST_IMAGE),
     "dataset.limit": Range(1),  # clips
     "maps.width": Range(1, 10_000),  # reference map size in pixels (maps of another size rescale)
     "maps.height": Range(1, 10_000),
@@ -136,7 +136,9 @@ def _check_fields(record, section: str) -> None:
 
 @dataclass(frozen=True)
 class DatasetConfig:
-    """Which benchmark, where it lies, and how much of it to read."""
+    """Which benchmark, where it lies, and how much of it to read. The benchmark is a name only:
+    the run's edge (roneld_eval.api.configured) checks it is installed and fills in its image size,
+    so building a configuration asks no registry."""
 
     name: str = ""  # a registered benchmark (roneld_eval.benchmarks); "" = the one bundling the fixture
     image_width: int = 0  # 0 = the benchmark's image size
@@ -146,19 +148,12 @@ class DatasetConfig:
     limit: int | None = None  # at most this many clips, in dataset order
 
     def __post_init__(self):
-        from .benchmarks import benchmark_for, default_name, names
-
-        if self.name == "":
-            object.__setattr__(self, "name", default_name())
-        if isinstance(self.name, str) and self.name in names():
-            width, height = benchmark_for(self.name).image_size
-            if self.image_width == 0:
-                object.__setattr__(self, "image_width", width)
-            if self.image_height == 0:
-                object.__setattr__(self, "image_height", height)
         _check_fields(self, "dataset")
-        if self.name not in names():
-            raise ConfigError(f"dataset must be one of {', '.join(names())}, got {self.name!r}")
+
+    @property
+    def sized(self) -> bool:
+        """Whether the image size is known (given, or filled in from the benchmark's)."""
+        return self.image_width > 0 and self.image_height > 0
 
 
 @dataclass(frozen=True)
@@ -334,6 +329,10 @@ class EvalConfig:
         object.__setattr__(self, "plugins", self._plugins_used(methods))
         if self.on_error not in ON_ERROR:
             raise ConfigError(f"on_error must be one of {', '.join(ON_ERROR)}, got {self.on_error!r}")
+        if self.dataset.sized:  # else checked once the benchmark's size is filled in (api.configured)
+            self._check_image_rows()
+
+    def _check_image_rows(self) -> None:
         crop_bottom = self.maps.crop_bottom_px
         if crop_bottom is not None and crop_bottom > self.dataset.image_height:
             raise ConfigError(
@@ -381,6 +380,9 @@ class EvalConfig:
     @property
     def geometry(self) -> MapGeometry:
         """The configured map-to-image geometry (maps of another size rescale it)."""
+        if not self.dataset.sized:
+            raise ConfigError("the configuration gives no image size: take it through roneld_eval.api.configured, "
+                              "which fills in the benchmark's")
         return MapGeometry(
             image_width=self.dataset.image_width,
             image_height=self.dataset.image_height,

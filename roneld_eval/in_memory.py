@@ -323,11 +323,10 @@ def same_counts(a: Any, b: Any) -> bool:
 def metric(name: str, **options: Any) -> Metric:
     """The official metric of benchmark `name` in memory; `options` as `score NAME` takes them
     (for CULane: data_root, list_file, iou or preset, width)."""
-    from .benchmarks import benchmark_for
-
     from .errors import ConfigError
+    from .resolve import benchmark_named
 
-    benchmark = benchmark_for(name)
+    benchmark = benchmark_named(name)
     make = getattr(type(benchmark), "metric", None)
     if make is None:
         raise ConfigError(f"{benchmark.display_name} offers no in-memory metric yet (score its files with "

@@ -18,8 +18,10 @@ from typing import TYPE_CHECKING, Callable, Iterator
 
 import numpy as np
 
+from .benchmarks import Benchmark
 from .config import EvalConfig
 from .datasets import load_labels, read_dataset
+from .resolve import configured
 from .datasets._paths import under_root
 from .errors import ConfigError, InputError
 from .evaluation.one_clip import frame_map_path
@@ -73,8 +75,10 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
     root). `progress`: a bar on stderr where it is a terminal."""
     if config.maps.root is None:
         raise ConfigError("replay needs the clip's maps (--maps-root)")
-    clip = _clip(config, clip_id, image_size)
-    context = RunContext(config, Path(config.maps.root))
+    maps_root = Path(config.maps.root)
+    config, benchmark = configured(config)
+    clip = _clip(config, benchmark, clip_id, image_size)
+    context = RunContext(config, benchmark, maps_root)
     method = PAPER.ours if pft else PAPER.without_tracking
     tracker = RoneldTracker(config.roneld, config.geometry_of(clip.frames[0]), pft=pft,
                             lane_channels=config.maps.lane_channels, latency_frames=len(clip.frames))
@@ -110,7 +114,7 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
                         tuple(without_image) if images is not None else ())
 
 
-def _clip(config: EvalConfig, clip_id: str | None, image_size: tuple[int, int] | None) -> Clip:
+def _clip(config: EvalConfig, benchmark: Benchmark, clip_id: str | None, image_size: tuple[int, int] | None) -> Clip:
     """The clip to replay, its frames in order (and, from a dataset, with their labels)."""
     maps_root = Path(config.maps.root or ".")
     if config.dataset.data_root is None:
@@ -119,12 +123,12 @@ def _clip(config: EvalConfig, clip_id: str | None, image_size: tuple[int, int] |
                               "is one clip)")
         from .evaluation.records import lane_files_of
 
-        relpaths = frames_in_folder(maps_root, config.maps, lane_files_of(config))
+        relpaths = frames_in_folder(maps_root, config.maps, lane_files_of(config, benchmark))
         return Clip(maps_root.name or str(maps_root), tuple(
             Frame(relpath, labelled=False, image_size=image_size) for relpath in relpaths))
     if image_size is not None:
         raise ConfigError("--image-size is for a folder of maps: a dataset's frames have their benchmark's sizes")
-    dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file, labels=False)
+    dataset = read_dataset(benchmark, config.dataset.data_root, config.dataset.list_file, labels=False)
     clips = {clip.clip_id: clip for clip in dataset.clips}
     if clip_id is None:
         if len(clips) != 1:
@@ -138,7 +142,7 @@ def _clip(config: EvalConfig, clip_id: str | None, image_size: tuple[int, int] |
     clip = clips[clip_id]
     if not clip.frames:
         raise InputError(dataset.source_file or dataset.root, f"clip {clip_id!r} has no frames")
-    return load_labels(dataset, clip)
+    return load_labels(benchmark, dataset, clip)
 
 
 def _checked_geometry(config: EvalConfig, frame: Frame, width: int, height: int, context: RunContext) -> MapGeometry:

@@ -18,7 +18,7 @@ import math
 from pathlib import Path
 from typing import Callable, Sequence
 
-from .benchmarks import benchmark_for
+from .benchmarks import Benchmark
 from .cache import config_key, decode_result, encode_result, fingerprint
 from .config import EvalConfig
 from .errors import InputError
@@ -77,8 +77,8 @@ def write_run_part(staging, config: EvalConfig, requested: EvalConfig, shard: Sh
 class PartsCache:
     """The ClipCache of a merge: every clip's results from the part that holds it, checked."""
 
-    def __init__(self, parts: Sequence[Part], config: EvalConfig):
-        self.benchmark = benchmark_for(config.dataset.name)
+    def __init__(self, parts: Sequence[Part], config: EvalConfig, benchmark: Benchmark):
+        self.benchmark = benchmark
         self.methods = tuple(config.methods)
         self.where: dict[str, tuple[Part, Path]] = {}
         for part in parts:

@@ -362,11 +362,13 @@ def _merger(part: Part):
 def _scored_benchmark(part: Part):
     command = part.manifest["command"]
     name = command[len(SCORE_COMMAND):] if isinstance(command, str) and command.startswith(SCORE_COMMAND) else None
-    from .benchmarks import benchmark_for, names
+    from .benchmarks import names
+    from .resolve import benchmark_named
 
-    if name not in names() or not hasattr(benchmark_for(name), "scorer"):
+    benchmark = benchmark_named(name) if name in names() else None
+    if benchmark is None or not hasattr(benchmark, "scorer"):
         raise InputError(part.path / MANIFEST_NAME, f"parts of {command!r}, which this version cannot merge")
-    return benchmark_for(name)
+    return benchmark
 
 
 def merge(folders: Sequence[str | Path], out: str | Path):

@@ -16,12 +16,16 @@ import math
 import shlex
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from .errors import InputError
 from .output import write_file
+
+if TYPE_CHECKING:
+    from .benchmarks import Benchmark
 
 CHANNELS = 4
 MAP_WIDTH, MAP_HEIGHT = 800, 288
@@ -341,17 +345,17 @@ def lane_file_scenes(camera: Camera, clips: int, frames: int, seed: int, maps: b
                 yield index, k, scene, truth, detected
 
 
-def synthesize(dataset: str, out: str | Path, clips: int = 3, frames: int | None = None, seed: int = 0,
+def synthesize(dataset: "str | Benchmark", out: str | Path, clips: int = 3, frames: int | None = None, seed: int = 0,
                maps_format: str | None = None, progress=None) -> SynthResult:
     """Generate a dataset of a registered benchmark (the library twin of `roneld-eval synth`).
 
     `out` is an output folder as a run's is (roneld_eval.output): a new or empty folder, or one an
     earlier `synth` wrote, whose set this one replaces whole; a folder holding anything else is
     refused before anything is written (`synth --out /etc` wrote data/ and maps/ into it)."""
-    from .benchmarks import benchmark_for
     from .output import OutputFolder
+    from .resolve import benchmark_named
 
-    benchmark = benchmark_for(dataset)
+    benchmark = benchmark_named(dataset) if isinstance(dataset, str) else dataset
     maps_format = maps_format or str(getattr(benchmark, "synth_maps_format", "npy"))
     out = Path(out)
     with OutputFolder(out, "synth") as folder:

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from roneld_eval.cli import main
-from roneld_eval.datasets import read_dataset
+from roneld_eval.api import read_dataset
 from roneld_eval.benchmarks.culane.reader import read_culane
 from roneld_eval.benchmarks.tusimple.reader import read_tusimple
 from roneld_eval.errors import InputError

@@ -35,7 +35,7 @@ from roneld_eval.config import (
 )
 from roneld_eval.presets import preset_names
 from roneld_eval.thresholds import parse_thresholds
-from roneld_eval.datasets import read_dataset
+from roneld_eval.api import read_dataset
 from roneld_eval.benchmarks.culane.reader import read_culane
 from roneld_eval.benchmarks.tusimple.reader import read_tusimple
 from roneld_eval.errors import ConfigError, InputError
@@ -631,9 +631,11 @@ def test_non_ascii_names_under_a_non_utf8_locale(tmp_path):
     (data / video / "00000.lines.txt").write_text("800 589 810 400\n", encoding="utf-8")
     np.save(maps / video / "00000.npy", np.zeros((4, 288, 800), np.uint8))
     script = (
-        "import sys; from roneld_eval.datasets import read_dataset; from roneld_eval.datasets import load_labels\n"
+        "import sys; from roneld_eval.api import read_dataset; from roneld_eval.datasets import load_labels\n"
         "from roneld_eval.maps import load_maps; from roneld_eval.config import MapsConfig\n"
-        "d = read_dataset('culane', sys.argv[1], labels=False); clip = load_labels(d, d.clips[0])\n"
+        "from roneld_eval.resolve import benchmark_named\n"
+        "b = benchmark_named('culane'); d = read_dataset(b, sys.argv[1], labels=False)\n"
+        "clip = load_labels(b, d, d.clips[0])\n"
         "m = load_maps(sys.argv[2], clip.frames[0].relpath, MapsConfig())\n"
         "print(sys.getfilesystemencoding(), len(clip.frames[0].lanes), m.probabilities.shape)\n"
     )

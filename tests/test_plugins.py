@@ -16,10 +16,12 @@ from click.testing import CliRunner
 from conftest import interrupt_after
 from test_run_integrity import wait_for
 
-from roneld_eval import api, evaluation
+from roneld_eval import api
 from roneld_eval.cli import main
 from roneld_eval.config import EvalConfig, PluginMethod
-from roneld_eval.datasets import read_dataset
+from roneld_eval.api import read_dataset
+from roneld_eval.resolve import benchmark_named
+
 from roneld_eval.errors import ConfigError, RunInterrupted
 from roneld_eval.extract.protocol import Prediction, ego_pair, prediction_problem
 from roneld_eval.extract.registry import methods_of, resolve_entry
@@ -28,6 +30,8 @@ from roneld_eval.metrics.lane_iou_f1 import match_frame
 from roneld_eval.metrics.paper import ego_masks, side_ious
 from roneld_eval.model import Lane
 from roneld_eval.benchmarks.culane.synth import synth_culane
+
+CULANE = benchmark_named("culane")
 
 
 PLUGINS = Path(__file__).with_name("plugin_extractors.py")
@@ -138,13 +142,13 @@ def test_a_changed_plugin_file_is_not_resumed_from(dataset, tmp_path, monkeypatc
     }).with_plugin("mine", f"{plugin}:ego_points")
     from roneld_eval.cache import ResultCache
 
-    before = ResultCache(tmp_path / "o", config, "v", resume=False).config_key
-    assert ResultCache(tmp_path / "o", config, "v", resume=True).config_key == before
+    before = ResultCache(tmp_path / "o", config, CULANE, "v", resume=False).config_key
+    assert ResultCache(tmp_path / "o", config, CULANE, "v", resume=True).config_key == before
     plugin.write_text(PLUGINS.read_text() + "\n# a change\n")
     from roneld_eval.extract import registry
 
     monkeypatch.setattr(registry, "_RESOLVED", {})
-    assert ResultCache(tmp_path / "o", config, "v", resume=True).config_key != before
+    assert ResultCache(tmp_path / "o", config, CULANE, "v", resume=True).config_key != before
 
 
 def test_a_changed_helper_beside_a_plugin_is_not_resumed_from(dataset, tmp_path, monkeypatch):
@@ -174,7 +178,7 @@ def test_a_changed_helper_beside_a_plugin_is_not_resumed_from(dataset, tmp_path,
 
     def key() -> str:
         monkeypatch.setattr(registry, "_RESOLVED", {})
-        return ResultCache(tmp_path / "o", config, "v", resume=True).config_key
+        return ResultCache(tmp_path / "o", config, CULANE, "v", resume=True).config_key
 
     first = key()
     assert key() == first  # the same code, the same key
@@ -261,7 +265,7 @@ def test_a_stateful_plugin_sees_every_frame_and_a_stateless_one_only_scored_ones
         "dataset.data_root": str(tmp_path / "t" / "data"), "maps.root": str(tmp_path / "t" / "maps"),
         "workers": 1, "methods": ["baseline"]})
     config = config.with_plugin("counting", f"{PLUGINS}:CountingExtractor").with_plugin("cheap", entry("no_op"))
-    result = evaluation.evaluate(config, progress=False)
+    result = api.evaluate(config, progress=False)
     frames = result.runtime.set_index("method")["frames"]
     assert frames["counting"] == 20 and frames["cheap"] == 1 and frames["baseline"] == 1
 

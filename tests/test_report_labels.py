@@ -146,7 +146,7 @@ def test_labels_state_the_geometry_the_run_recorded(fixture_result, tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     summary["geometry"] = ENET_GEOMETRY.to_dict()
     (tmp_path / "summary.json").write_text(json.dumps(summary))
-    page = build_html(tmp_path)
+    page = build_html(tmp_path, fixture_result.benchmark)
     assert "976x208" in page and "IoU &gt; 0.4" in page and "IoU &gt; 0.5" not in page
     assert "configured size" not in page
 
@@ -158,10 +158,11 @@ def test_report_without_a_recorded_geometry_says_so(fixture_result, tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     summary.pop("geometry", None)
     (tmp_path / "summary.json").write_text(json.dumps(summary))
-    page = build_html(tmp_path)
+    page = build_html(tmp_path, fixture_result.benchmark)
     assert "IoU &gt; 0.5" in page and "the run did not record the maps' size" in page
     (tmp_path / "summary.json").write_text(json.dumps({"dataset": "culane", "config": {"nonsense": 1}}))
-    assert "<table" in build_html(tmp_path)  # a foreign summary: no protocol line, still a page
+    # a foreign summary: no protocol line, still a page
+    assert "<table" in build_html(tmp_path, fixture_result.benchmark)
 
 
 def figure_texts(figure) -> str:
@@ -180,7 +181,7 @@ def test_figures_state_their_configuration(fixture_result):
     import matplotlib.pyplot as plt
 
     protocol = tables.Protocol(ENET_GEOMETRY, clips=4)
-    figure = accuracy_figure(fixture_result.accuracy, "SCNN", "culane", protocol)
+    figure = accuracy_figure(fixture_result.accuracy, "SCNN", "CULane", protocol)
     text = figure_texts(figure)
     plt.close(figure)
     assert "976x208" in text and "ground truth 20 px and predictions 37 px" in text and "4 clips" in text

@@ -113,7 +113,7 @@ def test_rerun_from_the_written_config(fixture_run, tmp_path):
 def test_saved_lanes_score_like_the_run(fixture_run):
     """The saved .lines.txt give the official tool exactly the numbers in official.csv."""
     result, out = fixture_run
-    from roneld_eval.datasets import read_dataset
+    from roneld_eval.api import read_dataset
 
     dataset = read_dataset("culane", result.dataset.root)  # with its labels (a run's workers read them)
     official = pd.read_csv(out / "official.csv")

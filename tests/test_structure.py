@@ -65,7 +65,6 @@ COMPLEX_LEFT = {
     "metrics/iou.py:match_lanes": 22,
     "output.py:OutputFolder._check_ownership": 23,
     "replay.py:_clip": 16,
-    "report/html.py:build_html": 18,
     "report/pictures.py:frame_pictures": 17,
     "report/plots.py:category_figure": 18,
     "report/tables.py:Table.to_latex": 25,
@@ -222,14 +221,56 @@ def test_a_benchmarks_folder_imports_no_other_benchmarks_folder(name):
     assert found == []
 
 
-def test_the_benchmark_registry_does_not_import_config_back():
-    """config asks the registry for a benchmark's facts; the registry needs nothing of config (the
-    import cycle config <-> benchmarks issue 48 found)."""
+def test_the_benchmark_registry_and_the_configuration_do_not_import_each_other():
+    """The import cycle config <-> benchmarks issue 48 found: the registry needs nothing of config,
+    and a configuration is built, read and changed without the registry (it keeps the benchmark's
+    name; roneld_eval.resolve fills in the rest where work enters)."""
     program = ("import sys, roneld_eval.benchmarks as b; b.names(); "
                "print(sorted(m for m in sys.modules if m.startswith('roneld_eval.')))")
     done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=60, cwd=REPO,
                           check=True)
     assert "roneld_eval.config" not in done.stdout and "roneld_eval.benchmarks" in done.stdout
+    program = ("import sys; from roneld_eval.config import EvalConfig; "
+               "EvalConfig.from_toml('scnn-tusimple').with_overrides(**{'dataset.name': 'vil100'}).to_toml(); "
+               "EvalConfig().to_toml(); print(sorted(m for m in sys.modules if m.startswith('roneld_eval.')))")
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=60, cwd=REPO,
+                          check=True)
+    assert "roneld_eval.config" in done.stdout and "roneld_eval.benchmarks" not in done.stdout
+
+
+def _calls_of(source: str, names: set[str]) -> list[int]:
+    """The lines calling a function of one of `names` (a plain name or an attribute)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Call):
+            called = node.func.id if isinstance(node.func, ast.Name) else getattr(node.func, "attr", None)
+            if called in names:
+                found.append(node.lineno)
+    return found
+
+
+# Where work enters the library and a benchmark's name becomes its object (roneld_eval.resolve's
+# functions): the commands and public functions, compare reading a run back, a part being merged.
+EDGES = {"resolve.py", "api.py", "cli.py", "in_memory.py", "synth.py", "shards.py", "replay.py",
+         "comparison/runs.py"}
+
+
+def test_a_benchmark_is_looked_up_in_one_place_and_only_where_work_enters():
+    """Issue 48: at most 3 calls of benchmark_for (here: 1, in roneld_eval.resolve), and the stages
+    (evaluation, datasets, report, cache, config, metrics) are handed the benchmark: none calls
+    resolve's functions."""
+    package = REPO / "roneld_eval"
+    lookups, resolving = {}, {}
+    for path in sorted(package.rglob("*.py")):
+        relative = path.relative_to(package).as_posix()
+        source = path.read_text(encoding="utf-8")
+        if relative != "benchmarks/__init__.py":  # the registry's own definition
+            lookups.update({f"{relative}:{line}": "benchmark_for" for line in _calls_of(source, {"benchmark_for"})})
+        resolving.update({f"{relative}:{line}": relative for line in _calls_of(source, {"benchmark_named",
+                                                                                         "configured"})})
+    assert len(lookups) <= 3 and {where.split(":")[0] for where in lookups} == {"resolve.py"}, lookups
+    outside = {where for where, module in resolving.items() if module not in EDGES}
+    assert outside == set(), "a stage looks a benchmark up: hand it the benchmark instead"
 
 
 # A built-in method's own places: its row in the method table, its extractor and kernels, its

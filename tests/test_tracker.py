@@ -21,7 +21,7 @@ import roneld_eval
 from roneld_eval import api
 from roneld_eval.cli import main
 from roneld_eval.config import EvalConfig, RoneldParams
-from roneld_eval.evaluation import plan
+from roneld_eval.api import plan_run
 from roneld_eval.extract.online import FrameRefused, egolanes_as_scnn, egolanes_split_column
 from roneld_eval.extract.protocol import Prediction
 from roneld_eval.extract.roneld import RoneldExtractor
@@ -51,7 +51,7 @@ def run_predictions(config: EvalConfig, monkeypatch) -> list[list[Prediction]]:
 
 def tracked_predictions(config: EvalConfig, preset: str, as_float: bool = False) -> list[list[Prediction]]:
     """The same clips' maps, loaded as the run loads them, through one `update` tracker per clip."""
-    planned = plan(config)
+    planned = plan_run(config)
     out = []
     for clip in planned.clips:
         tracker = RoneldTracker.from_preset(preset, image_size=clip.frames[0].image_size)

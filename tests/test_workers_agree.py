@@ -26,7 +26,8 @@ from test_run_integrity import wait_for
 from roneld_eval import api, evaluation
 from roneld_eval import workers as workers_module
 from roneld_eval.evaluation import one_clip, pool
-from roneld_eval.datasets import read_dataset
+from roneld_eval.api import read_dataset
+from roneld_eval.resolve import configured
 from roneld_eval.errors import InputError
 from roneld_eval.benchmarks.culane.synth import synth_culane
 
@@ -85,8 +86,8 @@ def error_of(root: Path, tmp_path: Path, workers: int) -> str:
 
 
 def context_for(root: Path, workers: int) -> evaluation.RunContext:
-    return evaluation.RunContext(config_for(root, workers, save_lanes=False), root / "maps", root / "data",
-                                 data_root=root / "data")
+    config, benchmark = configured(config_for(root, workers, save_lanes=False))
+    return evaluation.RunContext(config, benchmark, root / "maps", root / "data", data_root=root / "data")
 
 
 def clips_of(root: Path):
@@ -119,7 +120,7 @@ def test_meanwhile_runs_once_while_the_workers_warm_up(base, monkeypatch, asked,
     this process would only wait. Never called in-process, where it would only delay the work."""
     monkeypatch.setattr(workers_module, "default_workers", lambda: 4)
     seen: list[int] = []
-    result = evaluation.evaluate(config_for(base, asked, save_lanes=False), progress=False,
+    result = api.evaluate(config_for(base, asked, save_lanes=False), progress=False,
                                  meanwhile=lambda: seen.append(len(multiprocessing.active_children())))
     assert result.counts["frames"] == sum(LENGTHS)
     assert seen == ([workers] if workers else [])
@@ -143,7 +144,7 @@ def test_the_worker_has_clips_to_evaluate_while_meanwhile_runs(base, monkeypatch
         wait_for(lambda: len(list(tmp_path.iterdir())) >= 4, 10)
         seen.append(len(list(tmp_path.iterdir())))
 
-    evaluation.evaluate(config_for(base, None, save_lanes=False), progress=False, meanwhile=meanwhile)
+    api.evaluate(config_for(base, None, save_lanes=False), progress=False, meanwhile=meanwhile)
     assert seen == [4]  # of the 5 clips, in the one worker the default gives 103 frames
 
 
@@ -160,7 +161,7 @@ def test_a_signal_while_meanwhile_imports_waits_for_it_to_finish(base, monkeypat
         steps.append("imports done")
 
     with pytest.raises(KeyboardInterrupt):
-        evaluation.evaluate(config_for(base, None, save_lanes=False), progress=False, meanwhile=meanwhile)
+        api.evaluate(config_for(base, None, save_lanes=False), progress=False, meanwhile=meanwhile)
     assert steps == ["imports done"]
     assert wait_for(lambda: not multiprocessing.active_children(), 10)
 

@@ -4,7 +4,8 @@ shown, where a clip's labels lie, and how lanes are written.
 
 Benchmarks register under the entry-point group `roneld_eval.benchmarks` (name = module:object),
 CULane and TuSimple as any third party's package would (pyproject.toml). The rest of the tool
-asks `benchmark_for(name)` and `names()`, and knows no benchmark by name.
+asks `names()`, and looks a benchmark up once where work enters (roneld_eval.resolve), handing
+the object to each stage; it knows no benchmark by name.
 """
 
 from __future__ import annotations
@@ -231,9 +232,14 @@ def origin(name: str) -> str:
     return f"{package}{point.value}"
 
 
-@functools.cache
 def benchmark_for(name: str) -> Benchmark:
-    """The benchmark registered under `name` (as `DatasetConfig.name` gives it)."""
+    """The benchmark registered under `name` (as `DatasetConfig.name` gives it), checked, loaded
+    once. The tool calls it in one place, roneld_eval.resolve, where work enters."""
+    return _loaded(name)
+
+
+@functools.cache
+def _loaded(name: str) -> Benchmark:
     points = _entry_points()
     if name not in points:
         known = ", ".join(points) or "none (is roneld-eval installed?)"
@@ -263,10 +269,25 @@ def benchmark_for(name: str) -> Benchmark:
 _MISSING = object()
 
 
+def detector_lane_formats() -> dict[str, Any]:
+    """Each installed benchmark's format of a detector's lane files (`detector_lanes`), where it
+    declares one: what says which benchmark reads the lane files a user gave another. A plug-in
+    that cannot be loaded is left out (its error is said where it is used)."""
+    formats = {}
+    for name in names():
+        try:
+            files = _loaded(name).detector_lanes
+        except (ConfigError, ImportError, AttributeError):
+            continue
+        if files is not None:
+            formats[name] = files
+    return formats
+
+
 def default_name() -> str:
     """The benchmark `run` evaluates when told none: the first of this package's own that bundles
     a fixture (an installed package cannot change what the bare command does)."""
     for name, point in _entry_points().items():
-        if point.value.startswith(_OWN) and benchmark_for(name).fixture is not None:
+        if point.value.startswith(_OWN) and _loaded(name).fixture is not None:
             return name
     raise ConfigError("no installed benchmark bundles a fixture: give --dataset, --data-root and --maps-root")

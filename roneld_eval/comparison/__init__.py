@@ -24,7 +24,6 @@ import pandas as pd
 
 from ..version import __version__
 from ..errors import ConfigError
-from ..report.tables import dataset_name
 from .groups import Group, _accuracy_of, _groups, method_name, ordered_methods
 from .runs import Run, read_run
 from .tables import threshold_label
@@ -115,7 +114,7 @@ def _curves(groups: Sequence[Group]):
             for run in group.runs:
                 values = _accuracy_of(run, method)
                 per_run.append(tuple(values[t] for t in run.thresholds))
-            curves.append(Curve(dataset_name(group.dataset), group.label, method, method_name(method, group.label),
+            curves.append(Curve(group.dataset_name, group.label, method, method_name(method, group.label),
                                 tuple(float(t) for t in group.runs[0].thresholds), tuple(per_run)))
     return curves
 

@@ -8,7 +8,6 @@ from typing import Mapping, Sequence
 
 from ..config import LANES_MODEL
 from ..errors import ConfigError, InputError
-from ..report.tables import dataset_name
 from ..wording import counted
 from .runs import Run, frames_of
 from .tables import grid_text
@@ -120,7 +119,7 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
         base = first.setdefault(run.dataset, run)
         if run is base:
             continue
-        where = f"cannot compare {base.name()} with {run.name()}: both are {dataset_name(run.dataset)} runs"
+        where = f"cannot compare {base.name()} with {run.name()}: both are {run.dataset_name} runs"
         if run.frames_key != base.frames_key:
             a, b = frames_of(base), frames_of(run)
             differ = sorted(a ^ b)
@@ -158,7 +157,7 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
             raise ConfigError(f"cannot compare {a_runs[0].name()} with {b_runs[0].name()}: different paper-protocol "
                               f"settings ({setting} = {a_value!r} and {b_value!r}); rerun one of them, or pass "
                               f"--allow-mixed to compare them anyway (the tables then say so)")
-        shown = "; ".join(f"{value!r} for " + ", ".join(f"{r.label} on {dataset_name(r.dataset)}" for r in members)
+        shown = "; ".join(f"{value!r} for " + ", ".join(f"{r.label} on {r.dataset_name}" for r in members)
                           for value, members in values.items())
         notes.append(f"Compared with --allow-mixed: the runs differ in {setting}: {shown}.")
     groups: dict[tuple[str, str], Run] = {}
@@ -178,6 +177,6 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
                               f"maps in two formats, or a copied run, is the usual cause); compare one of them")
         if other.methods != run.methods:
             raise ConfigError(f"cannot average {other.name()} and {run.name()}: both are {run.label!r} on "
-                              f"{dataset_name(run.dataset)} but ran different methods ({','.join(other.methods)} "
+                              f"{run.dataset_name} but ran different methods ({','.join(other.methods)} "
                               f"and {','.join(run.methods)}); give one of them another --label")
     return notes

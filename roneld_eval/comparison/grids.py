@@ -13,9 +13,8 @@ import pandas as pd
 from ..thresholds import Thresholds, parse_thresholds
 from ..errors import ConfigError
 from ..metrics.bootstrap import LEVEL, MIN_CLIPS, paired_bootstrap
-from ..benchmarks import benchmark_for
 from ..methods import METHOD_TABLE, PAPER
-from ..report.tables import dataset_name, display_name
+from ..report.tables import display_name
 from .groups import (ABLATION_METHOD, KNOWN_METHODS, PAPER_METHODS, Group, _accuracy_of, _column_of, all_found,
                      method_header, method_name, ordered_methods)
 from .runs import Run
@@ -195,7 +194,7 @@ def accuracy_files(groups: Sequence[Group], rows, notes) -> dict[str, str]:
     for dataset in dict.fromkeys(g.dataset for g in groups):
         members = [g for g in groups if g.dataset == dataset]
         grid = accuracy_grid(members, rows)
-        name = dataset_name(dataset)
+        name = members[0].dataset_name
         protocol = protocol_text([run for group in members for run in group.runs])
         text = " ".join(filter(None, [f"Ego-lane accuracy on {name}.", protocol, _interval_note(members),
                                       _seeds_note(members)]))
@@ -211,7 +210,7 @@ def ablation_files(groups: Sequence[Group], rows, protocol: str, notes) -> dict[
         return {}
     columns, makers = [], []
     for group in holding:
-        name = f"{dataset_name(group.dataset)}, {display_name(PAPER.ours, group.label)}"
+        name = f"{group.dataset_name}, {display_name(PAPER.ours, group.label)}"
         title = name if group.n == 1 else f"{name}, n = {group.n}"
         for method, short in ((ABLATION_METHOD, "w/o PFT"), (PAPER.ours, "w/ PFT")):
             columns.append(Column(f"{name} {short}" + ("" if group.n == 1 else f" (n = {group.n})"), (short,), title))
@@ -251,7 +250,7 @@ def runtime_grid(groups: Sequence[Group]) -> Grid:
             means[method].append(cell.mean)
             cells.append(cell)
         title = group.label if group.n == 1 else f"{group.label} (n = {group.n})"
-        rows.append((Text(dataset_name(group.dataset)), Text(title), *cells))
+        rows.append((Text(group.dataset_name), Text(title), *cells))
     mean_cells = [Stat((math.fsum(means[m]) / len(means[m]),)) if means[m] else EMPTY for m in methods]
     rows.append((Text("Mean"), Text(""), *mean_cells))
     return Grid((Column("Dataset", ("Dataset",)), Column("Model", ("Model",))), columns, tuple(rows),
@@ -285,8 +284,8 @@ def official_files(groups: Sequence[Group], notes) -> dict[str, str]:
     seeds = _seeds_note(groups)
     for dataset in dict.fromkeys(g.dataset for g in groups):
         members = [g for g in groups if g.dataset == dataset]
-        name = dataset_name(dataset)
-        grid, text = benchmark_for(dataset).official_comparison(members)
+        name = members[0].dataset_name
+        grid, text = members[0].runs[0].benchmark.official_comparison(members)
         text = " ".join(filter(None, [text, seeds]))
         markdown += [f"## {name}\n", text + "\n", grid.to_markdown()] + [f"\n{note}\n" for note in notes]
         latex.append(grid.to_latex(text, f"tab:compare-official-{dataset}", list(notes)))

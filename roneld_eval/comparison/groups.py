@@ -35,6 +35,11 @@ class Group:
     def methods(self) -> tuple[str, ...]:
         return self.runs[0].methods
 
+    @property
+    def dataset_name(self) -> str:
+        """How tables and titles name its dataset: its benchmark's display name."""
+        return self.runs[0].dataset_name
+
     def title(self) -> str:
         return self.label if self.n == 1 else f"{self.label}, n = {self.n}"
 

@@ -15,6 +15,7 @@ import stat
 import tomllib
 from dataclasses import dataclass
 from decimal import Decimal, InvalidOperation
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +51,7 @@ class Run:
     label: str  # how tables name its model: --label, else config.toml's `model`
     model: str
     dataset: str  # 'culane', 'tusimple', ...
+    benchmark: Any  # the dataset's (roneld_eval.benchmarks.Benchmark), looked up once as the run is read
     methods: tuple[str, ...]  # in accuracy.csv's order
     thresholds: tuple[Decimal, ...]  # the sweep, in accuracy.csv's order
     protocol: tuple[tuple[str, object], ...]  # (setting, value) for PROTOCOL_SETTINGS
@@ -69,6 +71,11 @@ class Run:
     def name(self) -> str:
         """The folder as given, for messages."""
         return str(self.path)
+
+    @property
+    def dataset_name(self) -> str:
+        """How tables and titles name its dataset: its benchmark's display name."""
+        return self.benchmark.display_name
 
     def column(self, method: str, column: str) -> dict[Decimal, float]:
         """threshold -> value of one accuracy.csv column for one method ({} without the column)."""
@@ -126,6 +133,7 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
     _unique(folder / "official.csv", official, list(benchmark.official_key))
     benchmark.check_official(folder / "official.csv", official)
     return Run(path=folder, label=label if label is not None else model, model=model, dataset=dataset,
+               benchmark=benchmark,
                methods=methods, thresholds=thresholds, protocol=protocol, accuracy=accuracy, per_frame=per_frame,
                runtime=runtime, official=official, counts=dict(counts), clips=clips, frames_key=frames_key,
                truth_key=truth_key, results_key=_results_key(per_frame), columns=_columns(accuracy),
@@ -142,12 +150,13 @@ def _clip_sizes(path: Path, summary: dict) -> tuple[tuple[str, int, int], ...]:
 
 
 def _benchmark_of(folder: Path, dataset: str):
-    from ..benchmarks import benchmark_for, names
+    from ..benchmarks import names
+    from ..resolve import benchmark_named
 
     if dataset not in names():
         raise InputError(folder / "config.toml", f"names dataset {dataset!r}, which no installed benchmark provides "
                                                  f"(installed: {', '.join(names())})")
-    return benchmark_for(dataset)
+    return benchmark_named(dataset)
 
 
 # ---- files ------------------------------------------------------------------------------------

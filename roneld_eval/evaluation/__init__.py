@@ -17,7 +17,7 @@ from typing import Callable, Sequence
 
 
 from .. import kernels
-from ..benchmarks import OfficialTally
+from ..benchmarks import Benchmark, OfficialTally
 from ..config import EvalConfig
 from ..thresholds import parse_thresholds
 from ..metrics.sweep import sweep_accuracy
@@ -33,6 +33,7 @@ from .tables import PairedGains, _runtime_table, pairwise_gains, versions, with_
 
 def evaluate(
     config: EvalConfig,
+    benchmark: Benchmark,
     progress: bool = True,
     lane_sink: Callable[[FrameOutcome, Frame], None] | None = None,
     dataset: Dataset | None = None,
@@ -50,13 +51,13 @@ def evaluate(
     imports the report's libraries); not when the clips are evaluated in this process.
     """
     started = time.perf_counter()
-    planned = plan(config, dataset, announce, shard)
+    planned = plan(config, benchmark, dataset, announce, shard)
     clips, context = list(planned.clips), planned.context
     # Compiled once here, before the workers fork, instead of in every worker at once; in as
     # many processes as asked, even where a small run then evaluates in fewer (pool_size).
     processes = min(worker_count(config.workers), max(len(clips), 1))
     kernels.prepare(announce=announce or (lambda message: None), needed=context.kernel_groups(), processes=processes)
-    merged = _Merged(config, context.benchmark.tally(config.methods, planned.dataset, config), planned.skipped)
+    merged = _Merged(config, benchmark.tally(config.methods, planned.dataset, config), planned.skipped)
     with progress_bar(sum(len(clip.frames) for clip in clips), "frame", "evaluating", wanted=progress) as bar:
         results = _clip_results(clips, context, config.workers, cache, advance=bar.update, meanwhile=meanwhile)
         for clip, result in zip(clips, results, strict=True):  # strict: runs the generator to its end
@@ -77,6 +78,7 @@ def evaluate(
         notes.extend(dict.fromkeys(filter(None, (config.paper.other_rule_note(w, h) for w, h in merged.map_sizes))))
     return RunResult(
         config=config,
+        benchmark=benchmark,
         dataset=planned.dataset,
         per_frame=per_frame,
         accuracy=with_intervals(sweep_accuracy(per_frame, thresholds, methods=config.methods), paired),

@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import Callable, Iterator, Sequence, TypeVar
 
 from ..config import EvalConfig
-from ..datasets import with_labels
 from ..errors import ExtractorError, InputError
 from ..extract.protocol import Extractor, Prediction, is_stateless, one_time_seconds
 from ..extract.registry import Method, loaded_code
@@ -63,7 +62,7 @@ def evaluate_clip(clip: Clip, context: RunContext,
     listed = len(clip.frames)
     if context.labels_root is not None:
         errors: list[InputError] | None = [] if config.on_error == "skip" else None
-        clip = with_labels(config.dataset.name, clip, context.labels_root, errors)
+        clip = context.benchmark.with_labels(clip, context.labels_root, errors)
         result.skipped = [f"{error} (labels skipped)" for error in errors or ()]
         result.n_frames = len(clip.frames)
     result.extract_ms = {method.name: [] for method in context.methods}

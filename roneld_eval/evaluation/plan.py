@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
-from ..benchmarks import benchmark_for
+from ..benchmarks import Benchmark, detector_lane_formats
 from ..config import EvalConfig
 from ..datasets import read_dataset
 from ..errors import ConfigError, InputError
@@ -21,11 +21,11 @@ from .one_clip import effective_geometry, frame_map_path
 from .records import RunContext, lane_files_of
 
 
-def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tuple[str, Path]]:
+def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, benchmark: Benchmark) -> list[tuple[str, Path]]:
     """(clip id, missing file) for every frame whose maps are missing, or cannot even be looked
     at (a folder without permission). A map that is there but unreadable is refused on loading."""
     missing = []
-    lane_files = lane_files_of(config)
+    lane_files = lane_files_of(config, benchmark)
     for clip in dataset.clips:
         for frame in clip.frames:
             for path in required_paths(maps_root, frame.relpath, config.maps, lane_files):
@@ -36,14 +36,14 @@ def check_maps(dataset: Dataset, maps_root: Path, config: EvalConfig) -> list[tu
     return missing
 
 
-def describe_missing(missing: list[tuple[str, Path]], dataset: Dataset) -> str:
+def describe_missing(missing: list[tuple[str, Path]], benchmark: Benchmark) -> str:
     """'maps missing for N frames of K clips: ...' naming the first files, why where it is not
     plain absence, maps found in another format (use --maps-format), and TuSimple's 20 frames."""
     clips = {clip_id for clip_id, _ in missing}
     paths = list(dict.fromkeys(path for _, path in missing))  # frames may share one file (JSON lines)
     listing = "; ".join(_with_notes(path, index == 0) for index, path in enumerate(paths[:3]))
     more = f" and {len(paths) - 3} more" if len(paths) > 3 else ""
-    hint = benchmark_for(dataset.name).missing_maps_hint
+    hint = benchmark.missing_maps_hint
     return f"maps missing for {counted(len(missing), 'frame')} of {counted(len(clips), 'clip')}{hint}: {listing}{more}"
 
 
@@ -57,13 +57,13 @@ def _with_notes(path: Path, first: bool = True) -> str:
     return f"{path} ({'; '.join(notes)})" if notes else str(path)
 
 
-def _root_hint(maps_root: Path, dataset: Dataset, config: EvalConfig) -> str:
+def _root_hint(maps_root: Path, dataset: Dataset, config: EvalConfig, benchmark: Benchmark) -> str:
     """'; did you mean --maps-root X (it holds them)?' where the folder one level up, or one
     below, has the first listed frame's maps (as `score` says for prediction roots)."""
     first = dataset.clips[0].frames[0].relpath if dataset.clips and dataset.clips[0].frames else None
     if first is None:
         return ""
-    lane_files = lane_files_of(config)
+    lane_files = lane_files_of(config, benchmark)
 
     def holds(root: Path) -> bool:
         try:
@@ -84,14 +84,13 @@ def _root_hint(maps_root: Path, dataset: Dataset, config: EvalConfig) -> str:
     return ""
 
 
-def _lane_layout_hint(maps_root: Path, config: EvalConfig) -> str:
+def _lane_layout_hint(maps_root: Path, config: EvalConfig, benchmark: Benchmark) -> str:
     """'; it holds X, lane files in the format --dataset B reads a detector's lanes in' where a lanes run's maps
     root holds another benchmark's lane files (predictions.json given to CULane, .lines.txt to
     TuSimple) instead of this one's."""
-    from ..benchmarks import names
     from ..maps.lanes import JsonLinesFile, LinesPerFrame
 
-    ours = lane_files_of(config)
+    ours = lane_files_of(config, benchmark)
     if config.maps.format != "lanes" or ours is None:
         return ""
 
@@ -103,11 +102,8 @@ def _lane_layout_hint(maps_root: Path, config: EvalConfig) -> str:
         return None
 
     readers: dict[tuple[str, str], list[str]] = {}
-    for name in names():
-        try:
-            theirs = layout(benchmark_for(name).detector_lanes)
-        except (ConfigError, ImportError, AttributeError):  # a broken plug-in is said where it is used
-            continue
+    for name, files in detector_lane_formats().items():
+        theirs = layout(files)
         if theirs is not None and theirs != layout(ours):
             readers.setdefault(theirs, []).append(name)
     for (kind, value), benchmarks in readers.items():
@@ -155,25 +151,25 @@ class RunPlan:
     geometry: EffectiveGeometry | None
 
 
-def plan(config: EvalConfig, dataset: Dataset | None = None,
+def plan(config: EvalConfig, benchmark: Benchmark, dataset: Dataset | None = None,
          announce: Callable[[str], None] | None = None, shard=None) -> RunPlan:
     """Read the dataset's layout and check every frame's maps are there (the first map is
     read for its size): the checks a run makes before it starts, and `run --dry-run` alone.
     With a `shard` (shards.Shard) only its share of the dataset's clips is planned; the plan's
     dataset stays whole."""
-    maps_root = _maps_root(config)
+    maps_root = _maps_root(config, benchmark)
     assert config.dataset.data_root is not None  # _maps_root refuses a run without one
     refuse_cut_short(config.dataset.data_root, config.dataset.list_file, maps_root)
     skipped: list[str] = []
     if dataset is None:
-        dataset = _read(config, skipped)
+        dataset = _read(config, benchmark, skipped)
     if (dataset.image_width, dataset.image_height) != (config.dataset.image_width, config.dataset.image_height):
         raise ConfigError(
             f"the configuration's image size {config.dataset.image_width}x{config.dataset.image_height} does not "
             f"match {dataset.name}'s {dataset.image_width}x{dataset.image_height}"
         )
-    clips = _clips_with_maps(_share(dataset, shard), maps_root, config, skipped)
-    context = RunContext(config, maps_root, None if dataset.labels_loaded else dataset.root,
+    clips = _clips_with_maps(_share(dataset, shard), maps_root, config, benchmark, skipped)
+    context = RunContext(config, benchmark, maps_root, None if dataset.labels_loaded else dataset.root,
                          data_root=Path(dataset.root),
                          label_file=None if dataset.source_file is None else Path(dataset.source_file))
     say = announce or (lambda message: None)
@@ -186,14 +182,14 @@ def plan(config: EvalConfig, dataset: Dataset | None = None,
     return RunPlan(dataset, tuple(clips), context, tuple(skipped), geometry)
 
 
-def _maps_root(config: EvalConfig) -> Path:
+def _maps_root(config: EvalConfig, benchmark: Benchmark) -> Path:
     """The configured maps root, which must be a folder (and a data root configured)."""
     if config.dataset.data_root is None or config.maps.root is None:
         raise ConfigError("a run needs both a data root and a maps root")
     maps_root = Path(config.maps.root)
     if not maps_root.is_dir():
         raise InputError(maps_root, "maps root not found")
-    if config.maps.format == "lanes" and lane_files_of(config) is None:
+    if config.maps.format == "lanes" and lane_files_of(config, benchmark) is None:
         raise ConfigError(f"--maps-format lanes: benchmark {config.dataset.name!r} declares no format for a "
                           "detector's lane files")
     return maps_root
@@ -212,26 +208,27 @@ def _share(dataset: Dataset, shard) -> Dataset:
     return replace(dataset, clips=dataset.clips[share.start:share.stop])
 
 
-def _read(config: EvalConfig, skipped: list[str]) -> Dataset:
+def _read(config: EvalConfig, benchmark: Benchmark, skipped: list[str]) -> Dataset:
     """The configured dataset; its bad labels listed in `skipped` under on_error = "skip"."""
     assert config.dataset.data_root is not None
     errors: list[InputError] | None = [] if config.on_error == "skip" else None
     # A benchmark may leave each clip's labels to the workers, read clip by clip in parallel.
-    dataset = read_dataset(config.dataset.name, config.dataset.data_root, config.dataset.list_file,
+    dataset = read_dataset(benchmark, config.dataset.data_root, config.dataset.list_file,
                            config.dataset.limit, errors, labels=False)
     skipped += [f"{error} (labels skipped)" for error in errors or ()]
     return dataset
 
 
-def _clips_with_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, skipped: list[str]) -> list[Clip]:
+def _clips_with_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, benchmark: Benchmark,
+                     skipped: list[str]) -> list[Clip]:
     """The clips whose every frame has its maps; the others stop the run, or are listed in
     `skipped` and left out under on_error = "skip"."""
-    missing = check_maps(dataset, maps_root, config)
+    missing = check_maps(dataset, maps_root, config, benchmark)
     if not missing:
         return list(dataset.clips)
     if config.on_error != "skip":
-        raise InputError(maps_root, describe_missing(missing, dataset) + _root_hint(maps_root, dataset, config)
-                         + _lane_layout_hint(maps_root, config))
+        hints = _root_hint(maps_root, dataset, config, benchmark) + _lane_layout_hint(maps_root, config, benchmark)
+        raise InputError(maps_root, describe_missing(missing, benchmark) + hints)
     by_clip: dict[str, list[Path]] = {}
     for clip_id, path in missing:
         by_clip.setdefault(clip_id, []).append(path)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import kernels
-from ..benchmarks import Benchmark, OfficialRecord, benchmark_for
+from ..benchmarks import Benchmark, OfficialRecord
 from ..config import EvalConfig
 from ..extract.registry import Method, methods_of
 from ..geometry import EffectiveGeometry
@@ -56,12 +56,12 @@ class ClipResult:
     plugin_code: dict[str, str] = field(default_factory=dict)
 
 
-def lane_files_of(config: EvalConfig):
+def lane_files_of(config: EvalConfig, benchmark: Benchmark):
     """The format `--maps-format lanes` reads (maps.lanes.LaneFileFormat): the benchmark's
     declared `detector_lanes`; None for maps in another format."""
     if config.maps.format != "lanes":
         return None
-    return benchmark_for(config.dataset.name).detector_lanes
+    return benchmark.detector_lanes
 
 
 @dataclass(frozen=True)
@@ -69,6 +69,7 @@ class RunContext:
     """Everything a worker needs besides the clip."""
 
     config: EvalConfig
+    benchmark: Benchmark
     maps_root: Path
     labels_root: Path | None = None  # dataset root when clips come without their labels
     data_root: Path | None = None  # where the labels lie (CULane: a .lines.txt per frame)
@@ -79,13 +80,9 @@ class RunContext:
         return methods_of(self.config)
 
     @cached_property
-    def benchmark(self) -> Benchmark:
-        return benchmark_for(self.config.dataset.name)
-
-    @cached_property
     def lane_files(self):
         """The benchmark's format of a detector's lane files, what `--maps-format lanes` reads."""
-        return lane_files_of(self.config)
+        return lane_files_of(self.config, self.benchmark)
 
     def load(self, frame: Frame) -> FrameMaps:
         """One frame's maps (lane files are drawn into maps with the configured geometry)."""
@@ -103,6 +100,7 @@ class RunResult:
     """A finished evaluation: the tables of every report, and where they came from."""
 
     config: EvalConfig
+    benchmark: Benchmark  # the dataset's: what reads it, scores it the official way, shows its tables
     dataset: Dataset
     per_frame: pd.DataFrame
     accuracy: pd.DataFrame

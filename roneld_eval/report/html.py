@@ -22,7 +22,7 @@ from ..lanes_io import read_bytes, read_text
 from ..limits import MAP, RUN_TABLE
 from ..methods import METHOD_TABLE
 from .gallery import GALLERY_FRAMES
-from .tables import Protocol, dataset_name, display_name, official_headline
+from .tables import Protocol, display_name, official_headline
 
 STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1100px;
@@ -109,15 +109,8 @@ def _shared_name(data_root, fixture: bool) -> str:
     return f".../{PurePath(data_root).name} (whole path in summary.json)"
 
 
-def _benchmark(name):
-    """The run's benchmark, or None where it is not installed here (its page then says less)."""
-    from ..benchmarks import benchmark_for, names
-
-    return benchmark_for(name) if isinstance(name, str) and name in names() else None
-
-
-def build_html(folder: Path) -> str:
-    """The page for the run in `folder`."""
+def build_html(folder: Path, benchmark) -> str:
+    """The page for the run in `folder`, of the dataset of `benchmark`."""
     folder = Path(folder)
     summary_path = folder / "summary.json"
     summary = json.loads(summary_path.read_text(encoding="utf-8")) if summary_path.exists() else {}
@@ -125,7 +118,7 @@ def build_html(folder: Path) -> str:
     counts = summary.get("counts", {})
     protocol = Protocol.from_summary(summary)
     fixture = str(summary.get("data_root", "")).startswith("bundled fixture")
-    dataset = dataset_name(summary.get("dataset", "?"))
+    dataset = benchmark.display_name
     title = f"roneld-eval: {config.get('model', '')} on {dataset}" + (" (bundled synthetic fixture)" if fixture else "")
     parts = [f"<h1>{html.escape(title)}</h1>",
              '<p class="meta">' + html.escape(
@@ -134,18 +127,17 @@ def build_html(folder: Path) -> str:
                  f"data: {_shared_name(summary.get('data_root'), fixture)}; "
                  f"roneld-eval {summary.get('versions', {}).get('roneld-eval', '?')}")
              + "</p>"]
-    benchmark = _benchmark(summary.get("dataset"))
     if protocol is not None:
         line = f"Paper's protocol: {protocol.paper()}."
-        official = None if benchmark is None else benchmark.official_protocol(protocol)
-        if benchmark is not None and official:
+        official = benchmark.official_protocol(protocol)
+        if official:
             line += f" Official {benchmark.display_name} protocol: {official}."
         parts.append(f'<p class="meta">{html.escape(line, quote=False)}</p>')
     notes = summary.get("notes")
     for note in notes if isinstance(notes, list) else ():
         if isinstance(note, str):  # summary.json is read back: text only, escaped
             parts.append(f'<p class="meta">Note: {html.escape(note, quote=False)}.</p>')
-    official_note = None if benchmark is None else benchmark.official_note(protocol)
+    official_note = benchmark.official_note(protocol)
     drawn = [f"{METHOD_TABLE[m].words} {METHOD_TABLE[m].overlay_colour}" for m in config.get("methods", METHOD_TABLE)
              if m in METHOD_TABLE]
     picture_note = (", ".join(["Ground truth blue", *drawn])
@@ -162,7 +154,7 @@ def build_html(folder: Path) -> str:
     ]
     for title, table_file, image_file, note in sections:
         table_path = _present(folder, table_file)
-        if table_path is not None and table_file == "official.csv" and benchmark is not None:
+        if table_path is not None and table_file == "official.csv":
             parts += _section(title, None, _present(folder, image_file), note,
                               _official_tables(table_path, benchmark, config.get("model")))
         else:

@@ -10,6 +10,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..benchmarks import Benchmark
 from ..config import EvalConfig
 from ..datasets import load_labels
 from ..errors import ConfigError, InputError
@@ -46,7 +47,7 @@ def _nearest_frame(wanted: str, relpaths: list[str]) -> str:
     return nearest(wanted, same_clip or relpaths)
 
 
-def replay(config: EvalConfig, dataset: Dataset, frames: Sequence[str],
+def replay(config: EvalConfig, benchmark: Benchmark, dataset: Dataset, frames: Sequence[str],
            methods: Sequence[str]) -> tuple[dict[str, Clip], dict[tuple[str, str], FrameOutcome]]:
     """(frame -> its clip with labels, (frame, method) -> outcome with lanes): each clip is
     evaluated again from its start up to its last wanted frame, as the run saw it."""
@@ -56,11 +57,11 @@ def replay(config: EvalConfig, dataset: Dataset, frames: Sequence[str],
         raise InputError(dataset.source_file, f"frame {missing[0]} is not in this run's dataset"
                                               f"{_nearest_frame(missing[0], list(clip_of))}")
     wanted_clips = {clip_of[f].clip_id: clip_of[f] for f in frames}
-    labelled = {clip_id: load_labels(dataset, clip) for clip_id, clip in wanted_clips.items()}
+    labelled = {clip_id: load_labels(benchmark, dataset, clip) for clip_id, clip in wanted_clips.items()}
     clip_of = {f: labelled[clip_of[f].clip_id] for f in frames}
     run_config = config.with_overrides(save_lanes=True, methods=tuple(methods), pft_ablation=False)
     _, maps_root = _roots(config)
-    context = RunContext(run_config, maps_root)
+    context = RunContext(run_config, benchmark, maps_root)
     outcomes = {}
     for clip in labelled.values():
         last = max(i for i, f in enumerate(clip.frames) if f.relpath in frames)
@@ -69,7 +70,7 @@ def replay(config: EvalConfig, dataset: Dataset, frames: Sequence[str],
     return clip_of, outcomes
 
 
-def background(config: EvalConfig, frame: Frame) -> np.ndarray:
+def background(config: EvalConfig, benchmark: Benchmark, frame: Frame) -> np.ndarray:
     """The camera image at the benchmark's size, or the frame's maps as a heat map without one."""
     import cv2
 
@@ -80,7 +81,7 @@ def background(config: EvalConfig, frame: Frame) -> np.ndarray:
     size = geometry.image_size
     if image is None:
         maps = load_maps(maps_root, frame.relpath, config.maps, geometry, config.roneld.center_ratio,
-                         lane_files_of(config))
+                         lane_files_of(config, benchmark))
         crop_bottom = geometry.crop_top_px + geometry.crop_height_px
         return heat_map(np.asarray(maps.probabilities), *size, geometry.crop_top_px, crop_bottom)
     if image.shape[:2] != size[::-1]:
@@ -88,13 +89,13 @@ def background(config: EvalConfig, frame: Frame) -> np.ndarray:
     return image
 
 
-def frame_pictures(config: EvalConfig, dataset: Dataset, frames: Sequence[str], methods: Sequence[str],
-                   protocol: str = "") -> Overlays:
+def frame_pictures(config: EvalConfig, benchmark: Benchmark, dataset: Dataset, frames: Sequence[str],
+                   methods: Sequence[str], protocol: str = "") -> Overlays:
     """(relpath, picture) for each frame, and their legend. `protocol` says in a few words how
     the IoUs written beside the lanes were measured."""
     wanted = list(dict.fromkeys(frames))
     methods = [m for m in methods if m in config.methods] or list(config.methods)
-    clip_of, outcomes = replay(config, dataset, wanted, methods)
+    clip_of, outcomes = replay(config, benchmark, dataset, wanted, methods)
     pictures = []
     for relpath in wanted:
         frame = next(f for f in clip_of[relpath].frames if f.relpath == relpath)
@@ -114,5 +115,5 @@ def frame_pictures(config: EvalConfig, dataset: Dataset, frames: Sequence[str], 
             + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in ious.items())
             for m, ious in picture.ious.items())
         title = f"{relpath}\n{scores}"
-        pictures.append((relpath, draw_frame(picture, background(config, frame), title)))
+        pictures.append((relpath, draw_frame(picture, background(config, benchmark, frame), title)))
     return Overlays(pictures, legend_entries(methods, config.model, protocol))

@@ -25,7 +25,7 @@ from ..benchmarks import CategoryPanel  # noqa: E402
 from ..config import EGO_LANES_ONLY  # noqa: E402
 from ..methods import METHOD_TABLE  # noqa: E402
 from ..wording import ego_lanes_only  # noqa: E402
-from .tables import Protocol, clips_text, dataset_name, name_parts  # noqa: E402
+from .tables import Protocol, clips_text, name_parts  # noqa: E402
 
 STYLES: dict[str, dict[str, Any]] = {  # matplotlib line properties
     name: dict(color=facts.colour, marker=facts.marker, linestyle=facts.linestyle)
@@ -170,7 +170,7 @@ def _place_axes(figure, left: float, bottom: float, right: float, top: float, be
 def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: Protocol | None = None):
     """A matplotlib Figure of accuracy against IoU threshold.
 
-    `dataset`: 'culane', 'tusimple' or any label ("the bundled CULane fixture (synthetic)");
+    `dataset`: how the title names the data ("CULane", "the bundled CULane fixture (synthetic)");
     `protocol`: the configuration stated under the plot.
     """
     figure, axes = plt.subplots(figsize=(6.4, 4.4), dpi=150)
@@ -184,7 +184,7 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
         # The legend lies inside the axes: its names fitted to their width, two lines at most.
         names.append(_legend_name(method, model, axes_in - _LEGEND_HANDLE_IN))
     # Centred over the axes, so as wide as the axes and twice the right margin; on the fixture it names the model.
-    title = _fitted(f"Ego-lane accuracy on {dataset_name(dataset)}", axes_in + 2 * right - 2 * _GAP_IN)
+    title = _fitted(f"Ego-lane accuracy on {dataset}", axes_in + 2 * right - 2 * _GAP_IN)
     axes.set_title(title, fontsize=10, y=_TITLE_Y)
     axes.set_xlabel("IoU threshold (a true positive needs IoU > threshold)")
     axes.set_ylabel("Accuracy (N_TP / N_gt)")

@@ -42,14 +42,6 @@ def display_name(method: str, model: str) -> str:
     return " ".join(name_parts(method, model))
 
 
-def dataset_name(name: str) -> str:
-    """How tables and titles name a dataset: its benchmark's display name (the name itself for
-    a benchmark that is not installed here)."""
-    from ..benchmarks import benchmark_for, names
-
-    return benchmark_for(name).display_name if name in names() else name
-
-
 # ---- the configuration behind the numbers ---------------------------------------------------
 
 def configured_geometry(config: EvalConfig) -> EffectiveGeometry:
@@ -363,7 +355,7 @@ def ablation_table(accuracy: pd.DataFrame, dataset: str, model: str | None = Non
         return None
     labels = list(dict.fromkeys(accuracy["threshold"]))
     value = _accuracies(accuracy)
-    name = dataset_name(dataset)
+    name = dataset  # as tables and titles name it: its benchmark's display name
     rows = tuple(
         (short_threshold(label), *(value[(m, label)] for m in methods))
         for label in table_thresholds(labels, ABLATION_THRESHOLDS)

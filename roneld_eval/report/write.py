@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
-from ..benchmarks import Benchmark, benchmark_for
+from ..benchmarks import Benchmark
 from ..errors import InputError
 from ..evaluation import FrameOutcome, RunResult
 from ..methods import PAPER
@@ -180,7 +180,7 @@ def stage_report(result: RunResult, staging: Staging) -> None:
     config = result.config
     model = config.model
     protocol = tables.Protocol.of_run(result)
-    name = tables.dataset_name(result.dataset.name)
+    name = result.benchmark.display_name
     maps = f"{model}'s lanes drawn into maps" if config.maps.format == "lanes" else f"{model} probability maps"
     source = f"the bundled {name} fixture (synthetic {model}-like maps)" if result.fixture else f"{name}, {maps}"
     paper_note = f"The RONELD paper's protocol: {protocol.paper()}; a true positive needs IoU > the row's threshold."
@@ -196,7 +196,7 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         f"Ego-lane accuracy on {source}. {paper_note} Acc. Inc. is RONELD's increase over the method two "
         f"columns to its left, in bold relative to that method; beneath it, its {protocol.interval()}.",
         f"tab:accuracy-{result.dataset.name}", wide=True))
-    ablation = tables.ablation_table(result.accuracy, result.dataset.name, model)
+    ablation = tables.ablation_table(result.accuracy, name, model)
     if ablation is not None:
         pft_note = (f"w/ PFT: the method '{PAPER.ours}' (RONELD with preceding-frame tracking); w/o PFT: the method "
                     f"'{PAPER.without_tracking}'. {paper_note}")
@@ -221,9 +221,9 @@ def stage_report(result: RunResult, staging: Staging) -> None:
         threshold = config.official.iou_threshold
         by_category = category_accuracy(result.per_frame, result.dataset.categories, threshold, config.methods)
         staging.write_csv("categories.csv", by_category)
-        panel = benchmark_for(result.dataset.name).category_panel(result.official, protocol)
+        panel = result.benchmark.category_panel(result.official, protocol)
         save_figure(category_figure(by_category, panel, model, f"{threshold:g}", protocol),
                     [staging.file("categories.png")])
     from .html import build_html
 
-    staging.write_text("report.html", build_html(staging.path))
+    staging.write_text("report.html", build_html(staging.path, result.benchmark))
