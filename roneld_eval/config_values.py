@@ -38,44 +38,60 @@ class Range:
 def typed(qualified: str, annotation: str, value: Any, limits: Range | None = None) -> Any:
     """`value` as the field's type wants it (ints stay ints, numbers become floats) and within
     `limits`, or ConfigError."""
-    optional = "None" in annotation
     base = annotation.split("|")[0].strip()
     if value is None:
-        if optional:
+        if "None" in annotation:
             return None
         raise ConfigError(f"{qualified} needs a value")
-    if base.startswith("tuple"):
-        if isinstance(value, str):
-            value = [part.strip() for part in value.split(",") if part.strip()]
-        if not isinstance(value, (list, tuple)) or not all(isinstance(item, str) for item in value):
-            raise ConfigError(f"{qualified} must be a list of names or a comma-separated string, got {value!r}")
-        return tuple(checked_text(qualified, item) for item in value)
-    if base == "bool":
-        if not isinstance(value, bool):
-            raise ConfigError(f"{qualified} must be true or false, got {value!r}")
+    convert = _CONVERTERS.get("tuple" if base.startswith("tuple") else base)
+    if convert is None:  # pragma: no cover - every field type has its converter
         return value
-    if base == "int":
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-            raise ConfigError(f"{qualified} must be an integer, got {shown(value)}")
-        value = int(value)
-    elif base == "float":
-        if isinstance(value, bool) or not isinstance(value, numbers.Real):
-            raise ConfigError(f"{qualified} must be a number, got {shown(value)}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise ConfigError(f"{qualified} must be a finite number, got {value}")
-    elif base == "str":
-        if isinstance(value, os.PathLike):
-            value = os.fspath(value)
-        if not isinstance(value, str):
-            hint = f' (write it in quotes: "{value}")' if isinstance(value, (int, float)) else ""
-            raise ConfigError(f"{qualified} must be a string, got {shown(value)}{hint}")
-        return checked_text(qualified, value)
-    else:  # pragma: no cover - every field type is handled above
-        return value
-    if limits is not None and value not in limits:
+    value = convert(qualified, value)
+    if base in ("int", "float") and limits is not None and value not in limits:
         raise ConfigError(f"{qualified} must be {limits}, got {value if isinstance(value, int) else f'{value:g}'}")
     return value
+
+
+def _names(qualified: str, value: Any) -> tuple[str, ...]:
+    if isinstance(value, str):
+        value = [part.strip() for part in value.split(",") if part.strip()]
+    if not isinstance(value, (list, tuple)) or not all(isinstance(item, str) for item in value):
+        raise ConfigError(f"{qualified} must be a list of names or a comma-separated string, got {value!r}")
+    return tuple(checked_text(qualified, item) for item in value)
+
+
+def _bool(qualified: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(f"{qualified} must be true or false, got {value!r}")
+    return value
+
+
+def _int(qualified: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise ConfigError(f"{qualified} must be an integer, got {shown(value)}")
+    return int(value)
+
+
+def _float(qualified: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ConfigError(f"{qualified} must be a number, got {shown(value)}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(f"{qualified} must be a finite number, got {value}")
+    return value
+
+
+def _str(qualified: str, value: Any) -> str:
+    if isinstance(value, os.PathLike):
+        value = os.fspath(value)
+    if not isinstance(value, str):
+        hint = f' (write it in quotes: "{value}")' if isinstance(value, (int, float)) else ""
+        raise ConfigError(f"{qualified} must be a string, got {shown(value)}{hint}")
+    return checked_text(qualified, value)
+
+
+# A field's type (its annotation's first member) -> what turns a given value into it.
+_CONVERTERS = {"tuple": _names, "bool": _bool, "int": _int, "float": _float, "str": _str}
 
 
 def shown(value: Any) -> str:

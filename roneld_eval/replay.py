@@ -108,7 +108,7 @@ def replay_clip(config: EvalConfig, clip_id: str | None = None, video: str | Pat
                 write(_picture(frame, prediction, ious, geometry, method, config, background,
                                tracker.latency(), f"{index}/{len(clip.frames)}"))
             bar.update(1)
-    name = clip.clip_id or Path(config.dataset.data_root or config.maps.root).resolve().name
+    name = clip.clip_id or (Path(config.dataset.data_root) if config.dataset.data_root else maps_root).resolve().name
     return ReplayResult(name, method, len(clip.frames), scoring.frames, (maps.width, maps.height),
                         tracker.latency(), scoring.accuracy(), None if video is None else Path(video),
                         tuple(without_image) if images is not None else ())

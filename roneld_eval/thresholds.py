@@ -65,6 +65,37 @@ def _threshold_decimal(part: str, spec: str) -> Decimal:
     return value
 
 
+def _check_in_unit_range(value: Decimal) -> None:
+    if not 0 <= value < 1:
+        raise ConfigError(f"IoU thresholds must lie in [0, 1), got {value}")
+
+
+def _swept(text: str) -> list[Decimal]:
+    """START:STOP:STEP, inclusive, each value start + i * step."""
+    parts = text.split(":")
+    if len(parts) != 3:
+        raise ConfigError(f"thresholds {text!r} must be {_THRESHOLD_FORMS}")
+    start, stop, step = (_threshold_decimal(part, text) for part in parts)
+    _check_in_unit_range(start)
+    _check_in_unit_range(stop)
+    if step <= 0 or stop < start:
+        raise ConfigError(f"thresholds {text!r} need start <= stop and a positive step")
+    count = (stop - start) / step
+    if count + 1 > MAX_THRESHOLDS:
+        raise ConfigError(f"thresholds {text!r} give {int(count) + 1:,} values; at most {MAX_THRESHOLDS:,} are allowed")
+    if count != count.to_integral_value():
+        raise ConfigError(f"thresholds {text!r}: the step does not divide stop - start")
+    return [start + step * i for i in range(int(count) + 1)]
+
+
+def _listed(text: str) -> list[Decimal]:
+    """A,B,...: the values as written."""
+    parts = [part for part in text.split(",") if part.strip()]
+    if len(parts) > MAX_THRESHOLDS:
+        raise ConfigError(f"{len(parts):,} thresholds given; at most {MAX_THRESHOLDS:,} are allowed")
+    return [_threshold_decimal(part, text) for part in parts]
+
+
 def parse_thresholds(spec: str) -> Thresholds:
     """'0.30:0.50:0.01' (inclusive) or '0.5' or '0.3,0.5' -> exact decimal thresholds.
 
@@ -73,36 +104,12 @@ def parse_thresholds(spec: str) -> Thresholds:
     step and at most MAX_THRESHOLDS values. Anything else is one ConfigError line.
     """
     text = str(spec).strip()
-    if ":" in text:
-        parts = text.split(":")
-        if len(parts) != 3:
-            raise ConfigError(f"thresholds {text!r} must be {_THRESHOLD_FORMS}")
-        start, stop, step = (_threshold_decimal(part, text) for part in parts)
-        for value in (start, stop):
-            if not 0 <= value < 1:
-                raise ConfigError(f"IoU thresholds must lie in [0, 1), got {value}")
-        if step <= 0 or stop < start:
-            raise ConfigError(f"thresholds {text!r} need start <= stop and a positive step")
-        count = (stop - start) / step
-        if count + 1 > MAX_THRESHOLDS:
-            raise ConfigError(
-                f"thresholds {text!r} give {int(count) + 1:,} values; at most {MAX_THRESHOLDS:,} are allowed"
-            )
-        if count != count.to_integral_value():
-            raise ConfigError(f"thresholds {text!r}: the step does not divide stop - start")
-        decimals = [start + step * i for i in range(int(count) + 1)]
-    else:
-        parts = [part for part in text.split(",") if part.strip()]
-        if len(parts) > MAX_THRESHOLDS:
-            raise ConfigError(f"{len(parts):,} thresholds given; at most {MAX_THRESHOLDS:,} are allowed")
-        decimals = [_threshold_decimal(part, text) for part in parts]
+    decimals = _swept(text) if ":" in text else _listed(text)
     if not decimals:
         raise ConfigError(f"no thresholds given; write {_THRESHOLD_FORMS}")
     for value in decimals:
-        if not 0 <= value < 1:
-            raise ConfigError(f"IoU thresholds must lie in [0, 1), got {value}")
-    places = max(max(_decimal_places(d), 0) for d in decimals)
-    places = max(places, 2)
+        _check_in_unit_range(value)
+    places = max(max(max(_decimal_places(d), 0) for d in decimals), 2)
     labels = tuple(f"{value:.{places}f}" for value in decimals)
     # Exact: a Decimal with few digits converts to the nearest double.
     values = tuple(float(value) for value in decimals)

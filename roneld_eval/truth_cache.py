@@ -343,27 +343,39 @@ def load(key: str, n_frames: int, width: int, height: int, note: Callable[[str],
 
 def _check(truth: TruthRuns, n_frames: int, width: int, height: int) -> None:
     """Every array's type, shape and range, as from_frames writes them."""
-    n_gt, lane_start, meta, row_start, slots, lo, hi = (truth.n_gt, truth.lane_start, truth.meta, truth.row_start,
-                                                        truth.slots, truth.lo, truth.hi)
-    kinds = [a.dtype == np.int64 for a in (n_gt, lane_start, meta, row_start, slots)]
-    if not all(kinds) or lo.dtype != RUN_DTYPE or hi.dtype != RUN_DTYPE:
-        raise ValueError("arrays of other types than this version writes")
-    if (n_gt.shape != (n_frames,) or lane_start.shape != (n_frames + 1,) or row_start.shape != (n_frames + 1,)
-            or slots.shape != (n_frames,) or meta.ndim != 2 or meta.shape[1] != 7 or lo.shape != hi.shape
-            or lo.ndim != 1):
-        raise ValueError(f"arrays of other shapes than {n_frames:,} frames need")
-    lanes, runs = np.diff(lane_start), np.diff(row_start)
-    if (lane_start[0] != 0 or row_start[0] != 0 or (lanes < 0).any() or (runs < 0).any()
-            or lane_start[-1] != len(meta) or row_start[-1] != lo.size or (slots < 0).any() or (lanes != n_gt).any()
-            or ((runs > 0) & (slots == 0)).any() or (runs % np.maximum(slots, 1)).any()):
-        raise ValueError("offsets that do not add up")
-    frame_rows = np.repeat(runs // np.maximum(slots, 1), lanes)
-    y0, first, count, area, drawn, x0, x1 = (meta[:, c] for c in range(7))
+    _check_layout(truth, n_frames)
+    lanes, runs = _check_offsets(truth)
+    frame_rows = np.repeat(runs // np.maximum(truth.slots, 1), lanes)
+    y0, first, count, area, drawn, x0, x1 = (truth.meta[:, c] for c in range(7))
     if ((first < 0) | (count < 0) | (first + count > frame_rows) | (y0 < 0) | (y0 + count > height)
             | (area < 0) | ~np.isin(drawn, (0, 1)) | (x0 < 0) | (x1 < x0) | (x1 > width)).any():
         raise ValueError("lanes outside their frame")
-    if lo.size and (lo.min() < 0 or hi.max() > width):
+    if truth.lo.size and (truth.lo.min() < 0 or truth.hi.max() > width):
         raise ValueError("runs outside the image")
+
+
+def _check_layout(truth: TruthRuns, n_frames: int) -> None:
+    """The arrays' types and shapes for `n_frames` frames."""
+    counters = (truth.n_gt, truth.lane_start, truth.meta, truth.row_start, truth.slots)
+    if not all(a.dtype == np.int64 for a in counters) or truth.lo.dtype != RUN_DTYPE or truth.hi.dtype != RUN_DTYPE:
+        raise ValueError("arrays of other types than this version writes")
+    shapes = [(truth.n_gt, (n_frames,)), (truth.slots, (n_frames,)), (truth.lane_start, (n_frames + 1,)),
+              (truth.row_start, (n_frames + 1,))]
+    if (any(array.shape != wanted for array, wanted in shapes) or truth.meta.ndim != 2
+            or truth.meta.shape[1] != 7 or truth.lo.shape != truth.hi.shape or truth.lo.ndim != 1):
+        raise ValueError(f"arrays of other shapes than {n_frames:,} frames need")
+
+
+def _check_offsets(truth: TruthRuns) -> tuple[np.ndarray, np.ndarray]:
+    """Each frame's lane count and run count, from offsets that must add up."""
+    lane_start, row_start, slots = truth.lane_start, truth.row_start, truth.slots
+    lanes, runs = np.diff(lane_start), np.diff(row_start)
+    if (lane_start[0] != 0 or row_start[0] != 0 or (lanes < 0).any() or (runs < 0).any()
+            or lane_start[-1] != len(truth.meta) or row_start[-1] != truth.lo.size or (slots < 0).any()
+            or (lanes != truth.n_gt).any() or ((runs > 0) & (slots == 0)).any()
+            or (runs % np.maximum(slots, 1)).any()):
+        raise ValueError("offsets that do not add up")
+    return lanes, runs
 
 
 def save(key: str, truth: TruthRuns, note: Callable[[str], None]) -> None:

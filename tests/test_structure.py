@@ -54,9 +54,7 @@ COMPLEX_LEFT = {
     "comparison/runs.py:read_csv": 17,
     "comparison/runs.py:read_run": 16,
     "comparison/sweeps.py:_rows": 18,
-    "comparison/sweeps.py:read_sweep": 31,
     "comparison/tables.py:Grid._latex_block": 26,
-    "config_values.py:typed": 27,
     "extract/registry.py:own_modules": 17,
     "maps/__init__.py:frames_in_folder": 17,
     "maps/_checks.py:canonical_probabilities": 16,
@@ -76,8 +74,6 @@ COMPLEX_LEFT = {
     "shards.py:_combined": 19,
     "shards.py:check_part_arrays": 23,
     "shards.py:read_part": 19,
-    "thresholds.py:parse_thresholds": 24,
-    "truth_cache.py:_check": 28,
 }
 
 

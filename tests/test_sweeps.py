@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import csv
 import io
+import json
+import re
 
 import pytest
 from click.testing import CliRunner
@@ -225,6 +227,14 @@ def test_sweeps_of_other_frames_or_a_run_beside_a_sweep_are_refused(checkpoints,
         '"frames":', '"frames": 1, "frames":', 1)), "sweep.json: key 'frames' appears twice in one object"),
     (lambda folder: (folder / "sweep.json").write_text("[" * 100_000 + "]" * 100_000),
      "sweep.json: not JSON roneld-eval wrote: maximum recursion depth exceeded"),
+    # a KeyError's traceback before
+    (lambda folder: (folder / "sweep.json").write_text(json.dumps(
+        {k: v for k, v in json.loads((folder / "sweep.json").read_text()).items() if k != "best"})),
+     "sweep.json: its 'best' is missing"),
+    # every score NaN but a checkpoint still marked best: max() of nothing's traceback before
+    (lambda folder: (folder / "sweep.csv").write_text(re.sub(r",[01]\.\d+(?:e-?\d+)?", ",nan",
+                                                             (folder / "sweep.csv").read_text())),
+     "the checkpoint marked best is not the one of the highest"),
 ])
 def test_an_edited_sweep_is_named_with_its_problem(checkpoints, tmp_path, edit, said):
     every = _sweep(checkpoints, tmp_path / "every")

@@ -70,43 +70,63 @@ def read_sweep(folder: str | Path, label: str | None = None) -> Sweep:
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(folder, "not found" if not folder.exists() else "not a folder")
-    json_path, csv_path = folder / SWEEP_JSON, folder / SWEEP_CSV
+    record = _record(folder / SWEEP_JSON)
+    columns = tuple(record["columns"])
+    csv_path = folder / SWEEP_CSV
+    rows = _rows(csv_path, columns)
+    _check_best(csv_path, rows, record["best"], columns[-1])
+    return Sweep(folder, label or folder.resolve().name, record["command"], record["frames"],
+                 record["ground_truth"], record["width"], tuple(record["thresholds"]), columns, rows)
+
+
+# sweep.json's fields and their types ("best": a checkpoint's name, or null)
+_FIELDS = {"command": str, "version": str, "frames": int, "ground_truth": str, "width": int, "thresholds": list,
+           "columns": list}
+
+
+def _record(json_path: Path) -> dict:
+    """sweep.json, its fields checked."""
+    record = _json_of(json_path)
+    from ..sweeps import SWEEP_FORMAT
+
+    if not isinstance(record, dict) or record.get("format") != SWEEP_FORMAT:
+        raise InputError(json_path, "not a sweep roneld-eval wrote")
+    for key, kind in _FIELDS.items():
+        if type(record.get(key)) is not kind:
+            raise InputError(json_path, f"its {key!r} is missing or not {kind.__name__}")
+    if not record["columns"] or not all(isinstance(c, str) and c for c in record["columns"] + record["thresholds"]):
+        raise InputError(json_path, "its columns and thresholds are not lists of names")
+    if "best" not in record or not (record["best"] is None or isinstance(record["best"], str)):
+        raise InputError(json_path, "its 'best' is missing or not a checkpoint's name or null")
+    if record["frames"] < 0 or record["width"] < 1:
+        raise InputError(json_path, "its frames, width or best are not what score writes")
+    return record
+
+
+def _json_of(json_path: Path):
     if not json_path.is_file():
         raise InputError(json_path, "missing: a sweep written by this version of `roneld-eval score` has it "
                                     "beside sweep.csv (score the checkpoints again)")
     try:
-        record = loads(_read(json_path))
+        return loads(_read(json_path))
     except RepeatedKey as error:
         raise InputError(json_path, str(error)) from None
     except json.JSONDecodeError as error:
         raise InputError(json_path, f"not JSON ({error.msg}, line {error.lineno})") from None
     except (ValueError, RecursionError) as error:  # a 5,000-digit number; arrays nested 100,000 deep
         raise InputError(json_path, f"not JSON roneld-eval wrote: {str(error).splitlines()[0]}") from None
-    from ..sweeps import SWEEP_FORMAT
 
-    if not isinstance(record, dict) or record.get("format") != SWEEP_FORMAT:
-        raise InputError(json_path, "not a sweep roneld-eval wrote")
-    kinds = {"command": str, "version": str, "frames": int, "ground_truth": str, "width": int,
-             "thresholds": list, "columns": list}
-    for key, kind in kinds.items():
-        if type(record.get(key)) is not kind:
-            raise InputError(json_path, f"its {key!r} is missing or not {kind.__name__}")
-    if not record["columns"] or not all(isinstance(c, str) and c for c in record["columns"] + record["thresholds"]):
-        raise InputError(json_path, "its columns and thresholds are not lists of names")
-    if record["frames"] < 0 or record["width"] < 1 or not (record["best"] is None or isinstance(record["best"], str)):
-        raise InputError(json_path, "its frames, width or best are not what score writes")
-    columns = tuple(record["columns"])
-    rows = _rows(csv_path, columns)
+
+def _check_best(csv_path: Path, rows: tuple[SweepRow, ...], recorded: str | None, last_column: str) -> None:
+    """The checkpoint sweep.csv marks best is sweep.json's, and the one of the highest last column."""
     best = [row.method for row in rows if row.best]
-    if best != ([] if record["best"] is None else [record["best"]]):
+    if best != ([] if recorded is None else [recorded]):
         raise InputError(csv_path, f"its best checkpoint ({', '.join(best) or 'none'}) is not sweep.json's "
-                                   f"({record['best']})")
+                                   f"({recorded})")
     if best:
-        top = max(row.scores[-1] for row in rows if not math.isnan(row.scores[-1]))
+        top = max((row.scores[-1] for row in rows if not math.isnan(row.scores[-1])), default=None)
         if next(row for row in rows if row.best).scores[-1] != top:
-            raise InputError(csv_path, f"the checkpoint marked best is not the one of the highest {columns[-1]}")
-    return Sweep(folder, label or folder.resolve().name, record["command"], record["frames"],
-                 record["ground_truth"], record["width"], tuple(record["thresholds"]), columns, rows)
+            raise InputError(csv_path, f"the checkpoint marked best is not the one of the highest {last_column}")
 
 
 def _rows(path: Path, columns: tuple[str, ...]) -> tuple[SweepRow, ...]:
