@@ -359,6 +359,33 @@ class OutputFolder:
         # Staging and trash names are the tool's only in a folder it has written to: a user's own
         # `.staging-mine` in a folder with none of its marks was taken for a leftover and deleted.
         ours = manifest is not None or plan is not None or locked_before
+        foreign, nested = self._unlisted(listed, ours)
+        if foreign:
+            raise InputError(self.path, f"holds files roneld-eval did not write ({_first_names(foreign)}): results go "
+                                        "only into a new or empty folder, or one an earlier `roneld-eval "
+                                        f"{self.command}` wrote")
+        self._refuse_another_commands(plan if plan is not None else manifest)
+        if manifest is not None and plan is None:
+            self._refuse_changed_folders(manifest)
+        for name in nested:
+            self._refuse_user_files_in_nested(self.path / name)
+        if manifest is not None or nested or plan is not None:
+            # After a cut-short commit, some of its entries may be old and some new: all go.
+            entries = sorted(listed | set(nested))
+            self.previous = {"command": self.command, "entries": entries}
+
+    def _refuse_another_commands(self, record: dict | None) -> None:
+        """Stop where the folder's record (a cut-short commit's plan, else the last commit's
+        manifest) is of another command's results."""
+        command = record["command"] if record is not None else None
+        if command is not None and command != self.command:
+            raise InputError(self.path, f"holds the results of `roneld-eval {command}`; write the "
+                                        f"results of `roneld-eval {self.command}` to another folder")
+
+    def _unlisted(self, listed: set[str], ours: bool) -> tuple[list[str], list[str]]:
+        """(the entries no command of the tool wrote here, sorted; a nested command's folders)
+        among those its records do not list; `ours`: the folder bears the tool's marks, so its
+        staging and trash names are the tool's leftovers."""
         foreign, nested = [], []
         for entry in self.path.iterdir():
             leftover = entry.name.startswith((STAGING_PREFIX, TRASH_PREFIX))
@@ -369,23 +396,7 @@ class OutputFolder:
             elif not _written_by(entry, PICTURES_COMMAND):
                 foreign.append(entry.name)
             # else: pictures `show --out` put here (of some run, not of these results): left as they are
-        foreign.sort()
-        if foreign:
-            raise InputError(self.path, f"holds files roneld-eval did not write ({_first_names(foreign)}): results go "
-                                        "only into a new or empty folder, or one an earlier `roneld-eval "
-                                        f"{self.command}` wrote")
-        command = plan["command"] if plan is not None else manifest["command"] if manifest is not None else None
-        if command is not None and command != self.command:
-            raise InputError(self.path, f"holds the results of `roneld-eval {command}`; write the "
-                                        f"results of `roneld-eval {self.command}` to another folder")
-        if manifest is not None and plan is None:
-            self._refuse_changed_folders(manifest)
-        for name in nested:
-            self._refuse_user_files_in_nested(self.path / name)
-        if manifest is not None or nested or plan is not None:
-            # After a cut-short commit, some of its entries may be old and some new: all go.
-            entries = sorted(listed | set(nested))
-            self.previous = {"command": self.command, "entries": entries}
+        return sorted(foreign), nested
 
     def _refuse_changed_folders(self, manifest: dict, base: Path | None = None) -> None:
         """Stop where a folder the last command wrote (into `base`, this folder by default) holds

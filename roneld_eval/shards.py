@@ -205,7 +205,17 @@ def read_part(folder: Path) -> Part:
         raise InputError(folder, f"not a partial result (no {MANIFEST_NAME}: written by a command given --shard I/N)")
     data = read_bytes(path, limit=CONFIG)
     assert data is not None
-    manifest = parse_json(data, path, "not a partial result", "not a partial result")
+    manifest = _part_manifest(parse_json(data, path, "not a partial result", "not a partial result"), path)
+    files = _sealed_files(path, manifest)
+    _check_manifest_fields(manifest, path)
+    # a part of a command that keeps per-frame numbers (not `run`'s)
+    arrays = _load_arrays(_sealed_bytes(folder, files, ARRAYS_NAME, MAP), folder / ARRAYS_NAME) \
+        if ARRAYS_NAME in files else {}
+    return Part(folder, manifest, arrays)
+
+
+def _part_manifest(manifest: Any, path: Path) -> dict:
+    """part.json's record, of this version's format."""
     if not isinstance(manifest, dict) or manifest.get("format") != PART_FORMAT:
         raise InputError(path, "not a partial result of roneld-eval")
     if manifest.get("format_version") == 1:
@@ -214,7 +224,11 @@ def read_part(folder: Path) -> Part:
     if manifest.get("format_version") != PART_VERSION:
         raise InputError(path, f"a partial result of format {manifest.get('format_version')!r}; this version "
                                f"reads format {PART_VERSION}: score the shard again with this version")
-    files = _sealed_files(path, manifest)
+    return manifest
+
+
+def _check_manifest_fields(manifest: dict, path: Path) -> None:
+    """Its shard [I, N], and its command, version, settings and ground truth."""
     shard = manifest.get("shard")
     if (not isinstance(shard, list) or len(shard) != 2 or any(type(v) is not int for v in shard)
             or not 1 <= shard[0] <= shard[1] <= MAX_SHARDS):
@@ -224,10 +238,6 @@ def read_part(folder: Path) -> Part:
             raise InputError(path, f"a partial result without its {key!r}")
     if not all(isinstance(manifest[key], str) for key in ("command", "version", "ground_truth")):
         raise InputError(path, "its command, version and ground truth are not text")
-    # a part of a command that keeps per-frame numbers (not `run`'s)
-    arrays = _load_arrays(_sealed_bytes(folder, files, ARRAYS_NAME, MAP), folder / ARRAYS_NAME) \
-        if ARRAYS_NAME in files else {}
-    return Part(folder, manifest, arrays)
 
 
 def _sealed_files(path: Path, manifest: dict) -> dict[str, str]:
@@ -303,44 +313,6 @@ def check_together(parts: Sequence[Part]) -> list[Part]:
             f"shards {shown} of {first.shard.count} are"
         raise ConfigError(f"{which} missing: merge needs every shard's part")
     return [by_index[k] for k in sorted(by_index)]
-
-
-def check_part_arrays(part: Part, n_methods: int, n_categories: int, more: Iterable[str] = ()) -> dict[str, np.ndarray]:
-    """A `score culane` part's arrays, every shape, type and value range checked (`more`: the
-    names of arrays its settings add, which their reader checks)."""
-    arrays = part.arrays
-    where = part.path / ARRAYS_NAME
-    wanted = {"frames", "n_gt", "n_pred", "matched_iou", *(f"category_{k}" for k in range(n_categories)), *more}
-    if set(arrays) != wanted:
-        raise InputError(where, f"holds {sorted(arrays)}, not {sorted(wanted)}")
-    frames = arrays["frames"]
-    if frames.ndim != 1 or frames.dtype.kind != "U":
-        raise InputError(where, "its frames are not a list of names")
-    n = len(frames)
-    n_gt, n_pred, matched = arrays["n_gt"], arrays["n_pred"], arrays["matched_iou"]
-    if n_gt.dtype != np.int64 or n_gt.shape != (n,) or (n_gt < 0).any():
-        raise InputError(where, "its lane counts are not one count a frame")
-    if n_pred.dtype != np.int64 or n_pred.shape != (n_methods, n) or (n_pred < 0).any():
-        raise InputError(where, "its predicted lane counts are not one count a frame and method")
-    if (n_gt >= 1 << 20).any() or (n_pred >= 1 << 20).any():
-        raise InputError(where, "a frame with more than a million lanes")
-    if matched.dtype != np.float64 or matched.shape != (n_methods, int(n_gt.sum())):
-        raise InputError(where, "its matched IoUs are not one a labelled lane and method")
-    with np.errstate(invalid="ignore"):
-        if not (np.isnan(matched) | (matched == -np.inf) | ((matched >= 0) & (matched <= 1))).all():
-            raise InputError(where, "a matched IoU outside [0, 1]")
-    # a ground-truth lane is matched to at most one predicted lane of its frame
-    frame_of = np.repeat(np.arange(n), n_gt)
-    for m in range(n_methods):
-        matched_lanes = np.bincount(frame_of[matched[m] > -np.inf], minlength=n) if n else np.zeros(0, np.int64)
-        if (matched_lanes > n_pred[m]).any():
-            raise InputError(where, "a frame with more matched lanes than predicted ones")
-    for k in range(n_categories):
-        if arrays[f"category_{k}"].dtype != np.bool_ or arrays[f"category_{k}"].shape != (n,):
-            raise InputError(where, f"its category {k} is not one flag a frame")
-    if part.manifest.get("scored_frames") != n:
-        raise InputError(part.path / MANIFEST_NAME, "its frame count differs from its part.npz's")
-    return arrays
 
 
 SCORE_COMMAND = "score "  # a part's command: "run", or "score NAME" for the benchmark NAME's scorer
@@ -542,18 +514,22 @@ def _combined(parts: Sequence[Part]) -> dict[str, np.ndarray]:
         if set(part.arrays) != names or not all(name.startswith(("sum_", "cat_")) for name in names):
             raise InputError(where, f"holds {sorted(part.arrays)}, not the arrays of the other parts")
         for name, array in part.arrays.items():
-            first = parts[0].arrays[name]
-            if array.dtype != first.dtype or array.dtype.kind not in "if" or array.ndim == 0:
-                raise InputError(where, f"its {name} is not an array of numbers like the other parts'")
-            if name.startswith("sum_") and (array.shape != first.shape or (array < 0).any()
-                                            or (array >= 1 << 40).any()):
-                raise InputError(where, f"its {name} is not a count of the shape of the other parts'")
-            if name.startswith("cat_") and (array.shape[1:] != first.shape[1:] or not np.isfinite(array).all()):
-                raise InputError(where, f"its {name} is not a row a frame of the shape of the other parts'")
+            _check_like(name, array, parts[0].arrays[name], where)
     for name in names:
         arrays = [part.arrays[name] for part in parts]
         out[name] = np.sum(arrays, axis=0) if name.startswith("sum_") else np.concatenate(arrays)
     return out
+
+
+def _check_like(name: str, array: np.ndarray, first: np.ndarray, where: Path) -> None:
+    """A part's array `name` combines with the first part's: numbers of its type, a `sum_*` a count
+    of its shape, a `cat_*` finite rows of its row shape."""
+    if array.dtype != first.dtype or array.dtype.kind not in "if" or array.ndim == 0:
+        raise InputError(where, f"its {name} is not an array of numbers like the other parts'")
+    if name.startswith("sum_") and (array.shape != first.shape or (array < 0).any() or (array >= 1 << 40).any()):
+        raise InputError(where, f"its {name} is not a count of the shape of the other parts'")
+    if name.startswith("cat_") and (array.shape[1:] != first.shape[1:] or not np.isfinite(array).all()):
+        raise InputError(where, f"its {name} is not a row a frame of the shape of the other parts'")
 
 
 def merge_by_rerun(parts: Sequence[Part], out: str | Path):

@@ -47,8 +47,6 @@ COMPLEX_LEFT = {
     "benchmarks/vil100/score.py:score_vil100": 26,
     "benchmarks/vil100/score.py:summary_rows": 26,
     "benchmarks/vil100/score.py:summary_table": 21,
-    "comparison/comparable.py:check_comparable": 27,
-    "comparison/comparable.py:run_pair": 21,
     "comparison/figure.py:curves_figure": 20,
     "comparison/grids.py:runtime_grid": 20,
     "comparison/runs.py:read_csv": 17,
@@ -61,7 +59,6 @@ COMPLEX_LEFT = {
     "maps/npy.py:_read_plain_npz": 18,
     "maps/npy.py:load_npz": 21,
     "metrics/iou.py:match_lanes": 22,
-    "output.py:OutputFolder._check_ownership": 23,
     "replay.py:_clip": 16,
     "report/pictures.py:frame_pictures": 17,
     "report/plots.py:category_figure": 18,
@@ -71,9 +68,6 @@ COMPLEX_LEFT = {
     "run_parts.py:PartsCache._check": 16,
     "scoring.py:_root_specs": 18,
     "scoring.py:find_prediction_trees": 16,
-    "shards.py:_combined": 19,
-    "shards.py:check_part_arrays": 23,
-    "shards.py:read_part": 19,
 }
 
 

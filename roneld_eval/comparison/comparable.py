@@ -85,17 +85,7 @@ def run_pair(runs: Sequence[Run], pair: str | tuple[str, str]) -> tuple[Run, Run
     names = [p.strip() for p in pair.split(",")] if isinstance(pair, str) else [str(p).strip() for p in pair]
     if len(names) != 2 or not all(names):
         raise ConfigError(f"--pair {pair}: name two runs, A,B (a run folder, or a label only one run has)")
-    found = []
-    for name in names:
-        by_path = [r for r in runs if _same_folder(r.path, name)]
-        by_label = [r for r in runs if r.label == name]
-        match = by_path or by_label
-        if not match:
-            raise ConfigError(f"--pair {pair}: {name} is neither a run folder compared nor a run's label")
-        if len(match) > 1:
-            raise ConfigError(f"--pair {pair}: {name} names {len(match)} runs; name one by its folder")
-        found.append(match[0])
-    a, b = found
+    a, b = (_named_run(runs, name, pair) for name in names)
     if a is b:
         raise ConfigError(f"--pair {pair}: names one run twice")
     if a.dataset != b.dataset or a.frames_key != b.frames_key or a.truth_key != b.truth_key:
@@ -106,6 +96,16 @@ def run_pair(runs: Sequence[Run], pair: str | tuple[str, str]) -> tuple[Run, Run
     return a, b
 
 
+def _named_run(runs: Sequence[Run], name: str, pair) -> Run:
+    """The one run `name` names in --pair: by its folder, else by its label."""
+    match = [r for r in runs if _same_folder(r.path, name)] or [r for r in runs if r.label == name]
+    if not match:
+        raise ConfigError(f"--pair {pair}: {name} is neither a run folder compared nor a run's label")
+    if len(match) > 1:
+        raise ConfigError(f"--pair {pair}: {name} names {len(match)} runs; name one by its folder")
+    return match[0]
+
+
 # ---- comparability ---------------------------------------------------------------------------
 
 def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str]:
@@ -114,6 +114,19 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
         for other in runs[:k]:
             if _same_folder(run.path, other.path):
                 raise ConfigError(f"{run.name()} is given twice")
+    _check_same_data(runs)
+    for run in runs[1:]:
+        if run.thresholds != runs[0].thresholds:
+            raise ConfigError(f"cannot compare {runs[0].name()} with {run.name()}: different IoU threshold grids "
+                              f"({grid_text(runs[0].thresholds)} and {grid_text(run.thresholds)}); rerun one "
+                              f"with the other's --thresholds")
+    notes = _protocol_mixes(runs, allow_mixed)
+    _check_groups(runs)
+    return notes
+
+
+def _check_same_data(runs: Sequence[Run]) -> None:
+    """Runs of one dataset scored the same frames, at the same sizes, against the same ground truth."""
     first: dict[str, Run] = {}
     for run in runs:
         base = first.setdefault(run.dataset, run)
@@ -140,11 +153,10 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
                               f"{base.counts['ego_lanes']} and {run.counts['ego_lanes']}, all lanes "
                               f"{base.counts['gt_lanes']} and {run.counts['gt_lanes']}); evaluate both on one "
                               f"dataset root")
-    for run in runs[1:]:
-        if run.thresholds != runs[0].thresholds:
-            raise ConfigError(f"cannot compare {runs[0].name()} with {run.name()}: different IoU threshold grids "
-                              f"({grid_text(runs[0].thresholds)} and {grid_text(run.thresholds)}); rerun one "
-                              f"with the other's --thresholds")
+
+
+def _protocol_mixes(runs: Sequence[Run], allow_mixed: bool) -> list[str]:
+    """The footnote of each paper-protocol setting the runs differ in (allowed with --allow-mixed)."""
     notes = []
     for index, (setting, value) in enumerate(runs[0].protocol):
         values: dict[object, list[Run]] = {}
@@ -160,6 +172,11 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
         shown = "; ".join(f"{value!r} for " + ", ".join(f"{r.label} on {r.dataset_name}" for r in members)
                           for value, members in values.items())
         notes.append(f"Compared with --allow-mixed: the runs differ in {setting}: {shown}.")
+    return notes
+
+
+def _check_groups(runs: Sequence[Run]) -> None:
+    """Runs averaged as one model's seeds are named, distinct results, of the same methods."""
     groups: dict[tuple[str, str], Run] = {}
     results: dict[tuple[str, str, str], Run] = {}
     for run in runs:
@@ -179,4 +196,3 @@ def check_comparable(runs: Sequence[Run], allow_mixed: bool = False) -> list[str
             raise ConfigError(f"cannot average {other.name()} and {run.name()}: both are {run.label!r} on "
                               f"{run.dataset_name} but ran different methods ({','.join(other.methods)} "
                               f"and {','.join(run.methods)}); give one of them another --label")
-    return notes

@@ -543,7 +543,8 @@ def _part_diagnoses(part, frames: list[str], diagnosis: DiagnosisSettings | None
 
 def merge_culane_parts(parts, out: str | Path) -> CulaneScore:
     """The files one unsharded `score culane` writes, from its shards' parts (checked together)."""
-    from ...shards import check_part_arrays, check_predictions
+    from ...shards import check_predictions
+    from .parts import check_part_arrays
 
     first = parts[0].manifest
     settings = _culane_part_settings(parts[0])
