@@ -283,25 +283,7 @@ class Grid:
         columns = [(self.stub + self.columns)[i] for i in indices]
         spec = "l" * len(self.stub) + "c" * len(block)
         lines = [f"  \\begin{{tabular}}{{@{{}}{spec}@{{}}}}", "    \\toprule"]
-        groups = [(k, self.columns[k].group) for k in block]
-        if any(group for _, group in groups):
-            cells, rules = [""] * len(self.stub), []
-            position = len(self.stub)
-            k = 0
-            while k < len(groups):
-                name = groups[k][1]
-                span = 1
-                while k + span < len(groups) and name and groups[k + span][1] == name:
-                    span += 1
-                if name:
-                    cells.append(f"\\multicolumn{{{span}}}{{c}}{{{latex(name)}}}")
-                    rules.append(f"\\cmidrule(lr){{{position + 1}-{position + span}}}")
-                else:
-                    cells += [""] * span
-                position += span
-                k += span
-            lines.append("    " + " & ".join(cells) + " \\\\")
-            lines.append("    " + " ".join(rules))
+        lines += self._latex_groups(block)
         depth = max(len(c.lines) for c in columns)
         for level in range(depth):
             cells = []
@@ -310,6 +292,35 @@ class Grid:
                 cells.append(latex(column.lines[index]) if index >= 0 else "")
             lines.append("    " + " & ".join(cells) + " \\\\")
         lines.append("    \\midrule")
+        lines += self._latex_rows(indices)
+        lines += ["    \\bottomrule", "  \\end{tabular}"]
+        return lines
+
+    def _latex_groups(self, block: list[int]) -> list[str]:
+        """The group headers over runs of neighbouring columns of one group, and their rules
+        (none where no column of the block has a group)."""
+        groups = [(k, self.columns[k].group) for k in block]
+        if not any(group for _, group in groups):
+            return []
+        cells, rules = [""] * len(self.stub), []
+        position = len(self.stub)
+        k = 0
+        while k < len(groups):
+            name = groups[k][1]
+            span = 1
+            while k + span < len(groups) and name and groups[k + span][1] == name:
+                span += 1
+            if name:
+                cells.append(f"\\multicolumn{{{span}}}{{c}}{{{latex(name)}}}")
+                rules.append(f"\\cmidrule(lr){{{position + 1}-{position + span}}}")
+            else:
+                cells += [""] * span
+            position += span
+            k += span
+        return ["    " + " & ".join(cells) + " \\\\", "    " + " ".join(rules)]
+
+    def _latex_rows(self, indices: list[int]) -> list[str]:
+        lines = []
         for number_, row in enumerate(self.rows):
             cells = [row[i].latex_lines() for i in indices]
             if number_ and any(len(cell) > 1 for cell in cells) and (number_ - 1) not in self.rules_after:
@@ -318,7 +329,6 @@ class Grid:
                 lines.append("    " + " & ".join(cell[level] if level < len(cell) else "" for cell in cells) + " \\\\")
             if number_ in self.rules_after:
                 lines.append("    \\midrule")
-        lines += ["    \\bottomrule", "  \\end{tabular}"]
         return lines
 
 

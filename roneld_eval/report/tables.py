@@ -195,15 +195,7 @@ class Table:
              else f"  \\begin{{tabular}}{{@{{}}l{'c' * (columns - 1)}@{{}}}}"),
             "    \\toprule",
         ]
-        if self.group:
-            cells, rules, at = [], [], 0
-            for text, first, end in self.group:
-                cells += [""] * (first - at) + [f"\\multicolumn{{{end - first}}}{{c}}{{{latex_text(text)}}}"]
-                rules.append(f"\\cmidrule(lr){{{first + 1}-{end}}}")
-                at = end
-            cells += [""] * (columns - at)
-            lines.append("    " + " & ".join(cells) + " \\\\")
-            lines.append("    " + " ".join(rules))
+        lines += self._latex_group_lines(columns)
         for level in range(depth):
             cells = []
             for header in stacked:
@@ -211,6 +203,27 @@ class Table:
                 cells.append(latex_text(header[index]) if index >= 0 else "")
             lines.append("    " + " & ".join(cells) + " \\\\")
         lines.append("    \\midrule")
+        lines += self._latex_body_lines()
+        lines += ["    \\bottomrule", f"  \\end{{{'tabular*' if wide else 'tabular'}}}", f"\\end{{{environment}}}"]
+        return "\n".join(lines) + "\n"
+
+
+    def _latex_group_lines(self, columns: int) -> list[str]:
+        """The group header over its columns and its rules, where the table has one."""
+        if not self.group:
+            return []
+        cells, rules, at = [], [], 0
+        for text, first, end in self.group:
+            cells += [""] * (first - at) + [f"\\multicolumn{{{end - first}}}{{c}}{{{latex_text(text)}}}"]
+            rules.append(f"\\cmidrule(lr){{{first + 1}-{end}}}")
+            at = end
+        cells += [""] * (columns - at)
+        return ["    " + " & ".join(cells) + " \\\\", "    " + " ".join(rules)]
+
+    def _latex_body_lines(self) -> list[str]:
+        """The rows, a cell of several lines (an increase: absolute, relative, interval) stacked,
+        with a little space before a row of such cells."""
+        lines = []
         for number, row in enumerate(self.rows):
             cell_lines = [_latex_lines(value) for value in row]
             if number and any(len(cell) > 1 for cell in cell_lines):
@@ -218,8 +231,7 @@ class Table:
             for level in range(max(len(cell) for cell in cell_lines)):
                 line = " & ".join(cell[level] if level < len(cell) else "" for cell in cell_lines)
                 lines.append("    " + line + " \\\\")
-        lines += ["    \\bottomrule", f"  \\end{{{'tabular*' if wide else 'tabular'}}}", f"\\end{{{environment}}}"]
-        return "\n".join(lines) + "\n"
+        return lines
 
 
 def fixed(value: float, decimals: int = 3, signed: bool = False) -> str:
@@ -313,22 +325,11 @@ def comparison_table(accuracy: pd.DataFrame, model: str, clips: int | None = Non
     labels = list(dict.fromkeys(accuracy["threshold"]))
     methods = list(dict.fromkeys(accuracy["method"]))
     value = _accuracies(accuracy)
-    interval = {}
-    if "roneld_gain_ci_low" in accuracy.columns:
-        bounds = zip(accuracy["method"], accuracy["threshold"],
-                     accuracy["roneld_gain_ci_low"], accuracy["roneld_gain_ci_high"])
-        interval = {(method, label): (float(low), float(high)) for method, label, low, high in bounds}
+    interval = _gain_intervals(accuracy)
     others = [m for m in methods if m != PAPER.ours]
     paired = PAPER.ours in methods and bool(others)
     shown = [m for other in others for m in (other, PAPER.ours)] if paired else methods
-    headers = ["IoU threshold"]
-    header_lines: list[tuple[str, ...]] = [("IoU", "threshold")]
-    for method in shown:
-        headers.append(display_name(method, model))
-        header_lines.append(name_parts(method, model))
-        if paired and method == PAPER.ours:
-            headers.append("Acc. Inc.")
-            header_lines.append(("Acc. Inc.",))
+    headers, header_lines = _comparison_headers(shown, model, paired)
     rows = []
     for label in table_thresholds(labels):
         row: list = [short_threshold(label)]
@@ -343,6 +344,29 @@ def comparison_table(accuracy: pd.DataFrame, model: str, clips: int | None = Non
             row += [value[(m, label)] for m in methods]
         rows.append(tuple(row))
     return Table(tuple(headers), tuple(rows), tuple(header_lines))
+
+
+def _gain_intervals(accuracy: pd.DataFrame) -> dict[tuple[str, str], tuple[float, float]]:
+    """(method, threshold) -> the interval of RONELD's gain over it, where accuracy.csv has them."""
+    if "roneld_gain_ci_low" not in accuracy.columns:
+        return {}
+    bounds = zip(accuracy["method"], accuracy["threshold"], accuracy["roneld_gain_ci_low"],
+                 accuracy["roneld_gain_ci_high"])
+    return {(method, label): (float(low), float(high)) for method, label, low, high in bounds}
+
+
+def _comparison_headers(shown: list[str], model: str, paired: bool) -> tuple[list[str], list[tuple[str, ...]]]:
+    """Each column's header, and its lines stacked: the threshold, the methods, and the increase
+    after each RONELD column of a paired table."""
+    headers = ["IoU threshold"]
+    header_lines: list[tuple[str, ...]] = [("IoU", "threshold")]
+    for method in shown:
+        headers.append(display_name(method, model))
+        header_lines.append(name_parts(method, model))
+        if paired and method == PAPER.ours:
+            headers.append("Acc. Inc.")
+            header_lines.append(("Acc. Inc.",))
+    return headers, header_lines
 
 
 def ablation_table(accuracy: pd.DataFrame, dataset: str, model: str | None = None) -> Table | None:
@@ -392,19 +416,22 @@ def official_headline(official: pd.DataFrame, benchmark, model: str) -> Table | 
     to official.csv. None where nothing is left to show."""
     if official is None or official.empty or "method" not in official.columns:
         return None
-    rows = official
-    if "category" in official.columns:
-        rows = official[official["category"].isin(WHOLE_SET)]
-    kinds = {**benchmark.official_columns, **benchmark.official_optional}
+    rows = official[official["category"].isin(WHOLE_SET)] if "category" in official.columns else official
     keys = [column for column in benchmark.official_key if column in rows.columns]
-    numbers = [column for column, kind in kinds.items()
-               if column in rows.columns and column not in keys and kind.endswith("number")]
+    numbers = _headline_columns(benchmark, rows, keys)
     if rows.empty or not numbers:
         return None
     body = tuple((display_name(record["method"], model), *(str(record[key]) for key in keys[1:]),
                   *(_headline_number(record[column]) for column in numbers))
                  for record in rows.to_dict("records"))
     return Table(("method", *keys[1:], *numbers), body)
+
+
+def _headline_columns(benchmark, rows: pd.DataFrame, keys: list[str]) -> list[str]:
+    """The benchmark's rate and score columns (its declared numbers) the table has, keys aside."""
+    kinds = {**benchmark.official_columns, **benchmark.official_optional}
+    return [column for column, kind in kinds.items()
+            if column in rows.columns and column not in keys and kind.endswith("number")]
 
 
 def _headline_number(value) -> str:
