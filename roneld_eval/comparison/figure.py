@@ -48,41 +48,25 @@ def method_style(method: str, others: list[str]) -> dict:
     return OTHER_STYLES[others.index(method) % len(OTHER_STYLES)]
 
 
-def curves_figure(curves: list[Curve]):
-    """The figure: a panel per dataset (in order of first appearance), a shared legend below."""
-    datasets = list(dict.fromkeys(c.dataset for c in curves))
-    models = list(dict.fromkeys(c.model for c in curves))
-    others = list(dict.fromkeys(c.method for c in curves if c.method not in METHOD_STYLES))
-    colour = {model: COLOURS[k % len(COLOURS)] for k, model in enumerate(models)}
-    # Earlier models draw wider lines, so a curve another model's covers exactly still shows at its edges.
-    width = {model: 1.4 + 0.7 * (len(models) - 1 - k) / max(1, len(models) - 1) for k, model in enumerate(models)}
-    panels = len(datasets)
-    figure, axes = plt.subplots(1, panels, figsize=(3.6 * panels + 0.4, 3.5), dpi=150, squeeze=False,
-                                sharey=True)
-    low, high = 1.0, 0.0
-    for ax, dataset in zip(axes[0], datasets):
-        for curve in (c for c in curves if c.dataset == dataset):
-            values = np.array(curve.runs, np.float64)
-            mean = values.mean(axis=0)
-            x = np.array(curve.thresholds)
-            style = method_style(curve.method, others)
-            ax.plot(x, mean, color=colour[curve.model], linewidth=width[curve.model], markersize=3.5,
-                    markevery=max(1, len(x) // 10), **style)
-            if len(values) > 1:
-                sd = values.std(axis=0, ddof=1)
-                ax.fill_between(x, mean - sd, mean + sd, color=colour[curve.model], alpha=0.15, linewidth=0)
-                low, high = min(low, float((mean - sd).min())), max(high, float((mean + sd).max()))
-            else:
-                low, high = min(low, float(mean.min())), max(high, float(mean.max()))
-        ax.text(0.97, 0.96, dataset, transform=ax.transAxes, ha="right", va="top", fontsize=9,
-                bbox=dict(boxstyle="round,pad=0.25", facecolor="white", edgecolor="#999999", linewidth=0.6))
-        ax.set_xlabel("IoU threshold")
-        ax.grid(True, alpha=0.3)
-    axes[0][0].set_ylabel("accuracy (N_TP / N_gt)")
-    if high >= low:  # a curve at 1.0 stays visible above the axis' top
-        axes[0][0].set_ylim(max(0.0, low - 0.05), min(1.02, high + 0.05))
-    # The legend: a row per model, a column per method (matplotlib fills legends column by column).
-    methods = list(dict.fromkeys(c.method for c in curves))
+def _draw_curve(ax, curve: Curve, colour: str, width: float, others: list[str]) -> tuple[float, float]:
+    """One curve, the mean over its runs with a band of one standard deviation where it has
+    several; the lowest and highest value drawn."""
+    values = np.array(curve.runs, np.float64)
+    mean = values.mean(axis=0)
+    x = np.array(curve.thresholds)
+    ax.plot(x, mean, color=colour, linewidth=width, markersize=3.5, markevery=max(1, len(x) // 10),
+            **method_style(curve.method, others))
+    if len(values) > 1:
+        sd = values.std(axis=0, ddof=1)
+        ax.fill_between(x, mean - sd, mean + sd, color=colour, alpha=0.15, linewidth=0)
+        return float((mean - sd).min()), float((mean + sd).max())
+    return float(mean.min()), float(mean.max())
+
+
+def _legend_entries(curves: list[Curve], methods: list[str], models: list[str], colour: dict, width: dict,
+                    others: list[str]) -> tuple[list, list[str]]:
+    """The legend: a row per model, a column per method (matplotlib fills legends column by
+    column), an empty slot where a model has no curve of a method."""
     drawn = {(c.model, c.method): c for c in curves}
     counts: dict[tuple[str, str], dict[str, int]] = {}  # runs behind each curve, per panel
     for c in curves:
@@ -98,6 +82,34 @@ def curves_figure(curves: list[Curve]):
             handles.append(Line2D([], [], color=colour[model], linewidth=width[model], markersize=3.5,
                                   **method_style(method, others)))
             labels.append(shown.name + _runs_text(counts[(model, method)]))
+    return handles, labels
+
+
+def curves_figure(curves: list[Curve]):
+    """The figure: a panel per dataset (in order of first appearance), a shared legend below."""
+    datasets = list(dict.fromkeys(c.dataset for c in curves))
+    models = list(dict.fromkeys(c.model for c in curves))
+    others = list(dict.fromkeys(c.method for c in curves if c.method not in METHOD_STYLES))
+    colour = {model: COLOURS[k % len(COLOURS)] for k, model in enumerate(models)}
+    # Earlier models draw wider lines, so a curve another model's covers exactly still shows at its edges.
+    width = {model: 1.4 + 0.7 * (len(models) - 1 - k) / max(1, len(models) - 1) for k, model in enumerate(models)}
+    panels = len(datasets)
+    figure, axes = plt.subplots(1, panels, figsize=(3.6 * panels + 0.4, 3.5), dpi=150, squeeze=False,
+                                sharey=True)
+    low, high = 1.0, 0.0
+    for ax, dataset in zip(axes[0], datasets):
+        for curve in (c for c in curves if c.dataset == dataset):
+            bottom, top = _draw_curve(ax, curve, colour[curve.model], width[curve.model], others)
+            low, high = min(low, bottom), max(high, top)
+        ax.text(0.97, 0.96, dataset, transform=ax.transAxes, ha="right", va="top", fontsize=9,
+                bbox=dict(boxstyle="round,pad=0.25", facecolor="white", edgecolor="#999999", linewidth=0.6))
+        ax.set_xlabel("IoU threshold")
+        ax.grid(True, alpha=0.3)
+    axes[0][0].set_ylabel("accuracy (N_TP / N_gt)")
+    if high >= low:  # a curve at 1.0 stays visible above the axis' top
+        axes[0][0].set_ylim(max(0.0, low - 0.05), min(1.02, high + 0.05))
+    methods = list(dict.fromkeys(c.method for c in curves))
+    handles, labels = _legend_entries(curves, methods, models, colour, width, others)
     legend = figure.legend(handles, labels, loc="lower center", ncol=len(methods), fontsize=7.5, frameon=False,
                            columnspacing=1.2, handlelength=2.6, numpoints=2)
     # Measured, not guessed: one panel is narrower than a legend of three methods' names.

@@ -232,29 +232,42 @@ def _runtime_of(run: Run) -> dict[str, float]:
 
 def runtime_grid(groups: Sequence[Group]) -> Grid:
     """Table V: mean ms per frame of extraction per dataset and model (RONELD first), and a mean row."""
-    methods = ordered_methods(m for g in groups for r in g.runs for m in r.runtime["method"] if m != "map loading")
-    first = (PAPER.ours, ABLATION_METHOD)  # Table V is RONELD's runtime; the others beside it
-    methods = [m for m in first if m in methods] + [m for m in methods if m not in first]
-    columns = tuple(Column((METHOD_TABLE[m].words if m in METHOD_TABLE else m) + " (ms)",
-                           METHOD_TABLE[m].word_parts if m in METHOD_TABLE else wrap_words(m)) for m in methods)
+    methods = _runtime_methods(groups)
+    columns = tuple(_runtime_column(m) for m in methods)
     rows = []
     means: dict[str, list[float]] = {m: [] for m in methods}
     for group in groups:
-        cells: list[Cell] = []
-        for method in methods:
-            values = all_found([_runtime_of(run).get(method) for run in group.runs])
-            if values is None:
-                cells.append(EMPTY)
-                continue
-            cell = Stat(tuple(values))
-            means[method].append(cell.mean)
-            cells.append(cell)
+        cells = [_runtime_cell(group, method, means[method]) for method in methods]
         title = group.label if group.n == 1 else f"{group.label} (n = {group.n})"
         rows.append((Text(group.dataset_name), Text(title), *cells))
     mean_cells = [Stat((math.fsum(means[m]) / len(means[m]),)) if means[m] else EMPTY for m in methods]
     rows.append((Text("Mean"), Text(""), *mean_cells))
     return Grid((Column("Dataset", ("Dataset",)), Column("Model", ("Model",))), columns, tuple(rows),
                 rules_after=(len(rows) - 2,))
+
+
+def _runtime_methods(groups: Sequence[Group]) -> list[str]:
+    """The methods timed, RONELD first: Table V is RONELD's runtime, the others beside it."""
+    methods = ordered_methods(m for g in groups for r in g.runs for m in r.runtime["method"] if m != "map loading")
+    first = (PAPER.ours, ABLATION_METHOD)
+    return [m for m in first if m in methods] + [m for m in methods if m not in first]
+
+
+def _runtime_column(method: str) -> Column:
+    if method in METHOD_TABLE:
+        return Column(METHOD_TABLE[method].words + " (ms)", METHOD_TABLE[method].word_parts)
+    return Column(method + " (ms)", wrap_words(method))
+
+
+def _runtime_cell(group: Group, method: str, means: list[float]) -> Cell:
+    """The group's runtime of one method (its runs' mean), EMPTY where a run lacks it; the mean
+    is also added to `means`, what the Mean row averages."""
+    values = all_found([_runtime_of(run).get(method) for run in group.runs])
+    if values is None:
+        return EMPTY
+    cell = Stat(tuple(values))
+    means.append(cell.mean)
+    return cell
 
 
 def _untimed_note(groups: Sequence[Group]) -> str:

@@ -206,6 +206,22 @@ def accuracy_figure(accuracy: pd.DataFrame, model: str, dataset: str, protocol: 
 HATCHES = {name: facts.hatch for name, facts in METHOD_TABLE.items()}
 
 
+def _category_note(panel: CategoryPanel | None, model: str, methods: list[str],
+                   protocol: Protocol | None) -> list[str]:
+    """What stands under the bars: the protocols of both panels, and what an all-lanes score
+    makes of the methods that output the ego lanes only."""
+    note = []
+    if protocol is not None:
+        note.append(f"Accuracy: {protocol.paper()}.")
+        if panel is not None and panel.settings is not None:
+            note.append(f"{panel.score_name}: {panel.settings}.")
+    # Shortened as in the legend, the method's words kept: RONELD with and without PFT stay apart.
+    ego_only = [_legend_name(method, model, 4.0, 7.5, most_lines=1) for method in methods if method in EGO_LANES_ONLY]
+    if panel is not None and ego_only:
+        note.append(f"{ego_lanes_only(ego_only)}: {panel.ego_lanes_note}.")
+    return note
+
+
 def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model: str, threshold_label: str,
                     protocol: Protocol | None = None):
     """Grouped bars per category: the paper's accuracy (left) and, where the benchmark gives one
@@ -244,15 +260,7 @@ def category_figure(categories: pd.DataFrame, panel: CategoryPanel | None, model
         ax.grid(True, axis="y", alpha=0.3)
     # The names given, not collected: matplotlib leaves out a name that begins with "_"
     figure.legend(handles, list(shown.values()), loc="upper center", ncol=len(methods), fontsize=9, frameon=False)
-    note = []
-    if protocol is not None:
-        note.append(f"Accuracy: {protocol.paper()}.")
-        if panel is not None and panel.settings is not None:
-            note.append(f"{panel.score_name}: {panel.settings}.")
-    # Shortened as in the legend, the method's words kept: RONELD with and without PFT stay apart.
-    ego_only = [_legend_name(method, model, 4.0, 7.5, most_lines=1) for method in methods if method in EGO_LANES_ONLY]
-    if panel is not None and ego_only:
-        note.append(f"{ego_lanes_only(ego_only)}: {panel.ego_lanes_note}.")
+    note = _category_note(panel, model, methods, protocol)
     lines = max((name.count("\n") + 1 for name in shown.values()), default=1)
     legend_in = 0.4 + (lines - 1) * 9 * 1.25 / 72  # the legend's rows, each 9 pt and its spacing
     # Category names are tick labels turned 30 degrees, ending at their tick: the longest sets
