@@ -92,11 +92,7 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
                                "(sweep.csv) when given several checkpoints (a glob, --pred-roots-from)")
     manifest = read_manifest(folder, INPUT_RUN_REMEDY)
     assert manifest is not None  # check_finished_run refuses a folder without one
-    entries = manifest["entries"]
-    for name in RUN_FILES:
-        file = folder / name
-        if name not in entries or not file.is_file():
-            raise InputError(file, "missing from this run folder: it is not the complete output of `roneld-eval run`")
+    _check_run_files(folder, manifest["entries"])
     config = _read_toml(folder / "config.toml")
     summary = _read_json(folder / "summary.json")
     model = _setting(config, folder / "config.toml", (), "model", str)
@@ -108,12 +104,7 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
     recorded = summary.get("dataset")
     if recorded is not None and recorded != dataset:
         raise InputError(folder / "summary.json", f"names dataset {recorded!r} but config.toml says {dataset!r}")
-    counts = summary.get("counts")
-    if not isinstance(counts, dict) or not all(
-            isinstance(counts.get(key), int) and not isinstance(counts.get(key), bool) and counts[key] >= 0
-            for key in ("clips", "labelled_frames", "gt_lanes", "ego_lanes")):
-        raise InputError(folder / "summary.json", "`counts` must hold clips, labelled_frames, gt_lanes and "
-                                                  "ego_lanes as non-negative integers")
+    counts = _counts(folder / "summary.json", summary)
     protocol = tuple((f"{section}.{key}", _protocol_value(config, section, key)) for section, key in PROTOCOL_SETTINGS)
 
     accuracy = read_csv(folder / "accuracy.csv", {"method": "text", "threshold": "text", "n_tp": "count",
@@ -138,6 +129,24 @@ def read_run(path: str | Path, label: str | None = None) -> Run:
                runtime=runtime, official=official, counts=dict(counts), clips=clips, frames_key=frames_key,
                truth_key=truth_key, results_key=_results_key(per_frame), columns=_columns(accuracy),
                clip_sizes=_clip_sizes(folder / "summary.json", summary))
+
+
+def _check_run_files(folder: Path, entries) -> None:
+    for name in RUN_FILES:
+        file = folder / name
+        if name not in entries or not file.is_file():
+            raise InputError(file, "missing from this run folder: it is not the complete output of `roneld-eval run`")
+
+
+def _counts(path: Path, summary: dict) -> dict:
+    """summary.json's counts: clips, labelled frames, ground-truth and ego lanes."""
+    counts = summary.get("counts")
+    if not isinstance(counts, dict) or not all(
+            isinstance(counts.get(key), int) and not isinstance(counts.get(key), bool) and counts[key] >= 0
+            for key in ("clips", "labelled_frames", "gt_lanes", "ego_lanes")):
+        raise InputError(path, "`counts` must hold clips, labelled_frames, gt_lanes and ego_lanes as non-negative "
+                               "integers")
+    return counts
 
 
 def _clip_sizes(path: Path, summary: dict) -> tuple[tuple[str, int, int], ...]:
@@ -218,19 +227,7 @@ def _protocol_value(config: dict, section: str, key: str):
 def read_csv(path: Path, columns: dict[str, str], optional: dict[str, str] | None = None) -> pd.DataFrame:
     """A CSV file with the named columns, each checked: 'text', 'count' (integer >= 0), 'number'
     (finite) or 'optional number' (empty is NaN). Extra columns are ignored."""
-    try:
-        check_regular_file(path, "missing from this run folder", RUN_TABLE)
-        table = pd.read_csv(path, dtype=object, keep_default_na=False, na_filter=False, encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(path, "missing from this run folder") from None
-    except OSError as error:
-        raise InputError(path, f"cannot read: {error.strerror or error}") from None
-    except UnicodeDecodeError:
-        raise InputError(path, "not UTF-8 text") from None
-    except pd.errors.EmptyDataError:
-        raise InputError(path, "empty: not a table this tool wrote") from None
-    except (pd.errors.ParserError, ValueError, OverflowError, MemoryError) as error:
-        raise InputError(path, f"not a valid CSV table ({str(error).strip().splitlines()[0]})") from None
+    table = _text_table(path)
     missing = [name for name in columns if name not in table.columns]
     if missing:
         raise InputError(path, f"has no column {', '.join(missing)}: not the table `roneld-eval run` writes "
@@ -250,6 +247,23 @@ def read_csv(path: Path, columns: dict[str, str], optional: dict[str, str] | Non
             raise InputError(path, f"column {name}: {raw[first]!r} is not {EXPECTED[kind]}", line=first + 2)
         out[name] = numbers.astype(np.int64) if kind == "count" else numbers
     return pd.DataFrame(out, columns=list(wanted))
+
+
+def _text_table(path: Path) -> pd.DataFrame:
+    """A run's CSV file as text cells, read within the size a run's table may have."""
+    try:
+        check_regular_file(path, "missing from this run folder", RUN_TABLE)
+        return pd.read_csv(path, dtype=object, keep_default_na=False, na_filter=False, encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(path, "missing from this run folder") from None
+    except OSError as error:
+        raise InputError(path, f"cannot read: {error.strerror or error}") from None
+    except UnicodeDecodeError:
+        raise InputError(path, "not UTF-8 text") from None
+    except pd.errors.EmptyDataError:
+        raise InputError(path, "empty: not a table this tool wrote") from None
+    except (pd.errors.ParserError, ValueError, OverflowError, MemoryError) as error:
+        raise InputError(path, f"not a valid CSV table ({str(error).strip().splitlines()[0]})") from None
 
 
 EXPECTED = {"count": "a whole number in [0, 2^53]", "number": "a finite number", "optional number": "a number or empty"}

@@ -134,26 +134,33 @@ def _rows(path: Path, columns: tuple[str, ...]) -> tuple[SweepRow, ...]:
     header = ["method", "checkpoint", *columns, "best"]
     if not lines or lines[0] != header:
         raise InputError(path, f"its header is not {','.join(header)}")
-    rows, seen = [], set()
+    rows: list[SweepRow] = []
+    seen: set[str] = set()
     for number, line in enumerate(lines[1:], start=2):
         if len(line) != len(header):
             raise InputError(path, f"{len(line)} fields where the header has {len(header)}", line=number)
-        method, checkpoint, *scores, best = line
-        if not method or method in seen or any(ord(c) < 32 for c in method):
-            raise InputError(path, f"a checkpoint name that is empty, repeated or holds control characters "
-                                   f"({method[:60]!r})", line=number)
-        seen.add(method)
-        try:
-            values = tuple(float(v) for v in scores)
-            number_of = None if checkpoint == "" else int(checkpoint)
-        except ValueError:
-            raise InputError(path, "a score or checkpoint that is not a number", line=number) from None
-        if not all(math.isnan(v) or 0 <= v <= 1 for v in values) or best not in ("True", "False"):
-            raise InputError(path, "a score outside [0, 1] or a best that is not True/False", line=number)
-        rows.append(SweepRow(method, number_of, values, best == "True"))
+        rows.append(_row(path, number, line, seen))
+        seen.add(line[0])
     if not rows or len(rows) > MAX_CHECKPOINTS:
         raise InputError(path, f"holds {len(rows):,} checkpoints (1 to {MAX_CHECKPOINTS:,})")
     return tuple(rows)
+
+
+def _row(path: Path, number: int, line: list[str], seen: set[str]) -> SweepRow:
+    """One checkpoint's line: its name (not among those `seen`), number, scores in [0, 1] (or
+    NaN) and whether it is best."""
+    method, checkpoint, *scores, best = line
+    if not method or method in seen or any(ord(c) < 32 for c in method):
+        raise InputError(path, f"a checkpoint name that is empty, repeated or holds control characters "
+                               f"({method[:60]!r})", line=number)
+    try:
+        values = tuple(float(v) for v in scores)
+        number_of = None if checkpoint == "" else int(checkpoint)
+    except ValueError:
+        raise InputError(path, "a score or checkpoint that is not a number", line=number) from None
+    if not all(math.isnan(v) or 0 <= v <= 1 for v in values) or best not in ("True", "False"):
+        raise InputError(path, "a score outside [0, 1] or a best that is not True/False", line=number)
+    return SweepRow(method, number_of, values, best == "True")
 
 
 @dataclass(frozen=True)
