@@ -233,18 +233,25 @@ def own_modules(module) -> tuple[Path, list[Path]]:
             continue
         if os.path.isabs(path) and not path.startswith(prefixes):
             continue
-        try:
-            file = Path(path).resolve()
-            relative = file.relative_to(home)
-        except (OSError, ValueError):
-            continue
-        folders = relative.parts[:-1]
-        if (folders and not below) or any(part in _LIBRARY_FOLDERS or part.startswith(".") for part in folders):
-            continue
-        if file.is_file():
+        file = _own_file(path, home, below)
+        if file is not None:
             found.add(file)
     found.discard(own)
     return home, [own, *sorted(found)]
+
+
+def _own_file(path: str, home: Path, below: bool) -> Path | None:
+    """The loaded module's file where it is the plug-in's own: under `home` (directly beside it
+    unless `below`), not in a library or hidden folder there; None otherwise."""
+    try:
+        file = Path(path).resolve()
+        relative = file.relative_to(home)
+    except (OSError, ValueError):
+        return None
+    folders = relative.parts[:-1]
+    if (folders and not below) or any(part in _LIBRARY_FOLDERS or part.startswith(".") for part in folders):
+        return None
+    return file if file.is_file() else None
 
 
 def kernel_groups(methods: tuple[Method, ...] | list[Method]) -> tuple[str, ...]:

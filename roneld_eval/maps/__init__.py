@@ -142,13 +142,16 @@ def frames_in_folder(folder: Path, config: MapsConfig, lane_files=None) -> list[
     names = sorted(entry.name for entry in entries if entry.is_file())
     stems = [name[:-len(suffix)] for name in names if name.endswith(suffix) and len(name) > len(suffix)]
     if not stems:
-        suffixes = _suffixes()
-        others = {fmt: sum(name.endswith(end) for name in names) for fmt, end in suffixes.items()}
-        found = max(others, key=lambda fmt: others[fmt])
-        hint = (f": it holds {others[found]} {suffixes[found]} files, use --maps-format {found}"
-                if others[found] else "")
-        raise InputError(folder, f"holds no {config.format} maps (files named <frame>{suffix}){hint}")
+        raise InputError(folder, f"holds no {config.format} maps (files named <frame>{suffix}){_format_hint(names)}")
     return [stem + ".jpg" for stem in sorted(stems, key=_natural)]
+
+
+def _format_hint(names: list[str]) -> str:
+    """': it holds N <suffix> files, use --maps-format F' for the format most of `names` are in."""
+    suffixes = _suffixes()
+    others = {fmt: sum(name.endswith(end) for name in names) for fmt, end in suffixes.items()}
+    found = max(others, key=lambda fmt: others[fmt])
+    return f": it holds {others[found]} {suffixes[found]} files, use --maps-format {found}" if others[found] else ""
 
 
 def _folder_suffix(config: MapsConfig, lane_files) -> str:

@@ -155,21 +155,30 @@ def _read_plain_npz(path: Path, config: MapsConfig) -> tuple[np.ndarray, np.ndar
         _check_members(path, infos.values())
         if not infos or any(not name.endswith(".npy") for name in infos):
             return None
-        names = [name[:-4] for name in infos]
-        key = config.npz_key if config.npz_key in names else (names[0] if len(names) == 1 else None)
-        if key is None or len(set(names)) != len(names):
-            return None
-        arrays = []
-        for name in [key] + (["exist"] if "exist" in names and key != "exist" else []):
-            raw = _member(data, infos[name + ".npy"])
-            if raw is None:
-                return None
-            arrays.append(_member_array(raw))
+        arrays = _plain_members(data, infos, config)
     except InputError:
         raise
     except Exception:  # whatever it is, np.load meets it again and reports it
         return None
+    if arrays is None:
+        return None
     return arrays[0], arrays[1] if len(arrays) > 1 else None
+
+
+def _plain_members(data: bytes, infos: dict, config: MapsConfig) -> list[np.ndarray] | None:
+    """The maps member and `exist` (where there is one) decoded, or None where the archive is
+    not plainly one of .npy members with a maps member of its own name."""
+    names = [name[:-4] for name in infos]
+    key = config.npz_key if config.npz_key in names else (names[0] if len(names) == 1 else None)
+    if key is None or len(set(names)) != len(names):
+        return None
+    arrays = []
+    for name in [key] + (["exist"] if "exist" in names and key != "exist" else []):
+        raw = _member(data, infos[name + ".npy"])
+        if raw is None:
+            return None
+        arrays.append(_member_array(raw))
+    return arrays
 
 
 def _check_declared_size(path: Path, name: str, archive: zipfile.ZipFile) -> None:
@@ -210,23 +219,22 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
     """Maps under `config.npz_key` (or the only array) and `exist` when present."""
     check_regular_file(path, "maps file not found", MAP)
     plain = _read_plain_npz(path, config) if _libdeflate is not None else None
-    if plain is not None:
-        array, existence = plain
-        probabilities = canonical_probabilities(array, path, config)
-        if existence is not None:
-            existence = canonical_existence(existence, path, config)
-        return FrameMaps(probabilities=probabilities, existence=existence)
+    array, existence = plain if plain is not None else _read_npz(path, config)
+    probabilities = canonical_probabilities(array, path, config)
+    if existence is not None:
+        existence = canonical_existence(existence, path, config)
+    return FrameMaps(probabilities=probabilities, existence=existence)
+
+
+def _read_npz(path: Path, config: MapsConfig) -> tuple[np.ndarray, np.ndarray | None]:
+    """The maps array and `exist` (None without one), as numpy reads any .npz archive, each
+    member checked before it is decoded."""
     try:
         _check_archive_start(path)
         with np.load(path, allow_pickle=False) as archive:
             _check_members(path, archive.zip.infolist())
             names = list(archive.files)
-            key = config.npz_key if config.npz_key in names else (names[0] if len(names) == 1 else None)
-            if key is None:
-                raise InputError(path, f"no array named {config.npz_key!r} (arrays: {', '.join(names) or 'none'})")
-            with contextlib.suppress(KeyError, OSError, zipfile.BadZipFile), archive.zip.open(key + ".npy") as member:
-                if _holds_objects(member):
-                    raise InputError(path, f"its array {key!r} {_PICKLED}")
+            key = _maps_key(path, config, archive)
             wanted = [key] + (["exist"] if "exist" in names and key != "exist" else [])
             for name in wanted:
                 _check_declared_size(path, name, archive.zip)
@@ -236,6 +244,7 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
                 if value is not None and not isinstance(value, np.ndarray):  # np.load hands such a member's bytes
                     raise InputError(path, f"its member {name}.npy is not a .npy array (it does not start with "
                                            "numpy's magic bytes)")
+            return array, existence
     except FileNotFoundError:
         raise InputError(path, "maps file not found") from None
     except InputError:
@@ -244,10 +253,19 @@ def load_npz(path: Path, config: MapsConfig) -> FrameMaps:
         raise InputError(path, f"cannot read: {error.strerror}") from None
     except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as error:
         raise InputError(path, f"not a readable .npz archive (truncated or corrupt?): {error}") from None
-    probabilities = canonical_probabilities(array, path, config)
-    if existence is not None:
-        existence = canonical_existence(existence, path, config)
-    return FrameMaps(probabilities=probabilities, existence=existence)
+
+
+def _maps_key(path: Path, config: MapsConfig, archive) -> str:
+    """The archive's member holding the maps: `config.npz_key`, or its only array; not one of
+    pickled objects."""
+    names = list(archive.files)
+    key = config.npz_key if config.npz_key in names else (names[0] if len(names) == 1 else None)
+    if key is None:
+        raise InputError(path, f"no array named {config.npz_key!r} (arrays: {', '.join(names) or 'none'})")
+    with contextlib.suppress(KeyError, OSError, zipfile.BadZipFile), archive.zip.open(key + ".npy") as member:
+        if _holds_objects(member):
+            raise InputError(path, f"its array {key!r} {_PICKLED}")
+    return key
 
 
 def _npy_of_stem(stem: Path, config: MapsConfig) -> FrameMaps:
