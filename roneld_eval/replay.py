@@ -34,7 +34,7 @@ from .geometry import MapGeometry, check_map_shape
 from .maps import frames_in_folder
 from .metrics.paper import ego_lanes, ego_masks, side_ious
 from .metrics.sweep import sweep_accuracy
-from .model import Clip, Frame, image_stem
+from .model import Clip, Dataset, Frame, image_stem
 from .presets import nearest
 from .progress import progress_bar
 from .thresholds import parse_thresholds
@@ -129,20 +129,23 @@ def _clip(config: EvalConfig, benchmark: Benchmark, clip_id: str | None, image_s
     if image_size is not None:
         raise ConfigError("--image-size is for a folder of maps: a dataset's frames have their benchmark's sizes")
     dataset = read_dataset(benchmark, config.dataset.data_root, config.dataset.list_file, labels=False)
+    return load_labels(benchmark, dataset, _chosen_clip(dataset, clip_id))
+
+
+def _chosen_clip(dataset: Dataset, clip_id: str | None) -> Clip:
+    """The dataset's clip `clip_id` (None: its only clip), which must have frames."""
     clips = {clip.clip_id: clip for clip in dataset.clips}
+    where = dataset.source_file or dataset.root
     if clip_id is None:
         if len(clips) != 1:
             listed = ", ".join(list(clips)[:3]) + (", ..." if len(clips) > 3 else "")
-            raise InputError(dataset.source_file or dataset.root,
-                             f"the dataset holds {len(clips)} clips: choose one with --clip ({listed})")
+            raise InputError(where, f"the dataset holds {len(clips)} clips: choose one with --clip ({listed})")
         clip_id = next(iter(clips))
     if clip_id not in clips:
-        raise InputError(dataset.source_file or dataset.root,
-                         f"no clip {clip_id!r} in the dataset{nearest(clip_id, clips)}")
-    clip = clips[clip_id]
-    if not clip.frames:
-        raise InputError(dataset.source_file or dataset.root, f"clip {clip_id!r} has no frames")
-    return load_labels(benchmark, dataset, clip)
+        raise InputError(where, f"no clip {clip_id!r} in the dataset{nearest(clip_id, clips)}")
+    if not clips[clip_id].frames:
+        raise InputError(where, f"clip {clip_id!r} has no frames")
+    return clips[clip_id]
 
 
 def _checked_geometry(config: EvalConfig, frame: Frame, width: int, height: int, context: RunContext) -> MapGeometry:

@@ -121,13 +121,16 @@ class PartsCache:
         frames = {frame.relpath for frame in clip.frames}
         if result.n_frames != len(clip.frames) or not result.n_scored <= result.n_frames:
             raise ValueError("its frame counts are not the clip's")
-        pairs = [(o.relpath, o.method) for o in result.outcomes]
-        scored = {relpath for relpath, _ in pairs}
-        if (len(set(pairs)) != len(pairs) or not scored <= frames or len(scored) != result.n_scored
-                or len(pairs) != len(scored) * len(self.methods) or {m for _, m in pairs} - set(self.methods)):
+        if not self._one_outcome_a_frame_and_method(result, frames):
             raise ValueError("its outcomes are not one per scored frame and method")
         if not all(math.isnan(v) or 0 <= v <= 1 for o in result.outcomes for v in o.ious.values()):
             raise ValueError("an IoU outside [0, 1]")
+
+    def _one_outcome_a_frame_and_method(self, result: ClipResult, frames: set[str]) -> bool:
+        pairs = [(o.relpath, o.method) for o in result.outcomes]
+        scored = {relpath for relpath, _ in pairs}
+        return (len(set(pairs)) == len(pairs) and scored <= frames and len(scored) == result.n_scored
+                and len(pairs) == len(scored) * len(self.methods) and not {m for _, m in pairs} - set(self.methods))
 
     def store(self, clip: Clip, inputs: Sequence[Path], result: ClipResult) -> None:
         raise AssertionError("a merge computes no clip")  # load gives every clip or stops the merge

@@ -47,11 +47,7 @@ COMPLEX_LEFT = {
     "benchmarks/vil100/score.py:score_vil100": 26,
     "benchmarks/vil100/score.py:summary_rows": 26,
     "benchmarks/vil100/score.py:summary_table": 21,
-    "maps/_checks.py:canonical_probabilities": 16,
     "metrics/iou.py:match_lanes": 22,
-    "replay.py:_clip": 16,
-    "report/pictures.py:frame_pictures": 17,
-    "run_parts.py:PartsCache._check": 16,
     "scoring.py:_root_specs": 18,
     "scoring.py:find_prediction_trees": 16,
 }

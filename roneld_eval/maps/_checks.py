@@ -14,14 +14,7 @@ def canonical_probabilities(array: np.ndarray, path, config: MapsConfig) -> np.n
     if array.ndim != 3:
         raise InputError(path, f"maps must be a (channels, height, width) array, got shape {array.shape}")
     if array.shape[0] != expected:
-        hint = ""
-        if array.shape[-1] in (expected, config.lane_channels, config.lane_channels + 1) and array.shape[0] > 16:
-            hint = (f" (it looks like (height, width, channels) = {tuple(array.shape)}: store (channels, height, "
-                    "width), e.g. np.transpose(maps, (2, 0, 1)))")
-        elif array.shape[0] == config.lane_channels + 1 and not config.background_channel:
-            hint = (" (if the first channel is background, add --set maps.background_channel=true, or "
-                    "background_channel = true in [maps])")
-        raise InputError(path, f"has {array.shape[0]} channels, expected {expected}{hint}")
+        raise InputError(path, f"has {array.shape[0]} channels, expected {expected}{_channels_hint(array, config)}")
     if array.shape[1] < 2 or array.shape[2] < 2:
         raise InputError(path, f"maps of {array.shape[2]}x{array.shape[1]} pixels are too small")
     lanes = array[1:] if config.background_channel else array
@@ -36,6 +29,18 @@ def canonical_probabilities(array: np.ndarray, path, config: MapsConfig) -> np.n
             raise InputError(path, f"float maps must hold probabilities in [0, 1], found {low:g}..{high:g}")
         return np.rint(values * 255).astype(np.uint8)
     raise InputError(path, f"maps of dtype {lanes.dtype} are not supported (use uint8 0..255 or float 0..1)")
+
+
+def _channels_hint(array: np.ndarray, config: MapsConfig) -> str:
+    """What a wrong channel count most likely means: channels last, or a background channel."""
+    expected = config.lane_channels + (1 if config.background_channel else 0)
+    if array.shape[-1] in (expected, config.lane_channels, config.lane_channels + 1) and array.shape[0] > 16:
+        return (f" (it looks like (height, width, channels) = {tuple(array.shape)}: store (channels, height, "
+                "width), e.g. np.transpose(maps, (2, 0, 1)))")
+    if array.shape[0] == config.lane_channels + 1 and not config.background_channel:
+        return (" (if the first channel is background, add --set maps.background_channel=true, or "
+                "background_channel = true in [maps])")
+    return ""
 
 
 def canonical_existence(values, path, config: MapsConfig) -> np.ndarray:

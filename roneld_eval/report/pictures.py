@@ -89,6 +89,19 @@ def background(config: EvalConfig, benchmark: Benchmark, frame: Frame) -> np.nda
     return image
 
 
+def _picture_of(config: EvalConfig, frame: Frame, outcomes: dict[str, FrameOutcome]) -> FramePicture:
+    """A frame's ego lanes and other lanes of its ground truth, and each method's active lanes and IoUs."""
+    left, right = ego_lanes(frame.lanes, *config.geometry_of(frame).image_size, config.roneld.center_ratio)
+    chosen = {id(left), id(right)}
+    return FramePicture(
+        relpath=frame.relpath,
+        ground_truth=(left, right),
+        other_ground_truth=tuple(lane for lane in frame.lanes if id(lane) not in chosen and len(lane) >= 2),
+        lanes={m: outcome.active for m, outcome in outcomes.items()},
+        ious={m: outcome.ious for m, outcome in outcomes.items()},
+    )
+
+
 def frame_pictures(config: EvalConfig, benchmark: Benchmark, dataset: Dataset, frames: Sequence[str],
                    methods: Sequence[str], protocol: str = "") -> Overlays:
     """(relpath, picture) for each frame, and their legend. `protocol` says in a few words how
@@ -101,15 +114,7 @@ def frame_pictures(config: EvalConfig, benchmark: Benchmark, dataset: Dataset, f
         frame = next(f for f in clip_of[relpath].frames if f.relpath == relpath)
         if not frame.labelled:
             raise InputError(dataset.source_file, f"frame {relpath} has no labels to compare with")
-        left, right = ego_lanes(frame.lanes, *config.geometry_of(frame).image_size, config.roneld.center_ratio)
-        chosen = {id(left), id(right)}
-        picture = FramePicture(
-            relpath=relpath,
-            ground_truth=(left, right),
-            other_ground_truth=tuple(lane for lane in frame.lanes if id(lane) not in chosen and len(lane) >= 2),
-            lanes={m: outcomes[(relpath, m)].active for m in methods if (relpath, m) in outcomes},
-            ious={m: outcomes[(relpath, m)].ious for m in methods if (relpath, m) in outcomes},
-        )
+        picture = _picture_of(config, frame, {m: outcomes[(relpath, m)] for m in methods if (relpath, m) in outcomes})
         scores = "  ".join(
             f"{display_name(m, config.model)}: "
             + " ".join(f"{side[0].upper()} {iou:.2f}" for side, iou in ious.items())
