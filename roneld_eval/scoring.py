@@ -159,24 +159,44 @@ def _root_specs(pred_root: PredictionRoots) -> list[tuple[str | None, Path]]:
         return [(str(name), Path(path)) for name, path in pred_root.items()]
     if isinstance(pred_root, (str, Path)):
         pred_root = [pred_root]
-    specs: list[tuple[str | None, Path]] = []
-    for item in pred_root:
-        if isinstance(item, (tuple, list)):  # (name, folder): a glob's match, or a part's record
-            if (len(item) != 2 or not isinstance(item[1], (str, Path))
-                    or not (item[0] is None or isinstance(item[0], str))):
-                raise ConfigError(f"a prediction root given as a pair must be (name, folder), got {item!r}")
-            specs.append((item[0] or None, Path(item[1])))
-            continue
-        text = str(item)
-        name, sep, folder = text.partition("=")
-        # NAME=DIR, unless the whole text is itself an existing folder (a path may hold '=').
-        if isinstance(item, str) and sep and name and "/" not in name and folder and not Path(text).exists():
-            specs.append((name, Path(folder)))
-        else:
-            specs.append((None, Path(item)))
+    specs = [_root_spec(item) for item in pred_root]
     if not specs:
         raise ConfigError("give at least one prediction root")
     return specs
+
+
+def _method_folders(root: Path, name: str | None, listed: _ListedFiles, option: str,
+                    say: Callable[[str], None]) -> list[PredictionTree]:
+    """A root's subfolders that mirror the list, one method each (as `run --save-lanes` writes
+    OUT/lanes/<method>/); the others are said to be left out, and none is an error."""
+    children, others = [], []
+    for child in _subfolders(root):
+        present = listed.present(child)
+        if present.any():
+            children.append(PredictionTree(f"{name}/{child.name}" if name else child.name, child,
+                                           int(np.count_nonzero(present)), len(listed.relpaths),
+                                           _Seen(listed, present)))
+        else:
+            others.append(child)
+    if not children:
+        raise _no_match(root, listed, option)
+    for child in others:
+        say(f"{child}: not a prediction tree (no file of the list), left out")
+    return children
+
+
+def _root_spec(item) -> tuple[str | None, Path]:
+    """One root: a (name, folder) pair (a glob's match, or a part's record), 'NAME=DIR' (unless
+    the whole text is itself an existing folder: a path may hold '='), or a folder."""
+    if isinstance(item, (tuple, list)):
+        if len(item) != 2 or not isinstance(item[1], (str, Path)) or not (item[0] is None or isinstance(item[0], str)):
+            raise ConfigError(f"a prediction root given as a pair must be (name, folder), got {item!r}")
+        return item[0] or None, Path(item[1])
+    text = str(item)
+    name, sep, folder = text.partition("=")
+    if isinstance(item, str) and sep and name and "/" not in name and folder and not Path(text).exists():
+        return name, Path(folder)
+    return None, Path(item)
 
 
 def _no_match(root: Path, listed: _ListedFiles, option: str = "--pred-root") -> InputError:
@@ -221,19 +241,7 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
             trees.append(PredictionTree(name or Path(os.path.abspath(root)).name, root,
                                         int(np.count_nonzero(present)), len(relpaths), _Seen(listed, present)))
             continue
-        children, others = [], []
-        for child in _subfolders(root):
-            present = listed.present(child)
-            if present.any():
-                children.append(PredictionTree(f"{name}/{child.name}" if name else child.name, child,
-                                               int(np.count_nonzero(present)), len(relpaths), _Seen(listed, present)))
-            else:
-                others.append(child)
-        if not children:
-            raise _no_match(root, listed, option)
-        for child in others:
-            say(f"{child}: not a prediction tree (no file of the list), left out")
-        trees += children
+        trees += _method_folders(root, name, listed, option, say)
     check_method_names([(tree.method, tree.root) for tree in trees], f"{option} NAME=DIR")
     warnings = []
     for tree in trees:

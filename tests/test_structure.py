@@ -48,8 +48,6 @@ COMPLEX_LEFT = {
     "benchmarks/vil100/score.py:summary_rows": 26,
     "benchmarks/vil100/score.py:summary_table": 21,
     "metrics/iou.py:match_lanes": 22,
-    "scoring.py:_root_specs": 18,
-    "scoring.py:find_prediction_trees": 16,
 }
 
 
