@@ -47,7 +47,6 @@ COMPLEX_LEFT = {
     "benchmarks/vil100/score.py:score_vil100": 26,
     "benchmarks/vil100/score.py:summary_rows": 26,
     "benchmarks/vil100/score.py:summary_table": 21,
-    "metrics/iou.py:match_lanes": 22,
 }
 
 

@@ -52,58 +52,74 @@ def match_lanes(similarity: np.ndarray) -> np.ndarray:
     if rows == 0 or columns == 0:
         return np.full(rows, -1, np.int64)
     swapped = rows > columns
-    matrix = (similarity.T if swapped else similarity).tolist()
-    n_left, n_right = len(matrix), len(matrix[0])
-    left_match = [-1] * n_left
-    right_match = [-1] * n_right
-    right_weight = [0.0] * n_right
-    left_weight = []
-    for row in matrix:
-        best = -1e5
-        for value in row:
-            if best < value:
-                best = value
-        left_weight.append(best)
-    left_used = [False] * n_left
-    right_used = [False] * n_right
+    km = _KuhnMunkres((similarity.T if swapped else similarity).tolist())
+    for u in range(km.n_left):
+        if not km.match(u):
+            break  # no edge can ever be tight for u: the matching stays as it is (the C++ returns here)
+    return _rows_view(km.left_match, km.right_match, swapped, rows)
 
-    def augment(u: int) -> bool:
-        left_used[u] = True
-        row = matrix[u]
-        for v in range(n_right):
-            if not right_used[v] and abs(left_weight[u] + right_weight[v] - row[v]) < KM_TOLERANCE:
-                right_used[v] = True
-                if right_match[v] == -1 or augment(right_match[v]):
-                    right_match[v] = u
-                    left_match[u] = v
+
+class _KuhnMunkres:
+    """The C++ evaluator's KM state over a matrix with no more rows (left) than columns
+    (right): labels (weights), matches, and the marks of one augmenting search."""
+
+    def __init__(self, matrix: list[list[float]]):
+        self.matrix = matrix
+        self.n_left, self.n_right = len(matrix), len(matrix[0])
+        self.left_match = [-1] * self.n_left
+        self.right_match = [-1] * self.n_right
+        self.right_weight = [0.0] * self.n_right
+        self.left_weight = []
+        for row in matrix:
+            best = -1e5
+            for value in row:
+                if best < value:
+                    best = value
+            self.left_weight.append(best)
+        self.left_used = [False] * self.n_left
+        self.right_used = [False] * self.n_right
+
+    def match(self, u: int) -> bool:
+        """Match row u, relabelling until an augmenting path is tight; False where no slack is
+        left to relabel by (the official loop then stops the whole matching)."""
+        while True:
+            self.left_used = [False] * self.n_left
+            self.right_used = [False] * self.n_right
+            if self.augment(u):
+                return True
+            d = self.least_slack()
+            if d == 1e10:
+                return False
+            for i in range(self.n_left):
+                if self.left_used[i]:
+                    self.left_weight[i] -= d
+            for j in range(self.n_right):
+                if self.right_used[j]:
+                    self.right_weight[j] += d
+
+    def augment(self, u: int) -> bool:
+        self.left_used[u] = True
+        row = self.matrix[u]
+        for v in range(self.n_right):
+            if not self.right_used[v] and abs(self.left_weight[u] + self.right_weight[v] - row[v]) < KM_TOLERANCE:
+                self.right_used[v] = True
+                if self.right_match[v] == -1 or self.augment(self.right_match[v]):
+                    self.right_match[v] = u
+                    self.left_match[u] = v
                     return True
         return False
 
-    for u in range(n_left):
-        while True:
-            for i in range(n_left):
-                left_used[i] = False
-            for j in range(n_right):
-                right_used[j] = False
-            if augment(u):
-                break
-            d = 1e10
-            for i in range(n_left):
-                if left_used[i]:
-                    for j in range(n_right):
-                        if not right_used[j]:
-                            slack = left_weight[i] + right_weight[j] - matrix[i][j]
-                            if slack < d:
-                                d = slack
-            if d == 1e10:
-                return _rows_view(left_match, right_match, swapped, rows)
-            for i in range(n_left):
-                if left_used[i]:
-                    left_weight[i] -= d
-            for j in range(n_right):
-                if right_used[j]:
-                    right_weight[j] += d
-    return _rows_view(left_match, right_match, swapped, rows)
+    def least_slack(self) -> float:
+        """The least slack between a row the search reached and a column it did not (1e10: none)."""
+        d = 1e10
+        for i in range(self.n_left):
+            if self.left_used[i]:
+                for j in range(self.n_right):
+                    if not self.right_used[j]:
+                        slack = self.left_weight[i] + self.right_weight[j] - self.matrix[i][j]
+                        if slack < d:
+                            d = slack
+        return d
 
 
 def _rows_view(left_match, right_match, swapped: bool, rows: int) -> np.ndarray:
