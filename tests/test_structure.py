@@ -40,8 +40,6 @@ COMPLEX_LEFT = {
     "benchmarks/llamas/score.py:score_llamas": 39,
     "benchmarks/llamas/synth.py:synth_llamas": 18,
     "benchmarks/openlane/score.py:score_openlane": 22,
-    "benchmarks/tusimple/lane_format.py:parse_tusimple_record": 26,
-    "benchmarks/tusimple/reader.py:read_tusimple": 25,
     "benchmarks/vil100/reader.py:read_vil100": 23,
     "benchmarks/vil100/score.py:_score_sequence": 16,
     "benchmarks/vil100/score.py:score_vil100": 26,

@@ -26,16 +26,7 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
 
     Predictions may leave out run_time (taken as 0 ms, never penalised).
     """
-    try:
-        record = loads(line)
-    except RepeatedKey as error:
-        raise InputError(path, str(error), line=number) from None
-    except json.JSONDecodeError as error:
-        raise InputError(path, f"not valid JSON: {error.msg}", line=number) from None
-    except (ValueError, RecursionError) as error:  # a 5,000-digit number; arrays nested 100,000 deep
-        raise InputError(path, f"not JSON this tool can read: {str(error).splitlines()[0]}", line=number) from None
-    if not isinstance(record, dict):
-        raise InputError(path, "each line must be a JSON object", line=number)
+    record = _json_object(line, path, number)
     required = ("raw_file", "lanes") if predictions else ("raw_file", "lanes", "h_samples")
     for key in required:
         if key not in record:
@@ -43,17 +34,7 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
     if not isinstance(record["raw_file"], str) or not record["raw_file"].strip():
         raise InputError(path, "raw_file must be a non-empty string", line=number)
     lanes = record["lanes"]
-    if not isinstance(lanes, list) or not all(isinstance(lane, list) for lane in lanes):
-        raise InputError(path, "lanes must be a list of lists of x values", line=number)
-    if len(lanes) > LANES.count:
-        raise InputError(path, LANES.problem(len(lanes)), line=number)
-    for index, lane in enumerate(lanes):
-        if not _all_numbers(lane):
-            raise InputError(path, f"lane {index} holds a value that is not a finite number", line=number)
-        if lane and max(map(abs, lane)) > MAX_PREDICTED_COORDINATE:  # as check_coordinates, for every reader
-            far = max(lane, key=abs)
-            raise InputError(path, f"lane {index}: x = {far:.10g} {FAR_FROM_ORIGIN}: not a lane coordinate",
-                             line=number)
+    _check_lanes(lanes, path, number)
     if "h_samples" in record:
         rows = record["h_samples"]
         if not isinstance(rows, list) or not _all_numbers(rows):
@@ -69,6 +50,35 @@ def parse_tusimple_record(line: str, path, number: int, predictions: bool = Fals
     elif predictions:
         record["run_time"] = 0
     return record
+
+
+def _json_object(line: str, path, number: int) -> dict[str, Any]:
+    try:
+        record = loads(line)
+    except RepeatedKey as error:
+        raise InputError(path, str(error), line=number) from None
+    except json.JSONDecodeError as error:
+        raise InputError(path, f"not valid JSON: {error.msg}", line=number) from None
+    except (ValueError, RecursionError) as error:  # a 5,000-digit number; arrays nested 100,000 deep
+        raise InputError(path, f"not JSON this tool can read: {str(error).splitlines()[0]}", line=number) from None
+    if not isinstance(record, dict):
+        raise InputError(path, "each line must be a JSON object", line=number)
+    return record
+
+
+def _check_lanes(lanes: Any, path, number: int) -> None:
+    """Lists of finite x values, not too many, none far from the origin."""
+    if not isinstance(lanes, list) or not all(isinstance(lane, list) for lane in lanes):
+        raise InputError(path, "lanes must be a list of lists of x values", line=number)
+    if len(lanes) > LANES.count:
+        raise InputError(path, LANES.problem(len(lanes)), line=number)
+    for index, lane in enumerate(lanes):
+        if not _all_numbers(lane):
+            raise InputError(path, f"lane {index} holds a value that is not a finite number", line=number)
+        if lane and max(map(abs, lane)) > MAX_PREDICTED_COORDINATE:  # as check_coordinates, for every reader
+            far = max(lane, key=abs)
+            raise InputError(path, f"lane {index}: x = {far:.10g} {FAR_FROM_ORIGIN}: not a lane coordinate",
+                             line=number)
 
 
 def check_h_samples(rows, path, line: int, image_height: int) -> None:

@@ -28,6 +28,40 @@ def _frame_number(relpath: str) -> int | None:
     return int(name) if name.isascii() and name.isdigit() else None
 
 
+def _checked_label(record: dict, label_path: Path, number: int, seen: dict[str, int]) -> tuple[str, str, int | None]:
+    """(relpath, stem, frame number or None) of a label line, its rows and lanes checked against
+    the image, and its frame not labelled before (`seen`: stem -> line)."""
+    relpath = normalise_relpath(record["raw_file"], label_path, number)
+    stem = image_stem(relpath)  # 20.jpg and 20.png are the same frame
+    if stem in seen:
+        raise InputError(label_path, f"{relpath} is labelled twice (first on line {seen[stem]})", line=number)
+    check_h_samples(record["h_samples"], label_path, number, IMAGE_HEIGHT)
+    too_far = [x for lane in record["lanes"] for x in lane if x > 2 * IMAGE_WIDTH]
+    if too_far:
+        raise InputError(label_path, f"x = {too_far[0]:g} lies far outside the {IMAGE_WIDTH}-px-wide image",
+                         line=number)
+    frame_number = _frame_number(relpath)
+    if frame_number is not None and frame_number > MAX_FRAME_NUMBER:
+        raise InputError(
+            label_path, f"{relpath}: frame number {frame_number} would make a clip of {frame_number} frames "
+                        f"(TuSimple clips hold 20; at most {MAX_FRAME_NUMBER} are read)", line=number)
+    return relpath, stem, frame_number
+
+
+def _clip_of(record: dict, relpath: str, stem: str, frame_number: int | None) -> Clip:
+    """The clip of a labelled frame N: its frames 1..N-1, unlabelled, then the labelled one."""
+    h_samples = tuple(int(y) if float(y).is_integer() else y for y in record["h_samples"])
+    lanes = tuple(lane_from_tusimple(xs, record["h_samples"]) for xs in record["lanes"])
+    clip_id = posixpath.dirname(relpath)
+    extension = relpath[len(stem):]  # '.jpg', or '' for a name without one
+    labelled = Frame(relpath=relpath, lanes=lanes, labelled=True, h_samples=h_samples)
+    earlier: tuple[Frame, ...] = ()
+    if frame_number is not None and frame_number >= 1:
+        earlier = tuple(Frame(relpath=posixpath.join(clip_id, f"{k}{extension}"), labelled=False)
+                        for k in range(1, frame_number))
+    return Clip(clip_id=clip_id, frames=earlier + (labelled,))
+
+
 def read_tusimple(root: str | Path, label_file: str | Path | None = None, limit: int | None = None,
                   errors: list[InputError] | None = None) -> Dataset:
     """Read TuSimple labels into 20-frame clips whose last frame carries the ground truth.
@@ -47,40 +81,14 @@ def read_tusimple(root: str | Path, label_file: str | Path | None = None, limit:
     seen: dict[str, int] = {}
     for number, record in records:
         try:
-            relpath = normalise_relpath(record["raw_file"], label_path, number)
-            stem = image_stem(relpath)  # 20.jpg and 20.png are the same frame
-            if stem in seen:
-                raise InputError(label_path, f"{relpath} is labelled twice (first on line {seen[stem]})", line=number)
-            check_h_samples(record["h_samples"], label_path, number, IMAGE_HEIGHT)
-            too_far = [x for lane in record["lanes"] for x in lane if x > 2 * IMAGE_WIDTH]
-            if too_far:
-                raise InputError(label_path, f"x = {too_far[0]:g} lies far outside the {IMAGE_WIDTH}-px-wide image",
-                                 line=number)
-            frame_number = _frame_number(relpath)
-            if frame_number is not None and frame_number > MAX_FRAME_NUMBER:
-                raise InputError(
-                    label_path, f"{relpath}: frame number {frame_number} would make a clip of {frame_number} frames "
-                                f"(TuSimple clips hold 20; at most {MAX_FRAME_NUMBER} are read)", line=number)
+            relpath, stem, frame_number = _checked_label(record, label_path, number, seen)
         except InputError as error:
             if errors is None:
                 raise
             errors.append(error)
             continue
         seen[stem] = number
-        h_samples = tuple(int(y) if float(y).is_integer() else y for y in record["h_samples"])
-        lanes = tuple(lane_from_tusimple(xs, record["h_samples"]) for xs in record["lanes"])
-        clip_id = posixpath.dirname(relpath)
-        extension = relpath[len(stem):]  # '.jpg', or '' for a name without one
-        labelled = Frame(relpath=relpath, lanes=lanes, labelled=True, h_samples=h_samples)
-        if frame_number is not None and frame_number >= 1:
-            # The clip's frames 1..N precede its labelled frame N.
-            earlier = tuple(
-                Frame(relpath=posixpath.join(clip_id, f"{k}{extension}"), labelled=False)
-                for k in range(1, frame_number)
-            )
-        else:
-            earlier = ()
-        clips.append(Clip(clip_id=clip_id, frames=earlier + (labelled,)))
+        clips.append(_clip_of(record, relpath, stem, frame_number))
         if limit is not None and len(clips) >= limit:
             break
 
