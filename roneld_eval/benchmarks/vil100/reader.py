@@ -169,21 +169,27 @@ def read_vil100(labels: str | Path, list_file: str | Path | None = None, image_r
                              f"a sequence named {name!r} would be mistaken for official.csv's own rows")
     _check_some_labels(labels, entries)
     unlabelled = tuple(relpath for relpath in entries if not labels_path(labels, relpath).exists())
+    sizes = _sequence_sizes(sequences, image_root, json_root, sizes_file)
+    return Vil100Set(labels, {name: tuple(frames) for name, frames in sequences.items()}, sizes, unlabelled)
+
+
+def _sequence_sizes(sequences: dict[str, list[str]], image_root: str | Path | None, json_root: str | Path | None,
+                    sizes_file: str | Path | None) -> dict[str, tuple[int, int]]:
+    """Each sequence's (width, height), from the one source given: the sizes file, its first
+    frame's image, or its first frame's annotation."""
     if sizes_file is not None:
         known = read_sizes_file(Path(sizes_file))
         missing = [name for name in sequences if name not in known]
         if missing:
             raise InputError(Path(sizes_file), f"no size for sequence {missing[0]}"
                                                + (f" and {len(missing) - 1} more" if len(missing) > 1 else ""))
-        sizes = {name: known[name] for name in sequences}
-    elif image_root is not None:
+        return {name: known[name] for name in sequences}
+    if image_root is not None:
         check_folder(Path(image_root), "image folder not found")
-        sizes = {name: _image_size(Path(image_root), frames[0]) for name, frames in sequences.items()}
-    else:
-        assert json_root is not None
-        check_folder(Path(json_root), "annotation folder not found")
-        sizes = {name: _json_size(Path(json_root), frames[0]) for name, frames in sequences.items()}
-    return Vil100Set(labels, {name: tuple(frames) for name, frames in sequences.items()}, sizes, unlabelled)
+        return {name: _image_size(Path(image_root), frames[0]) for name, frames in sequences.items()}
+    assert json_root is not None
+    check_folder(Path(json_root), "annotation folder not found")
+    return {name: _json_size(Path(json_root), frames[0]) for name, frames in sequences.items()}
 
 
 def _check_some_labels(labels: Path, entries: Sequence[str]) -> None:
