@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 from .version import __version__
 from .benchmarks import Benchmark
 from .config import EvalConfig
-from .resolve import benchmark_named, configured
+from .resolve import benchmark_named, benchmark_of, configured
 from .errors import ConfigError, InputError, RoneldEvalError, RunInterrupted
 from .lanes_io import check_regular_file, read_text
 from .limits import RUN_TABLE
@@ -36,7 +36,7 @@ FIXTURE_MAPS_FORMAT = "npz"
 
 def fixture_roots(dataset: str | Benchmark) -> tuple[Path, Path]:
     """(data root, maps root) of the bundled fixture of a dataset (a benchmark, or its name)."""
-    benchmark = benchmark_named(dataset) if isinstance(dataset, str) else dataset
+    benchmark = benchmark_of(dataset)
     folder = benchmark.fixture
     if folder is None:
         raise ConfigError(f"{benchmark.display_name} has no bundled fixture: give --data-root and --maps-root")
@@ -49,7 +49,9 @@ def fixture_roots(dataset: str | Benchmark) -> tuple[Path, Path]:
 
 def default_config(dataset: str | None = None) -> EvalConfig:
     """The preset of a dataset's default model (SCNN); without one, the fixture's benchmark."""
-    benchmark = benchmark_named(dataset)
+    from .benchmarks import default_name
+
+    benchmark = benchmark_named(dataset or default_name())
     if benchmark.default_preset is None:
         raise ConfigError(f"{benchmark.display_name} is scored from lane files only: "
                           f"`roneld-eval score {benchmark.name}`")
@@ -61,7 +63,7 @@ def with_fixture(config: EvalConfig, benchmark: Benchmark | None = None) -> Eval
     names) when it names no data."""
     if config.dataset.data_root is not None or config.maps.root is not None:
         return config
-    data, maps = fixture_roots(benchmark or config.dataset.name)
+    data, maps = fixture_roots(benchmark or configured(config)[1])
     return config.with_overrides(**{"dataset.data_root": str(data), "maps.root": str(maps),
                                     "maps.format": FIXTURE_MAPS_FORMAT})
 
@@ -256,7 +258,7 @@ def merge_run(parts, out: str | Path) -> RunResult:
 
     config_path = parts[0].path / CONFIG
     requested, benchmark = configured(EvalConfig.from_toml_text(
-        decode_text(parts[0].read(CONFIG, CONFIG_SIZE), config_path), source=str(config_path)))
+        decode_text(parts[0].read(CONFIG, CONFIG_SIZE), config_path), source=str(config_path), file=str(config_path)))
     config = with_fixture(requested, benchmark)
     if config.plugins:  # a part is untrusted: merging it must not import code it names
         raise InputError(parts[0].path / CONFIG, "names plug-in methods; merge imports no code a part names: "
@@ -306,7 +308,7 @@ def read_dataset(dataset: str | Benchmark, root: str | Path, list_file: str | Pa
     see roneld_eval.datasets.read_dataset."""
     from . import datasets
 
-    benchmark = benchmark_named(dataset) if isinstance(dataset, str) else dataset
+    benchmark = benchmark_of(dataset)
     return datasets.read_dataset(benchmark, root, list_file, limit, errors, labels)
 
 
@@ -350,7 +352,7 @@ def score(name: str, *args, **options):
     """`roneld-eval score NAME` as a function, for every registered benchmark: the options of its
     command as arguments (its library scorer's: `help(roneld_eval.benchmarks.benchmark_for(
     NAME).scorer())` lists them), returning what that scorer returns (its tables)."""
-    benchmark = benchmark_named(name)
+    benchmark = benchmark_of(name)
     scorer = getattr(benchmark, "scorer", None)
     if scorer is None:
         raise ConfigError(f"benchmark {name!r} offers no library scorer: run `roneld-eval score {name}`")

@@ -9,6 +9,7 @@ import atexit
 import gc
 import sys
 import traceback
+from dataclasses import replace
 from pathlib import Path
 from typing import NoReturn
 
@@ -237,14 +238,17 @@ def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
 
     if config_file is None:
         return default_config(dataset)
-    from .presets import resolve_config_path
     from .resolve import configured
 
-    # Filled in here, so that what the file lacks or contradicts is said naming it.
-    config, _ = configured(EvalConfig.from_toml(config_file), source=str(resolve_config_path(config_file)))
-    if dataset is not None and dataset != config.dataset.name:
+    config = EvalConfig.from_toml(config_file)
+    if dataset is not None and config.dataset.name and dataset != config.dataset.name:
         raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
-    return config
+    if dataset is not None:
+        config = config.with_overrides(**{"dataset.name": dataset})
+    configured(config)  # what the file lacks or contradicts of its benchmark, said naming it
+    # Left unfilled (and no longer naming the file): --set may still change the benchmark, and
+    # a problem of the options given is not the file's.
+    return replace(config, source=None)
 
 
 @main.command()
@@ -377,7 +381,9 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
                 config = config.without_pft()  # 'roneld' becomes 'roneld-nopft'
             except ConfigError as error:
                 raise ConfigError(f"--no-pft: {error}") from None
-        return config
+        from .resolve import configured
+
+        return configured(config)[0]  # its benchmark's facts filled in, as the run fills them
 
     config = _guard(build, debug)
     _refuse_here_only(config, dry_run, diagnose, shard, executor, debug)

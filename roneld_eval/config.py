@@ -120,7 +120,7 @@ def _qualified(section: str, name: str) -> str:
 def _check_fields(record, section: str) -> None:
     """Type- and range-check every field of a config dataclass in place (normalised: 1 -> 1.0)."""
     for item in fields(record):
-        if not section and item.name == "plugins":
+        if not section and item.name in ("plugins", "source"):
             continue  # checked by EvalConfig itself (each PluginMethod checks its fields)
         section_type = _SECTION_TYPES.get(item.name) if not section else None
         value = getattr(record, item.name)
@@ -310,6 +310,9 @@ class EvalConfig:
     on_error: str = "fail"
     # Extractors outside the package that `methods` names ([methods.NAME] tables, --method).
     plugins: tuple[PluginMethod, ...] = ()
+    # The file it was read from, if any: what a problem found once its benchmark's facts are
+    # filled in (roneld_eval.resolve) names. Not a setting: config.toml does not hold it.
+    source: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         _check_fields(self, "")
@@ -381,8 +384,9 @@ class EvalConfig:
     def geometry(self) -> MapGeometry:
         """The configured map-to-image geometry (maps of another size rescale it)."""
         if not self.dataset.sized:
-            raise ConfigError("the configuration gives no image size: take it through roneld_eval.api.configured, "
-                              "which fills in the benchmark's")
+            raise ConfigError("the configuration gives no image size (0: its benchmark's, filled in where a run, "
+                              "evaluate or replay starts: roneld_eval.resolve.configured); give [dataset] "
+                              "image_width and image_height to use it on its own")
         return MapGeometry(
             image_width=self.dataset.image_width,
             image_height=self.dataset.image_height,
@@ -402,16 +406,17 @@ class EvalConfig:
     # ---- building -------------------------------------------------------------------
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], source: str = "configuration") -> "EvalConfig":
+    def from_dict(cls, data: dict[str, Any], source: str = "configuration", file: str | None = None) -> "EvalConfig":
         """Build from a nested dict as TOML gives it; unknown keys are errors.
 
         Values are checked as every other way of building a configuration checks them
-        (types and RANGES); a problem names `source`.
+        (types and RANGES); a problem names `source`. `file`: the file it was read from (kept as
+        `source`, named by what is checked once the benchmark's facts are filled in).
         """
         if not isinstance(data, dict):
             raise ConfigError(f"{source}: a configuration must be a table of settings")
         kwargs: dict[str, Any] = {}
-        known = {f.name for f in fields(cls)} - {"plugins"}  # plug-ins are [methods.NAME] tables
+        known = {f.name for f in fields(cls)} - {"plugins", "source"}  # plug-ins are [methods.NAME] tables
         try:
             for key, value in data.items():
                 if key not in known:
@@ -433,7 +438,7 @@ class EvalConfig:
                     if name not in section_known:
                         raise ConfigError(f"[{key}] unknown key {name!r}")
                 kwargs[key] = section_type(**value)
-            return cls(**kwargs)
+            return cls(**kwargs, source=file)
         except ConfigError as error:
             raise ConfigError(f"{source}: {error}") from None
 
@@ -441,10 +446,10 @@ class EvalConfig:
     def from_toml(cls, path: str | Path) -> "EvalConfig":
         """Read a TOML file (a preset name also works: see `preset_path`)."""
         path = resolve_config_path(path)
-        return cls.from_toml_text(_read_config_text(path), source=str(path))
+        return cls.from_toml_text(_read_config_text(path), source=str(path), file=str(path))
 
     @classmethod
-    def from_toml_text(cls, text: str, source: str = "configuration") -> "EvalConfig":
+    def from_toml_text(cls, text: str, source: str = "configuration", file: str | None = None) -> "EvalConfig":
         """Build from TOML text (what `to_toml` writes)."""
         try:
             data = tomllib.loads(text)
@@ -452,7 +457,7 @@ class EvalConfig:
             raise ConfigError(f"{source}: not valid TOML: {error}") from None
         except RecursionError:  # tomllib recurses once per nested array
             raise ConfigError(f"{source}: not a configuration: nested too deeply") from None
-        return cls.from_dict(data, source=source)
+        return cls.from_dict(data, source=source, file=file)
 
     @classmethod
     def preset(cls, name: str) -> "EvalConfig":
@@ -497,7 +502,7 @@ class EvalConfig:
     def to_dict(self) -> dict[str, Any]:
         """Nested plain data (JSON- and TOML-friendly; None values kept)."""
         data = dataclasses.asdict(self)
-        del data["plugins"]
+        del data["plugins"], data["source"]
         if self.plugins:  # then methods are [methods.NAME] tables, as config files write them
             tables = {plugin.name: plugin.to_table() for plugin in self.plugins}
             data["methods"] = {name: tables.get(name, {}) for name in self.methods}

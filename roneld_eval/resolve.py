@@ -5,7 +5,7 @@ stages (evaluation, datasets, report, cache) and the configuration never look a 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from .errors import ConfigError
 
@@ -14,27 +14,41 @@ if TYPE_CHECKING:
     from .config import EvalConfig
 
 
-def benchmark_named(name: str | None) -> "Benchmark":
-    """The installed benchmark `name` ("" or None: the one bundling the fixture, what `run`
-    evaluates when told none); a ConfigError naming the installed ones for any other name."""
-    from .benchmarks import benchmark_for, default_name
+def benchmark_named(name: str) -> "Benchmark":
+    """The installed benchmark `name`; a ConfigError naming the installed ones for any other."""
+    from .benchmarks import benchmark_for
 
-    return benchmark_for(name or default_name())
+    return benchmark_for(name)
+
+
+def benchmark_of(dataset: Any) -> "Benchmark":
+    """A public function's `dataset`: a benchmark's name, or the benchmark itself (as another
+    function of the library handed it on); anything else is a ConfigError, as an unknown name is."""
+    from .benchmarks import names
+
+    if isinstance(dataset, str):
+        return benchmark_named(dataset)
+    name = getattr(dataset, "name", None)
+    if isinstance(name, str) and name in names() and benchmark_named(name) is dataset:
+        return dataset
+    raise ConfigError(f"unknown dataset {dataset!r}; choose from {', '.join(names())}")
 
 
 def configured(config: "EvalConfig", source: str | None = None) -> tuple["EvalConfig", "Benchmark"]:
-    """The configuration with its benchmark's facts filled in (its name where it gives none, its
-    image size where it gives 0), checked against them, and that benchmark. A problem names
-    `source` (the file the configuration was read from) as reading it does."""
-    from .benchmarks import names
+    """The configuration with its benchmark's facts filled in (the benchmark bundling the fixture
+    where it names none, the image size where it gives 0), checked against them, and that
+    benchmark. A problem names `source`, else the file the configuration was read from."""
+    from .benchmarks import default_name, names
 
+    source = source or config.source
     try:
-        if config.dataset.name and config.dataset.name not in names():
-            raise ConfigError(f"dataset must be one of {', '.join(names())}, got {config.dataset.name!r}")
-        benchmark = benchmark_named(config.dataset.name)
+        name = config.dataset.name or default_name()
+        if name not in names():
+            raise ConfigError(f"dataset must be one of {', '.join(names())}, got {name!r}")
+        benchmark = benchmark_named(name)
         width, height = benchmark.image_size
         filled = config.with_overrides(**{
-            "dataset.name": benchmark.name if config.dataset.name != benchmark.name else None,
+            "dataset.name": name if config.dataset.name != name else None,
             "dataset.image_width": width if config.dataset.image_width == 0 else None,
             "dataset.image_height": height if config.dataset.image_height == 0 else None,
         })

@@ -353,9 +353,9 @@ def synthesize(dataset: "str | Benchmark", out: str | Path, clips: int = 3, fram
     earlier `synth` wrote, whose set this one replaces whole; a folder holding anything else is
     refused before anything is written (`synth --out /etc` wrote data/ and maps/ into it)."""
     from .output import OutputFolder
-    from .resolve import benchmark_named
+    from .resolve import benchmark_of
 
-    benchmark = benchmark_named(dataset) if isinstance(dataset, str) else dataset
+    benchmark = benchmark_of(dataset)
     maps_format = maps_format or str(getattr(benchmark, "synth_maps_format", "npy"))
     out = Path(out)
     with OutputFolder(out, "synth") as folder:

@@ -40,7 +40,6 @@ COMPLEX_LEFT = {
     "benchmarks/llamas/score.py:score_llamas": 39,
     "benchmarks/llamas/synth.py:synth_llamas": 18,
     "benchmarks/openlane/score.py:score_openlane": 22,
-    "benchmarks/vil100/reader.py:read_vil100": 23,
     "benchmarks/vil100/score.py:_score_sequence": 16,
     "benchmarks/vil100/score.py:score_vil100": 26,
     "benchmarks/vil100/score.py:summary_rows": 26,
@@ -219,7 +218,7 @@ def _calls_of(source: str, names: set[str]) -> list[int]:
 # Where work enters the library and a benchmark's name becomes its object (roneld_eval.resolve's
 # functions): the commands and public functions, compare reading a run back, a part being merged.
 EDGES = {"resolve.py", "api.py", "cli.py", "in_memory.py", "synth.py", "shards.py", "replay.py",
-         "comparison/runs.py"}
+         "comparison/runs.py", "extract/roneld.py"}  # the last: RoneldTracker.from_preset, on a vehicle
 
 
 def test_a_benchmark_is_looked_up_in_one_place_and_only_where_work_enters():

@@ -255,8 +255,9 @@ class RoneldTracker:
         crop rows scale with it, as for VIL-100's videos). `warm`: pay numba's compile and
         SciPy's import now (`roneld_eval.warm_up`), not in the first `update`."""
         from ..config import EvalConfig
+        from ..resolve import configured
 
-        config = EvalConfig.from_toml(name)
+        config, _ = configured(EvalConfig.from_toml(name))  # the benchmark's image size where the file gives none
         geometry = config.geometry if image_size is None else config.geometry.at_image_size(*_pixels(image_size))
         tracker = cls(config.roneld, geometry, pft=pft, channels=channels,
                       lane_channels=config.maps.lane_channels, latency_frames=latency_frames)
