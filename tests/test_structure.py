@@ -35,8 +35,6 @@ COMPLEX_LEFT = {
     "benchmarks/culane/score.py:score_culane": 21,
     "benchmarks/culane/synth.py:synth_lane_files": 18,
     "benchmarks/curvelanes/score.py:score_curvelanes": 18,
-    "benchmarks/llamas/reader.py:_lanes_of": 20,
-    "benchmarks/llamas/reader.py:marker_lanes": 18,
     "benchmarks/llamas/score.py:score_llamas": 39,
     "benchmarks/llamas/synth.py:synth_llamas": 18,
     "benchmarks/openlane/score.py:score_openlane": 22,

@@ -100,23 +100,7 @@ def _lanes_of(record) -> list[dict]:
         raise _Bad("not a LLAMAS label: no projection_matrix (read_json needs it)")
     if len(record["lanes"]) > LANE_COUNT.count:
         raise _Bad(LANE_COUNT.problem(len(record["lanes"])))
-    lanes = []
-    for raw in record["lanes"]:
-        if not isinstance(raw, dict) or not isinstance(raw.get("markers"), list) or not isinstance(
-                raw.get("lane_id"), str):
-            raise _Bad("a lane lacks its lane_id or its list of markers")
-        if not raw["markers"]:
-            raise _Bad(f"lane {raw['lane_id']!r} has no markers")  # min() of nothing: the code stops
-        markers = []
-        for number, marker in enumerate(raw["markers"]):
-            try:
-                markers.append(_marker(marker))
-            except _Bad as problem:
-                raise _Bad(f"lane {raw['lane_id']!r}, marker {number}: {problem}") from None
-        starts = [marker["pixel_start"]["y"] for marker in markers]
-        if max(starts) - min(starts) < MIN_LANE_HEIGHT or len(markers) < MIN_MARKERS:
-            continue
-        lanes.append({"lane_id": raw["lane_id"], "markers": markers})
+    lanes = [lane for lane in map(_kept_lane, record["lanes"]) if lane is not None]
     mapping: dict[str, str] = {}
     counters = {"l": 0, "r": 0}
     for key in sorted(lane["lane_id"] for lane in lanes):
@@ -128,6 +112,25 @@ def _lanes_of(record) -> list[dict]:
             raise _Bad(f"lane id {lane['lane_id']!r} starts with neither l nor r")
         lane["lane_id"] = mapping[lane["lane_id"]]
     return lanes
+
+
+def _kept_lane(raw) -> dict | None:
+    """A lane's id and typed markers; None where read_json drops it (too short, too few markers)."""
+    if not isinstance(raw, dict) or not isinstance(raw.get("markers"), list) or not isinstance(
+            raw.get("lane_id"), str):
+        raise _Bad("a lane lacks its lane_id or its list of markers")
+    if not raw["markers"]:
+        raise _Bad(f"lane {raw['lane_id']!r} has no markers")  # min() of nothing: the code stops
+    markers = []
+    for number, marker in enumerate(raw["markers"]):
+        try:
+            markers.append(_marker(marker))
+        except _Bad as problem:
+            raise _Bad(f"lane {raw['lane_id']!r}, marker {number}: {problem}") from None
+    starts = [marker["pixel_start"]["y"] for marker in markers]
+    if max(starts) - min(starts) < MIN_LANE_HEIGHT or len(markers) < MIN_MARKERS:
+        return None
+    return {"lane_id": raw["lane_id"], "markers": markers}
 
 
 def _extended(markers: list[dict]) -> list[dict]:
@@ -259,17 +262,7 @@ def marker_lanes(record, path: Path) -> tuple[np.ndarray, tuple[MarkerLane, ...]
     try:
         lanes = _lanes_of(record)
         assert isinstance(record, dict)
-        matrix = record["projection_matrix"]
-        if (not isinstance(matrix, list) or len(matrix) != 3
-                or any(not isinstance(row, list) or len(row) != 3 for row in matrix)):
-            raise _Bad("projection_matrix is not a 3x3 list of numbers")
-        values = [v for row in matrix for v in row]
-        # numpy.asarray takes the lists as they are (no float() as for the markers): numbers only
-        if any(not is_finite_number(v) or abs(v) >= 2**63 for v in values):
-            raise _Bad("projection_matrix holds an entry that is not a finite number")
-        if not any(matrix[2]):  # project_point divides by the third coordinate: 0 for every point
-            raise _Bad("projection_matrix's last row is all zeros, so every point projects to a division by "
-                       "zero and no marker is drawn: not a camera's projection")
+        matrix = _checked_projection(record["projection_matrix"])
     except _Bad as problem:
         raise InputError(path, str(problem)) from None
     exact = np.asarray(matrix)  # as project_point makes it: int64 when every entry is an integer
@@ -279,6 +272,21 @@ def marker_lanes(record, path: Path) -> tuple[np.ndarray, tuple[MarkerLane, ...]
             (tuple(m["world_start"][a] for a in "xyz"), tuple(m["world_end"][a] for a in "xyz"))
             for m in lane["markers"])))
     return exact, tuple(out)
+
+
+def _checked_projection(matrix):
+    """A 3x3 list of finite numbers whose last row is not all zeros."""
+    if (not isinstance(matrix, list) or len(matrix) != 3
+            or any(not isinstance(row, list) or len(row) != 3 for row in matrix)):
+        raise _Bad("projection_matrix is not a 3x3 list of numbers")
+    values = [v for row in matrix for v in row]
+    # numpy.asarray takes the lists as they are (no float() as for the markers): numbers only
+    if any(not is_finite_number(v) or abs(v) >= 2**63 for v in values):
+        raise _Bad("projection_matrix holds an entry that is not a finite number")
+    if not any(matrix[2]):  # project_point divides by the third coordinate: 0 for every point
+        raise _Bad("projection_matrix's last row is all zeros, so every point projects to a division by "
+                   "zero and no marker is drawn: not a camera's projection")
+    return matrix
 
 
 def frame_key(relative: str) -> str:
