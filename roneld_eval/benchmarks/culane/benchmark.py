@@ -166,8 +166,8 @@ class CulaneBenchmark:
 
 def _official_grid(groups):
     """Official CULane F1 (%) per category (rows) for every model and method (columns); 'cross' as FP."""
-    from ...comparison.groups import all_found, method_header, method_name, ordered_methods
-    from ...comparison.tables import EMPTY, Cell, Column, Grid, Stat, Text
+    from ...comparison.groups import method_header, method_name, ordered_methods
+    from ...comparison.tables import Column, Grid, Text
 
     categories = list(dict.fromkeys(c for g in groups for r in g.runs for c in r.official["category"]))
     categories = [c for c in categories if c not in ("all", "ego")] + [c for c in ("all", "ego") if c in categories]
@@ -179,22 +179,28 @@ def _official_grid(groups):
             makers.append((group, method))
     rows = []
     for category in categories:
-        cells: list[Cell] = []
-        for group, method in makers:
-            hits = []
-            for run in group.runs:
-                table = run.official
-                hit = table[(table["method"] == method) & (table["category"] == category)]
-                hits.append(None if hit.empty else hit.iloc[0])
-            found = all_found(hits)
-            if found is None:
-                cells.append(EMPTY)
-            elif category == "cross":  # no lanes to find: the field reports its false positives
-                cells.append(Stat(tuple(float(f["fp"]) for f in found), decimals=0))
-            else:
-                cells.append(Stat(tuple(float(f["f1"]) for f in found), decimals=1, scale=100))
+        cells = [_official_cell(group, method, category) for group, method in makers]
         rows.append((Text("cross (FP)" if category == "cross" else category), *cells))
     return Grid((Column("Category", ("Category",)),), tuple(columns), tuple(rows))
+
+
+def _official_cell(group, method: str, category: str):
+    """A model's official F1 (%) of one method and category over its runs; 'cross' as its FP
+    (no lanes to find: the field reports its false positives); empty where a run lacks the row."""
+    from ...comparison.groups import all_found
+    from ...comparison.tables import EMPTY, Stat
+
+    hits = []
+    for run in group.runs:
+        table = run.official
+        hit = table[(table["method"] == method) & (table["category"] == category)]
+        hits.append(None if hit.empty else hit.iloc[0])
+    found = all_found(hits)
+    if found is None:
+        return EMPTY
+    if category == "cross":
+        return Stat(tuple(float(f["fp"]) for f in found), decimals=0)
+    return Stat(tuple(float(f["f1"]) for f in found), decimals=1, scale=100)
 
 
 class CulaneTally:
