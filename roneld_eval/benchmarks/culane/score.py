@@ -470,33 +470,44 @@ def _files_of(trees: Sequence[PredictionTree]) -> Callable[[int, str], tuple[Pat
 
 def _culane_part_settings(part) -> dict:
     """A `score culane` part's settings, each field's type checked (an untrusted file)."""
-    from ...config import MAX_LINE_THICKNESS
     from ...shards import MANIFEST_NAME
 
     settings, warnings = part.manifest["settings"], part.manifest.get("warnings")
-
-    def texts(value) -> bool:
-        return isinstance(value, list) and all(isinstance(v, str) for v in value)
-
-    def count(value) -> bool:
-        return type(value) is int and value >= 0
-
-    good = (isinstance(settings, dict) and _settings_named(settings)
-            and (settings["iou"] is None or isinstance(settings["iou"], str))
-            and settings["preset"] in (None, *SCORE_PRESETS)
-            and type(settings["width"]) is int and 2 <= settings["width"] <= MAX_LINE_THICKNESS
-            and isinstance(settings["strict"], bool) and isinstance(settings["sweep"], bool)
-            and texts(settings["categories"]) and count(settings["frames"])
-            and isinstance(settings["trees"], list) and texts(warnings)
-            and all(isinstance(t, list) and len(t) == 4 and isinstance(t[0], str) and isinstance(t[1], str)
-                    and count(t[2]) and count(t[3]) for t in settings["trees"]))
-    if good:
-        methods = [t[0] for t in settings["trees"]]
-        good = (len(set(methods)) == len(methods) and settings["frames"] < 1 << 31
-                and all(t[2] <= t[3] == settings["frames"] for t in settings["trees"]))
+    good = (isinstance(settings, dict) and _settings_named(settings) and _scoring_settings(settings)
+            and _texts(settings["categories"]) and _count(settings["frames"]) and _texts(warnings)
+            and _trees_recorded(settings["trees"], settings["frames"]))
     if not good:
         raise InputError(part.path / MANIFEST_NAME, "its settings are not those `score culane --shard` writes")
     return settings
+
+
+def _texts(value) -> bool:
+    return isinstance(value, list) and all(isinstance(v, str) for v in value)
+
+
+def _count(value) -> bool:
+    return type(value) is int and value >= 0
+
+
+def _scoring_settings(settings: dict) -> bool:
+    """--iou, --preset, --width, --strict and --sweep as `score culane` takes them."""
+    from ...config import MAX_LINE_THICKNESS
+
+    return ((settings["iou"] is None or isinstance(settings["iou"], str))
+            and settings["preset"] in (None, *SCORE_PRESETS)
+            and type(settings["width"]) is int and 2 <= settings["width"] <= MAX_LINE_THICKNESS
+            and isinstance(settings["strict"], bool) and isinstance(settings["sweep"], bool))
+
+
+def _trees_recorded(trees, frames: int) -> bool:
+    """The prediction trees: [method, root, found, listed] each, methods distinct, every tree
+    listing the part's frames (fewer than 2^31) and finding at most those."""
+    if not isinstance(trees, list) or not all(
+            isinstance(t, list) and len(t) == 4 and isinstance(t[0], str) and isinstance(t[1], str)
+            and _count(t[2]) and _count(t[3]) for t in trees):
+        return False
+    methods = [t[0] for t in trees]
+    return len(set(methods)) == len(methods) and frames < 1 << 31 and all(t[2] <= t[3] == frames for t in trees)
 
 
 def _recorded_diagnosis(diagnosis: DiagnosisSettings | None, diagnose: bool, loc_iou: float | None,
