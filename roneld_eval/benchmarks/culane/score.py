@@ -209,17 +209,13 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
     counts (frames.csv.gz); `score_sweep` ('0.00:0.95:0.05'): precision, recall and F1 with only
     the lanes whose `.scores.txt` score is at least each threshold (sweep_scores.csv, .png).
     """
-    from ...shards import parse_shard, shard_range
-
-    from ...sweeps import expand_roots, is_sweep
+    from ...shards import parse_shard
 
     thresholds, highlighted = _thresholds(iou, preset)
     check_lane_width(width)
     share = parse_shard(shard) if shard is not None else None
     diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, thresholds.values)
-    if not isinstance(pred_root, Mapping):  # glob patterns: one checkpoint per folder matched
-        pred_root = expand_roots([pred_root] if isinstance(pred_root, (str, Path)) else list(pred_root))
-    sweep = not isinstance(pred_root, Mapping) and is_sweep(pred_root)
+    pred_root, sweep = _expanded_roots(pred_root)
     if share is not None and out is None:
         raise ConfigError("--shard writes a partial result for `roneld-eval merge`: give --out")
     with _taking(out, "score culane", reads=(data_root, list_file)) as folder:
@@ -227,18 +223,9 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         relpaths = only_frames([frame.relpath for clip in dataset.clips for frame in clip.frames], frames, shard)
         # every shard finds the methods over the whole list: the same trees (and counts) in every part
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce)
-        if share is not None:
-            cut = shard_range([len(c.frames) for c in dataset.clips], share)
-            clips = dataset.clips[cut.start:cut.stop]
-            scored_relpaths = [frame.relpath for clip in clips for frame in clip.frames]
-        else:
-            scored_relpaths = relpaths
+        scored_relpaths = _share_of(dataset, share) if share is not None else relpaths
         say = announce or (lambda message: None)
-        key = truth_cache.truth_key(dataset.root, scored_relpaths, dataset.image_width, dataset.image_height,
-                                    width, labels_path) if truth_cache.enabled() else None
-        truth = None if key is None else truth_cache.load(key, len(scored_relpaths), dataset.image_width,
-                                                           dataset.image_height, say)
-        kept: list[TruthRuns] | None = [] if key is not None and truth is None else None
+        key, truth, kept = _truth_entry(dataset, scored_relpaths, width, say)
         diagnosed: list[FrameDiagnoses] = []
         pieces = _culane_pieces(scored_relpaths, dataset, trees, width, workers, progress, announce, truth, kept,
                                 diagnosis, diagnosed)
@@ -258,6 +245,37 @@ def score_culane(data_root: str | Path, pred_root: PredictionRoots, list_file: s
         if folder is not None:
             write_culane_score(folder, score, width)
     return score
+
+
+def _expanded_roots(pred_root: PredictionRoots) -> tuple[PredictionRoots, bool]:
+    """The roots with glob patterns expanded (one checkpoint per folder matched), and whether
+    they are a sweep of checkpoints."""
+    from ...sweeps import expand_roots, is_sweep
+
+    if isinstance(pred_root, Mapping):
+        return pred_root, False
+    roots = expand_roots([pred_root] if isinstance(pred_root, (str, Path)) else list(pred_root))
+    return roots, is_sweep(roots)
+
+
+def _share_of(dataset, share) -> list[str]:
+    """The frames of a shard's share of the clips."""
+    from ...shards import shard_range
+
+    cut = shard_range([len(c.frames) for c in dataset.clips], share)
+    return [frame.relpath for clip in dataset.clips[cut.start:cut.stop] for frame in clip.frames]
+
+
+def _truth_entry(dataset, relpaths: list[str], width: int, say) -> tuple[str | None, Path | None,
+                                                                          list[TruthRuns] | None]:
+    """(key, entry, kept) of the ground-truth cache for these frames: the entry where it holds
+    them, else a list to keep them in as they are drawn (None where the cache is off)."""
+    if not truth_cache.enabled():
+        return None, None, None
+    key = truth_cache.truth_key(dataset.root, relpaths, dataset.image_width, dataset.image_height, width,
+                                labels_path)
+    truth = truth_cache.load(key, len(relpaths), dataset.image_width, dataset.image_height, say)
+    return key, truth, ([] if truth is None else None)
 
 
 def _culane_pieces(relpaths: list[str], dataset, trees, width: int, workers: int | None, progress: bool,
