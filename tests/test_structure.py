@@ -34,7 +34,6 @@ COMPLEX_LEFT = {
     "benchmarks/curvelanes/score.py:score_curvelanes": 18,
     "benchmarks/llamas/score.py:score_llamas": 39,
     "benchmarks/llamas/synth.py:synth_llamas": 18,
-    "benchmarks/openlane/score.py:score_openlane": 22,
     "benchmarks/vil100/score.py:_score_sequence": 16,
     "benchmarks/vil100/score.py:score_vil100": 26,
     "benchmarks/vil100/score.py:summary_rows": 26,

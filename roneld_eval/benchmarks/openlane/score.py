@@ -125,18 +125,13 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
     diagnosis = diagnosis_settings(diagnose, loc_iou, None, thresholds.values)
     check_lane_width(width)
-    modes = tuple(modes)
-    if not modes or any(mode not in MODES for mode in modes) or len(set(modes)) != len(modes):
-        raise ConfigError(f"matching must be among {', '.join(MODES)}")
+    modes = _checked_modes(modes)
     sharding = Sharding("score openlane", shard, out, merged, dict(
         labels=labels, pred_root=pred_root, list_file=list_file, iou=iou, width=width, modes=modes, strict=strict,
         **given_options(diagnose=diagnose, loc_iou=loc_iou)))
     labels = Path(labels)
     with _taking(out, "score openlane", reads=(labels, list_file)) as folder:
-        relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_frame(labels)
-        if not any(json_path(labels, relpath).exists() for relpath in relpaths):
-            raise ConfigError(f"no listed image has its annotation under {labels} (first looked for: "
-                              f"{json_path(labels, relpaths[0])})")
+        relpaths = _listed_frames(labels, list_file)
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
         label_files = [json_path(labels, relpath) for relpath in relpaths]
 
@@ -164,13 +159,8 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
                     "sum_counts": counts, **diagnosis_part(diagnosis, diagnosed, len(trees) * len(modes))},
                                     files_of=files_of)
                 return None
-        rows = []
-        for m, tree in enumerate(trees):
-            for k, mode in enumerate(modes):
-                for t, label in enumerate(thresholds.labels):
-                    tp, fp, fn = (int(v) for v in counts[m, k, t])
-                    rows.append((tree.method, mode, label, tp, fp, fn, *f_measure(tp, fp, fn)))
-        score = OpenLaneScore(PlainTable(COLUMNS, tuple(rows)), thresholds, tuple(t.method for t in trees), modes,
+        rows = _official_rows(trees, modes, thresholds.labels, counts)
+        score = OpenLaneScore(PlainTable(COLUMNS, rows), thresholds, tuple(t.method for t in trees), modes,
                               len(relpaths), tuple(warnings))
         score = _diagnosed(score, diagnosed, width, diagnosis, partial(_gallery_frame, labels, trees))
         if folder is not None:
@@ -180,6 +170,33 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
             write_diagnosis(staging, score.diagnosed, score.thresholds.labels[:1])
             folder.commit()
     return score
+
+
+def _checked_modes(modes) -> tuple[str, ...]:
+    modes = tuple(modes)
+    if not modes or any(mode not in MODES for mode in modes) or len(set(modes)) != len(modes):
+        raise ConfigError(f"matching must be among {', '.join(MODES)}")
+    return modes
+
+
+def _listed_frames(labels: Path, list_file: str | Path | None) -> list[str]:
+    """The list's frames (every labelled one without a list), some of which have annotations here."""
+    relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_frame(labels)
+    if not any(json_path(labels, relpath).exists() for relpath in relpaths):
+        raise ConfigError(f"no listed image has its annotation under {labels} (first looked for: "
+                          f"{json_path(labels, relpaths[0])})")
+    return relpaths
+
+
+def _official_rows(trees, modes: tuple[str, ...], labels: tuple[str, ...], counts: np.ndarray) -> tuple:
+    """official.csv's rows: a method, matching and threshold each, its counts and F-measure."""
+    rows = []
+    for m, tree in enumerate(trees):
+        for k, mode in enumerate(modes):
+            for t, label in enumerate(labels):
+                tp, fp, fn = (int(v) for v in counts[m, k, t])
+                rows.append((tree.method, mode, label, tp, fp, fn, *f_measure(tp, fp, fn)))
+    return tuple(rows)
 
 
 def _gallery_frame(labels: Path, trees, frame: str) -> GalleryFrame:
