@@ -158,14 +158,9 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         **given_options(diagnose=diagnose, loc_iou=loc_iou, score_sweep=score_sweep)))
     labels, images = Path(labels), Path(image_root)
     with _taking(out, "score curvelanes", reads=(labels, images, list_file)) as folder:
-        relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels)
-        if not any(lanes_path(labels, relpath).exists() for relpath in relpaths):
-            raise ConfigError(f"no listed image has its labels under {labels} (first looked for: "
-                              f"{lanes_path(labels, relpaths[0])})")
+        relpaths = _listed_images(labels, list_file)
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=SUFFIX)
-        # the labels, and the images whose headers give each image's size
-        label_files = [path for relpath in relpaths for path in (
-            lanes_path(labels, relpath), *(under_root(images, relpath + suffix) for suffix in IMAGE_SUFFIXES))]
+        label_files = _label_files(labels, images, relpaths)
 
         def files_of(m: int, relpath: str) -> tuple[Path]:
             return (lanes_path(trees[m].root, relpath),)
@@ -200,6 +195,21 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             write_diagnosis(staging, score.diagnosed, (IOU_LABEL,))
             folder.commit()
     return score
+
+
+def _listed_images(labels: Path, list_file: str | Path | None) -> list[str]:
+    """The list's images (every labelled one without a list), some of which have labels here."""
+    relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels)
+    if not any(lanes_path(labels, relpath).exists() for relpath in relpaths):
+        raise ConfigError(f"no listed image has its labels under {labels} (first looked for: "
+                          f"{lanes_path(labels, relpaths[0])})")
+    return relpaths
+
+
+def _label_files(labels: Path, images: Path, relpaths: list[str]) -> list[Path]:
+    """The labels, and the images whose headers give each image's size: what a part fingerprints."""
+    return [path for relpath in relpaths for path in (
+        lanes_path(labels, relpath), *(under_root(images, relpath + suffix) for suffix in IMAGE_SUFFIXES))]
 
 
 IOU_LABEL = f"{IOU_THRESHOLD:.2f}"  # as the other benchmarks' thresholds are written
