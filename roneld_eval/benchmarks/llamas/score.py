@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 from functools import partial
 from operator import itemgetter
 from pathlib import Path
-from typing import Callable, Collection, Iterable
+from typing import Any, Callable, Collection, Iterable, NamedTuple
 
 import numpy as np
 
@@ -193,70 +193,33 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
     with _taking(out, "score llamas", reads=(labels,)) as folder:
         found = _labels(Path(labels), frames, shard)
         keys = list(found)
-        trees, warnings = (find_prediction_trees(pred_root, keys, strict, announce, suffix=".lines.txt")
-                           if _given(pred_root) else ([], []))
-        map_trees = _map_trees(maps, keys, announce) if _given(maps) else []
+        trees, warnings, map_trees = _methods(pred_root, maps, keys, strict, announce)
         scored_at = tuple(thresholds.values) + MF1_THRESHOLDS
         files_of = _files_of(trees, map_trees)
-        diagnoses: FrameDiagnoses | None = None
         if merged is not None:
             sharding.check_merged(keys, [*trees, *map_trees], list(found.values()), _recording, files_of=files_of)
-            counts = sharding.merged_array("sum_counts", (len(trees), len(scored_at), 3))
-            dropped = int(sharding.merged_array("sum_dropped", (1,))[0])
-            refused = sharding.merged_array("sum_refused", (len(trees),))
-            diagnoses = diagnoses_merged(diagnosis, keys, sharding.merged_array, len(trees))
-            curves = sharding.merged_array("cat_curves", (len(keys) if map_trees else 0, len(map_trees),
-                                                          len(CLASSES), 4), kind="f", within=(0.0, 1.0))
+            totals = _merged_totals(sharding, diagnosis, keys, len(trees), len(map_trees), len(scored_at))
         else:
-            roots = tuple(tree.root for tree in trees)
-            map_roots = tuple(tree.root for tree in map_trees)
             scored = sharding.share(keys, _recording)
             chunks = [scored[i:i + CHUNK_FRAMES] for i in range(0, len(scored), CHUNK_FRAMES)]
-            tasks = [(chunk, {key: found[key] for key in chunk}, roots, scored_at, width, map_roots, diagnosis)
-                     for chunk in chunks]
+            tasks = [(chunk, {key: found[key] for key in chunk}, tuple(tree.root for tree in trees), scored_at, width,
+                      tuple(tree.root for tree in map_trees), diagnosis) for chunk in chunks]
             pieces = scored_pieces(_score_frames, tasks, workers, progress, announce,
                                    kernel_groups=kernel_groups((), diagnosis), trees=[*trees, *map_trees])
-            diagnoses = joined_diagnoses(map(itemgetter(4), pieces))
-            counts = sum((piece[0] for piece in pieces), np.zeros((len(trees), len(scored_at), 3), np.int64))
-            dropped = int(sum(piece[1] for piece in pieces))
-            refused = sum((piece[2] for piece in pieces), np.zeros(len(trees), np.int64))
-            # (frames, map methods, classes, recall/precision/threshold/AUC), the frames in key order
-            per_frame = [[[(c.recall, c.precision, c.threshold, c.auc) for c in piece[3][m][f]]
-                          for m in range(len(map_trees))]
-                         for piece in pieces for f in range(len(piece[3][0]) if map_trees else 0)]
-            curves = np.array(per_frame, np.float64).reshape(len(per_frame), len(map_trees), len(CLASSES), 4)
+            totals = _summed_totals(pieces, len(trees), len(map_trees), len(scored_at))
             if sharding.shard is not None:
                 assert folder is not None
                 sharding.write_part(folder, keys, [*trees, *map_trees], list(found.values()), scored, {
-                    "sum_counts": counts, "sum_dropped": np.array([dropped], np.int64), "sum_refused": refused,
-                    "cat_curves": curves, **diagnosis_part(diagnosis, diagnoses, len(trees))}, files_of=files_of)
+                    "sum_counts": totals.counts, "sum_dropped": np.array([totals.dropped], np.int64),
+                    "sum_refused": totals.refused, "cat_curves": totals.curves,
+                    **diagnosis_part(diagnosis, totals.diagnoses, len(trees))}, files_of=files_of)
                 return None
-        segmentation = {}
-        for m, tree in enumerate(map_trees):  # the frames in key order: the mean summed as evaluate_set sums it
-            segmentation[tree.method] = tuple(mean_curves([ClassCurve(*(float(v) for v in curves[f, m, c]))
-                                                           for f in range(len(curves))])
-                                              for c in range(len(CLASSES)))
-        rows, mf1s = [], {}
-        for m, tree in enumerate(trees):
-            ap = _ap_values(segmentation.get(tree.method))
-            for t, label in enumerate(thresholds.labels):
-                tp, fp, fn = (int(v) for v in counts[m, t])
-                rows.append((tree.method, label, tp, fp, fn, *f1_of(tp, fp, fn), *ap))
-            mf1s[tree.method] = clrnet_mf1(counts[m, len(thresholds.values):])
-        methods = tuple(dict.fromkeys([tree.method for tree in trees] + [tree.method for tree in map_trees]))
-        for method in methods:
-            if method not in mf1s:  # maps only: one row, of AP
-                rows.append((method, "", None, None, None, math.nan, math.nan, math.nan,
-                             *_ap_values(segmentation[method])))
-        stopping = {"labels": int(dropped), **{tree.method: int(refused[m]) for m, tree in enumerate(trees)}}
-        if dropped:
-            warnings.append(f"warning: {dropped} labelled lanes have their valid points above row 300 only, where "
-                            "evaluate.py stops (add_ys' assert): left out")
-        for tree in trees:
-            if stopping[tree.method]:
-                warnings.append(f"warning: {tree.method}: {stopping[tree.method]} lanes that scipy's splprep "
-                                "refuses, where evaluate.py stops: left out")
-        score = LlamasScore(PlainTable(COLUMNS + AP_COLUMNS, tuple(rows)), thresholds, methods, len(keys), stopping,
+        diagnoses = totals.diagnoses
+        segmentation = _segmentation(map_trees, totals.curves)
+        rows, mf1s, methods = _official_rows(trees, map_trees, thresholds, totals.counts, segmentation)
+        stopping = {"labels": totals.dropped, **{tree.method: int(totals.refused[m]) for m, tree in enumerate(trees)}}
+        warnings += _stopping_warnings(trees, stopping)
+        score = LlamasScore(PlainTable(COLUMNS + AP_COLUMNS, rows), thresholds, methods, len(keys), stopping,
                             mf1s, tuple(warnings), segmentation)
         score = _diagnosed(score, diagnoses, trees, width, diagnosis, found)
         if folder is not None:
@@ -267,6 +230,85 @@ def score_llamas(labels: str | Path, pred_root: PredictionRoots = (), iou: str |
             write_diagnosis(staging, score.diagnosed, highlighted(thresholds.labels))
             folder.commit()
     return score
+
+
+def _methods(pred_root: PredictionRoots, maps: PredictionRoots, keys: list[str], strict: bool, announce):
+    """(the lane-file trees, their warnings, the map trees): what is given of each."""
+    trees, warnings = (find_prediction_trees(pred_root, keys, strict, announce, suffix=".lines.txt")
+                       if _given(pred_root) else ([], []))
+    return trees, warnings, (_map_trees(maps, keys, announce) if _given(maps) else [])
+
+
+class _Totals(NamedTuple):
+    """What the frames reduce to: F1 counts (method, threshold, TP/FP/FN), labelled lanes dropped
+    and predicted lanes refused where evaluate.py stops, each frame's AP curves (frames, map
+    methods, classes, recall/precision/threshold/AUC) in key order, and the error types."""
+
+    counts: np.ndarray
+    dropped: int
+    refused: np.ndarray
+    curves: np.ndarray
+    diagnoses: FrameDiagnoses | None
+
+
+def _summed_totals(pieces, n_trees: int, n_maps: int, n_scored_at: int) -> _Totals:
+    per_frame = [[[(c.recall, c.precision, c.threshold, c.auc) for c in piece[3][m][f]] for m in range(n_maps)]
+                 for piece in pieces for f in range(len(piece[3][0]) if n_maps else 0)]
+    return _Totals(
+        counts=sum((piece[0] for piece in pieces), np.zeros((n_trees, n_scored_at, 3), np.int64)),
+        dropped=int(sum(piece[1] for piece in pieces)),
+        refused=sum((piece[2] for piece in pieces), np.zeros(n_trees, np.int64)),
+        curves=np.array(per_frame, np.float64).reshape(len(per_frame), n_maps, len(CLASSES), 4),
+        diagnoses=joined_diagnoses(map(itemgetter(4), pieces)))
+
+
+def _merged_totals(sharding: Sharding, diagnosis, keys: list[str], n_trees: int, n_maps: int,
+                   n_scored_at: int) -> _Totals:
+    return _Totals(
+        counts=sharding.merged_array("sum_counts", (n_trees, n_scored_at, 3)),
+        dropped=int(sharding.merged_array("sum_dropped", (1,))[0]),
+        refused=sharding.merged_array("sum_refused", (n_trees,)),
+        curves=sharding.merged_array("cat_curves", (len(keys) if n_maps else 0, n_maps, len(CLASSES), 4), kind="f",
+                                     within=(0.0, 1.0)),
+        diagnoses=diagnoses_merged(diagnosis, keys, sharding.merged_array, n_trees))
+
+
+def _segmentation(map_trees, curves: np.ndarray) -> dict[str, tuple]:
+    """Each map method's mean curve a class, the frames in key order: summed as evaluate_set sums it."""
+    return {tree.method: tuple(mean_curves([ClassCurve(*(float(v) for v in curves[f, m, c]))
+                                            for f in range(len(curves))]) for c in range(len(CLASSES)))
+            for m, tree in enumerate(map_trees)}
+
+
+def _official_rows(trees, map_trees, thresholds: Thresholds, counts: np.ndarray,
+                   segmentation: dict[str, tuple]) -> tuple[tuple, dict[str, Any], tuple[str, ...]]:
+    """official.csv's rows (a lane-file method's F1 a threshold, with its maps' AP where it has
+    them; a maps-only method one row of AP), each lane-file method's mF1, and the methods."""
+    rows, mf1s = [], {}
+    for m, tree in enumerate(trees):
+        ap = _ap_values(segmentation.get(tree.method))
+        for t, label in enumerate(thresholds.labels):
+            tp, fp, fn = (int(v) for v in counts[m, t])
+            rows.append((tree.method, label, tp, fp, fn, *f1_of(tp, fp, fn), *ap))
+        mf1s[tree.method] = clrnet_mf1(counts[m, len(thresholds.values):])
+    methods = tuple(dict.fromkeys([tree.method for tree in trees] + [tree.method for tree in map_trees]))
+    for method in methods:
+        if method not in mf1s:
+            rows.append((method, "", None, None, None, math.nan, math.nan, math.nan, *_ap_values(segmentation[method])))
+    return tuple(rows), mf1s, methods
+
+
+def _stopping_warnings(trees, stopping: dict[str, int]) -> list[str]:
+    """What evaluate.py would stop on, left out instead: said, never silently."""
+    warnings = []
+    if stopping["labels"]:
+        warnings.append(f"warning: {stopping['labels']} labelled lanes have their valid points above row 300 only, "
+                        "where evaluate.py stops (add_ys' assert): left out")
+    for tree in trees:
+        if stopping[tree.method]:
+            warnings.append(f"warning: {tree.method}: {stopping[tree.method]} lanes that scipy's splprep "
+                            "refuses, where evaluate.py stops: left out")
+    return warnings
 
 
 def _labels(labels: Path, frames: Collection[str] | None, shard: str | None) -> dict[str, Path]:
