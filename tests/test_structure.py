@@ -32,10 +32,6 @@ def _too_complex(limit: int, *paths: str) -> list[str]:
 COMPLEX_LEFT = {
     "benchmarks/culane/synth.py:synth_lane_files": 18,
     "benchmarks/llamas/synth.py:synth_llamas": 18,
-    "benchmarks/vil100/score.py:_score_sequence": 16,
-    "benchmarks/vil100/score.py:score_vil100": 26,
-    "benchmarks/vil100/score.py:summary_rows": 26,
-    "benchmarks/vil100/score.py:summary_table": 21,
 }
 
 

@@ -217,19 +217,28 @@ def _score_sequence(args) -> ScoredSequence:
             out.links.append([] if previous is None else links(linked, previous))
             previous = linked
         for m, root in enumerate(pred_roots):
-            predictions, mask = _read_predictions(root, relpath, pred_format)
-            if mask is not None and mask.height is not None and (mask.width, mask.height) != (width, height):
-                out.odd_masks[m].append(relpath)
-            outcome = frame_outcome(label, predictions, width, height, lane_width, temporal,
-                                    _diagnose(diagnosed, m, label, predictions, root, relpath,
-                                              (width, height, lane_width)))
-            out.frames[m].append((outcome.matches, outcome.miou))
-            mmanet = None if mask is None else mmanet_frame(mask.fits, truth, mask.height or height)
-            out.acc[m].append((outcome.acc, mmanet))
-            if temporal:
-                out.assigned[m].append(outcome.assigned)
+            _score_method_frame(out, m, root, relpath, label, truth, (width, height, lane_width), temporal,
+                                pred_format, diagnosed)
     out.diagnoses = diagnosed.result(relpaths)
     return out
+
+
+def _score_method_frame(out: ScoredSequence, m: int, root: Path, relpath: str, label: FrameTruth, truth: list,
+                        size: tuple[int, int, int], temporal: bool, pred_format: str,
+                        diagnosed: DiagnosisCollector) -> None:
+    """Method m's frame added to `out`: its matches and mIoU, both Accs, its assignment (temporal),
+    and whether its instance mask is of another size than the sequence's."""
+    width, height, lane_width = size
+    predictions, mask = _read_predictions(root, relpath, pred_format)
+    if mask is not None and mask.height is not None and (mask.width, mask.height) != (width, height):
+        out.odd_masks[m].append(relpath)
+    outcome = frame_outcome(label, predictions, width, height, lane_width, temporal,
+                            _diagnose(diagnosed, m, label, predictions, root, relpath, size))
+    out.frames[m].append((outcome.matches, outcome.miou))
+    mmanet = None if mask is None else mmanet_frame(mask.fits, truth, mask.height or height)
+    out.acc[m].append((outcome.acc, mmanet))
+    if temporal:
+        out.assigned[m].append(outcome.assigned)
 
 
 def _diagnose(diagnosed: DiagnosisCollector, m: int, truth: FrameTruth, predictions: Sequence[Lane], root: Path,
@@ -262,8 +271,6 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
     ('I/N'), only that share of the sequences, written as a part to `out` (None is returned).
     `diagnose` and `score_sweep`: as `score culane` takes them (scores from `.scores.txt` files).
     """
-    if pred_format not in PRED_FORMATS:
-        raise ConfigError(f"prediction format must be one of {', '.join(PRED_FORMATS)}, got {pred_format!r}")
     thresholds = parse_thresholds(iou or DEFAULT_IOU)
     diagnosis = _diagnosis(diagnose, loc_iou, score_sweep, thresholds, shard, pred_format)
     check_lane_width(width)
@@ -277,15 +284,7 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
         dataset = _only(read_vil100(labels, list_file, image_root, json_root, sizes_file), frames, shard)
         relpaths = [relpath for listed in dataset.sequences.values() for relpath in listed]
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=_SUFFIXES[pred_format])
-        if dataset.unlabelled:
-            first = labels_path(dataset.labels, dataset.unlabelled[0])
-            said = (f"{len(dataset.unlabelled):,} of {len(relpaths):,} listed frames have no ground-truth file "
-                    f"(first: {first})")
-            if strict:
-                raise InputError(dataset.labels, f"{said}; --strict needs every one")
-            # Every VIL-100 test frame has one (40 are empty): a missing one is a wrong list or folder.
-            warnings.insert(0, f"warning: {said}; they count as frames without lanes, as MMA-Net's evaluator "
-                               "reads them")
+        warnings = _unlabelled_warning(dataset, len(relpaths), strict) + warnings
         label_files = [labels_path(dataset.labels, relpath) for relpath in relpaths]
         sizes = {name: list(size) for name, size in dataset.sizes.items()}  # the shards must have read them too
 
@@ -299,14 +298,9 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
             diagnoses = diagnoses_merged(diagnosis, relpaths, sharding.merged_array, len(trees))
         else:
             share = set(sharding.share(relpaths, _sequence_of))
-            roots = tuple(tree.root for tree in trees)
             names = [name for name, frames in dataset.sequences.items() if frames[0] in share]
-            tasks = [(dataset.sequences[name], dataset.labels, roots, *dataset.sizes[name], width, temporal,
-                      pred_format, diagnosis) for name in names]
-            # instance masks are mostly decoded by the PNG maps' kernel (maps.vil100_png)
-            groups = kernel_groups(("official", "maps") if pred_format == "png" else ("official",), diagnosis)
-            scored = scored_pieces(_score_sequence, tasks, workers, progress, announce, kernel_groups=groups,
-                                   trees=trees)
+            scored = _scored_sequences(dataset, names, trees, width, temporal, pred_format, diagnosis, workers,
+                                       progress, announce)
             totals = [sequence_totals(piece, dataset.sequences[name], thresholds, temporal, versions)
                       for name, piece in zip(names, scored)]
             diagnoses = joined_diagnoses(map(attrgetter("diagnoses"), scored))
@@ -318,33 +312,70 @@ def score_vil100(labels: str | Path, pred_root: PredictionRoots, list_file: str 
                                      **diagnosis_part(diagnosis, diagnoses, len(trees))}, sizes, files_of=files_of)
                 return None
         warnings += _size_warnings(dataset, totals, trees)
-        methods = tuple(tree.method for tree in trees)
-        names = list(dataset.sequences)
-        rows, overall = official_rows(names, methods, totals, thresholds)
-        temporal_table, temporal_overall = (temporal_rows(names, methods, totals, thresholds) if temporal
-                                            else ([], {}))
-        acc_table, acc_overall = acc_rows(names, methods, totals, versions)
-        score = Vil100Score(PlainTable(COLUMNS, tuple(rows)),
-                            PlainTable(TEMPORAL_COLUMNS, tuple(temporal_table)) if temporal else None,
-                            thresholds, methods, len(relpaths), len(dataset.sequences), overall, temporal_overall,
-                            PlainTable(ACC_COLUMNS, tuple(acc_table)), acc_overall, tuple(warnings))
+        score = _vil100_score(dataset, trees, totals, thresholds, temporal, versions, len(relpaths), warnings)
         score = _diagnosed(score, diagnoses, width, diagnosis, _gallery_lanes(dataset, trees), image_root)
         if folder is not None:
-            staging = Staging(folder)
-            staging.write_text("official.csv", score.rows.to_csv())
-            if score.temporal_rows is not None:
-                staging.write_text("temporal.csv", score.temporal_rows.to_csv())
-            assert score.acc_rows is not None
-            staging.write_text("acc.csv", score.acc_rows.to_csv())
-            staging.write_text("summary.csv", summary_rows(score).to_csv())
-            staging.write_text("summary.md", summary_markdown(score, width))
-            write_diagnosis(staging, score.diagnosed, score.thresholds.labels)
-            folder.commit()
+            _write_score(folder, score, width)
     return score
+
+
+def _scored_sequences(dataset: Vil100Set, names: list[str], trees, width: int, temporal: bool, pred_format: str,
+                      diagnosis, workers: int | None, progress: bool, announce) -> list:
+    """Every method's results on each named sequence, a sequence a task, in their order."""
+    roots = tuple(tree.root for tree in trees)
+    tasks = [(dataset.sequences[name], dataset.labels, roots, *dataset.sizes[name], width, temporal,
+              pred_format, diagnosis) for name in names]
+    # instance masks are mostly decoded by the PNG maps' kernel (maps.vil100_png)
+    groups = kernel_groups(("official", "maps") if pred_format == "png" else ("official",), diagnosis)
+    return scored_pieces(_score_sequence, tasks, workers, progress, announce, kernel_groups=groups, trees=trees)
+
+
+def _unlabelled_warning(dataset: Vil100Set, listed: int, strict: bool) -> list[str]:
+    """The warning of listed frames without a ground-truth file (an error with `strict`): every
+    VIL-100 test frame has one (40 are empty), so a missing one is a wrong list or folder."""
+    if not dataset.unlabelled:
+        return []
+    first = labels_path(dataset.labels, dataset.unlabelled[0])
+    said = f"{len(dataset.unlabelled):,} of {listed:,} listed frames have no ground-truth file (first: {first})"
+    if strict:
+        raise InputError(dataset.labels, f"{said}; --strict needs every one")
+    return [f"warning: {said}; they count as frames without lanes, as MMA-Net's evaluator reads them"]
+
+
+def _vil100_score(dataset: Vil100Set, trees, totals, thresholds: Thresholds, temporal: bool, versions,
+                  n_frames: int, warnings: list[str]) -> Vil100Score:
+    """The score's tables from every sequence's totals: official, temporal (with `temporal`) and Acc."""
+    methods = tuple(tree.method for tree in trees)
+    names = list(dataset.sequences)
+    rows, overall = official_rows(names, methods, totals, thresholds)
+    temporal_table, temporal_overall = (temporal_rows(names, methods, totals, thresholds) if temporal
+                                        else ([], {}))
+    acc_table, acc_overall = acc_rows(names, methods, totals, versions)
+    return Vil100Score(PlainTable(COLUMNS, tuple(rows)),
+                       PlainTable(TEMPORAL_COLUMNS, tuple(temporal_table)) if temporal else None,
+                       thresholds, methods, n_frames, len(dataset.sequences), overall, temporal_overall,
+                       PlainTable(ACC_COLUMNS, tuple(acc_table)), acc_overall, tuple(warnings))
+
+
+def _write_score(folder, score: Vil100Score, width: int) -> None:
+    """official.csv, temporal.csv (where scored), acc.csv, summary.csv and .md, and the diagnosis."""
+    staging = Staging(folder)
+    staging.write_text("official.csv", score.rows.to_csv())
+    if score.temporal_rows is not None:
+        staging.write_text("temporal.csv", score.temporal_rows.to_csv())
+    assert score.acc_rows is not None
+    staging.write_text("acc.csv", score.acc_rows.to_csv())
+    staging.write_text("summary.csv", summary_rows(score).to_csv())
+    staging.write_text("summary.md", summary_markdown(score, width))
+    write_diagnosis(staging, score.diagnosed, score.thresholds.labels)
+    folder.commit()
 
 
 def _diagnosis(diagnose: bool, loc_iou: float | None, score_sweep: str | None, thresholds: Thresholds,
                shard: str | None, pred_format: str) -> DiagnosisSettings | None:
+    """The prediction format checked, and --diagnose's settings (which read lane files)."""
+    if pred_format not in PRED_FORMATS:
+        raise ConfigError(f"prediction format must be one of {', '.join(PRED_FORMATS)}, got {pred_format!r}")
     diagnosis = diagnosis_settings(diagnose, loc_iou, score_sweep, thresholds.values)
     if diagnosis is not None and pred_format != "lines":
         raise ConfigError("--diagnose and --score-sweep read lane files: give them with --pred-format lines")
@@ -538,15 +569,19 @@ def summary_table(score: Vil100Score) -> str:
     lines = ["| method | " + " | ".join(f"F1@{label} (%)" for label in labels) + " | mIoU (%) |"
              + "".join(f" {name}@{label} (%) |" for label, name in temporal) + "".join(acc),
              "|---" * (len(labels) + 2 + len(temporal) + len(acc)) + "|"]
-    for method in score.methods:
-        results: list[PooledScore] = [score.overall[(method, label)] for label in labels]
-        f1s = [percent(result.ratios[2]) for result in results]
-        rates = [percent(rate) for label in labels if temporal
-                 for rate in score.temporal_overall[(method, label)].rates]
-        accs = [text for version in versions for text in _acc_cells(score.acc_overall.get((method, version)))]
-        lines.append(f"| {method} | " + " | ".join(f1s) + f" | {percent(results[0].miou)} |"
-                     + "".join(f" {rate} |" for rate in rates) + "".join(f" {text} |" for text in accs))
+    lines += [_summary_line(score, method, bool(temporal), versions) for method in score.methods]
     return "\n".join(lines)
+
+
+def _summary_line(score: Vil100Score, method: str, temporal: bool, versions: list[str]) -> str:
+    """A method's row of summary.md: F1 at each threshold, mIoU, the temporal rates and Acc."""
+    labels = score.thresholds.labels
+    results: list[PooledScore] = [score.overall[(method, label)] for label in labels]
+    f1s = [percent(result.ratios[2]) for result in results]
+    rates = [percent(rate) for label in labels if temporal for rate in score.temporal_overall[(method, label)].rates]
+    accs = [text for version in versions for text in _acc_cells(score.acc_overall.get((method, version)))]
+    return (f"| {method} | " + " | ".join(f1s) + f" | {percent(results[0].miou)} |"
+            + "".join(f" {rate} |" for rate in rates) + "".join(f" {text} |" for text in accs))
 
 
 _ACC_SOURCES = {"mmanet": "MMA-Net", "rvld": "RVLD"}
@@ -566,28 +601,47 @@ def summary_rows(score: Vil100Score) -> PlainTable:
     """The numbers papers print, per method for all sequences and each scenario: F1 at each
     threshold, mIoU, and Rs, Rj, Rm with each threshold as tau (fractions, as official.csv)."""
     labels = score.thresholds.labels
-    official = {(r[0], r[1], r[2]): r for r in score.rows.rows}
-    temporal = {} if score.temporal_rows is None else {(r[0], r[1], r[2]): r for r in score.temporal_rows.rows}
-    columns = ["method", "category", *(f"f1@{label}" for label in labels), "miou"]
-    if temporal:
-        columns += [f"{name}@{label}" for label in labels for name in ("rs", "rj", "rm")]
-    acc = {} if score.acc_rows is None else {(r[0], r[1], r[2]): r for r in score.acc_rows.rows}
+    official = _keyed(score.rows)
+    temporal = _keyed(score.temporal_rows)
+    acc = _keyed(score.acc_rows)
     versions = [version for version in ACC_VERSIONS if any(key[2] == version for key in acc)]
-    columns += [f"{name}_{version}" for version in versions for name in ("acc", "fp", "fn")]
-    categories = list(dict.fromkeys(r[1] for r in score.rows.rows if r[1] == "all" or r[1].startswith("scenario ")))
-    categories = categories[-1:] + categories[:-1]  # all first
     rows = []
     for method in score.methods:
-        for category in categories:
+        for category in _summary_categories(score):
             row = [method, category, *(official[(method, category, label)][8] for label in labels),
                    official[(method, category, labels[0])][9]]
             if temporal:
                 row += [value for label in labels for value in temporal[(method, category, label)][7:10]]
-            for version in versions:
-                found = acc.get((method, category, version))
-                row += [math.nan] * 3 if found is None else list(found[4:7])
+            row += _acc_values(acc, method, category, versions)
             rows.append(tuple(row))
-    return PlainTable(tuple(columns), tuple(rows))
+    return PlainTable(_summary_columns(labels, bool(temporal), versions), tuple(rows))
+
+
+def _summary_columns(labels: tuple[str, ...], temporal: bool, versions: list[str]) -> tuple[str, ...]:
+    columns = ["method", "category", *(f"f1@{label}" for label in labels), "miou"]
+    if temporal:
+        columns += [f"{name}@{label}" for label in labels for name in ("rs", "rj", "rm")]
+    return tuple(columns + [f"{name}_{version}" for version in versions for name in ("acc", "fp", "fn")])
+
+
+def _summary_categories(score: Vil100Score) -> list[str]:
+    """'all' first, then each scenario, as official.csv has them."""
+    categories = list(dict.fromkeys(r[1] for r in score.rows.rows if r[1] == "all" or r[1].startswith("scenario ")))
+    return categories[-1:] + categories[:-1]
+
+
+def _keyed(table: PlainTable | None) -> dict[tuple, tuple]:
+    """A table's rows by (method, category, threshold or version); none without the table."""
+    return {} if table is None else {(r[0], r[1], r[2]): r for r in table.rows}
+
+
+def _acc_values(acc: dict[tuple, tuple], method: str, category: str, versions: list[str]) -> list:
+    """Acc, FP and FN of each version (NaN where it has no row)."""
+    values: list = []
+    for version in versions:
+        found = acc.get((method, category, version))
+        values += [math.nan] * 3 if found is None else list(found[4:7])
+    return values
 
 
 def summary_markdown(score: Vil100Score, width: int) -> str:
