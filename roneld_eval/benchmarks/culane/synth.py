@@ -65,6 +65,24 @@ def synth_culane(out: str | Path, clips: int = 3, frames: int = 12, seed: int = 
     return SynthResult(data_root, maps_root, "culane", maps_format, len(structure), total)
 
 
+def _awkward_copy(points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A ground-truth lane as a detector might give it: shifted with drifting noise, and at
+    random every second point, reversed, its ends only, one point, or a point repeated."""
+    points = points.copy()
+    points[:, 0] += rng.normal(0, rng.choice([2, 8, 20, 40]), len(points)).cumsum() * 0.3 + rng.normal(0, 15)
+    if rng.random() < 0.5:
+        points = points[::2]
+    if rng.random() < 0.3:
+        points = points[::-1]
+    if rng.random() < 0.1:
+        points = points[[0, -1]]
+    if rng.random() < 0.05:
+        points = points[:1]
+    if rng.random() < 0.03 and len(points) > 3:
+        points[2] = points[1]
+    return points
+
+
 def synth_lane_files(out: str | Path, frames: int = 2000, seed: int = 0) -> tuple[Path, Path]:
     """Ground-truth and predicted `.lines.txt` trees for checking and timing a CULane scorer.
 
@@ -93,23 +111,7 @@ def synth_lane_files(out: str | Path, frames: int = 2000, seed: int = 0) -> tupl
         relpath = f"driver_x_30frame/{index // 50:05d}.MP4/{(index % 50) * 30:05d}.jpg"
         listing.append("/" + relpath)
         truth = [lane(x) for x in np.sort(rng.uniform(-300, width + 260, int(rng.integers(0, 5))))]
-        predicted = []
-        for points in truth:
-            if rng.random() < 0.15:
-                continue
-            points = points.copy()
-            points[:, 0] += rng.normal(0, rng.choice([2, 8, 20, 40]), len(points)).cumsum() * 0.3 + rng.normal(0, 15)
-            if rng.random() < 0.5:
-                points = points[::2]
-            if rng.random() < 0.3:
-                points = points[::-1]
-            if rng.random() < 0.1:
-                points = points[[0, -1]]
-            if rng.random() < 0.05:
-                points = points[:1]
-            if rng.random() < 0.03 and len(points) > 3:
-                points[2] = points[1]
-            predicted.append(points)
+        predicted = [_awkward_copy(points, rng) for points in truth if not rng.random() < 0.15]
         if rng.random() < 0.2:
             predicted.append(lane(rng.uniform(0, width), step=20))
         if rng.random() < 0.03:

@@ -40,6 +40,20 @@ def _markers(points: np.ndarray, vanish_y: float) -> list[dict]:
     return markers
 
 
+def _named_lanes(scene, truth) -> list[dict]:
+    """The label's lanes named as LLAMAS names them (l1, l0, r0, r1: by side and rank from the
+    middle, at the image's bottom), each with its markers."""
+    bottoms = [points[np.argmax(points[:, 1]), 0] - scene.vanish_x for points in truth]
+    left = sorted((b, n) for n, b in enumerate(bottoms) if b < 0)[::-1]
+    right = sorted((b, n) for n, b in enumerate(bottoms) if b >= 0)
+    lanes = []
+    for side, ordered in ((-1, left), (1, right)):
+        for rank, (_, n) in enumerate(ordered, start=1):
+            if side * rank in NAMES:
+                lanes.append({"lane_id": NAMES[side * rank], "markers": _markers(truth[n], scene.vanish_y)})
+    return lanes
+
+
 def synth_llamas(out: str | Path, clips: int = 3, frames: int = 10, seed: int = 0, maps_format: str = "lanes",
                  progress=None) -> SynthResult:
     """labels/<recording>/<frame>.json, and under predictions/ a detector's <frame>.lines.txt
@@ -56,19 +70,10 @@ def synth_llamas(out: str | Path, clips: int = 3, frames: int = 10, seed: int = 
     for index, k, scene, truth, detected, *rendered in lane_file_scenes(CAMERA, clips, frames, seed, maps=maps):
         recording = f"images-2014-12-22-{12 + index:02d}-35-10_mapping_280S_ramps"
         name = f"{1419283521 + 10 * k}_0004236000"
-        centre = scene.vanish_x
-        bottoms = [points[np.argmax(points[:, 1]), 0] - centre for points in truth]
-        left = sorted((b, n) for n, b in enumerate(bottoms) if b < 0)[::-1]
-        right = sorted((b, n) for n, b in enumerate(bottoms) if b >= 0)
-        lanes = []
-        for side, ordered in ((-1, left), (1, right)):
-            for rank, (_, n) in enumerate(ordered, start=1):
-                if side * rank in NAMES:
-                    lanes.append({"lane_id": NAMES[side * rank], "markers": _markers(truth[n], scene.vanish_y)})
         label = labels / recording / f"{name}.json"
         label.parent.mkdir(parents=True, exist_ok=True)
         projection = [[FOCAL, 0.0, IMAGE_WIDTH / 2], [0.0, FOCAL, float(scene.vanish_y)], [0.0, 0.0, 1.0]]
-        write_file(label, json.dumps({"projection_matrix": projection, "lanes": lanes}))
+        write_file(label, json.dumps({"projection_matrix": projection, "lanes": _named_lanes(scene, truth)}))
         target = predictions / recording / f"{name}.lines.txt"
         target.parent.mkdir(parents=True, exist_ok=True)
         if maps:  # the model's maps at the frame's size, and a background class as the script reads it too
