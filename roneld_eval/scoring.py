@@ -153,6 +153,16 @@ def _subfolders(root: Path) -> list[Path]:
         return []
 
 
+def listed_frames(listed: list[str], labels: Path, label_of: Callable[[Path, str], Path],
+                  labels_word: str) -> list[str]:
+    """`listed` (a list file's frames, or every labelled one), of which some must have their labels
+    under `labels` (`label_of(labels, relpath)`): a folder holding none is the wrong folder."""
+    if not any(label_of(labels, relpath).exists() for relpath in listed):
+        raise ConfigError(f"no listed image has its {labels_word} under {labels} (first looked for: "
+                          f"{label_of(labels, listed[0])})")
+    return listed
+
+
 def _root_specs(pred_root: PredictionRoots) -> list[tuple[str | None, Path]]:
     """(name or None, folder) of each root given: a path, 'NAME=DIR', a list of them, or a mapping."""
     if isinstance(pred_root, Mapping):

@@ -25,7 +25,7 @@ from ...output import Staging
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...model import Lane
-from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, listed_frames, scored_pieces
 from ...shards import Merged, Sharding, given_options
 
 COLUMNS = ("method", "score_threshold", "chosen", "hits", "predicted", "truth", "precision", "recall", "f1")
@@ -158,7 +158,8 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
         **given_options(diagnose=diagnose, loc_iou=loc_iou, score_sweep=score_sweep)))
     labels, images = Path(labels), Path(image_root)
     with _taking(out, "score curvelanes", reads=(labels, images, list_file)) as folder:
-        relpaths = _listed_images(labels, list_file)
+        relpaths = listed_frames(read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels),
+                                 labels, lanes_path, "labels")
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=SUFFIX)
         label_files = _label_files(labels, images, relpaths)
 
@@ -195,15 +196,6 @@ def score_curvelanes(labels: str | Path, pred_root: PredictionRoots, image_root:
             write_diagnosis(staging, score.diagnosed, (IOU_LABEL,))
             folder.commit()
     return score
-
-
-def _listed_images(labels: Path, list_file: str | Path | None) -> list[str]:
-    """The list's images (every labelled one without a list), some of which have labels here."""
-    relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_image(labels)
-    if not any(lanes_path(labels, relpath).exists() for relpath in relpaths):
-        raise ConfigError(f"no listed image has its labels under {labels} (first looked for: "
-                          f"{lanes_path(labels, relpaths[0])})")
-    return relpaths
 
 
 def _label_files(labels: Path, images: Path, relpaths: list[str]) -> list[Path]:

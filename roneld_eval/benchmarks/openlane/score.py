@@ -28,7 +28,7 @@ from ...metrics.lane_iou_f1 import f_measure, matched_result, official_masks
 from ...report.diagnosis import Diagnosed, write_diagnosis
 from ...report.gallery import GalleryFrame
 from ...output import Staging
-from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, scored_pieces
+from ...scoring import PlainTable, PredictionRoots, _taking, find_prediction_trees, listed_frames, scored_pieces
 from ...shards import Merged, Sharding, given_options
 
 DEFAULT_IOU = "0.3"  # evaluate.cpp:121 (its help() says 0.4)
@@ -131,7 +131,8 @@ def score_openlane(labels: str | Path, pred_root: PredictionRoots, list_file: st
         **given_options(diagnose=diagnose, loc_iou=loc_iou)))
     labels = Path(labels)
     with _taking(out, "score openlane", reads=(labels, list_file)) as folder:
-        relpaths = _listed_frames(labels, list_file)
+        relpaths = listed_frames(read_list(Path(list_file)) if list_file is not None else every_labelled_frame(labels),
+                                 labels, json_path, "annotation")
         trees, warnings = find_prediction_trees(pred_root, relpaths, strict, announce, suffix=".json")
         label_files = [json_path(labels, relpath) for relpath in relpaths]
 
@@ -177,15 +178,6 @@ def _checked_modes(modes) -> tuple[str, ...]:
     if not modes or any(mode not in MODES for mode in modes) or len(set(modes)) != len(modes):
         raise ConfigError(f"matching must be among {', '.join(MODES)}")
     return modes
-
-
-def _listed_frames(labels: Path, list_file: str | Path | None) -> list[str]:
-    """The list's frames (every labelled one without a list), some of which have annotations here."""
-    relpaths = read_list(Path(list_file)) if list_file is not None else every_labelled_frame(labels)
-    if not any(json_path(labels, relpath).exists() for relpath in relpaths):
-        raise ConfigError(f"no listed image has its annotation under {labels} (first looked for: "
-                          f"{json_path(labels, relpaths[0])})")
-    return relpaths
 
 
 def _official_rows(trees, modes: tuple[str, ...], labels: tuple[str, ...], counts: np.ndarray) -> tuple:
