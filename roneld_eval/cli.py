@@ -519,8 +519,8 @@ def merge(parts, out, debug):
 @click.option("--out", required=True, type=OUT_FOLDER,
               help="Folder to write: OUT/data is the dataset root, OUT/maps the maps root.")
 @click.option("--clips", default=3, show_default=True, type=click.IntRange(min=1), help="Number of clips.")
-@click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: the benchmark's (CULane 12, "
-              "TuSimple 20: a labelled frame and the 19 before it).")
+@click.option("--frames", type=click.IntRange(min=1), help="Frames per clip. Default: the benchmark's own clip length "
+              "(where its clips end at their labelled frame: that frame and the ones before it).")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(0, 2**63 - 1),
               help="Random seed; the same seed gives the same bytes.")
 @click.option("--maps-format", type=MapFormatChoice(),
@@ -702,7 +702,7 @@ class _ImageSize(click.ParamType):
                    "Needed where the dataset holds several.")
 @click.option("--config", "config_file", metavar="FILE|PRESET",
               help=f"Configuration file or preset ({', '.join(preset_names())}). Default: the dataset's "
-                   "default preset (scnn-culane).")
+                   "default preset (SCNN's, where there is one).")
 @click.option("--dataset", type=click.Choice(benchmark_names()),
               help="Benchmark whose default preset to use, and whose layout --data-root has.")
 @click.option("--maps-format", type=MapFormatChoice(),
