@@ -159,7 +159,7 @@ def check_map_shape(expected: MapGeometry, map_width: int, map_height: int, wher
               f"{expected.image_width}x{expected.image_height} frame")
     whole = expected.image_width / expected.image_height
     if expected.crop_height_px != expected.image_height and abs(found / whole - 1) <= ASPECT_TOLERANCE:
-        fix = ("they look like maps of the whole frame: use a preset for such maps (SCNN's) or "
+        fix = ("they look like maps of the whole frame: use a preset for such maps (e.g. scnn-culane) or "
                f"--set maps.crop_top_px=0 --set maps.crop_bottom_px={expected.image_height} "
                f"--set maps.width={map_width} --set maps.height={map_height}")
     else:
