@@ -55,7 +55,9 @@ def default_config(dataset: str | None = None) -> EvalConfig:
     if benchmark.default_preset is None:
         raise ConfigError(f"{benchmark.display_name} is scored from lane files only: "
                           f"`roneld-eval score {benchmark.name}`")
-    return EvalConfig.from_toml(benchmark.default_preset)  # a preset name or a file
+    # A preset name or a file; not the user's file, so what is wrong later is not said to be in it
+    # (`--set dataset.name=foo` is no fault of scnn-culane.toml).
+    return replace(EvalConfig.from_toml(benchmark.default_preset), source=None)
 
 
 def with_fixture(config: EvalConfig, benchmark: Benchmark | None = None) -> EvalConfig:

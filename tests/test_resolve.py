@@ -82,6 +82,11 @@ def test_dataset_and_set_choose_the_benchmark_of_a_file_that_names_none(monkeypa
     one_line(run_cli("run", "--config", str(named), "--dataset", "tusimple"), "contradicts the config's dataset")
 
 
+def test_a_bad_set_value_is_not_said_to_be_in_the_default_preset(tmp_path):
+    line = one_line(run_cli("run", "--set", "dataset.name=foo", "--out", str(tmp_path)), "dataset must be one of")
+    assert ".toml" not in line
+
+
 def test_the_diagnose_hint_names_the_benchmark_the_run_would_score(tmp_path):
     one_line(run_cli("run", "--diagnose", "--executor", "dask", "--set", "dataset.name=", "--out", str(tmp_path)),
              "`roneld-eval score culane --diagnose`")
