@@ -10,7 +10,9 @@ package would be, uses them (README "Your own benchmark"). Loaded on first use.
 - synthetic sets: `SynthResult`, `Camera`, `scene_sequence`, `clip_style`, `channel_lanes`,
   `render_maps`, `write_maps`;
 - compare's tables: `Grid`, `Column`, `Stat`, `Text`, `EMPTY`, `all_found`, `method_name`,
-  `ordered_methods`.
+  `ordered_methods`;
+- its tests: `check_benchmark(name, folder)` (the contract every registered benchmark keeps,
+  roneld_eval.contract), raising `ContractBroken`.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ _EXPORTS = {
     "Grid": "comparison.tables", "Column": "comparison.tables", "Stat": "comparison.tables",
     "Text": "comparison.tables", "EMPTY": "comparison.tables",
     "all_found": "comparison.groups", "method_name": "comparison.groups", "ordered_methods": "comparison.groups",
+    "check_benchmark": "contract", "ContractBroken": "contract",
 }
 
 __all__ = list(_EXPORTS)
@@ -48,6 +51,7 @@ if TYPE_CHECKING:
     from .benchmarks import Benchmark, CategoryPanel, LaneFile, OfficialRecord, OfficialTally  # noqa: F401
     from .comparison.groups import all_found, method_name, ordered_methods  # noqa: F401
     from .comparison.tables import EMPTY, Column, Grid, Stat, Text  # noqa: F401
+    from .contract import ContractBroken, check_benchmark  # noqa: F401
     from .errors import ConfigError, InputError  # noqa: F401
     from .lanes_io import format_lines_txt, parse_lines_txt, read_lines_txt  # noqa: F401
     from .maps.formats import MapFormat  # noqa: F401

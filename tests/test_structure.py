@@ -202,7 +202,8 @@ def _calls_of(source: str, names: set[str]) -> list[int]:
 # Where work enters the library and a benchmark's name becomes its object (roneld_eval.resolve's
 # functions): the commands and public functions, compare reading a run back, a part being merged.
 EDGES = {"resolve.py", "api.py", "cli.py", "in_memory.py", "synth.py", "shards.py", "replay.py",
-         "comparison/runs.py", "extract/roneld.py"}  # the last: RoneldTracker.from_preset, on a vehicle
+         "comparison/runs.py", "contract.py",  # check_benchmark(name, ...), called from a benchmark's tests
+         "extract/roneld.py"}  # RoneldTracker.from_preset, on a vehicle
 
 
 def test_a_benchmark_is_looked_up_in_one_place_and_only_where_work_enters():
