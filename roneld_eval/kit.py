@@ -11,6 +11,8 @@ package would be, uses them (README "Your own benchmark"). Loaded on first use.
   `render_maps`, `write_maps`;
 - compare's tables: `Grid`, `Column`, `Stat`, `Text`, `EMPTY`, `all_found`, `method_name`,
   `ordered_methods`;
+- its `score NAME` command, declared as data: `ScoreCommand`, `Option`, `command_of` (the click
+  command of a declaration);
 - its tests: `check_benchmark(name, folder)` (the contract every registered benchmark keeps,
   roneld_eval.contract), raising `ContractBroken`.
 """
@@ -32,6 +34,7 @@ _EXPORTS = {
     "Grid": "comparison.tables", "Column": "comparison.tables", "Stat": "comparison.tables",
     "Text": "comparison.tables", "EMPTY": "comparison.tables",
     "all_found": "comparison.groups", "method_name": "comparison.groups", "ordered_methods": "comparison.groups",
+    "ScoreCommand": "score_commands", "Option": "score_commands", "command_of": "score_commands",
     "check_benchmark": "contract", "ContractBroken": "contract",
 }
 
@@ -57,4 +60,5 @@ if TYPE_CHECKING:
     from .maps.formats import MapFormat  # noqa: F401
     from .maps.lanes import JsonLinesFile, LinesPerFrame  # noqa: F401
     from .model import Clip, Dataset, Frame, Lane  # noqa: F401
+    from .score_commands import Option, ScoreCommand, command_of  # noqa: F401
     from .synth import Camera, SynthResult, channel_lanes, clip_style, render_maps, scene_sequence, write_maps  # noqa: F401

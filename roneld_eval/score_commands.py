@@ -200,6 +200,12 @@ def built(spec: ScoreCommand, scorer: Callable[[], Callable[..., Any]]) -> click
     return click.Command(spec.name, params=parameters, callback=run, help=spec.help)
 
 
+def command_of(spec: ScoreCommand, scorer: Callable[..., Any]) -> click.Command:
+    """A third party's `score_command()` (roneld_eval.kit): the click command of its declaration,
+    calling `scorer` with the options' values and printing what `spec.report` says of its result."""
+    return built(spec, lambda: scorer)
+
+
 def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any]) -> None:
     from .cli import _guard, _no_collections_at_exit, shard_written
     from .cluster import executed
@@ -207,12 +213,17 @@ def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any
     if not spec.keeps_collections:
         _no_collections_at_exit()
     debug, quiet = values.pop("debug"), values.pop("quiet", False)
-    shard, executor, scheduler = values.pop("shard"), values.pop("executor"), values.pop("scheduler")
+    sharded = any(isinstance(option, Sharding) for option in spec.options)
+    shard, executor, scheduler = (values.pop(name) for name in ("shard", "executor", "scheduler")) if sharded \
+        else (None, "local", None)
     given = dict(values)
     args, keywords = _arguments(spec, _guard(spec.prepare, debug, values) if spec.prepare else values, quiet)
-    score = _guard(executed, debug, executor, scheduler, f"score {spec.name}", scorer, *args, **keywords,
-                   shard=shard)
-    if score is None:  # a shard: its part is written
+    if sharded:
+        score = _guard(executed, debug, executor, scheduler, f"score {spec.name}", scorer, *args, **keywords,
+                       shard=shard)
+    else:  # a command declared without the shard options: its scorer takes no `shard`
+        score = _guard(scorer, debug, *args, **keywords)
+    if score is None and shard is not None:  # a shard: its part is written
         shard_written(shard, given.get("out"), quiet)
         return
     if quiet and spec.quiet_says_nothing:

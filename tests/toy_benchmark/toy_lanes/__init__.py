@@ -15,12 +15,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import click
 import numpy as np
 
-from roneld_eval.kit import (Camera, Clip, Dataset, Frame, InputError, LaneFile, LinesPerFrame, SynthResult,
-                             channel_lanes, clip_style, format_lines_txt, read_lines_txt, render_maps, scene_sequence,
-                             write_maps)
+from roneld_eval.kit import (Camera, Clip, Dataset, Frame, InputError, LaneFile, LinesPerFrame, Option, ScoreCommand,
+                             SynthResult, channel_lanes, clip_style, command_of, format_lines_txt, read_lines_txt,
+                             render_maps, scene_sequence, write_maps)
 
 WIDTH, HEIGHT = 1000, 500
 CAMERA = Camera(WIDTH, HEIGHT, vanish_y=(200, 230), lane_width_px=(500, 600), top_margin_px=(10, 30))
@@ -141,7 +140,7 @@ class ToyBenchmark:
         return SynthResult(data, maps_root, self.name, maps_format, clips, clips * frames)
 
     def score_command(self):
-        return score_toy
+        return command_of(COMMAND, score_toy)
 
     def official_protocol(self, protocol):
         return None
@@ -167,9 +166,13 @@ class ToyBenchmark:
                 "ToyLanes: predicted lanes per method.")
 
 
-@click.command("toy")
-@click.option("--data-root", required=True, type=click.Path(path_type=Path))
-@click.option("--pred-root", required=True, type=click.Path(path_type=Path))
+@dataclass(frozen=True)
+class ToyCount:
+    frames: int
+    gt_lanes: int
+    pred_lanes: int
+
+
 def score_toy(data_root, pred_root):
     """Count a detector's lanes against ToyLanes' ground truth."""
     dataset = BENCHMARK.read(data_root, None, None, None, True)
@@ -178,7 +181,18 @@ def score_toy(data_root, pred_root):
         for frame in clip.frames:
             n_gt += len(frame.lanes)
             n_pred += len(read_lines_txt(_labels(pred_root, frame.relpath)))
-    click.echo(f"{dataset.n_frames} frames: {n_gt} ground-truth lanes, {n_pred} predicted")
+    return ToyCount(dataset.n_frames, n_gt, n_pred)
+
+
+def _report(count, values, echo):
+    echo(f"{count.frames} frames: {count.gt_lanes} ground-truth lanes, {count.pred_lanes} predicted")
+
+
+COMMAND = ScoreCommand(
+    "toy", "Count a detector's lanes against ToyLanes' ground truth.",
+    options=(Option("--data-root", "ToyLanes root (frames.txt and the labels).", kind="path", required=True),
+             Option("--pred-root", "Predicted .lanes.txt files mirroring the root.", kind="path", required=True)),
+    positional=("data_root", "pred_root"), report=_report, progress=False)
 
 
 BENCHMARK = ToyBenchmark()
