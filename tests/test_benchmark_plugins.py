@@ -137,6 +137,35 @@ def test_a_broken_benchmark_is_one_line_and_is_listed_with_the_others(tmp_path, 
         assert done.stderr.strip() == f"error: benchmark 'bad' (bad_mod:B) {problem}", args
 
 
+@pytest.mark.parametrize("imported, problem", [
+    # what the toy imported when benchmarks reached into the package's modules (ca5cdc9)
+    ("from roneld_eval.lanes_io import format_culane_lines",
+     "ImportError: cannot import name 'format_culane_lines' from 'roneld_eval.lanes_io' ({where}): it is written "
+     "to an older roneld-eval, whose benchmarks imported its modules; a benchmark now builds on roneld_eval.kit "
+     "alone (format_culane_lines is kit.format_lines_txt)"),
+    ("from roneld_eval.synth import _write_maps",
+     "ImportError: cannot import name '_write_maps' from 'roneld_eval.synth' ({where}): it is written to an older "
+     "roneld-eval, whose benchmarks imported its modules; a benchmark now builds on roneld_eval.kit alone "
+     "(_write_maps is kit.write_maps)"),
+    ("from roneld_eval.metrics.culane_official import GroupCounts",
+     "ModuleNotFoundError: No module named 'roneld_eval.metrics.culane_official': it is written to an older "
+     "roneld-eval, whose benchmarks imported its modules; a benchmark now builds on roneld_eval.kit alone "
+     '(README "Your own benchmark")'),
+    ("from roneld_eval.kit import format_culane_lines",  # the kit's own names: no older version to blame
+     "ImportError: cannot import name 'format_culane_lines' from 'roneld_eval.kit' ({where})"),
+])
+def test_a_benchmark_written_to_the_protocol_before_the_kit_is_told_what_changed(tmp_path, imported, problem):
+    import roneld_eval
+
+    path = _package(tmp_path, "old", "old = old_mod:B", "old_mod", f"{imported}\nB = None\n")
+    module = imported.split()[1]
+    where = Path(roneld_eval.__file__).parent.joinpath(*module.split(".")[1:])
+    where = where.with_suffix(".py") if where.with_suffix(".py").is_file() else where / "__init__.py"
+    done = cli("synth", "--dataset", "old", "--out", str(tmp_path / "s"), path=path, check=False)
+    assert done.returncode == 2
+    assert done.stderr == f"error: benchmark 'old' (old_mod:B) cannot be loaded: {problem.format(where=where)}\n"
+
+
 def test_a_package_cannot_replace_a_built_in_benchmark(tmp_path):
     source = 'class X:\n    name = "culane"\nB = X()\n'
     path = _package(tmp_path, "shadow", "culane = shadow_mod:B", "shadow_mod", source)

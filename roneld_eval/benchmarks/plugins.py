@@ -14,6 +14,7 @@ import functools
 import importlib.metadata
 import json
 import math
+import re
 import time
 from typing import Any, Callable
 
@@ -36,7 +37,6 @@ def plugin_slot(name: str) -> str:
 def load(point: importlib.metadata.EntryPoint) -> Any:
     """The object a third party's entry point names: its module imported in a worker process first,
     then here; ConfigError naming it and its entry where either fails."""
-    from ..evaluation.plugin_call import raised_text
     from ..signals import TimeLimitExceeded, time_limit
 
     limit_s = BENCHMARK_TIME_LIMIT_S
@@ -48,7 +48,7 @@ def load(point: importlib.metadata.EntryPoint) -> Any:
         except TimeLimitExceeded:
             problem = f"importing it {_too_slow(limit_s)}"
         except (Exception, SystemExit) as error:  # not KeyboardInterrupt: Ctrl-C is Ctrl-C
-            problem = raised_text(error)
+            problem = import_problem(error)
     raise ConfigError(f"benchmark {point.name!r} ({point.value}) cannot be loaded: {problem}")
 
 
@@ -86,7 +86,6 @@ class _Died(RoneldEvalError):
 
 def _import_here(entry: str, limit_s: float) -> str | None:
     """In the worker: why importing `entry` fails, or None."""
-    from ..evaluation.plugin_call import raised_text
     from ..signals import TimeLimitExceeded, time_limit
 
     try:
@@ -95,8 +94,32 @@ def _import_here(entry: str, limit_s: float) -> str | None:
     except TimeLimitExceeded:
         return f"importing it {_too_slow(limit_s)}"
     except (Exception, SystemExit) as error:
-        return raised_text(error)
+        return import_problem(error)
     return None
+
+
+# What a benchmark written before roneld_eval.kit (0.x and before, issue 48) imported from the
+# package's own modules under another name: the kit's name for it.
+KIT_NAMES = {"format_culane_lines": "format_lines_txt", "read_culane_lines": "read_lines_txt",
+             "parse_culane_lines": "parse_lines_txt", "_write_maps": "write_maps"}
+_CANNOT_IMPORT = re.compile(r"cannot import name '([^']+)'")
+
+
+def import_problem(error: BaseException) -> str:
+    """What importing a benchmark raised, in one line; where it reached into this package's own
+    modules for a name they no longer have, what changed: a benchmark builds on roneld_eval.kit."""
+    from ..evaluation.plugin_call import raised_text
+
+    text = raised_text(error)
+    module = getattr(error, "name", None) if isinstance(error, ImportError) else None
+    own = __name__.split(".")[0]
+    if not isinstance(module, str) or module.split(".")[0] != own or module == f"{own}.kit":
+        return text
+    found = _CANNOT_IMPORT.search(str(error))
+    name = found.group(1) if found else ""
+    where = f"{name} is kit.{KIT_NAMES[name]}" if name in KIT_NAMES else 'README "Your own benchmark"'
+    return (f"{text}: it is written to an older roneld-eval, whose benchmarks imported its modules; a benchmark "
+            f"now builds on {own}.kit alone ({where})")
 
 
 def _too_slow(limit_s: float) -> str:
