@@ -10,8 +10,12 @@ from one line in its tests (through roneld_eval.kit):
 The steps, each through the command line a user types: `score NAME --help` builds (where the
 benchmark has a score command); the command `synth` prints for a small set runs and writes an
 official table; two shards of it merged give that table byte for byte (a run's merge reads every
-clip's frame records back from the parts, `decode` of `to_json`, and scores nothing again); and two
-runs of the maps its preset's model writes are read back by `compare` into one official table.
+clip's frame records back from the parts, `decode` of `to_json`, and scores nothing again); two
+runs of the maps its preset's model writes, their lanes saved (`lane_file`), are read back by
+`compare` into one official table; and a run reads the lanes one of them saved as another
+detector's (`detector_lanes`, `run --maps-format lanes`). A benchmark that cannot be loaded, lacks a
+member or whose score command does not fit its scorer breaks it too. Its `score NAME` is run only
+where `synth` prints it (its options are the benchmark's own).
 """
 
 from __future__ import annotations
@@ -33,9 +37,15 @@ def check_benchmark(name: str, folder: str | Path) -> None:
     from .config import EvalConfig
     from .resolve import benchmark_named
 
+    from .errors import RoneldEvalError
+
     folder = Path(folder)
-    benchmark = benchmark_named(name)
-    if benchmark.score_command() is not None:
+    try:  # it loads, has every member, and its score command (if any) fits its scorer
+        benchmark = benchmark_named(name)
+        has_command = benchmark.score_command() is not None
+    except RoneldEvalError as error:
+        raise ContractBroken(f"{name}: {error}") from None
+    if has_command:
         _invoke("its score command builds", ["score", name, "--help"])
     command = _synthesized(benchmark, folder / "set", None)
     whole = _official(command, folder / "whole", "its synthetic set is scored")
@@ -48,7 +58,22 @@ def check_benchmark(name: str, folder: str | Path) -> None:
     _same(name, "two shards merged", merged, whole)
     if command[0] == "run" and benchmark.default_preset is not None:
         preset = EvalConfig.from_toml(benchmark.default_preset)
-        _compared(name, _synthesized(benchmark, folder / "preset-set", preset.maps.format), folder)
+        _compared(name, _synthesized(benchmark, folder / "preset-set", preset.maps.format), folder,
+                  benchmark.detector_lanes is not None)
+
+
+def _without_maps(command: list[str]) -> list[str]:
+    """A run's command without its --maps-root and --maps-format (and their values)."""
+    kept: list[str] = []
+    skip = False
+    for word in command:
+        if skip:
+            skip = False
+        elif word in ("--maps-root", "--maps-format"):
+            skip = True
+        else:
+            kept.append(word)
+    return kept
 
 
 def _synthesized(benchmark: Any, out: Path, maps_format: str | None) -> list[str]:
@@ -65,9 +90,17 @@ def _synthesized(benchmark: Any, out: Path, maps_format: str | None) -> list[str
     return argv[1:] + (["--workers", "1"] if argv[1] == "run" else [])
 
 
-def _compared(name: str, command: list[str], folder: Path) -> None:
+def _compared(name: str, command: list[str], folder: Path, reads_lanes: bool) -> None:
     for model in ("ModelA", "ModelB"):
-        _invoke(f"a run of {model}", [*command, "--out", str(folder / model), "--set", f"model={model}"])
+        _invoke(f"a run of {model}", [*command, "--out", str(folder / model), "--set", f"model={model}",
+                                      "--save-lanes"])
+    if reads_lanes:  # the model's own lanes as another detector's (lane_file, then detector_lanes)
+        from .methods import PAPER
+
+        lanes = folder / "ModelA" / "lanes" / PAPER.reference
+        _invoke("a run reads the lanes another run saved (run --maps-format lanes)",
+                [*_without_maps(command), "--maps-root", str(lanes), "--maps-format", "lanes",
+                 "--out", str(folder / "on-lanes")])
     _invoke("compare reads its runs back", ["compare", str(folder / "ModelA"), str(folder / "ModelB"),
                                             "--out", str(folder / "compared")])
     table = folder / "compared" / "table_official.md"

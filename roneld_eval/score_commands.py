@@ -53,7 +53,8 @@ class Sharding:
 
 @dataclass(frozen=True)
 class ScoreCommand:
-    """A benchmark's `score NAME`. `positional`: the values its scorer takes in order; every other
+    """A benchmark's `score NAME`. `positional`: the names of the option values handed to its scorer
+    as positional arguments, in order (the command line has options only); every other
     option's value is passed by its name, but for `driver_only` ones (and --quiet, --debug, the
     shard options, which the driver passes itself as progress/announce/shard). `prepare` adjusts the
     values first (one option becoming the scorer's argument of another name); `report` prints the
@@ -202,8 +203,77 @@ def built(spec: ScoreCommand, scorer: Callable[[], Callable[..., Any]]) -> click
 
 def command_of(spec: ScoreCommand, scorer: Callable[..., Any]) -> click.Command:
     """A third party's `score_command()` (roneld_eval.kit): the click command of its declaration,
-    calling `scorer` with the options' values and printing what `spec.report` says of its result."""
-    return built(spec, lambda: scorer)
+    calling `scorer` with the options' values and printing what `spec.report` says of its result.
+    A declaration that does not fit the scorer's signature is a ConfigError here, when the command
+    is built; what the scorer raises besides the tool's own errors is one line naming it."""
+    from .errors import ConfigError
+
+    problem = declaration_problem(spec, scorer)
+    if problem is not None:
+        raise ConfigError(f"score {spec.name}: its ScoreCommand does not fit {_named(scorer)}: {problem}")
+    return built(spec, lambda: _one_line_failures(spec, scorer))
+
+
+def declaration_problem(spec: ScoreCommand, scorer: Callable[..., Any]) -> str | None:
+    """Why `scorer` cannot take the arguments `spec` hands it (its positional values, the other
+    options by name, progress/announce and shard where declared), or None. A declaration with a
+    `prepare` step, which may rename values, is not checked."""
+    import inspect
+
+    if spec.prepare is not None:
+        return None
+    names = {_value_name(option) for option in spec.options if isinstance(option, Option)} - {"quiet"}
+    unknown = [name for name in spec.positional if name not in names]
+    if unknown:
+        given = ", ".join(sorted(names))
+        return f"positional names {', '.join(unknown)}, which no option gives (the options give {given})"
+    try:
+        inspect.signature(scorer).bind(*(None for _ in spec.positional), **_keywords_handed(spec, names))
+    except TypeError as error:
+        return str(error)
+    except ValueError:  # a builtin without a signature: nothing to check it against
+        return None
+    return None
+
+
+def _keywords_handed(spec: ScoreCommand, names: set[str]) -> dict[str, None]:
+    """The keyword arguments the driver hands a scorer of `spec` whose options give `names`."""
+    keywords = {spec.scorer_keywords.get(name, name): None for name in names
+                if name not in spec.positional and name not in spec.driver_only}
+    if spec.progress:
+        keywords.update(progress=None, announce=None)
+    if any(isinstance(option, Sharding) for option in spec.options):
+        keywords["shard"] = None
+    return keywords
+
+
+def _value_name(option: Option) -> str:
+    """The name click gives an option's value: its `name`, else its first flag as an identifier."""
+    return option.name or option.flags.split("/")[0].lstrip("-").replace("-", "_")
+
+
+def _named(scorer: Callable[..., Any]) -> str:
+    return f"{getattr(scorer, '__module__', '?')}.{getattr(scorer, '__qualname__', repr(scorer))}"
+
+
+def _one_line_failures(spec: ScoreCommand, scorer: Callable[..., Any]) -> Callable[..., Any]:
+    """`scorer`, whose failures other than the tool's own errors (and Ctrl-C, memory, the file
+    system's) are a PluginError naming it: another package's bug is one line (--debug: where)."""
+    import functools
+
+    from .errors import PluginError, RoneldEvalError
+
+    @functools.wraps(scorer)
+    def guarded(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return scorer(*args, **kwargs)
+        except (RoneldEvalError, MemoryError, OSError):
+            raise
+        except (Exception, SystemExit) as error:  # not KeyboardInterrupt: Ctrl-C is Ctrl-C
+            from .evaluation.plugin_call import raised_text
+
+            raise PluginError(f"score {spec.name}: {_named(scorer)} raised {raised_text(error)}") from error
+    return guarded
 
 
 def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any]) -> None:

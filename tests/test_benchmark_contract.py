@@ -51,3 +51,22 @@ def test_a_failing_command_is_named_with_its_output(tmp_path):
 
         contract._official(["run", "--dataset", "culane", "--data-root", str(tmp_path / "none"), "--maps-root",
                             str(tmp_path / "none")], tmp_path / "out", "its synthetic set is scored")
+
+
+def test_a_benchmark_that_does_not_load_breaks_the_contract_in_one_line(tmp_path):
+    with pytest.raises(ContractBroken, match="^nosuch: unknown dataset 'nosuch'; choose from "):
+        check_benchmark("nosuch", tmp_path)
+
+
+def test_lanes_a_benchmark_cannot_write_break_the_contract(tmp_path):
+    # a lane_file that raises was not seen by the contract (the helper's third-party trial): runs save lanes now
+    from test_benchmark_plugins import _method, _variant
+
+    path = _variant(tmp_path / "pkg", "nolanes", _method("lane_file(self, method, frame, lanes)",
+                                                           "raise RuntimeError('lane_file broken')"))
+    line = f"from roneld_eval.kit import check_benchmark; check_benchmark('nolanes', {str(tmp_path / 'c')!r})"
+    done = subprocess.run([sys.executable, "-c", line], capture_output=True, text=True, env=env_importing(path),
+                          timeout=600)
+    assert done.returncode == 1
+    assert "ContractBroken: a run of ModelA: roneld-eval run --dataset nolanes" in done.stderr
+    assert "lane_file() raised RuntimeError: lane_file broken" in done.stderr

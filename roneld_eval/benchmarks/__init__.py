@@ -53,8 +53,10 @@ class OfficialTally(Protocol):
 
 @dataclass(frozen=True)
 class LaneFile:
-    """Where one frame's lanes go: a file under lanes/METHOD/, its text, and whether the text
-    is appended to a file shared by all frames (one line per frame) or is the whole file."""
+    """Where one frame's lanes go: `name`, a path under the run's lanes/ folder that begins with
+    the method's name (METHOD/<frame>.lines.txt, METHOD/predictions.json), its `text`, and whether
+    the text is appended to a file shared by all frames (`append`: one line per frame, its text
+    ending in a newline) or is the whole file."""
 
     name: str
     text: str
@@ -132,8 +134,9 @@ class Benchmark(Protocol):
 
     # ---- how its official scores are shown and read back ----
 
-    # official.csv's columns as compare reads it back (see comparison.runs.read_csv for the kinds),
-    # those it may lack (written by older versions), and the columns naming a row
+    # official.csv's columns as compare reads it back, name -> kind: "text", "count" (an integer >= 0),
+    # "number" (finite) or "optional number" (empty is NaN); those it may lack (written by older
+    # versions); and the columns naming a row
     official_columns: Mapping[str, str]
     official_optional: Mapping[str, str]
     official_key: tuple[str, ...]

@@ -98,10 +98,6 @@ def _import_here(entry: str, limit_s: float) -> str | None:
     return None
 
 
-# What a benchmark written before roneld_eval.kit (0.x and before, issue 48) imported from the
-# package's own modules under another name: the kit's name for it.
-KIT_NAMES = {"format_culane_lines": "format_lines_txt", "read_culane_lines": "read_lines_txt",
-             "parse_culane_lines": "parse_lines_txt", "_write_maps": "write_maps"}
 _CANNOT_IMPORT = re.compile(r"cannot import name '([^']+)'")
 
 
@@ -115,9 +111,15 @@ def import_problem(error: BaseException) -> str:
     own = __name__.split(".")[0]
     if not isinstance(module, str) or module.split(".")[0] != own or module == f"{own}.kit":
         return text
+    import difflib
+
+    from .. import kit
+
     found = _CANNOT_IMPORT.search(str(error))
     name = found.group(1) if found else ""
-    where = f"{name} is kit.{KIT_NAMES[name]}" if name in KIT_NAMES else 'README "Your own benchmark"'
+    # the kit's name closest to the one it asked for (`format_culane_lines` is `format_lines_txt`)
+    like = difflib.get_close_matches(name, kit.__all__, n=1, cutoff=0.6) if name else []
+    where = f"{name} is kit.{like[0]}" if like else 'README "Your own benchmark"'
     return (f"{text}: it is written to an older roneld-eval, whose benchmarks imported its modules; a benchmark "
             f"now builds on {own}.kit alone ({where})")
 
