@@ -1,6 +1,7 @@
 """roneld-eval: evaluate lane detectors and extractors (the SCNN/ENet-SAD baseline, RONELD, and
-any plug-in) on the lane benchmarks (CULane, TuSimple, VIL-100, OpenLane, CurveLanes, LLAMAS and
-any installed plug-in), with the RONELD paper's protocol and each benchmark's official scores.
+any plug-in) on the lane benchmarks (CULane, TuSimple, VIL-100, OpenLane 2D and 3D, Apollo 3D
+Synthetic, ONCE-3DLanes, CurveLanes, LLAMAS and any installed plug-in), with the RONELD paper's
+protocol and each benchmark's official scores.
 
 The CLI is a thin layer over these functions: `run`, `score(NAME, ...)` (`score_culane`,
 `score_tusimple`: its older names), `show`, `synthesize`, `compare`, `replay_clip` do what
