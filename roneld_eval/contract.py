@@ -35,9 +35,8 @@ def check_benchmark(name: str, folder: str | Path) -> None:
     """Check the registered benchmark `name` keeps the contract, writing into `folder` (an empty
     folder of the caller's, as pytest's tmp_path); ContractBroken at the first step that fails."""
     from .config import EvalConfig
-    from .resolve import benchmark_named
-
     from .errors import RoneldEvalError
+    from .resolve import benchmark_named
 
     folder = Path(folder)
     try:  # it loads, has every member, and its score command (if any) fits its scorer
