@@ -63,6 +63,19 @@ def test_a_third_party_benchmark_runs_and_scores_as_a_built_in_one(toy_runs):
     assert scored.stdout.strip().endswith(f"{predicted} predicted")
 
 
+def test_a_third_party_benchmark_scores_from_python_as_its_command_does(toy_runs):
+    line = ("import roneld_eval, sys; print(roneld_eval.score('toy', sys.argv[1], pred_root=sys.argv[2]))")
+    done = subprocess.run([sys.executable, "-c", line, str(toy_runs / "set" / "data"),
+                           str(toy_runs / "run1" / "lanes" / "baseline")], capture_output=True, text=True,
+                          env=env_importing(TOY), timeout=120)
+    assert done.returncode == 0, done.stderr
+    scored = cli("score", "toy", "--data-root", str(toy_runs / "set" / "data"),
+                 "--pred-root", str(toy_runs / "run1" / "lanes" / "baseline"))
+    count = re.fullmatch(r"ToyCount\(frames=(\d+), gt_lanes=(\d+), pred_lanes=(\d+)\)\n", done.stdout)
+    assert count is not None, done.stdout
+    assert scored.stdout == "{} frames: {} ground-truth lanes, {} predicted\n".format(*count.groups())
+
+
 def test_the_toy_installed_with_pip_runs_and_scores_as_from_its_folder(toy_runs, tmp_path):
     # The toy as a third party ships it: its own pyproject.toml, installed by pip (no hand-made
     # dist-info on the path), its benchmark found through the entry point pip writes.

@@ -139,8 +139,11 @@ class ToyBenchmark:
         (data / "frames.txt").write_text("\n".join(listing) + "\n")
         return SynthResult(data, maps_root, self.name, maps_format, clips, clips * frames)
 
+    def scorer(self):  # what roneld_eval.score("toy", ...) calls
+        return score_toy
+
     def score_command(self):
-        return command_of(COMMAND, score_toy)
+        return command_of(COMMAND, self.scorer())
 
     def official_protocol(self, protocol):
         return None
@@ -175,12 +178,12 @@ class ToyCount:
 
 def score_toy(data_root, pred_root):
     """Count a detector's lanes against ToyLanes' ground truth."""
-    dataset = BENCHMARK.read(data_root, None, None, None, True)
+    dataset = BENCHMARK.read(Path(data_root), None, None, None, True)
     n_gt = n_pred = 0
     for clip in dataset.clips:
         for frame in clip.frames:
             n_gt += len(frame.lanes)
-            n_pred += len(read_lines_txt(_labels(pred_root, frame.relpath)))
+            n_pred += len(read_lines_txt(_labels(Path(pred_root), frame.relpath)))
     return ToyCount(dataset.n_frames, n_gt, n_pred)
 
 
