@@ -55,9 +55,13 @@ def default_config(dataset: str | None = None) -> EvalConfig:
     if benchmark.default_preset is None:
         raise ConfigError(f"{benchmark.display_name} is scored from lane files only: "
                           f"`roneld-eval score {benchmark.name}`")
+    preset = EvalConfig.from_toml(benchmark.default_preset)
+    if preset.dataset.name not in ("", benchmark.name):  # a benchmark's copied preset, not renamed
+        raise ConfigError(f"benchmark {benchmark.name!r}: its default preset ({benchmark.default_preset}) is for "
+                          f"dataset {preset.dataset.name!r}, not for it")
     # A preset name or a file; not the user's file, so what is wrong later is not said to be in it
     # (`--set dataset.name=foo` is no fault of scnn-culane.toml).
-    return replace(EvalConfig.from_toml(benchmark.default_preset), source=None)
+    return replace(preset, source=None)
 
 
 def with_fixture(config: EvalConfig, benchmark: Benchmark | None = None) -> EvalConfig:

@@ -9,8 +9,9 @@ from one line in its tests (through roneld_eval.kit):
 
 The steps, each through the command line a user types: `score NAME --help` builds (where the
 benchmark has a score command); the command `synth` prints for a small set runs and writes an
-official table; two shards of it merged give that table byte for byte (a run's merge reads every
-clip's frame records back from the parts, `decode` of `to_json`, and scores nothing again); two
+official table; two shards of it merged give that table byte for byte (a run's always; a score
+command's where it has --shard; a run's merge reads every clip's frame records back from the parts,
+`decode` of `to_json`, and scores nothing again); two
 runs of the maps its preset's model writes, their lanes saved (`lane_file`), are read back by
 `compare` into one official table; and a run reads the lanes one of them saved as another
 detector's (`detector_lanes`, `run --maps-format lanes`). A benchmark that cannot be loaded, lacks a
@@ -39,26 +40,33 @@ def check_benchmark(name: str, folder: str | Path) -> None:
     from .resolve import benchmark_named
 
     folder = Path(folder)
-    try:  # it loads, has every member, and its score command (if any) fits its scorer
+    try:  # what is not a command: it loads, has every member, its score command fits its scorer
         benchmark = benchmark_named(name)
-        has_command = benchmark.score_command() is not None
+        command_built = benchmark.score_command()
+        command = _synthesized(benchmark, folder / "set", None)
     except RoneldEvalError as error:
         raise ContractBroken(f"{name}: {error}") from None
-    if has_command:
+    if command_built is not None:
         _invoke("its score command builds", ["score", name, "--help"])
-    command = _synthesized(benchmark, folder / "set", None)
     whole = _official(command, folder / "whole", "its synthetic set is scored")
     if whole.count("\n") < 2:
         raise ContractBroken(f"{name}: its official table has no row:\n{whole}")
-    for share in ("1/2", "2/2"):
-        _invoke(f"shard {share} is scored", [*command, "--shard", share, "--out", str(folder / f"part{share[0]}")])
-    merged = _official(["merge", str(folder / "part1"), str(folder / "part2")], folder / "merged",
-                       "its two shards merge")
-    _same(name, "two shards merged", merged, whole)
+    # shards: a run's always; a score command's where it declares them (the built-in ones all do)
+    if command[0] == "run" or command_built is not None and any(
+            parameter.name == "shard" for parameter in command_built.params):
+        for share in ("1/2", "2/2"):
+            _invoke(f"shard {share} is scored", [*command, "--shard", share, "--out",
+                                                 str(folder / f"part{share[0]}")])
+        merged = _official(["merge", str(folder / "part1"), str(folder / "part2")], folder / "merged",
+                           "its two shards merge")
+        _same(name, "two shards merged", merged, whole)
     if command[0] == "run" and benchmark.default_preset is not None:
-        preset = EvalConfig.from_toml(benchmark.default_preset)
-        _compared(name, _synthesized(benchmark, folder / "preset-set", preset.maps.format), folder,
-                  benchmark.detector_lanes is not None)
+        try:
+            preset = EvalConfig.from_toml(benchmark.default_preset)
+            preset_set = _synthesized(benchmark, folder / "preset-set", preset.maps.format)
+        except RoneldEvalError as error:
+            raise ContractBroken(f"{name}: {error}") from None
+        _compared(name, preset_set, folder, benchmark.detector_lanes is not None)
 
 
 def _without_maps(command: list[str]) -> list[str]:
@@ -86,6 +94,8 @@ def _synthesized(benchmark: Any, out: Path, maps_format: str | None) -> list[str
     if argv[:1] != ["roneld-eval"] or argv[1:2] not in (["run"], ["score"]):
         raise ContractBroken(f"{benchmark.name}: synth's command is not `roneld-eval run` or `score`: "
                              f"{result.command}")
+    if result.dataset != benchmark.name:
+        raise ContractBroken(f"{benchmark.name}: its synthesize says its set is of dataset {result.dataset!r}")
     return argv[1:] + (["--workers", "1"] if argv[1] == "run" else [])
 
 
@@ -127,7 +137,9 @@ def _invoke(step: str, args: list[str]) -> str:
 
     from .cli import main
 
-    result = CliRunner().invoke(main, args, catch_exceptions=False)
+    result = CliRunner().invoke(main, args, prog_name="roneld-eval", catch_exceptions=False)
+    if result.exit_code == 130:  # Ctrl-C, which the command said as such: it stops the caller too
+        raise KeyboardInterrupt
     if result.exit_code != 0:
         raise ContractBroken(f"{step}: roneld-eval {shlex.join(args)} exited {result.exit_code}:\n{result.output}")
     return result.output

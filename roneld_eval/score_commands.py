@@ -205,23 +205,34 @@ def command_of(spec: ScoreCommand, scorer: Callable[..., Any]) -> click.Command:
     """A third party's `score_command()` (roneld_eval.kit): the click command of its declaration,
     calling `scorer` with the options' values and printing what `spec.report` says of its result.
     A declaration that does not fit the scorer's signature is a ConfigError here, when the command
-    is built; what the scorer raises besides the tool's own errors is one line naming it."""
+    is built; what the scorer or the report raises besides the tool's own errors is one line
+    naming it."""
+    from dataclasses import replace
+
     from .errors import ConfigError
 
     problem = declaration_problem(spec, scorer)
     if problem is not None:
         raise ConfigError(f"score {spec.name}: its ScoreCommand does not fit {_named(scorer)}: {problem}")
-    return built(spec, lambda: _one_line_failures(spec, scorer))
+    guarded = replace(spec, report=_one_line_failures(spec.name, spec.report))
+    return built(guarded, lambda: _one_line_failures(spec.name, scorer))
+
+
+# What the driver adds to every command, or takes for itself: a declaration may not give these.
+RESERVED_FLAGS = frozenset({"--debug", "--help", "-h", "--shard", "--executor", "--scheduler"})
+RESERVED_NAMES = frozenset({"debug", "shard", "executor", "scheduler"})
 
 
 def declaration_problem(spec: ScoreCommand, scorer: Callable[..., Any]) -> str | None:
     """Why `scorer` cannot take the arguments `spec` hands it (its positional values, the other
-    options by name, progress/announce and shard where declared), or None. A declaration with a
-    `prepare` step, which may rename values, is not checked."""
+    options by name, progress/announce and shard where declared), or why the options cannot be a
+    command (a flag or value given twice, one the driver gives), or None. The scorer of a
+    declaration with a `prepare` step, which may rename values, is not checked."""
     import inspect
 
-    if spec.prepare is not None:
-        return None
+    problem = _options_problem(spec)
+    if problem is not None or spec.prepare is not None:
+        return problem
     names = {_value_name(option) for option in spec.options if isinstance(option, Option)} - {"quiet"}
     unknown = [name for name in spec.positional if name not in names]
     if unknown:
@@ -233,6 +244,22 @@ def declaration_problem(spec: ScoreCommand, scorer: Callable[..., Any]) -> str |
         return str(error)
     except ValueError:  # a builtin without a signature: nothing to check it against
         return None
+    return None
+
+
+def _options_problem(spec: ScoreCommand) -> str | None:
+    """A flag or value name declared twice or one the driver gives itself; a positional named twice."""
+    options = [option for option in spec.options if isinstance(option, Option)]
+    flags = [flag for option in options for flag in option.flags.split("/")]
+    names = [_value_name(option) for option in options]
+    for what, given, reserved in (("flag", flags, RESERVED_FLAGS), ("option value", names, RESERVED_NAMES),
+                                  ("positional", list(spec.positional), frozenset())):
+        twice = sorted({item for item in given if given.count(item) > 1})
+        if twice:
+            return f"{what} {', '.join(twice)} is declared more than once"
+        taken = sorted(set(given) & reserved)
+        if taken:
+            return f"{what} {', '.join(taken)} is the driver's own (every command has it): give it another name"
     return None
 
 
@@ -252,27 +279,33 @@ def _value_name(option: Option) -> str:
     return option.name or option.flags.split("/")[0].lstrip("-").replace("-", "_")
 
 
-def _named(scorer: Callable[..., Any]) -> str:
-    return f"{getattr(scorer, '__module__', '?')}.{getattr(scorer, '__qualname__', repr(scorer))}"
+def _named(function: Callable[..., Any]) -> str:
+    return f"{getattr(function, '__module__', '?')}.{getattr(function, '__qualname__', repr(function))}"
 
 
-def _one_line_failures(spec: ScoreCommand, scorer: Callable[..., Any]) -> Callable[..., Any]:
-    """`scorer`, whose failures other than the tool's own errors (and Ctrl-C, memory, the file
-    system's) are a PluginError naming it: another package's bug is one line (--debug: where)."""
+def _one_line_failures(command: str, function: Callable[..., Any]) -> Callable[..., Any]:
+    """`function` (a plug-in's scorer or report), whose failures other than the tool's own errors
+    (and Ctrl-C, memory, a file named) are a PluginError naming it: another package's bug is one
+    line (--debug: where)."""
     import functools
 
     from .errors import PluginError, RoneldEvalError
 
-    @functools.wraps(scorer)
+    @functools.wraps(function)
     def guarded(*args: Any, **kwargs: Any) -> Any:
         try:
-            return scorer(*args, **kwargs)
-        except (RoneldEvalError, MemoryError, OSError):
+            return function(*args, **kwargs)
+        except OSError as error:
+            if getattr(error, "filename", None) is not None:
+                raise  # said as "FILE: what" (a prediction file not found)
+            failure: BaseException = error
+        except (RoneldEvalError, MemoryError):
             raise
         except (Exception, SystemExit) as error:  # not KeyboardInterrupt: Ctrl-C is Ctrl-C
-            from .evaluation.plugin_call import raised_text
+            failure = error
+        from .evaluation.plugin_call import raised_text
 
-            raise PluginError(f"score {spec.name}: {_named(scorer)} raised {raised_text(error)}") from error
+        raise PluginError(f"score {command}: {_named(function)} raised {raised_text(failure)}") from failure
     return guarded
 
 
@@ -301,7 +334,7 @@ def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any
     for warning in getattr(score, "warnings", ()):  # never silently, --quiet or not
         click.echo(warning, err=True)
     if not quiet:
-        spec.report(score, given, click.echo)
+        _guard(spec.report, debug, score, given, click.echo)  # a plug-in's report may fail: one line
 
 
 def _arguments(spec: ScoreCommand, values: dict[str, Any], quiet: bool) -> tuple[list[Any], dict[str, Any]]:

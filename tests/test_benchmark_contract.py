@@ -70,3 +70,30 @@ def test_lanes_a_benchmark_cannot_write_break_the_contract(tmp_path):
     assert done.returncode == 1
     assert "ContractBroken: a run of ModelA: roneld-eval run --dataset nolanes" in done.stderr
     assert "lane_file() raised RuntimeError: lane_file broken" in done.stderr
+
+
+def test_a_benchmark_whose_preset_is_another_ones_is_refused_not_run_as_that_one(tmp_path):
+    # An attack pass: a copied preset naming `toy` made `run --dataset copied` evaluate the toy, and the
+    # contract passed.
+    from test_benchmark_plugins import _variant
+
+    toy_preset = TOY / "toy_lanes" / "toy.toml"
+    path = _variant(tmp_path / "pkg", "copied", f"    default_preset = {str(toy_preset)!r}\n")
+    line = f"from roneld_eval.kit import check_benchmark; check_benchmark('copied', {str(tmp_path / 'c')!r})"
+    done = subprocess.run([sys.executable, "-c", line], capture_output=True, text=True, env=env_importing(path),
+                          timeout=600)
+    assert done.returncode == 1
+    assert ("ContractBroken: its synthetic set is scored: roneld-eval run --dataset copied" in done.stderr
+            and f"error: benchmark 'copied': its default preset ({toy_preset}) is for dataset 'toy', not for it"
+            in done.stderr), done.stderr
+
+
+def test_ctrl_c_in_a_step_stops_the_contract_as_ctrl_c(tmp_path, monkeypatch):
+    from roneld_eval import contract
+
+    class Interrupted:
+        exit_code, output = 130, "Interrupted\n"
+
+    monkeypatch.setattr("click.testing.CliRunner.invoke", lambda *args, **kwargs: Interrupted())
+    with pytest.raises(KeyboardInterrupt):
+        contract._invoke("a step", ["run"])

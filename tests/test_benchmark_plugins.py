@@ -150,19 +150,20 @@ def test_a_broken_benchmark_is_one_line_and_is_listed_with_the_others(tmp_path, 
         assert done.stderr.strip() == f"error: benchmark 'bad' (bad_mod:B) {problem}", args
 
 
+KIT_HINT = ("it imports roneld-eval's own modules, as benchmarks written before the kit did; a benchmark now "
+            "builds on roneld_eval.kit alone")
+
+
 @pytest.mark.parametrize("imported, problem", [
     # what the toy imported when benchmarks reached into the package's modules (ca5cdc9)
     ("from roneld_eval.lanes_io import format_culane_lines",
-     "ImportError: cannot import name 'format_culane_lines' from 'roneld_eval.lanes_io' ({where}): it is written "
-     "to an older roneld-eval, whose benchmarks imported its modules; a benchmark now builds on roneld_eval.kit "
-     "alone (format_culane_lines is kit.format_lines_txt)"),
+     "ImportError: cannot import name 'format_culane_lines' from 'roneld_eval.lanes_io' ({where}): "
+     f"{KIT_HINT} (format_culane_lines is kit.format_lines_txt)"),
     ("from roneld_eval.synth import _write_maps",
-     "ImportError: cannot import name '_write_maps' from 'roneld_eval.synth' ({where}): it is written to an older "
-     "roneld-eval, whose benchmarks imported its modules; a benchmark now builds on roneld_eval.kit alone "
+     f"ImportError: cannot import name '_write_maps' from 'roneld_eval.synth' ({{where}}): {KIT_HINT} "
      "(_write_maps is kit.write_maps)"),
     ("from roneld_eval.metrics.culane_official import GroupCounts",
-     "ModuleNotFoundError: No module named 'roneld_eval.metrics.culane_official': it is written to an older "
-     "roneld-eval, whose benchmarks imported its modules; a benchmark now builds on roneld_eval.kit alone "
+     f"ModuleNotFoundError: No module named 'roneld_eval.metrics.culane_official': {KIT_HINT} "
      '(README "Your own benchmark")'),
     ("from roneld_eval.kit import format_culane_lines",  # the kit's own names: no older version to blame
      "ImportError: cannot import name 'format_culane_lines' from 'roneld_eval.kit' ({where})"),
@@ -381,3 +382,42 @@ def test_the_toy_builds_on_the_kit_alone_and_every_kit_name_resolves():
     assert {name for name in imported if name and name.startswith("roneld_eval")} == {"roneld_eval.kit"}
     for name in kit.__all__:
         assert getattr(kit, name) is not None, name
+
+
+def test_what_a_plug_in_raised_is_one_line_whatever_its_message():
+    # An attack pass: a 5 MB message was printed whole, and an exception whose __str__ raises was a traceback.
+    from roneld_eval.benchmarks.plugins import import_problem
+    from roneld_eval.evaluation.plugin_call import RAISED_TEXT_CHARS, raised_text
+
+    class Unsayable(ImportError):
+        def __str__(self):
+            raise RuntimeError("no")
+
+    assert raised_text(ValueError("x" * 5_000_000)) == f"ValueError: {'x' * RAISED_TEXT_CHARS} …"
+    assert raised_text(ValueError("first\nsecond")) == "ValueError: first"
+    assert raised_text(Unsayable(name="roneld_eval.gone")).startswith("Unsayable")
+    assert import_problem(Unsayable(name="roneld_eval.gone")).startswith("Unsayable: it imports roneld-eval's own")
+
+
+def test_a_broken_plug_in_does_not_change_what_a_built_in_run_says(tmp_path):
+    # An attack pass: the "maps missing" hint of a built-in run loaded every plug-in, so one raising
+    # KeyboardInterrupt at import ended the run as interrupted (one that hung delayed it by 60 s).
+    from roneld_eval.benchmarks.culane.synth import synth_culane
+
+    path = _package(tmp_path / "pkg", "ctrlc", "ctrlc = ctrlc_mod:B", "ctrlc_mod", "raise KeyboardInterrupt\n")
+    culane = synth_culane(tmp_path / "c", clips=1, frames=2, seed=2, maps_format="lanes")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    done = cli("run", "--data-root", str(culane.data_root), "--maps-root", str(empty), "--maps-format", "lanes",
+               "--workers", "1", "--quiet", "--out", str(tmp_path / "out"), path=path, check=False, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("error: ") and done.stderr.count("\n") == 1 and "ctrlc" not in done.stderr
+
+
+@pytest.mark.parametrize("name", ["--quiet", "../evil", "a b", "Toy"])
+def test_a_benchmark_name_that_cannot_name_a_command_and_folders_is_refused(tmp_path, name):
+    path = _package(tmp_path / "pkg", "odd", f"{name} = odd_mod:B", "odd_mod", "B = None\n")
+    done = cli("synth", "--dataset", name, "--out", str(tmp_path / "s"), path=path, check=False, timeout=60)
+    assert done.returncode == 2
+    assert done.stderr == (f"error: benchmark {name!r} (odd_mod:B): a benchmark's name is lowercase letters, digits, "
+                           "'-' and '_', beginning with a letter or digit (it names a command and folders)\n")

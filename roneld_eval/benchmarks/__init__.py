@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import importlib.metadata
 import inspect
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
@@ -248,6 +249,9 @@ def _loaded(name: str) -> Benchmark:
         known = ", ".join(points) or "none (is roneld-eval installed?)"
         raise ConfigError(f"unknown dataset {name!r}; choose from {known}")
     point = points[name]
+    if not point.value.startswith(_OWN) and not _NAME.fullmatch(name):  # `--quiet`, `../x`, `a b`
+        raise ConfigError(f"benchmark {name!r} ({point.value}): a benchmark's name is lowercase letters, digits, "
+                          "'-' and '_', beginning with a letter or digit (it names a command and folders)")
     if not point.value.startswith(_OWN):  # a third party's: a plug-in (benchmarks.plugins)
         from . import plugins
 
@@ -270,14 +274,18 @@ def _loaded(name: str) -> Benchmark:
 
 
 _MISSING = object()
+_NAME = re.compile(r"[a-z0-9][a-z0-9_-]*")
 
 
 def detector_lane_formats() -> dict[str, Any]:
-    """Each installed benchmark's format of a detector's lane files (`detector_lanes`), where it
-    declares one: what says which benchmark reads the lane files a user gave another. A plug-in
-    that cannot be loaded is left out (its error is said where it is used)."""
+    """Each built-in benchmark's format of a detector's lane files (`detector_lanes`), where it
+    declares one: what says which benchmark reads the lane files a user gave another. Another
+    package's are not asked: a hint must not import its code (one that hung at import delayed a
+    built-in run's error by its time limit)."""
     formats = {}
-    for name in names():
+    for name, point in _entry_points().items():
+        if not point.value.startswith(_OWN):
+            continue
         try:
             files = _loaded(name).detector_lanes
         except (ConfigError, ImportError, AttributeError):

@@ -93,8 +93,8 @@ def _import_here(entry: str, limit_s: float) -> str | None:
             importlib.metadata.EntryPoint(name="", value=entry, group="").load()
     except TimeLimitExceeded:
         return f"importing it {_too_slow(limit_s)}"
-    except (Exception, SystemExit) as error:
-        return import_problem(error)
+    except (Exception, SystemExit, KeyboardInterrupt) as error:  # in the probe, a plug-in's own: Ctrl-C
+        return import_problem(error)  # reaches the main process, which stops on it
     return None
 
 
@@ -115,13 +115,16 @@ def import_problem(error: BaseException) -> str:
 
     from .. import kit
 
-    found = _CANNOT_IMPORT.search(str(error))
+    try:
+        found = _CANNOT_IMPORT.search(str(error))
+    except Exception:  # its __str__ fails (raised_text said so)
+        found = None
     name = found.group(1) if found else ""
     # the kit's name closest to the one it asked for (`format_culane_lines` is `format_lines_txt`)
     like = difflib.get_close_matches(name, kit.__all__, n=1, cutoff=0.6) if name else []
     where = f"{name} is kit.{like[0]}" if like else 'README "Your own benchmark"'
-    return (f"{text}: it is written to an older roneld-eval, whose benchmarks imported its modules; a benchmark "
-            f"now builds on {own}.kit alone ({where})")
+    return (f"{text}: it imports roneld-eval's own modules, as benchmarks written before the kit did; a "
+            f"benchmark now builds on {own}.kit alone ({where})")
 
 
 def _too_slow(limit_s: float) -> str:

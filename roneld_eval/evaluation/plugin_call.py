@@ -76,9 +76,20 @@ def too_slow_text(method: str, limit_s: float | None) -> str:
 OVERDUE_GRACE_S = 2.0
 
 
+RAISED_TEXT_CHARS = 500  # of a plug-in's message: one line, not the 5 MB one an attack pass raised
+
+
 def raised_text(error: BaseException) -> str:
-    text = str(error).strip().splitlines()
-    return f"{type(error).__name__}: {text[0]}" if text else type(error).__name__
+    """'Type: first line of its message' (cut to RAISED_TEXT_CHARS), or the type alone where its
+    message is empty or cannot be made (a __str__ that raises)."""
+    try:
+        text = str(error).strip().splitlines()
+    except Exception:  # a plug-in's exception whose __str__ fails: its type is what is known
+        text = []
+    if not text:
+        return type(error).__name__
+    line = text[0] if len(text[0]) <= RAISED_TEXT_CHARS else text[0][:RAISED_TEXT_CHARS] + " …"
+    return f"{type(error).__name__}: {line}"
 
 
 def exit_text(code: int | None) -> str:
