@@ -264,7 +264,7 @@ def merge_run(parts, out: str | Path) -> RunResult:
 
     config_path = parts[0].path / CONFIG
     requested, benchmark = configured(EvalConfig.from_toml_text(
-        decode_text(parts[0].read(CONFIG, CONFIG_SIZE), config_path), source=str(config_path), file=str(config_path)))
+        decode_text(parts[0].read(CONFIG, CONFIG_SIZE), config_path), source=str(config_path)))
     config = with_fixture(requested, benchmark)
     if config.plugins:  # a part is untrusted: merging it must not import code it names
         raise InputError(parts[0].path / CONFIG, "names plug-in methods; merge imports no code a part names: "

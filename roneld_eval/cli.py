@@ -243,6 +243,12 @@ def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
     config = EvalConfig.from_toml(config_file)
     if dataset is not None and config.dataset.name and dataset != config.dataset.name:
         raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
+    from .benchmarks import default_name
+    from .resolve import benchmark_named
+
+    preset = benchmark_named(dataset or config.dataset.name or default_name()).default_preset
+    if preset is not None:  # what the file leaves out is its dataset's preset's, not CULane's defaults
+        config = EvalConfig.from_toml_over(config_file, preset)
     if dataset is not None:
         config = config.with_overrides(**{"dataset.name": dataset})
     configured(config)  # what the file lacks or contradicts of its benchmark, said naming it
@@ -254,7 +260,8 @@ def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
 @main.command()
 @click.option("--config", "config_file", metavar="FILE|PRESET",
               help=f"Configuration TOML file or preset name ({', '.join(preset_names())}). "
-                   "Default: the dataset's preset (SCNN's, where there is one).")
+                   "Default: the dataset's preset (SCNN's, where there is one). A file that gives only some "
+                   "settings takes the others from its dataset's preset.")
 @click.option("--dataset", type=click.Choice(benchmark_names()),
               help="Benchmark layout of --data-root. Default: the config's, else the bundled fixture's.")
 @click.option("--data-root", type=click.Path(path_type=Path),
@@ -702,7 +709,8 @@ class _ImageSize(click.ParamType):
                    "Needed where the dataset holds several.")
 @click.option("--config", "config_file", metavar="FILE|PRESET",
               help=f"Configuration file or preset ({', '.join(preset_names())}). Default: the dataset's "
-                   "default preset (SCNN's, where there is one).")
+                   "default preset (SCNN's, where there is one). A file that gives only some settings takes the "
+                   "others from its dataset's preset.")
 @click.option("--dataset", type=click.Choice(benchmark_names()),
               help="Benchmark whose default preset to use, and whose layout --data-root has.")
 @click.option("--maps-format", type=MapFormatChoice(),

@@ -406,15 +406,17 @@ class EvalConfig:
     # ---- building -------------------------------------------------------------------
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], source: str = "configuration", file: str | None = None) -> "EvalConfig":
+    def from_dict(cls, data: dict[str, Any], source: str | None = None) -> "EvalConfig":
         """Build from a nested dict as TOML gives it; unknown keys are errors.
 
         Values are checked as every other way of building a configuration checks them
-        (types and RANGES); a problem names `source`. `file`: the file it was read from (kept as
-        `source`, named by what is checked once the benchmark's facts are filled in).
+        (types and RANGES); a problem names `source`, the file it was read from (kept as the
+        configuration's `source`, named by what is checked once the benchmark's facts are filled
+        in), or "configuration" without one.
         """
+        where = source or "configuration"
         if not isinstance(data, dict):
-            raise ConfigError(f"{source}: a configuration must be a table of settings")
+            raise ConfigError(f"{where}: a configuration must be a table of settings")
         kwargs: dict[str, Any] = {}
         known = {f.name for f in fields(cls)} - {"plugins", "source"}  # plug-ins are [methods.NAME] tables
         try:
@@ -438,26 +440,35 @@ class EvalConfig:
                     if name not in section_known:
                         raise ConfigError(f"[{key}] unknown key {name!r}")
                 kwargs[key] = section_type(**value)
-            return cls(**kwargs, source=file)
+            return cls(**kwargs, source=source)
         except ConfigError as error:
-            raise ConfigError(f"{source}: {error}") from None
+            raise ConfigError(f"{where}: {error}") from None
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "EvalConfig":
         """Read a TOML file (a preset name also works: see `preset_path`)."""
         path = resolve_config_path(path)
-        return cls.from_toml_text(_read_config_text(path), source=str(path), file=str(path))
+        return cls.from_toml_text(_read_config_text(path), source=str(path))
 
     @classmethod
-    def from_toml_text(cls, text: str, source: str = "configuration", file: str | None = None) -> "EvalConfig":
-        """Build from TOML text (what `to_toml` writes)."""
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as error:
-            raise ConfigError(f"{source}: not valid TOML: {error}") from None
-        except RecursionError:  # tomllib recurses once per nested array
-            raise ConfigError(f"{source}: not a configuration: nested too deeply") from None
-        return cls.from_dict(data, source=source, file=file)
+    def from_toml_text(cls, text: str, source: str | None = None) -> "EvalConfig":
+        """Build from TOML text (what `to_toml` writes), read from the file `source` if given."""
+        return cls.from_dict(_toml_data(text, source), source=source)
+
+    @classmethod
+    def from_toml_over(cls, path: str | Path, base: str | Path) -> "EvalConfig":
+        """The TOML file (or preset) `path` read over `base` (a benchmark's default preset): every
+        setting the file leaves out is the base's, section by section, so that a file of a few
+        settings for TuSimple keeps TuSimple's rows and crop instead of the dataclasses' defaults
+        (SCNN's on CULane); what the file gives wins, and a problem is said naming the file."""
+        path, base = resolve_config_path(path), resolve_config_path(base)
+        top = _toml_data(_read_config_text(path), str(path))
+        under = _toml_data(_read_config_text(base), str(base))
+        layered = dict(under)
+        for key, value in top.items():
+            sectioned = key in _SECTION_TYPES and isinstance(value, dict) and isinstance(under.get(key), dict)
+            layered[key] = {**under[key], **value} if sectioned else value
+        return cls.from_dict(layered, source=str(path))
 
     @classmethod
     def preset(cls, name: str) -> "EvalConfig":
@@ -581,6 +592,16 @@ def parse_setting(text: str) -> tuple[str, Any]:
     if base.startswith("tuple"):
         return key, value if understood and isinstance(value, (str, list)) else raw
     return key, value if understood else raw
+
+
+def _toml_data(text: str, source: str | None) -> Any:
+    """TOML text as the dict it holds, or one ConfigError line naming `source`."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{source or 'configuration'}: not valid TOML: {error}") from None
+    except RecursionError:  # tomllib recurses once per nested array
+        raise ConfigError(f"{source or 'configuration'}: not a configuration: nested too deeply") from None
 
 
 def _read_config_text(path: Path) -> str:

@@ -111,3 +111,37 @@ def test_a_huge_config_file_is_refused_unread(tmp_path):
         handle.truncate(10 * 10**9)
     with pytest.raises(ConfigError, match="huge.toml: too large \\(10,000,000,000 bytes\\)"):
         EvalConfig.from_toml(path)
+
+
+def test_a_file_of_a_few_settings_keeps_the_rest_of_the_base_preset(tmp_path):
+    # A first-time user's my.toml of one setting with --dataset tusimple read CULane's baseline rows (the
+    # dataclasses' defaults): baseline accuracy 0.000 instead of 0.500, without a word.
+    mine = tmp_path / "my.toml"
+    mine.write_text("[roneld]\nlane_ratio = 0.25\n[baseline]\nthreshold = 0.4\n")
+    layered = EvalConfig.from_toml_over(mine, "scnn-tusimple")
+    preset = EvalConfig.preset("scnn-tusimple")
+    assert layered.baseline.rows == preset.baseline.rows != EvalConfig().baseline.rows
+    assert (layered.roneld.lane_ratio, layered.baseline.threshold) == (0.25, 0.4)  # the file's own win
+    assert layered.roneld.center_ratio == preset.roneld.center_ratio
+    assert layered.source == str(mine)
+    mine.write_text("[roneld]\nlane_ratio = 7\n")
+    with pytest.raises(ConfigError, match=f"^{mine}: roneld.lane_ratio must be in"):
+        EvalConfig.from_toml_over(mine, "scnn-tusimple")
+
+
+def test_run_reads_a_partial_config_file_over_its_datasets_preset(tmp_path):
+    from click.testing import CliRunner
+
+    from roneld_eval.benchmarks.tusimple.synth import synth_tusimple
+    from roneld_eval.cli import main
+
+    made = synth_tusimple(tmp_path / "t", clips=2, frames=10, seed=1)
+    (tmp_path / "my.toml").write_text("[roneld]\nlane_ratio = 0.6\n")  # what scnn-tusimple says too
+    for name, config in (("mine", ["--config", str(tmp_path / "my.toml"), "--dataset", "tusimple"]),
+                         ("preset", ["--config", "scnn-tusimple"])):
+        done = CliRunner().invoke(main, ["run", *config, "--data-root", str(made.data_root), "--maps-root",
+                                         str(made.maps_root), "--out", str(tmp_path / name), "--quiet",
+                                         "--workers", "1"])
+        assert done.exit_code == 0, done.output
+    for table in ("official.csv", "accuracy.csv"):
+        assert (tmp_path / "mine" / table).read_bytes() == (tmp_path / "preset" / table).read_bytes()
