@@ -495,7 +495,9 @@ def check_finished_run(run_dir: Path, other_kinds: str = "") -> None:
     """Stop unless `run_dir` holds the complete results of `roneld-eval run`; `other_kinds`
     says what else the reader takes, where another command wrote the folder."""
     if not run_dir.is_dir():
-        raise InputError(run_dir, "not found: give a folder written by `roneld-eval run`")
+        from .lanes_io import folder_problem
+
+        raise InputError(run_dir, f"{folder_problem(run_dir, 'not found')}: give a folder written by `roneld-eval run`")
     if os.path.lexists(run_dir / JOURNAL):  # also a first commit cut short, before any manifest
         raise InputError(run_dir, "its results are incomplete (a command was killed while putting them in "
                                   "place); run it again into this folder")

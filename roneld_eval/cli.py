@@ -167,7 +167,8 @@ def sharding_options(clips: str, verb: str = "Score"):
                               "paths on its workers (pip install 'roneld-eval[cluster]')."),
             click.option("--scheduler", metavar="ADDRESS",
                          help="With --executor dask: a running scheduler (tcp://HOST:8786). Default: a local cluster "
-                              "of --workers processes, started for this command."),
+                              "started for this command, of --workers processes where the command has --workers, "
+                              "else of one a core."),
         )):
             function = option(function)
         return function
@@ -315,7 +316,8 @@ def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
               help="Only check the dataset's layout and every frame's maps, and say what would be scored and "
                    "at which geometry; evaluate and write nothing (exit 0, or 2 with the problem).")
 @click.option("--out", type=OUT_FOLDER, default=Path(DEFAULT_OUT), show_default=True,
-              help="Folder for the results (the default is ignored by this repository's git, never results/).")
+              help="Folder for the results; git ignores the default in this repository. A folder of earlier "
+                   "results given here (results/ too) is replaced.")
 @sharding_options("clips", verb="Evaluate")
 @click.option("--no-timings", is_flag=True,
               help="Leave what the clock measures (runtime per frame, wall time) out of the report, so that running "

@@ -57,6 +57,14 @@ def _os_problem(error: OSError) -> str:
     return f"cannot read: {error.strerror or error}"
 
 
+def folder_problem(path: Path, missing: str) -> str:
+    """What is wrong with `path` where a folder is needed and none is: `missing` where nothing is
+    there, else what is there instead (a file given for a folder said "not found")."""
+    if not os.path.lexists(path):
+        return missing
+    return "is a file, not a folder" if os.path.isfile(path) else "is not a folder"
+
+
 def check_regular_file(path: Path, missing: str = "file not found", limit: SizeLimit | None = None) -> None:
     """Refuse, naming the file, anything but a readable regular file (before a library opens it),
     and one larger than `limit`.

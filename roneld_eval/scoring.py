@@ -244,7 +244,9 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
     for name, root in _root_specs(pred_root):
         refuse_cut_short(root)  # `run --save-lanes` killed while putting lanes/ in place
         if not root.is_dir():
-            raise InputError(root, "prediction root not found")
+            from .lanes_io import folder_problem
+
+            raise InputError(root, folder_problem(root, "prediction root not found"))
         present = listed.present(root)
         if present.any():
             # named as given (a link to a checkpoint keeps its own name), "." and ".." made absolute first

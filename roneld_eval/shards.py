@@ -41,7 +41,8 @@ ARRAYS_NAME = "part.npz"
 FILES_KEY = "files"  # in part.json: name -> SHA-256 of each other file of the part that merge reads
 SEAL_KEY = "digest"  # in part.json: the digest of all its other fields
 MAX_SHARDS = 100_000
-CHANGED = "changed since its shard wrote it (its SHA-256 is not the one part.json records): score that shard again"
+CHANGED = ("changed since its shard wrote it (its SHA-256 is not the one part.json records): run that shard's "
+           "command again")
 
 # A prediction tree's files of a frame (tree m of the command's trees, a frame's list entry), as
 # the command reads them: what a part's fingerprint of its predictions covers.
@@ -146,8 +147,8 @@ def check_predictions(where: Path, recorded: Any, trees: Sequence, files_of: Fil
             continue
         if record != [tree.method, os.path.abspath(tree.root), _tree_fingerprint(files_of, m, frames)]:
             raise InputError(where, f"the predictions of {tree.method} ({tree.root}) changed since this shard scored "
-                                    "them (a file's size or modification time, or a file added or removed): score "
-                                    "that shard again")
+                                    "them (a file's size or modification time, or a file added or removed): run "
+                                    "that shard's command again")
 
 
 @dataclass(frozen=True)
@@ -200,9 +201,13 @@ def read_part(folder: Path) -> Part:
     path = folder / MANIFEST_NAME
     if os.path.lexists(folder / JOURNAL):
         raise InputError(folder, "its part is incomplete (the command that wrote it was killed while putting it "
-                                 "in place): score the shard again into this folder")
+                                 "in place): run the shard's command again into this folder")
     if not path.exists() and folder.is_dir():
         raise InputError(folder, f"not a partial result (no {MANIFEST_NAME}: written by a command given --shard I/N)")
+    if not folder.is_dir():
+        from .lanes_io import folder_problem
+
+        raise InputError(folder, f"{folder_problem(folder, 'not found')}: give the folder of a shard's part")
     data = read_bytes(path, limit=CONFIG)
     assert data is not None
     manifest = _part_manifest(parse_json(data, path, "not a partial result", "not a partial result"), path)
@@ -220,10 +225,10 @@ def _part_manifest(manifest: Any, path: Path) -> dict:
         raise InputError(path, "not a partial result of roneld-eval")
     if manifest.get("format_version") == 1:
         raise InputError(path, "a part written by an older roneld-eval, without the digests that show an edit of its "
-                               "files: score the shard again with this version")
+                               "files: run the shard's command again with this version")
     if manifest.get("format_version") != PART_VERSION:
         raise InputError(path, f"a partial result of format {manifest.get('format_version')!r}; this version "
-                               f"reads format {PART_VERSION}: score the shard again with this version")
+                               f"reads format {PART_VERSION}: run the shard's command again with this version")
     return manifest
 
 
@@ -245,7 +250,7 @@ def _sealed_files(path: Path, manifest: dict) -> dict[str, str]:
     unsealed = {key: value for key, value in manifest.items() if key != SEAL_KEY}
     if manifest.get(SEAL_KEY) != digest(unsealed):
         raise InputError(path, "changed since its shard wrote it (its fields do not match the digest it records): "
-                               "score that shard again")
+                               "run that shard's command again")
     files = manifest.get(FILES_KEY)
     if not isinstance(files, dict) or not all(isinstance(value, str) for value in files.values()):
         raise InputError(path, "its digests of the part's files are not names and digests")

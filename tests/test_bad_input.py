@@ -865,3 +865,23 @@ def test_a_progress_bar_stopped_by_an_error_is_erased_above_its_line(tmp_path, m
     assert result.exit_code == 2 and "scoring" in result.output, result.output  # a bar was drawn
     *_, erased, said = result.output.split("\r")
     assert not erased.strip() and said.startswith("error: ") and said.count("\n") == 1, result.output
+
+
+def test_a_file_given_for_a_folder_is_said_to_be_a_file_not_missing(tmp_path):
+    # A first-time user: --maps-root, --pred-root, compare and merge said "not found" of a file that is there.
+    made = synth_culane(tmp_path / "set", clips=1, frames=2, seed=1)
+    afile = tmp_path / "afile.txt"
+    afile.write_text("x")
+    for args, said in (
+            (["run", "--data-root", str(made.data_root), "--maps-root", str(afile), "--out", str(tmp_path / "o")],
+             f"error: {afile}: is a file, not a folder"),
+            (["score", "culane", "--data-root", str(made.data_root), "--pred-root", str(afile)],
+             f"error: {afile}: is a file, not a folder"),
+            (["compare", str(afile), "--out", str(tmp_path / "c")],
+             f"error: {afile}: is a file, not a folder: give a folder written by `roneld-eval run`"),
+            (["merge", str(afile), "--out", str(tmp_path / "m")],
+             f"error: {afile}: is a file, not a folder: give the folder of a shard's part"),
+            (["merge", str(tmp_path / "nothere"), "--out", str(tmp_path / "m")],
+             f"error: {tmp_path / 'nothere'}: not found: give the folder of a shard's part")):
+        done = CliRunner().invoke(main, args)
+        assert (done.exit_code, done.output) == (2, said + "\n"), args

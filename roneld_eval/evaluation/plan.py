@@ -188,7 +188,9 @@ def _maps_root(config: EvalConfig, benchmark: Benchmark) -> Path:
         raise ConfigError("a run needs both a data root and a maps root")
     maps_root = Path(config.maps.root)
     if not maps_root.is_dir():
-        raise InputError(maps_root, "maps root not found")
+        from ..lanes_io import folder_problem
+
+        raise InputError(maps_root, folder_problem(maps_root, "maps root not found"))
     if config.maps.format == "lanes" and lane_files_of(config, benchmark) is None:
         raise ConfigError(f"--maps-format lanes: benchmark {config.dataset.name!r} declares no format for a "
                           "detector's lane files")
