@@ -70,8 +70,11 @@ _ENTRY = re.compile(r"(?:[A-Za-z_][\w]*(?:\.[A-Za-z_][\w]*)*|[^:\0]+\.py):[A-Za-
 def check_method_name(name: Any) -> str:
     """A method name that can be a folder and a table cell, or ConfigError."""
     if not isinstance(name, str) or not METHOD_NAME.fullmatch(name):
+        # `--set methods=[baseline]`: TOML, whose list needs its names quoted
+        listed = isinstance(name, str) and any(mark in name for mark in "[]'\"")
         raise ConfigError(f"bad method name {name!r}: use letters, digits and - _ . + (at most 64, starting "
-                          f"with a letter or digit)")
+                          f"with a letter or digit)" + ("; a list is methods=baseline,roneld or, as TOML, "
+                                                        "methods=[\"baseline\", \"roneld\"]" if listed else ""))
     return name
 
 

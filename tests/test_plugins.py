@@ -511,3 +511,14 @@ def test_a_worker_killed_inside_a_call_is_named_before_one_the_pool_terminated(m
                                                                             -signal.SIGKILL)
     assert tracker.died_in({11: -signal.SIGTERM, 12: None})[1] == "seq00/001.jpg"
     assert tracker.died_in({11: 3, 12: -signal.SIGKILL})[1] == "seq02/004.jpg"
+
+
+def test_a_method_list_written_as_toml_without_quotes_is_told_how_to_write_it():
+    # A first-time user's `--set 'methods=[baseline]'` was only "bad method name '[baseline]'".
+    from roneld_eval.plugin_methods import check_method_name
+
+    with pytest.raises(ConfigError, match=r"; a list is methods=baseline,roneld or, as TOML, "
+                                          r'methods=\["baseline", "roneld"\]$'):
+        check_method_name("[baseline]")
+    with pytest.raises(ConfigError, match=r"starting with a letter or digit\)$"):
+        check_method_name("-x")

@@ -1,6 +1,7 @@
-"""A toy benchmark, installed the way a third party's package would be: this folder holds the
-module and a `toy_lanes-0.dist-info` whose entry_points.txt registers it under
-`roneld_eval.benchmarks`; put the folder on PYTHONPATH and `--dataset toy` exists.
+"""A toy benchmark, as a third party's package ships one: `pip install tests/toy_benchmark` (its
+pyproject.toml registers it under `roneld_eval.benchmarks`) and `--dataset toy` exists. The tests
+use it without installing it: tests/toy_benchmark also holds a `toy_lanes-0.dist-info` saying the
+same, so that putting the folder on PYTHONPATH registers it too.
 
 Its layout: DATA/frames.txt lists `<clip>/<frame>.jpg`, each labelled frame's lanes lie in
 `DATA/<clip>/<frame>.lanes.txt` (CULane's .lines.txt format), 1000x500 frames. Its "official"
