@@ -232,30 +232,43 @@ def main():
     """
 
 
-def _given_config(config_file: str | None, dataset: str | None) -> EvalConfig:
+def _given_config(config_file: str | None, dataset: str | None, settings: tuple[str, ...] = ()) -> EvalConfig:
     """The configuration `--config` names (a file or preset), else `--dataset`'s default; the two
-    must not name different datasets."""
+    must not name different datasets. A file's settings are read over the preset of the dataset
+    the run will score (`--set dataset.name`'s, --dataset's or the file's), so that what it leaves
+    out is that dataset's, not the dataclasses' defaults (SCNN's on CULane)."""
     from .api import default_config
 
     if config_file is None:
         return default_config(dataset)
-    from .resolve import configured
+    from .benchmarks import default_name, names
+    from .resolve import benchmark_named, configured
 
     config = EvalConfig.from_toml(config_file)
     if dataset is not None and config.dataset.name and dataset != config.dataset.name:
         raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
-    from .benchmarks import default_name
-    from .resolve import benchmark_named
-
-    preset = benchmark_named(dataset or config.dataset.name or default_name()).default_preset
-    if preset is not None:  # what the file leaves out is its dataset's preset's, not CULane's defaults
-        config = EvalConfig.from_toml_over(config_file, preset)
     if dataset is not None:
         config = config.with_overrides(**{"dataset.name": dataset})
     configured(config)  # what the file lacks or contradicts of its benchmark, said naming it
+    chosen = _set_dataset(settings) or config.dataset.name or default_name()
+    preset = benchmark_named(chosen).default_preset if chosen in names() else None
+    if preset is not None:
+        config = EvalConfig.from_toml_over(config_file, preset)
+        if dataset is not None:
+            config = config.with_overrides(**{"dataset.name": dataset})
     # Left unfilled (and no longer naming the file): --set may still change the benchmark, and
     # a problem of the options given is not the file's.
     return replace(config, source=None)
+
+
+def _set_dataset(settings: tuple[str, ...]) -> str | None:
+    """The dataset `--set dataset.name=NAME` chooses (the last such setting), if any."""
+    chosen = None
+    for setting in settings:
+        key, value = parse_setting(setting)
+        if key == "dataset.name" and isinstance(value, str):
+            chosen = value
+    return chosen
 
 
 @main.command()
@@ -343,7 +356,7 @@ def run(config_file, dataset, data_root, maps_root, maps_format, list_file, meth
     _no_collections_at_exit()
 
     def build() -> EvalConfig:
-        config = _given_config(config_file, dataset)
+        config = _given_config(config_file, dataset, settings)
         overrides = {
             "dataset.data_root": None if data_root is None else str(data_root),
             "maps.root": None if maps_root is None else str(maps_root),
@@ -743,7 +756,7 @@ def replay(maps_root, data_root, list_file, clip_id, config_file, dataset, maps_
     from .replay import replay_clip
 
     def build() -> EvalConfig:
-        config = _given_config(config_file, dataset)
+        config = _given_config(config_file, dataset, settings)
         overrides = {"maps.root": str(maps_root), "maps.format": maps_format,
                      "dataset.data_root": None if data_root is None else str(data_root),
                      "dataset.list_file": None if list_file is None else str(list_file)}

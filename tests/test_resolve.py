@@ -78,6 +78,8 @@ def test_dataset_and_set_choose_the_benchmark_of_a_file_that_names_none(monkeypa
     for args in (["--dataset", "tusimple"], ["--set", "dataset.name=tusimple"]):
         config = built_config(monkeypatch, tmp_path, "--config", str(path), *args)
         assert (config.dataset.name, config.dataset.image_width, config.dataset.image_height) == ("tusimple", 1280, 720)
+        # what the file leaves out is TuSimple's preset's, not CULane's rows (a first-time user's wrong numbers)
+        assert config.baseline.rows == EvalConfig.preset("scnn-tusimple").baseline.rows, args
     named = write(tmp_path / "named.toml", '[dataset]\nname = "culane"\n')
     one_line(run_cli("run", "--config", str(named), "--dataset", "tusimple"), "contradicts the config's dataset")
 
