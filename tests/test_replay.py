@@ -125,6 +125,10 @@ def test_bad_input_is_one_line(tmp_path):
     empty.mkdir()
     one_line(invoke("replay", "--maps-root", tmp_path / "nowhere"), f"error: {tmp_path / 'nowhere'}: no such folder")
     one_line(invoke("replay", "--maps-root", empty), f"{empty}: holds no npy maps (files named <frame>.npy)")
+    (empty / "clip_b").mkdir()  # a dataset's maps root given for one clip's: a first-time user got no hint
+    (empty / "clip_a").mkdir()
+    one_line(invoke("replay", "--maps-root", empty), "(files named <frame>.npy): it holds folders (e.g. clip_a), as "
+             "a dataset's maps root does: give one clip's folder, or the dataset with --data-root and --clip")
     (empty / "00000.exist.txt").write_text("1 1 1 1\n")
     one_line(invoke("replay", "--maps-root", empty), "it holds 1 .exist.txt files, use --maps-format scnn-png")
     one_line(invoke("replay", "--maps-root", empty, "--image-size", "big"), "'big' is not WIDTHxHEIGHT")

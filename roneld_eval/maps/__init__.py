@@ -142,8 +142,18 @@ def frames_in_folder(folder: Path, config: MapsConfig, lane_files=None) -> list[
     names = sorted(entry.name for entry in entries if entry.is_file())
     stems = [name[:-len(suffix)] for name in names if name.endswith(suffix) and len(name) > len(suffix)]
     if not stems:
-        raise InputError(folder, f"holds no {config.format} maps (files named <frame>{suffix}){_format_hint(names)}")
+        hint = _format_hint(names) or _folders_hint(entries)
+        raise InputError(folder, f"holds no {config.format} maps (files named <frame>{suffix}){hint}")
     return [stem + ".jpg" for stem in sorted(stems, key=_natural)]
+
+
+def _folders_hint(entries: list[os.DirEntry]) -> str:
+    """': it holds folders (e.g. X): ...' where a whole dataset's maps root was given for one clip's."""
+    folders = sorted(entry.name for entry in entries if entry.is_dir())
+    if not folders:
+        return ""
+    return (f": it holds folders (e.g. {folders[0]}), as a dataset's maps root does: give one clip's folder, or "
+            "the dataset with --data-root and --clip")
 
 
 def _format_hint(names: list[str]) -> str:
