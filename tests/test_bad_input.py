@@ -885,3 +885,18 @@ def test_a_file_given_for_a_folder_is_said_to_be_a_file_not_missing(tmp_path):
              f"error: {tmp_path / 'nothere'}: not found: give the folder of a shard's part")):
         done = CliRunner().invoke(main, args)
         assert (done.exit_code, done.output) == (2, said + "\n"), args
+
+
+def test_a_data_root_one_folder_off_is_pointed_to_the_one_that_reads(tmp_path):
+    # A first-time user gave synth's set folder (its data/ holds the dataset): "list file not found", no hint.
+    made = synth_culane(tmp_path / "set", clips=1, frames=2, seed=1)
+    for given in (tmp_path / "set", made.data_root / "typo"):
+        done = CliRunner().invoke(main, ["run", "--data-root", str(given), "--maps-root", str(made.maps_root),
+                                         "--out", str(tmp_path / "o")])
+        assert done.exit_code == 2 and done.output.count("\n") == 1, done.output
+        assert done.output.endswith(f"; did you mean --data-root {made.data_root} (it holds the dataset)?\n")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    done = CliRunner().invoke(main, ["run", "--data-root", str(elsewhere), "--maps-root", str(made.maps_root),
+                                     "--out", str(tmp_path / "o")])
+    assert done.exit_code == 2 and "did you mean" not in done.output

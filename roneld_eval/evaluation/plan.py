@@ -215,10 +215,42 @@ def _read(config: EvalConfig, benchmark: Benchmark, skipped: list[str]) -> Datas
     assert config.dataset.data_root is not None
     errors: list[InputError] | None = [] if config.on_error == "skip" else None
     # A benchmark may leave each clip's labels to the workers, read clip by clip in parallel.
-    dataset = read_dataset(benchmark, config.dataset.data_root, config.dataset.list_file,
-                           config.dataset.limit, errors, labels=False)
+    try:
+        dataset = read_dataset(benchmark, config.dataset.data_root, config.dataset.list_file,
+                               config.dataset.limit, errors, labels=False)
+    except InputError as error:
+        hint = "" if config.dataset.list_file is not None else _data_root_hint(Path(config.dataset.data_root),
+                                                                               benchmark)
+        if not hint:
+            raise
+        raise InputError(error.path, error.problem + hint, error.line) from None
     skipped += [f"{error} (labels skipped)" for error in errors or ()]
     return dataset
+
+
+def _data_root_hint(data_root: Path, benchmark: Benchmark) -> str:
+    """'; did you mean --data-root X (it holds the dataset)?' where a folder one below the root
+    given (a synth set's parent: its data/) or the one above reads as this benchmark's dataset."""
+    from ..benchmarks import origin
+
+    if origin(benchmark.name) != "built in":  # another package's read is not timed: not tried on a guess
+        return ""
+
+    def reads(root: Path) -> bool:
+        try:
+            read_dataset(benchmark, root, None, 1, None, labels=False)
+        except (InputError, ConfigError, OSError, ValueError):
+            return False
+        return True
+
+    try:
+        children = sorted(entry.path for entry in os.scandir(data_root) if entry.is_dir())[:20]
+    except OSError:
+        children = []
+    for candidate in [Path(child) for child in children] + [data_root.parent]:
+        if candidate != data_root and reads(candidate):
+            return f"; did you mean --data-root {candidate} (it holds the dataset)?"
+    return ""
 
 
 def _clips_with_maps(dataset: Dataset, maps_root: Path, config: EvalConfig, benchmark: Benchmark,
