@@ -622,7 +622,8 @@ def show(run_dir, frames, worst, methods, out, image_root, debug):
                    "(Table IV: 0.3,0.5).")
 @click.option("--pair", "pairs", multiple=True, metavar="A,B",
               help="Also give B - A with a paired bootstrap interval over clips for two runs on the same frames, "
-                   "each named by its folder or its label (repeatable).")
+                   "each named by its folder (its path, or its own name where one run has it) or its label "
+                   "(repeatable).")
 @click.option("--allow-mixed", is_flag=True,
               help="Compare runs measured with different paper-protocol settings; every table says so in a note.")
 @click.option("--quiet", is_flag=True, help="Print nothing but errors.")

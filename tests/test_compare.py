@@ -680,7 +680,8 @@ def test_command_line(runs, tmp_path):
     (["--label", "nowhere=X"], "--label nowhere=X: nowhere is not one of the run folders compared"),
     (["--label", "X"], "--label X: write RUN=LABEL"),
     (["--pair", "SCNN"], "--pair SCNN: name two runs"),
-    (["--pair", "SCNN,Nobody"], "Nobody is neither a run folder compared nor a run's label"),
+    (["--pair", "SCNN,Nobody"], "Nobody is neither a run folder compared, nor a run's label, nor the name of a "
+                                "run's folder"),
     (["--thresholds", "0.335"], "--thresholds: 0.335 is not among the runs' thresholds (0.30..0.50 step 0.01"),
     (["--thresholds", "0.3:0.5"], "thresholds '0.3:0.5' must be"),
 ])
@@ -702,6 +703,16 @@ def test_two_labels_for_one_run_are_refused_not_the_last_kept(runs, tmp_path):
     result = CliRunner().invoke(main, ["compare", str(runs["cu_scnn"]), str(run), "--out", str(tmp_path / "out"),
                                        "--label", f"{run}=ENet-SAD", "--label", f"{run}= ENet-SAD "])
     assert result.exit_code == 0, result.output  # the same label twice says the same
+
+
+def test_a_pair_may_name_runs_by_their_folders_own_names(runs, tmp_path):
+    # A first-time user's `--pair culane,culane2` (the folders' names, not their paths) was refused.
+    a, b = runs["cu_scnn"], runs["cu_enet"]
+    assert a.name != b.name
+    result = CliRunner().invoke(main, ["compare", str(a), str(b), "--out", str(tmp_path / "out"), "--pair",
+                                       f"{a.name},{b.name}"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out" / "table_pairs.md").is_file()
 
 
 def test_pairs_need_one_run_each_on_the_same_frames(runs, tmp_path):

@@ -97,12 +97,15 @@ def run_pair(runs: Sequence[Run], pair: str | tuple[str, str]) -> tuple[Run, Run
 
 
 def _named_run(runs: Sequence[Run], name: str, pair) -> Run:
-    """The one run `name` names in --pair: by its folder, else by its label."""
-    match = [r for r in runs if _same_folder(r.path, name)] or [r for r in runs if r.label == name]
+    """The one run `name` names in --pair: by its folder, else by its label, else by its folder's
+    own name (`culane2` for runs/culane2, as a first-time user named it)."""
+    match = ([r for r in runs if _same_folder(r.path, name)] or [r for r in runs if r.label == name]
+             or [r for r in runs if r.path.name == name])
     if not match:
-        raise ConfigError(f"--pair {pair}: {name} is neither a run folder compared nor a run's label")
+        raise ConfigError(f"--pair {pair}: {name} is neither a run folder compared, nor a run's label, nor the "
+                          "name of a run's folder")
     if len(match) > 1:
-        raise ConfigError(f"--pair {pair}: {name} names {len(match)} runs; name one by its folder")
+        raise ConfigError(f"--pair {pair}: {name} names {len(match)} runs; name one by its folder's path")
     return match[0]
 
 
