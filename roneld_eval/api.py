@@ -20,7 +20,7 @@ from .benchmarks import Benchmark
 from .config import EvalConfig
 from .resolve import benchmark_named, benchmark_of, configured
 from .errors import ConfigError, InputError, RoneldEvalError, RunInterrupted
-from .lanes_io import check_regular_file, read_text
+from .lanes_io import check_folder, check_regular_file, read_text
 from .limits import RUN_TABLE
 from .wording import counted
 from .cache import ResultCache
@@ -494,10 +494,7 @@ SHOW_FOLDER = "show"
 def check_finished_run(run_dir: Path, other_kinds: str = "") -> None:
     """Stop unless `run_dir` holds the complete results of `roneld-eval run`; `other_kinds`
     says what else the reader takes, where another command wrote the folder."""
-    if not run_dir.is_dir():
-        from .lanes_io import folder_problem
-
-        raise InputError(run_dir, f"{folder_problem(run_dir, 'not found')}: give a folder written by `roneld-eval run`")
+    check_folder(run_dir, "not found", ": give a folder written by `roneld-eval run`")
     if os.path.lexists(run_dir / JOURNAL):  # also a first commit cut short, before any manifest
         raise InputError(run_dir, "its results are incomplete (a command was killed while putting them in "
                                   "place); run it again into this folder")

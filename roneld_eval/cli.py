@@ -247,15 +247,13 @@ def _given_config(config_file: str | None, dataset: str | None, settings: tuple[
     config = EvalConfig.from_toml(config_file)
     if dataset is not None and config.dataset.name and dataset != config.dataset.name:
         raise ConfigError(f"--dataset {dataset} contradicts the config's dataset {config.dataset.name}")
-    if dataset is not None:
-        config = config.with_overrides(**{"dataset.name": dataset})
-    configured(config)  # what the file lacks or contradicts of its benchmark, said naming it
-    chosen = _set_dataset(settings) or config.dataset.name or default_name()
+    chosen = _set_dataset(settings) or dataset or config.dataset.name or default_name()
     preset = benchmark_named(chosen).default_preset if chosen in names() else None
     if preset is not None:
         config = EvalConfig.from_toml_over(config_file, preset)
-        if dataset is not None:
-            config = config.with_overrides(**{"dataset.name": dataset})
+    if dataset is not None:
+        config = config.with_overrides(**{"dataset.name": dataset})
+    configured(config)  # what the file lacks or contradicts of its benchmark, said naming it
     # Left unfilled (and no longer naming the file): --set may still change the benchmark, and
     # a problem of the options given is not the file's.
     return replace(config, source=None)

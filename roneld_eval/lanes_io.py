@@ -57,12 +57,16 @@ def _os_problem(error: OSError) -> str:
     return f"cannot read: {error.strerror or error}"
 
 
-def folder_problem(path: Path, missing: str) -> str:
-    """What is wrong with `path` where a folder is needed and none is: `missing` where nothing is
-    there, else what is there instead (a file given for a folder said "not found")."""
+def check_folder(path: Path, missing: str, hint: str = "") -> None:
+    """Refuse, naming it, a `path` that is not a folder: `missing` where nothing is there, else what
+    is there instead (a file given for a folder was said "not found"); `hint` said after either."""
+    if os.path.isdir(path):
+        return
     if not os.path.lexists(path):
-        return missing
-    return "is a file, not a folder" if os.path.isfile(path) else "is not a folder"
+        problem = missing
+    else:
+        problem = "is a file, not a folder" if os.path.isfile(path) else "is not a folder"
+    raise InputError(path, problem + hint)
 
 
 def check_regular_file(path: Path, missing: str = "file not found", limit: SizeLimit | None = None) -> None:

@@ -74,6 +74,11 @@ class ScoreCommand:
     keeps_collections: bool = False
     scorer_keywords: Mapping[str, str] = field(default_factory=dict)  # option name -> the scorer's name
 
+    @property
+    def sharded(self) -> bool:
+        """Whether it has the shard options (--shard, --executor, --scheduler), its scorer a `shard`."""
+        return any(isinstance(option, Sharding) for option in self.options)
+
 
 # ---- the options every scorer shares -------------------------------------------------------
 
@@ -269,7 +274,7 @@ def _keywords_handed(spec: ScoreCommand, names: set[str]) -> dict[str, None]:
                 if name not in spec.positional and name not in spec.driver_only}
     if spec.progress:
         keywords.update(progress=None, announce=None)
-    if any(isinstance(option, Sharding) for option in spec.options):
+    if spec.sharded:
         keywords["shard"] = None
     return keywords
 
@@ -310,18 +315,18 @@ def _one_line_failures(command: str, function: Callable[..., Any]) -> Callable[.
 
 
 def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any]) -> None:
-    from .cli import _guard, _no_collections_at_exit, shard_written
+    from .cli import _fail, _guard, _no_collections_at_exit, shard_written
     from .cluster import executed
+    from .errors import RoneldEvalError
 
     if not spec.keeps_collections:
         _no_collections_at_exit()
     debug, quiet = values.pop("debug"), values.pop("quiet", False)
-    sharded = any(isinstance(option, Sharding) for option in spec.options)
-    shard, executor, scheduler = (values.pop(name) for name in ("shard", "executor", "scheduler")) if sharded \
-        else (None, "local", None)
+    shard = values.pop("shard") if spec.sharded else None
+    executor, scheduler = (values.pop("executor"), values.pop("scheduler")) if spec.sharded else ("local", None)
     given = dict(values)
     args, keywords = _arguments(spec, _guard(spec.prepare, debug, values) if spec.prepare else values, quiet)
-    if sharded:
+    if spec.sharded:
         score = _guard(executed, debug, executor, scheduler, f"score {spec.name}", scorer, *args, **keywords,
                        shard=shard)
     else:  # a command declared without the shard options: its scorer takes no `shard`
@@ -334,7 +339,10 @@ def _score(spec: ScoreCommand, scorer: Callable[..., Any], values: dict[str, Any
     for warning in getattr(score, "warnings", ()):  # never silently, --quiet or not
         click.echo(warning, err=True)
     if not quiet:
-        _guard(spec.report, debug, score, given, click.echo)  # a plug-in's report may fail: one line
+        try:
+            spec.report(score, given, click.echo)
+        except RoneldEvalError as error:  # a plug-in's report that failed (command_of): one line
+            _fail(error, debug)
 
 
 def _arguments(spec: ScoreCommand, values: dict[str, Any], quiet: bool) -> tuple[list[Any], dict[str, Any]]:

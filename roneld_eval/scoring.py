@@ -20,6 +20,7 @@ import numpy as np
 
 from .datasets._paths import under_root
 from .errors import ConfigError, InputError
+from .lanes_io import check_folder
 from .model import image_stem
 from .output import OutputFolder, csv_float, refuse_cut_short
 from .signals import terminate_as_interrupt
@@ -243,10 +244,7 @@ def find_prediction_trees(pred_root: PredictionRoots, relpaths: Sequence[str], s
     trees: list[PredictionTree] = []
     for name, root in _root_specs(pred_root):
         refuse_cut_short(root)  # `run --save-lanes` killed while putting lanes/ in place
-        if not root.is_dir():
-            from .lanes_io import folder_problem
-
-            raise InputError(root, folder_problem(root, "prediction root not found"))
+        check_folder(root, "prediction root not found")
         present = listed.present(root)
         if present.any():
             # named as given (a link to a checkpoint keeps its own name), "." and ".." made absolute first

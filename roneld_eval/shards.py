@@ -192,7 +192,7 @@ def write_part(staging, manifest: dict, arrays: dict[str, np.ndarray]) -> None:
 
 def read_part(folder: Path) -> Part:
     """A part's manifest and arrays (InputError naming the file for anything malformed)."""
-    from .lanes_io import parse_json, read_bytes
+    from .lanes_io import check_folder, parse_json, read_bytes
     from .limits import CONFIG, MAP
 
     from .output import JOURNAL
@@ -202,12 +202,9 @@ def read_part(folder: Path) -> Part:
     if os.path.lexists(folder / JOURNAL):
         raise InputError(folder, "its part is incomplete (the command that wrote it was killed while putting it "
                                  "in place): run the shard's command again into this folder")
-    if not path.exists() and folder.is_dir():
+    check_folder(folder, "not found", ": give the folder of a shard's part")
+    if not path.exists():
         raise InputError(folder, f"not a partial result (no {MANIFEST_NAME}: written by a command given --shard I/N)")
-    if not folder.is_dir():
-        from .lanes_io import folder_problem
-
-        raise InputError(folder, f"{folder_problem(folder, 'not found')}: give the folder of a shard's part")
     data = read_bytes(path, limit=CONFIG)
     assert data is not None
     manifest = _part_manifest(parse_json(data, path, "not a partial result", "not a partial result"), path)

@@ -249,10 +249,10 @@ def _loaded(name: str) -> Benchmark:
         known = ", ".join(points) or "none (is roneld-eval installed?)"
         raise ConfigError(f"unknown dataset {name!r}; choose from {known}")
     point = points[name]
-    if not point.value.startswith(_OWN) and not _NAME.fullmatch(name):  # `--quiet`, `../x`, `a b`
-        raise ConfigError(f"benchmark {name!r} ({point.value}): a benchmark's name is lowercase letters, digits, "
-                          "'-' and '_', beginning with a letter or digit (it names a command and folders)")
     if not point.value.startswith(_OWN):  # a third party's: a plug-in (benchmarks.plugins)
+        if not _NAME.fullmatch(name):  # `--quiet`, `../x`, `a b`
+            raise ConfigError(f"benchmark {name!r} ({point.value}): a benchmark's name is lowercase letters, "
+                              "digits, '-' and '_', beginning with a letter or digit (it names a command and folders)")
         from . import plugins
 
         benchmark = plugins.load(point)

@@ -12,6 +12,7 @@ from ..benchmarks import Benchmark, detector_lane_formats
 from ..config import EvalConfig
 from ..datasets import read_dataset
 from ..errors import ConfigError, InputError
+from ..lanes_io import check_folder
 from ..geometry import EffectiveGeometry, check_map_shape
 from ..maps import map_size, required_paths
 from ..model import Clip, Dataset
@@ -187,10 +188,7 @@ def _maps_root(config: EvalConfig, benchmark: Benchmark) -> Path:
     if config.dataset.data_root is None or config.maps.root is None:
         raise ConfigError("a run needs both a data root and a maps root")
     maps_root = Path(config.maps.root)
-    if not maps_root.is_dir():
-        from ..lanes_io import folder_problem
-
-        raise InputError(maps_root, folder_problem(maps_root, "maps root not found"))
+    check_folder(maps_root, "maps root not found")
     if config.maps.format == "lanes" and lane_files_of(config, benchmark) is None:
         raise ConfigError(f"--maps-format lanes: benchmark {config.dataset.name!r} declares no format for a "
                           "detector's lane files")
